@@ -1,0 +1,257 @@
+"""Calibration: fit every stage of the pipeline from one recording.
+
+1. Reference-free (seed 001): a conic fit gives a first phase. The seed fits its waveforms to
+   samples at equal phase steps; here the phase reference comes from the motion being smooth
+   in time (`smoothmotion`), so any trajectory will do. Each channel is fitted against it
+   (all harmonics), inverted, the quadrature re-fitted and the phase recomputed, twice.
+2. Coarse/fine synchronisation from the fine phase at the coarse code's edges.
+3. With `ref_deg`: direction and zero, the long-period error (seed 000's Fourier network,
+   solved in closed form by least squares, its size chosen by BIC), and then the waveform
+   refitted against the reference's phase with all harmonics (odd, even, both phases),
+   alternating with the long-period fit until both settle.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .dataio import Measurement
+from .encoder import ARCSEC_PER_REV, Encoder
+from .errors import FringeInputError
+from .pipeline import Calibration, encoder_position, fine_phase
+from .position import circular_mean, fit_coarse_offset, wrap
+from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse
+from .fourierfit import fit_select
+from .smoothmotion import MotionTooSlow, smooth_motion_phase
+from .waveform import ChannelWaveform, PaperChannel, build_inverse, paper_channel
+
+MIN_SAMPLES = 64
+MAX_CLIPPED_FRACTION = 0.005
+
+
+@dataclass
+class CalibrationOptions:
+    motion_iterations: int = 2
+    ref_iterations: int = 2
+    wave_harmonics_max: int = 31     # general model: BIC chooses up to this many
+    lp_harmonics_max: int = 64       # BIC chooses up to this many
+    table_points: int | None = None  # None: one point per ADC code, at most 2^16 + 1
+
+
+def _fail(meas: Measurement, problem: str):
+    raise FringeInputError(problem, meas.path)
+
+
+def check_recording(meas: Measurement, enc: Encoder) -> np.ndarray:
+    """Refuse what cannot be calibrated; return the mask of samples usable for fitting."""
+    if len(meas) < MIN_SAMPLES:
+        _fail(meas, f"too few samples: {len(meas)} (calibration needs at least {MIN_SAMPLES})")
+    if np.ptp(meas.sin) == 0 or np.ptp(meas.cos) == 0:
+        _fail(meas, "no signal: a channel never changes (sensor unplugged or no motion?)")
+    lo, hi = -enc.adc_half_range, enc.adc_half_range - 1
+    clipped = (meas.sin <= lo) | (meas.sin >= hi) | (meas.cos <= lo) | (meas.cos >= hi)
+    if clipped.mean() > MAX_CLIPPED_FRACTION:
+        first = int(np.argmax(clipped))
+        _fail(meas, f"{int(clipped.sum())} of {len(meas)} samples are clipped at the ADC limits "
+                    f"(first: data row {first + 1}); reduce the gain: clipped samples hide the waveform")
+    return ~clipped
+
+
+def _phase(cal: Calibration, meas: Measurement) -> tuple[np.ndarray, np.ndarray]:
+    frac, mag = fine_phase(cal, meas.sin, meas.cos)
+    return 2 * np.pi * frac, mag
+
+
+def _table_grid(enc: Encoder, points: int | None) -> tuple[float, float, int]:
+    half = enc.adc_half_range
+    n = points or min(2 * half + 1, (1 << 16) + 1)
+    return -float(half), float(half), n
+
+
+def _set_waveforms(cal: Calibration, ws, wc, enc: Encoder, opts: CalibrationOptions):
+    lo, hi, n = _table_grid(enc, opts.table_points)
+    cal.waves = {"sin": ws, "cos": wc}
+    cal.inv_sin = build_inverse(ws, wc, lo, hi, n)
+    cal.inv_cos = build_inverse(wc, ws, lo, hi, n)
+
+
+def _fit_quadrature(cal: Calibration, meas: Measurement, use: np.ndarray, seed_form: bool = False):
+    xs = cal.inv_sin(meas.sin[use], meas.cos[use]) if cal.inv_sin is not None else meas.sin[use]
+    xc = cal.inv_cos(meas.cos[use], meas.sin[use]) if cal.inv_cos is not None else meas.cos[use]
+    try:
+        cal.quad = fit_seed_ellipse(xs, xc) if seed_form else fit_conic(xs, xc)
+    except QuadratureFitError as e:
+        _fail(meas, str(e))
+
+
+def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: np.ndarray,
+                     opts: CalibrationOptions):
+    """Fit both channels against a phase reference `phi` (rad, per sample), invert, re-fit quadrature."""
+    hmax = max(1, min(opts.wave_harmonics_max, int(use.sum()) // 16))
+    fits = {}
+    for kind, y in (("sin", meas.sin), ("cos", meas.cos)):
+        series, n, _ = fit_select(phi[use], y[use], hmax)
+        if n < 1:
+            _fail(meas, f"the {kind} channel does not follow the phase: no signal?")
+        fits[kind] = ChannelWaveform(kind, series.weights)
+    _set_waveforms(cal, fits["sin"], fits["cos"], cal.encoder, opts)
+    _fit_quadrature(cal, meas, use)
+    cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in fits.items()}
+
+
+def reference_free(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions) -> Calibration:
+    """Conic, then waveforms against the smooth-motion phase reference."""
+    cal = Calibration(encoder=enc)
+    _fit_quadrature(cal, meas, use)
+    t = meas.t_s if meas.t_s is not None else np.arange(len(meas), dtype=float)
+    for _ in range(opts.motion_iterations):
+        theta, _ = _phase(cal, meas)
+        try:
+            phi, info = smooth_motion_phase(theta, t)
+        except MotionTooSlow as e:
+            cal.skipped.append(f"waveform inversion without a reference: {e}; only the conic "
+                               "(offsets, gains, phase) is corrected")
+            break
+        except ValueError as e:
+            _fail(meas, f"column 't_s': {e}")
+        _refit_waveforms(cal, meas, use, phi, opts)
+        cal.fit["smooth_motion"] = info
+    return cal
+
+
+def sync_coarse(cal: Calibration, meas: Measurement):
+    enc = cal.encoder
+    if not enc.coarse_bits or meas.coarse is None:
+        cal.coarse_offset_periods = None
+        return
+    frac, _ = fine_phase(cal, meas.sin, meas.cos)
+    try:
+        cal.coarse_offset_periods = fit_coarse_offset(frac, meas.coarse, enc.lines_per_rev, enc.coarse_bits)
+    except ValueError as e:
+        _fail(meas, str(e))
+
+
+def encoder_rev(cal: Calibration, meas: Measurement) -> np.ndarray:
+    frac, _ = fine_phase(cal, meas.sin, meas.cos)
+    pos, _, _ = encoder_position(cal, frac, meas.coarse)
+    return pos / cal.encoder.lines_per_rev
+
+
+def find_direction_and_zero(cal: Calibration, meas: Measurement, rev: np.ndarray):
+    ref = meas.ref_deg / 360.0
+    d_enc, d_ref = wrap(np.diff(rev)), wrap(np.diff(ref))
+    moving = np.abs(d_ref) > 0
+    if not moving.any():
+        _fail(meas, "no motion: the reference angle never changes")
+    corr = float(np.sum(d_enc[moving] * d_ref[moving]))
+    cal.direction = 1 if corr >= 0 else -1
+    cal.zero_deg = 360.0 * (circular_mean(ref - cal.direction * rev) % 1.0)
+
+
+def lp_error_arcsec(cal: Calibration, meas: Measurement, rev: np.ndarray) -> np.ndarray:
+    """Encoder error against the reference, in the encoder's own direction (arcsec)."""
+    truth = cal.direction * (meas.ref_deg / 360.0 - cal.zero_deg / 360.0)
+    return wrap(rev - truth) * ARCSEC_PER_REV
+
+
+def check_revolution_coverage(meas: Measurement, rev: np.ndarray, bins: int = 64):
+    covered = np.unique(np.floor((rev % 1.0) * bins).astype(int))
+    if len(covered) < bins:
+        _fail(meas, f"the recording covers only {len(covered)} of {bins} sectors of the revolution; the "
+                    "long-period error needs at least one full revolution (or calibrate without ref_deg)")
+
+
+def fit_long_period(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+    rev = encoder_rev(cal, meas)
+    find_direction_and_zero(cal, meas, rev)
+    err = lp_error_arcsec(cal, meas, rev)
+    x = 2 * np.pi * (rev[use] % 1.0)
+    cal.long_period, n, rms = fit_select(x, err[use], opts.lp_harmonics_max)
+    cal.fit["lp_harmonics"] = n
+    cal.fit["lp_residual_rms_arcsec"] = rms
+
+
+def refine_with_reference(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+    """Fit each channel against the reference's phase (all harmonics), then the long period again.
+
+    The disc's phase is the reference angle plus the encoder's long-period error (the
+    graduation error moves the fringes): 2*pi*lines*(truth + e(rev)).
+    """
+    for _ in range(opts.ref_iterations):
+        rev = encoder_rev(cal, meas)
+        truth = cal.direction * (meas.ref_deg / 360.0 - cal.zero_deg / 360.0)
+        disc = truth + cal.long_period(2 * np.pi * (rev % 1.0)) / ARCSEC_PER_REV
+        _refit_waveforms(cal, meas, use, 2 * np.pi * cal.encoder.lines_per_rev * disc, opts)
+        sync_coarse(cal, meas)
+        fit_long_period(cal, meas, use, opts)
+
+
+def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None = None) -> Calibration:
+    opts = opts or CalibrationOptions()
+    use = check_recording(meas, enc)
+    has_lp = meas.ref_deg is not None and (enc.coarse_bits > 0 or enc.lines_per_rev == 1)
+    if has_lp:   # the reference gives the phase: only the conic is needed to start
+        cal = Calibration(encoder=enc)
+        _fit_quadrature(cal, meas, use)
+    else:
+        cal = reference_free(meas, enc, use, opts)
+    sync_coarse(cal, meas)
+    if not enc.coarse_bits:
+        cal.skipped.append("coarse/fine synchronisation: no coarse code (coarse_bits = 0); periods are counted "
+                           "from the fine phase")
+    if meas.ref_deg is None:
+        cal.skipped += ["direction and zero: no ref_deg column (output keeps the encoder's own zero)",
+                        "long-period (seed 000) correction: needs ref_deg"]
+    elif not has_lp:
+        cal.skipped.append("long-period correction: an incremental encoder (lines_per_rev > 1, no coarse code) "
+                           "does not know where it is in the revolution after power-up")
+        find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
+    else:
+        check_revolution_coverage(meas, encoder_rev(cal, meas))
+        fit_long_period(cal, meas, use, opts)
+        refine_with_reference(cal, meas, use, opts)
+    cal.amp_low, cal.amp_high = amplitude_thresholds(cal, meas, use)
+    cal.provenance = {"data": meas.path, "samples": len(meas), "samples_used": int(use.sum()),
+                      "encoder": enc.to_dict(), "method": "fringe calibrate"}
+    return cal
+
+
+def amplitude_thresholds(cal: Calibration, meas: Measurement, use: np.ndarray) -> tuple[float, float]:
+    """Loss of signal below half the calibrated magnitude, overdrive above 1.5 times it."""
+    _, mag = _phase(cal, meas)
+    nominal = float(np.median(mag[use]))
+    return 0.5 * nominal, 1.5 * nominal
+
+
+# ---------------------------------------------------------------- comparison methods (bench)
+
+class _PaperInverse:
+    def __init__(self, ch: PaperChannel):
+        self.ch = ch
+
+    def __call__(self, y, other):
+        return self.ch.invert(y)
+
+
+def seed_method(cal: Calibration, meas: Measurement) -> Calibration:
+    """The seeds' own method on the same data: the fitted waveforms through eq. 12's polynomial and
+    Newton (sqrt taken positive), the seed's ellipse (phase only), and the long-period network."""
+    use = check_recording(meas, cal.encoder)
+    seed = Calibration(encoder=cal.encoder, inv_sin=_PaperInverse(paper_channel(cal.waves["sin"])),
+                       inv_cos=_PaperInverse(paper_channel(cal.waves["cos"])))
+    _fit_quadrature(seed, meas, use, seed_form=True)
+    sync_coarse(seed, meas)
+    if meas.ref_deg is not None and cal.long_period is not None:
+        fit_long_period(seed, meas, use, CalibrationOptions(lp_harmonics_max=9))
+    return seed
+
+
+def ellipse_only(cal: Calibration, meas: Measurement) -> Calibration:
+    """Only the general conic (Heydemann), plus the same long-period network: no waveform inversion."""
+    use = check_recording(meas, cal.encoder)
+    e = Calibration(encoder=cal.encoder)
+    _fit_quadrature(e, meas, use)
+    sync_coarse(e, meas)
+    if meas.ref_deg is not None and cal.long_period is not None:
+        fit_long_period(e, meas, use, CalibrationOptions())
+    return e

@@ -1,0 +1,149 @@
+"""CAL_DIR: the calibration as JSON (units, provenance) plus the waveform tables as CSV."""
+
+import json
+import os
+import shutil
+import tempfile
+
+import numpy as np
+
+from . import __version__
+from .encoder import encoder_from_dict
+from .errors import FringeInputError
+from .longperiod import FourierSeries
+from .pipeline import Calibration
+from .quadrature import QuadratureCorrection
+from .waveform import ChannelWaveform, WaveformInverse
+
+CAL_JSON = "calibration.json"
+WAVE_CSV = "wave_tables.csv"
+FORMAT = "fringe-calibration"
+VERSION = 1
+
+
+def to_json_dict(cal: Calibration) -> dict:
+    wave = None
+    if isinstance(cal.inv_sin, WaveformInverse) and isinstance(cal.inv_cos, WaveformInverse):
+        wave = {"table_file": WAVE_CSV, "interpolation": "linear between table points",
+                "sin": {"model": cal.waves["sin"].to_dict(), "inverse": cal.inv_sin.to_dict()},
+                "cos": {"model": cal.waves["cos"].to_dict(), "inverse": cal.inv_cos.to_dict()}}
+    lp = None
+    if cal.long_period is not None:
+        lp = cal.long_period.to_dict()
+        lp.update(units="arcsec", argument="encoder angle in the revolution, rad",
+                  meaning="encoder error against the reference; subtracted from the position")
+    return {
+        "format": FORMAT, "version": VERSION, "fringe_version": __version__,
+        "encoder": cal.encoder.to_dict(),
+        "provenance": cal.provenance,
+        "stages": {
+            "waveform": wave,
+            "quadrature": cal.quad.to_dict(),
+            "coarse": None if cal.coarse_offset_periods is None else
+            {"offset_periods": cal.coarse_offset_periods,
+             "meaning": "middle of coarse code 0, in signal periods of the fine phase"},
+            "long_period": lp,
+            "output": {"direction": cal.direction, "zero_deg": cal.zero_deg,
+                       "meaning": "angle = direction * corrected encoder angle + zero (degrees)"},
+            "status": {"amp_low": cal.amp_low, "amp_high": cal.amp_high,
+                       "units": "corrected vector magnitude (1 = unit circle)"},
+        },
+        "skipped": cal.skipped,
+        "fit": cal.fit,
+    }
+
+
+def save_calibration(cal: Calibration, out_dir: str, extra_files: dict | None = None):
+    """Write everything into a temporary folder and move it into place only when complete."""
+    parent = os.path.dirname(os.path.abspath(out_dir))
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(dir=parent, prefix=".tmp-cal-")
+    try:
+        with open(os.path.join(tmp, CAL_JSON), "w", encoding="utf-8") as f:
+            json.dump(to_json_dict(cal), f, indent=2, default=_jsonable)
+            f.write("\n")
+        if isinstance(cal.inv_sin, WaveformInverse):
+            write_wave_tables(os.path.join(tmp, WAVE_CSV), cal.inv_sin, cal.inv_cos)
+        for name, writer in (extra_files or {}).items():
+            writer(os.path.join(tmp, name))
+        if os.path.isdir(out_dir):
+            shutil.rmtree(out_dir)
+        elif os.path.exists(out_dir):
+            raise FringeInputError("exists and is not a directory", out_dir)
+        os.replace(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+def _jsonable(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o))
+
+
+def write_wave_tables(path: str, inv_sin: WaveformInverse, inv_cos: WaveformInverse):
+    readings = inv_sin.lo + inv_sin.step * np.arange(inv_sin.values.shape[1])
+    data = np.column_stack([readings, inv_sin.values[0], inv_sin.values[1], inv_cos.values[0], inv_cos.values[1]])
+    header = ("reading_counts,sin_branch0,sin_branch1,cos_branch0,cos_branch1\n")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("# fringe waveform inverse tables: reading (ADC counts) -> ideal value (unit circle)\n")
+        f.write(f"# sin branch 1: cos reading >= {inv_sin.threshold:.6f}; "
+                f"cos branch 1: sin reading >= {inv_cos.threshold:.6f}\n")
+        f.write(header)
+        np.savetxt(f, data, fmt="%.12g", delimiter=",")
+
+
+def load_calibration(cal_dir: str) -> Calibration:
+    path = os.path.join(cal_dir, CAL_JSON)
+    if not os.path.isdir(cal_dir):
+        raise FringeInputError("calibration folder not found", cal_dir)
+    try:
+        with open(path, encoding="utf-8") as f:
+            d = json.load(f)
+    except OSError as e:
+        raise FringeInputError(f"cannot read: {e.strerror}", path) from None
+    except json.JSONDecodeError as e:
+        raise FringeInputError(f"not valid JSON: {e.msg}", path, f"line {e.lineno}") from None
+    if not isinstance(d, dict) or d.get("format") != FORMAT:
+        raise FringeInputError(f"not a fringe calibration (format is not '{FORMAT}')", path)
+    try:
+        enc = encoder_from_dict(d["encoder"], path)
+        st = d["stages"]
+        cal = Calibration(encoder=enc, quad=QuadratureCorrection.from_dict(st["quadrature"]),
+                          direction=int(st["output"]["direction"]), zero_deg=float(st["output"]["zero_deg"]),
+                          amp_low=float(st["status"]["amp_low"]), amp_high=float(st["status"]["amp_high"]),
+                          skipped=list(d.get("skipped", [])), provenance=d.get("provenance", {}),
+                          fit=d.get("fit", {}))
+        if st.get("coarse"):
+            cal.coarse_offset_periods = float(st["coarse"]["offset_periods"])
+        if st.get("long_period"):
+            cal.long_period = FourierSeries.from_dict(st["long_period"])
+        if st.get("waveform"):
+            w = st["waveform"]
+            cal.waves = {k: ChannelWaveform.from_dict(w[k]["model"]) for k in ("sin", "cos")}
+            table = _read_wave_tables(os.path.join(cal_dir, w["table_file"]))
+            for k, cols in (("sin", (1, 2)), ("cos", (3, 4))):
+                inv = w[k]["inverse"]
+                setattr(cal, f"inv_{k}", WaveformInverse(
+                    k, float(inv["lo_counts"]), float(inv["step_counts"]),
+                    np.vstack([table[:, cols[0]], table[:, cols[1]]]), float(inv["threshold_counts"])))
+    except (KeyError, TypeError, ValueError) as e:
+        raise FringeInputError(f"calibration is incomplete or damaged ({type(e).__name__}: {e})", path) from None
+    return cal
+
+
+def _read_wave_tables(path: str) -> np.ndarray:
+    try:
+        with open(path, encoding="utf-8") as f:
+            rows = [ln for ln in f if ln.strip() and not ln.startswith("#")]
+        t = np.loadtxt(rows[1:], delimiter=",", ndmin=2)
+    except OSError as e:
+        raise FringeInputError(f"cannot read: {e.strerror}", path) from None
+    except (ValueError, IndexError):
+        t = np.empty((0, 0))
+    if t.ndim != 2 or t.shape[1] != 5 or len(t) < 2 or not np.isfinite(t).all():
+        raise FringeInputError("waveform table damaged: expected a header and 5 numeric columns", path)
+    return t

@@ -1,0 +1,72 @@
+"""Coarse/fine combination and period counting (float reference of fringe_period_count)."""
+
+import numpy as np
+
+
+def wrap(x: np.ndarray, period: float = 1.0) -> np.ndarray:
+    """Into [-period/2, period/2)."""
+    return (np.asarray(x) + period / 2) % period - period / 2
+
+
+def circular_mean(x: np.ndarray, period: float = 1.0) -> float:
+    z = np.mean(np.exp(2j * np.pi * np.asarray(x) / period))
+    return float(np.angle(z) / (2 * np.pi) * period)
+
+
+def coarse_code_span(lines: int, coarse_bits: int) -> float:
+    """Width of one coarse code, in signal periods."""
+    return lines / float(1 << coarse_bits)
+
+
+def fit_coarse_offset(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse_bits: int) -> float:
+    """Where the middle of coarse code 0 lies, in periods of the fine phase (COARSE_OFS).
+
+    The code changes between k-1 and k at position k*span + delta; at each change the fine
+    phase says where that is. delta is the circular mean over all changes (jitter averages
+    out), and the code's middle is half a span further on.
+    """
+    span = coarse_code_span(lines, coarse_bits)
+    codes = 1 << coarse_bits
+    step = (coarse[1:] - coarse[:-1]) % codes
+    up, down = step == 1, step == codes - 1
+    edge = np.where(up, coarse[1:], np.where(down, coarse[:-1], -1))
+    ok = edge >= 0
+    if ok.sum() < 2:
+        raise ValueError("the coarse code never changes: the recording does not move across a coarse code")
+    f_edge = frac[:-1][ok] + 0.5 * wrap(frac[1:][ok] - frac[:-1][ok])
+    delta = circular_mean(f_edge - edge[ok] * span)
+    return float((delta + span / 2) % 1.0)
+
+
+def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse_bits: int,
+                        offset: float) -> tuple[np.ndarray, np.ndarray]:
+    """Absolute position (periods, [0, lines)) and the coarse/fine disagreement flag.
+
+    centre = code*span + offset estimates the position to within half a code; the period count
+    is the integer n that puts n + frac nearest to it. The residual exceeds half a code only
+    when the coarse code is wrong (or its edges drift): flagged beyond the midpoint between
+    half a code and half a period.
+    """
+    span = coarse_code_span(lines, coarse_bits)
+    centre = coarse * span + offset
+    n = np.round(centre - frac)
+    resid = centre - frac - n
+    tolerance = 0.5 * (span / 2 + 0.5)
+    flag = np.abs(resid) > tolerance if span < 1 else np.zeros(len(frac), bool)
+    return (n % lines) + frac, flag
+
+
+def count_periods(frac: np.ndarray, lines: int) -> tuple[np.ndarray, np.ndarray]:
+    """Incremental position (periods, [0, lines)) from the fine phase alone, and overspeed flags.
+
+    The first sample sets the count to zero. A jump of a quarter period or more between samples
+    is ambiguous (it could be either way round), so it is flagged, not trusted.
+    """
+    step = wrap(np.diff(frac))
+    flag = np.concatenate([[False], np.abs(step) >= 0.25])
+    pos = frac[0] + np.concatenate([[0.0], np.cumsum(step)])
+    return pos % lines, flag
+
+
+def overspeed(frac: np.ndarray) -> np.ndarray:
+    return np.concatenate([[False], np.abs(wrap(np.diff(frac))) >= 0.25])

@@ -1,0 +1,96 @@
+"""Quadrature correction (seed 001 section 3.2) and its general (Heydemann) form.
+
+Both produce the same correction, the one the hardware applies:
+    s' = k_ss*(s - ofs_s) + k_sc*(c - ofs_c),   c' = k_cc*(c - ofs_c)
+The seed fits A*uc^2 + B*us^2 + C*us*uc = 1 (eq. 18) and keeps only the phase
+alpha = arcsin(C/2A) (eq. 19): k_ss = 1/cos(alpha), k_sc = tan(alpha), k_cc = 1 (eq. 21).
+The general conic a*s^2 + b*s*c + c*c^2 + d*s + e*c = 1 also finds offsets and the gain
+ratio, as Heydemann (1981) does.
+"""
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+
+class QuadratureFitError(ValueError):
+    """The samples do not determine an ellipse (too little of it is covered, or no signal)."""
+
+
+@dataclass
+class QuadratureCorrection:
+    ofs_s: float = 0.0
+    ofs_c: float = 0.0
+    k_ss: float = 1.0
+    k_sc: float = 0.0
+    k_cc: float = 1.0
+    alpha_rad: float = 0.0        # the phase error it removes (for reports)
+    gain_ratio: float = 1.0       # g_s / g_c (for reports)
+
+    def apply(self, s: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        cs = c - self.ofs_c
+        return self.k_ss * (s - self.ofs_s) + self.k_sc * cs, self.k_cc * cs
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        d["form"] = "s' = k_ss*(s-ofs_s) + k_sc*(c-ofs_c); c' = k_cc*(c-ofs_c)"
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "QuadratureCorrection":
+        return cls(**{k: float(v) for k, v in d.items() if k in cls.__dataclass_fields__})
+
+
+def _check_coverage(s: np.ndarray, c: np.ndarray, min_octants: int = 8):
+    """An ellipse is only determined when the samples go round it."""
+    if len(s) < 6:
+        raise QuadratureFitError(f"only {len(s)} samples; an ellipse needs at least 6")
+    ang = np.arctan2(s - np.median(s), c - np.median(c))
+    octants = np.unique(np.floor((ang + np.pi) / (np.pi / 4)).astype(int) % 8)
+    if len(octants) < min_octants:
+        raise QuadratureFitError(f"the samples cover only {len(octants)} of 8 octants of the "
+                                 "Lissajous figure: the recording must span at least one full signal period")
+
+
+def fit_seed_ellipse(us: np.ndarray, uc: np.ndarray) -> QuadratureCorrection:
+    """Seed 001 eqs. 18-21: least squares on A*uc^2 + B*us^2 + C*us*uc = 1, alpha = arcsin(C/2A)."""
+    _check_coverage(us, uc)
+    m = np.column_stack([uc * uc, us * us, us * uc])
+    (a, b, c), *_ = np.linalg.lstsq(m, np.ones_like(us), rcond=None)
+    ratio = c / (2 * a)
+    if not -1 < ratio < 1:
+        raise QuadratureFitError(f"ellipse fit gives C/2A = {ratio:.3g}, outside (-1, 1)")
+    alpha = float(np.arcsin(ratio))
+    return QuadratureCorrection(k_ss=1 / np.cos(alpha), k_sc=np.tan(alpha), alpha_rad=alpha,
+                                gain_ratio=float(np.sqrt(a / b)))
+
+
+def fit_conic(s: np.ndarray, c: np.ndarray) -> QuadratureCorrection:
+    """General conic through the Lissajous figure: offsets, gains and phase (Heydemann).
+
+    Model: s = ofs_s + g_s sin(theta - alpha), c = ofs_c + g_c cos(theta). Output is scaled so
+    that c' has unit amplitude; s' then has unit amplitude too and leads c' by 90 degrees.
+    """
+    _check_coverage(s, c)
+    # centre and scale first: the fit is then well conditioned for any ADC units
+    s0, c0 = np.mean(s), np.mean(c)
+    scale = np.sqrt(np.mean((s - s0) ** 2 + (c - c0) ** 2))
+    if not scale > 0:
+        raise QuadratureFitError("no signal: both channels are constant")
+    x, y = (s - s0) / scale, (c - c0) / scale
+    m = np.column_stack([x * x, x * y, y * y, x, y])
+    p, *_ = np.linalg.lstsq(m, np.ones_like(x), rcond=None)
+    q = np.array([[p[0], p[1] / 2], [p[1] / 2, p[2]]])
+    if np.linalg.det(q) <= 0 or p[0] <= 0:
+        raise QuadratureFitError("the samples do not lie on an ellipse (conic fit is not an ellipse)")
+    centre = -0.5 * np.linalg.solve(q, p[3:])
+    k = 1 + centre @ q @ centre
+    qa, qb, qc = q[0, 0] / k, 2 * q[0, 1] / k, q[1, 1] / k
+    sin_alpha = qb / (2 * np.sqrt(qa * qc))
+    alpha = float(np.arcsin(np.clip(sin_alpha, -0.999999, 0.999999)))
+    cos_a = np.cos(alpha)
+    g_s = 1 / (np.sqrt(qa) * cos_a) * scale
+    g_c = 1 / (np.sqrt(qc) * cos_a) * scale
+    return QuadratureCorrection(ofs_s=float(s0 + centre[0] * scale), ofs_c=float(c0 + centre[1] * scale),
+                                k_ss=float(1 / (g_s * cos_a)), k_sc=float(np.tan(alpha) / g_c),
+                                k_cc=float(1 / g_c), alpha_rad=alpha, gain_ratio=float(g_s / g_c))
