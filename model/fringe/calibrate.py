@@ -18,12 +18,12 @@ import numpy as np
 from .dataio import Measurement
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
+from .fourierfit import fit_select
 from .pipeline import Calibration, encoder_position, fine_phase
 from .position import circular_mean, fit_coarse_offset, wrap
 from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse
-from .fourierfit import fit_select
 from .smoothmotion import MotionTooSlow, smooth_motion_phase
-from .waveform import ChannelWaveform, PaperChannel, build_inverse, paper_channel
+from .waveform import ChannelWaveform, PaperChannel, build_inverse
 
 MIN_SAMPLES = 64
 MAX_CLIPPED_FRACTION = 0.005
@@ -166,7 +166,9 @@ def fit_long_period(cal: Calibration, meas: Measurement, use: np.ndarray, opts: 
     find_direction_and_zero(cal, meas, rev)
     err = lp_error_arcsec(cal, meas, rev)
     x = 2 * np.pi * (rev[use] % 1.0)
-    cal.long_period, n, rms = fit_select(x, err[use], opts.lp_harmonics_max)
+    # harmonics L, 2L, ... of the revolution are functions of the fine phase: the waveform tables own them
+    cal.long_period, n, rms = fit_select(x, err[use], opts.lp_harmonics_max,
+                                         skip_multiples_of=cal.encoder.lines_per_rev)
     cal.fit["lp_harmonics"] = n
     cal.fit["lp_residual_rms_arcsec"] = rms
 
@@ -233,16 +235,64 @@ class _PaperInverse:
         return self.ch.invert(y)
 
 
+SEED001_POINTS = 75       # seed 001 section 4.1: 75 samples over one signal period
+SEED000_POINTS = 64       # seed 000 section 4.1: 64 points, one every 5.625 degrees
+SEED000_HARMONICS = 9     # Table 1: 19 weights
+
+
+def fit_paper_channel(kind: str, y: np.ndarray, phi: np.ndarray, odd_max: int = 23) -> PaperChannel:
+    """Seed 001 eq. 5 by least squares in the channel's own phase (the seed's DFT on equal steps).
+
+    sin channel, t = phi + psi: f0 + sum_odd f_n sin(n t) + f2 sin(2t). The cos channel is the
+    same in u = pi/2 - t (x = sin u = cos t), so eq. 12 inverts both.
+    """
+    m1 = np.column_stack([np.ones_like(phi), np.cos(phi), np.sin(phi)])
+    (_, a1, b1), *_ = np.linalg.lstsq(m1, y, rcond=None)
+    u = phi + np.arctan2(a1, b1) if kind == "sin" else np.pi / 2 - (phi + np.arctan2(-b1, a1))
+    orders = list(range(1, odd_max + 1, 2))
+    m = np.column_stack([np.ones_like(u)] + [np.sin(n * u) for n in orders] + [np.sin(2 * u)])
+    coef, *_ = np.linalg.lstsq(m, y, rcond=None)
+    return PaperChannel(float(coef[0]), coef[1:-1], float(coef[-1]))
+
+
+def _nearest(values: np.ndarray, targets: np.ndarray, period: float) -> np.ndarray:
+    """Index of the sample nearest (circularly) to each target."""
+    order = np.argsort(np.mod(values, period))
+    v = np.mod(values, period)[order]
+    i = np.clip(np.searchsorted(v, np.mod(targets, period)), 1, len(v) - 1)
+    left_better = np.abs(wrap(v[i - 1] - targets, period)) <= np.abs(wrap(v[i] - targets, period))
+    return order[np.where(left_better, i - 1, i)]
+
+
 def seed_method(cal: Calibration, meas: Measurement) -> Calibration:
-    """The seeds' own method on the same data: the fitted waveforms through eq. 12's polynomial and
-    Newton (sqrt taken positive), the seed's ellipse (phase only), and the long-period network."""
-    use = check_recording(meas, cal.encoder)
-    seed = Calibration(encoder=cal.encoder, inv_sin=_PaperInverse(paper_channel(cal.waves["sin"])),
-                       inv_cos=_PaperInverse(paper_channel(cal.waves["cos"])))
-    _fit_quadrature(seed, meas, use, seed_form=True)
+    """The seeds' own procedure with their data budget, on the same recording.
+
+    Seed 001: 75 samples at equal phase steps in one signal period (phases from the reference, as
+    the seed's 23-bit reference gave them), its waveform model and eq. 12 polynomial inverted by
+    Newton (sqrt taken positive), its ellipse (phase only). Seed 000: 64 points at 5.625 degree
+    steps, a 9-harmonic Fourier network at its optimum (least squares; see the DE benchmark).
+    """
+    enc = cal.encoder
+    check_recording(meas, enc)
+    if meas.ref_deg is None or cal.long_period is None:
+        _fail(meas, "the seeds' method needs ref_deg and a long-period calibration")
+    rev = encoder_rev(cal, meas)
+    truth = cal.direction * (meas.ref_deg / 360.0 - cal.zero_deg / 360.0)
+    phi = np.unwrap(2 * np.pi * enc.lines_per_rev * (truth + cal.long_period(2 * np.pi * rev) / ARCSEC_PER_REV))
+    one_period = np.flatnonzero(np.abs(phi - phi[0]) <= 2 * np.pi)
+    pick = one_period[_nearest(phi[one_period], phi[0] + 2 * np.pi * np.arange(SEED001_POINTS) / SEED001_POINTS,
+                               2 * np.pi)]
+    seed = Calibration(encoder=enc,
+                       inv_sin=_PaperInverse(fit_paper_channel("sin", meas.sin[pick], phi[pick])),
+                       inv_cos=_PaperInverse(fit_paper_channel("cos", meas.cos[pick], phi[pick])))
+    _fit_quadrature(seed, meas.subset(pick), np.ones(len(pick), bool), seed_form=True)
     sync_coarse(seed, meas)
-    if meas.ref_deg is not None and cal.long_period is not None:
-        fit_long_period(seed, meas, use, CalibrationOptions(lp_harmonics_max=9))
+    rev = encoder_rev(seed, meas)
+    find_direction_and_zero(seed, meas, rev)
+    err = lp_error_arcsec(seed, meas, rev)
+    pts = _nearest(rev, np.arange(SEED000_POINTS) / SEED000_POINTS, 1.0)
+    seed.long_period, _, _ = fit_select(2 * np.pi * rev[pts], err[pts], SEED000_HARMONICS,
+                                        bins=1 << 16, n_fixed=SEED000_HARMONICS)
     return seed
 
 
@@ -255,3 +305,13 @@ def ellipse_only(cal: Calibration, meas: Measurement) -> Calibration:
     if meas.ref_deg is not None and cal.long_period is not None:
         fit_long_period(e, meas, use, CalibrationOptions())
     return e
+
+
+def uncorrected(cal: Calibration, meas: Measurement) -> Calibration:
+    """The encoder as it comes: plain arctan of the readings, with only what is needed to compare
+    it with the reference (coarse synchronisation, direction and zero)."""
+    raw = Calibration(encoder=cal.encoder)
+    sync_coarse(raw, meas)
+    if meas.ref_deg is not None:
+        find_direction_and_zero(raw, meas, encoder_rev(raw, meas))
+    return raw

@@ -90,8 +90,9 @@ def write_wave_tables(path: str, inv_sin: WaveformInverse, inv_cos: WaveformInve
     header = ("reading_counts,sin_branch0,sin_branch1,cos_branch0,cos_branch1\n")
     with open(path, "w", encoding="utf-8") as f:
         f.write("# fringe waveform inverse tables: reading (ADC counts) -> ideal value (unit circle)\n")
-        f.write(f"# sin branch 1: cos reading >= {inv_sin.threshold:.6f}; "
-                f"cos branch 1: sin reading >= {inv_cos.threshold:.6f}\n")
+        for inv in (inv_sin, inv_cos):
+            f.write(f"# {inv.kind} branch 1: other reading >= ({inv.kind} reading >= {inv.mid:.6f} ? "
+                    f"{inv.threshold_hi:.6f} : {inv.threshold_lo:.6f})\n")
         f.write(header)
         np.savetxt(f, data, fmt="%.12g", delimiter=",")
 
@@ -129,7 +130,8 @@ def load_calibration(cal_dir: str) -> Calibration:
                 inv = w[k]["inverse"]
                 setattr(cal, f"inv_{k}", WaveformInverse(
                     k, float(inv["lo_counts"]), float(inv["step_counts"]),
-                    np.vstack([table[:, cols[0]], table[:, cols[1]]]), float(inv["threshold_counts"])))
+                    np.vstack([table[:, cols[0]], table[:, cols[1]]]), float(inv["threshold_hi_counts"]),
+                    float(inv["threshold_lo_counts"]), float(inv["mid_counts"])))
     except (KeyError, TypeError, ValueError) as e:
         raise FringeInputError(f"calibration is incomplete or damaged ({type(e).__name__}: {e})", path) from None
     return cal

@@ -101,7 +101,7 @@ def cmd_calibrate(a) -> int:
 
 
 def summary_text(cal, meas) -> str:
-    from .metrics import error_figures, error_arcsec
+    from .metrics import error_arcsec, error_figures
     from .pipeline import run_float
 
     lines = []

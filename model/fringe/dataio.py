@@ -71,7 +71,7 @@ def read_measurement(path: str, encoder: Encoder | None = None, min_samples: int
 
     wanted = [c for c in REQUIRED + OPTIONAL if c in header]
     col_index = [header.index(c) for c in wanted]
-    body = [(i + 1, ln) for i, ln in enumerate(lines[header_line + 1:], start=header_line)
+    body = [(i + 1, ln) for i, ln in enumerate(lines[header_line + 1:], start=header_line + 1)
             if ln.strip() and not ln.lstrip().startswith("#")]
     if not body:
         raise FringeInputError("no data rows after the header", path, f"line {header_line + 1}")
@@ -176,7 +176,7 @@ def _parse_slowly(body, header, wanted, col_index, path):
         if len(rec) != len(header):
             raise FringeInputError(f"has {len(rec)} fields, the header has {len(header)}", path,
                                    f"line {line_no}")
-        for k, (name, j) in enumerate(zip(wanted, col_index)):
+        for k, (name, j) in enumerate(zip(wanted, col_index, strict=True)):
             cell = rec[j].strip()
             try:
                 values[row_no, k] = float(cell)

@@ -12,21 +12,27 @@ from scipy.linalg import LinAlgError, cholesky, solve_triangular
 from .longperiod import FourierSeries
 
 
-def _design_interleaved(x: np.ndarray, n: int) -> np.ndarray:
-    """Columns [1, cos x, sin x, cos 2x, sin 2x, ...]: a model with fewer harmonics is a prefix."""
+def _design_interleaved(x: np.ndarray, orders: list[int]) -> np.ndarray:
+    """Columns [1, cos h1 x, sin h1 x, cos h2 x, ...]: a model with fewer harmonics is a prefix."""
     z = np.exp(1j * np.asarray(x, float))
-    m = np.empty((len(z), 2 * n + 1))
+    m = np.empty((len(z), 2 * len(orders) + 1))
     m[:, 0] = 1.0
-    p = np.ones_like(z)
-    for l in range(1, n + 1):
-        p = p * z
-        m[:, 2 * l - 1], m[:, 2 * l] = p.real, p.imag
+    p, at = np.ones_like(z), 0
+    for j, l in enumerate(orders):
+        p = p * z ** (l - at)
+        at = l
+        m[:, 2 * j + 1], m[:, 2 * j + 2] = p.real, p.imag
     return m
 
 
-def _to_paper_order(w: np.ndarray) -> np.ndarray:
-    """Interleaved [w0, a1, b1, a2, b2, ...] -> seed 000 order [w0, a1..an, b1..bn]."""
-    return np.concatenate([w[:1], w[1::2], w[2::2]])
+def _to_paper_order(w: np.ndarray, orders: list[int]) -> np.ndarray:
+    """Interleaved weights of `orders` -> seed 000 order [w0, a1..an, b1..bn], zeros where skipped."""
+    n = max(orders, default=0)
+    out = np.zeros(2 * n + 1)
+    out[0] = w[0]
+    for j, l in enumerate(orders):
+        out[l], out[n + l] = w[2 * j + 1], w[2 * j + 2]
+    return out
 
 
 def bin_by_angle(x: np.ndarray, y: np.ndarray, bins: int):
@@ -47,15 +53,18 @@ def bin_by_angle(x: np.ndarray, y: np.ndarray, bins: int):
 
 
 def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
-               n_fixed: int | None = None) -> tuple[FourierSeries, int, float]:
+               n_fixed: int | None = None, skip_multiples_of: int = 0) -> tuple[FourierSeries, int, float]:
     """Least-squares Fourier series of y against angle x; n by BIC over 0..n_max unless n_fixed.
 
+    `skip_multiples_of` = L leaves out the harmonics L, 2L, ... (they belong to another stage).
     Returns the series (seed 000 weight order), the chosen n and the residual RMS.
     """
     n_samples = len(y)
     xm, ym, c, within = bin_by_angle(x, y, bins)
     n_max = int(min(n_max, max(0, (len(xm) - 1) // 2 - 1)))
-    m = _design_interleaved(xm, n_max if n_fixed is None else min(n_fixed, n_max))
+    top = n_max if n_fixed is None else min(n_fixed, n_max)
+    orders = [l for l in range(1, top + 1) if not (skip_multiples_of and l % skip_multiples_of == 0)]
+    m = _design_interleaved(xm, orders)
     sw = np.sqrt(c)
     mw, yw = m * sw[:, None], ym * sw
     g, b, yy = mw.T @ mw, mw.T @ yw, float(yw @ yw)
@@ -72,4 +81,5 @@ def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
     best = int(np.argmin(bic))
     k = int(ks[best])
     w = solve_triangular(lower[:k, :k].T, u[:k], lower=False)
-    return FourierSeries(_to_paper_order(w)), (k - 1) // 2, float(np.sqrt(rss[best] / n_samples))
+    used = orders[:(k - 1) // 2]
+    return FourierSeries(_to_paper_order(w, used)), max(used, default=0), float(np.sqrt(rss[best] / n_samples))

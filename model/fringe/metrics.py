@@ -38,18 +38,25 @@ class ErrorFigures:
         return {k: round(float(v), 4) for k, v in self.__dict__.items()}
 
 
-def error_figures(err: np.ndarray, fine_frac: np.ndarray, rev_frac: np.ndarray, bins: int = 64) -> ErrorFigures:
-    """Systematic parts are bin means: noise averages out, a repeatable error does not.
+def split_error(err: np.ndarray, fine_frac: np.ndarray, rev_frac: np.ndarray, fine_bins: int = 64,
+                rev_bins: int = 64) -> tuple[np.ndarray, np.ndarray]:
+    """Interpolation curve (bin means over the fine phase) and long-period curve (over the revolution).
 
-    The interpolation part is taken after removing the long-period part (and vice versa), so
-    each figure sees only its own error.
+    Each is taken after removing the other, so that uneven phase coverage in a revolution bin
+    (a reversal dwells at one phase) does not leak the interpolation error into it, and back.
     """
-    lp = binned_mean(err, rev_frac, bins)
-    lp_each = np.interp(np.mod(rev_frac, 1.0), (np.arange(bins) + 0.5) / bins, lp, period=1.0)
-    interp = binned_mean(err - lp_each, fine_frac, bins)
-    lp_clean = binned_mean(err - np.interp(np.mod(fine_frac, 1.0), (np.arange(bins) + 0.5) / bins, interp,
-                                           period=1.0), rev_frac, bins)
+    centres = lambda bins: (np.arange(bins) + 0.5) / bins  # noqa: E731
+    lp = binned_mean(err, rev_frac, rev_bins)
+    lp_each = np.interp(np.mod(rev_frac, 1.0), centres(rev_bins), np.nan_to_num(lp), period=1.0)
+    interp = binned_mean(err - lp_each, fine_frac, fine_bins)
+    interp_each = np.interp(np.mod(fine_frac, 1.0), centres(fine_bins), np.nan_to_num(interp), period=1.0)
+    return interp, binned_mean(err - interp_each, rev_frac, rev_bins)
+
+
+def error_figures(err: np.ndarray, fine_frac: np.ndarray, rev_frac: np.ndarray, bins: int = 64) -> ErrorFigures:
+    """Systematic parts are bin means: noise averages out, a repeatable error does not."""
+    interp, lp = split_error(err, fine_frac, rev_frac, bins, bins)
     return ErrorFigures(rms_arcsec=float(np.sqrt(np.mean(err ** 2))), pp_arcsec=float(np.ptp(err)),
                         interp_pp_arcsec=float(np.nanmax(interp) - np.nanmin(interp)),
-                        lp_pp_arcsec=float(np.nanmax(lp_clean) - np.nanmin(lp_clean)),
-                        lp_sigma_arcsec=float(np.nanstd(lp_clean, ddof=1)))
+                        lp_pp_arcsec=float(np.nanmax(lp) - np.nanmin(lp)),
+                        lp_sigma_arcsec=float(np.nanstd(lp, ddof=1)))

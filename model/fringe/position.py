@@ -35,7 +35,8 @@ def fit_coarse_offset(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse_b
         raise ValueError("the coarse code never changes: the recording does not move across a coarse code")
     f_edge = frac[:-1][ok] + 0.5 * wrap(frac[1:][ok] - frac[:-1][ok])
     delta = circular_mean(f_edge - edge[ok] * span)
-    return float((delta + span / 2) % 1.0)
+    # the fine phase fixes the offset modulo a period: take the smallest misalignment
+    return float(wrap(delta + span / 2))
 
 
 def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse_bits: int,
@@ -45,7 +46,7 @@ def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse
     centre = code*span + offset estimates the position to within half a code; the period count
     is the integer n that puts n + frac nearest to it. The residual exceeds half a code only
     when the coarse code is wrong (or its edges drift): flagged beyond the midpoint between
-    half a code and half a period.
+    half a code and half a period, which leaves half the margin to edge jitter.
     """
     span = coarse_code_span(lines, coarse_bits)
     centre = coarse * span + offset

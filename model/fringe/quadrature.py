@@ -41,6 +41,9 @@ class QuadratureCorrection:
         return cls(**{k: float(v) for k, v in d.items() if k in cls.__dataclass_fields__})
 
 
+NOT_ROUND = "the recording must span at least one full signal period"
+
+
 def _check_coverage(s: np.ndarray, c: np.ndarray, min_octants: int = 8):
     """An ellipse is only determined when the samples go round it."""
     if len(s) < 6:
@@ -49,7 +52,22 @@ def _check_coverage(s: np.ndarray, c: np.ndarray, min_octants: int = 8):
     octants = np.unique(np.floor((ang + np.pi) / (np.pi / 4)).astype(int) % 8)
     if len(octants) < min_octants:
         raise QuadratureFitError(f"the samples cover only {len(octants)} of 8 octants of the "
-                                 "Lissajous figure: the recording must span at least one full signal period")
+                                 f"Lissajous figure: {NOT_ROUND}")
+
+
+def _check_fit(q: "QuadratureCorrection", s: np.ndarray, c: np.ndarray, min_octants: int = 8):
+    """After the fit: the corrected samples must go round a circle, not scatter around a point."""
+    s2, c2 = q.apply(s, c)
+    r = np.hypot(s2, c2)
+    scatter = np.std(r) / max(np.mean(r), 1e-300)
+    if scatter > 0.25:
+        raise QuadratureFitError(f"the samples scatter by {100 * scatter:.0f}% around the fitted ellipse "
+                                 f"(noise or no motion): {NOT_ROUND}")
+    octants = np.unique(np.floor((np.arctan2(s2, c2) + np.pi) / (np.pi / 4)).astype(int) % 8)
+    if len(octants) < min_octants:
+        raise QuadratureFitError(f"the samples cover only {len(octants)} of 8 octants of the "
+                                 f"Lissajous figure: {NOT_ROUND}")
+    return q
 
 
 def fit_seed_ellipse(us: np.ndarray, uc: np.ndarray) -> QuadratureCorrection:
@@ -61,8 +79,8 @@ def fit_seed_ellipse(us: np.ndarray, uc: np.ndarray) -> QuadratureCorrection:
     if not -1 < ratio < 1:
         raise QuadratureFitError(f"ellipse fit gives C/2A = {ratio:.3g}, outside (-1, 1)")
     alpha = float(np.arcsin(ratio))
-    return QuadratureCorrection(k_ss=1 / np.cos(alpha), k_sc=np.tan(alpha), alpha_rad=alpha,
-                                gain_ratio=float(np.sqrt(a / b)))
+    return _check_fit(QuadratureCorrection(k_ss=1 / np.cos(alpha), k_sc=np.tan(alpha), alpha_rad=alpha,
+                                           gain_ratio=float(np.sqrt(a / b))), us, uc)
 
 
 def fit_conic(s: np.ndarray, c: np.ndarray) -> QuadratureCorrection:
@@ -82,7 +100,7 @@ def fit_conic(s: np.ndarray, c: np.ndarray) -> QuadratureCorrection:
     p, *_ = np.linalg.lstsq(m, np.ones_like(x), rcond=None)
     q = np.array([[p[0], p[1] / 2], [p[1] / 2, p[2]]])
     if np.linalg.det(q) <= 0 or p[0] <= 0:
-        raise QuadratureFitError("the samples do not lie on an ellipse (conic fit is not an ellipse)")
+        raise QuadratureFitError(f"the samples do not lie on an ellipse: {NOT_ROUND}")
     centre = -0.5 * np.linalg.solve(q, p[3:])
     k = 1 + centre @ q @ centre
     qa, qb, qc = q[0, 0] / k, 2 * q[0, 1] / k, q[1, 1] / k
@@ -91,6 +109,6 @@ def fit_conic(s: np.ndarray, c: np.ndarray) -> QuadratureCorrection:
     cos_a = np.cos(alpha)
     g_s = 1 / (np.sqrt(qa) * cos_a) * scale
     g_c = 1 / (np.sqrt(qc) * cos_a) * scale
-    return QuadratureCorrection(ofs_s=float(s0 + centre[0] * scale), ofs_c=float(c0 + centre[1] * scale),
-                                k_ss=float(1 / (g_s * cos_a)), k_sc=float(np.tan(alpha) / g_c),
-                                k_cc=float(1 / g_c), alpha_rad=alpha, gain_ratio=float(g_s / g_c))
+    return _check_fit(QuadratureCorrection(ofs_s=float(s0 + centre[0] * scale), ofs_c=float(c0 + centre[1] * scale),
+                                           k_ss=float(1 / (g_s * cos_a)), k_sc=float(np.tan(alpha) / g_c),
+                                           k_cc=float(1 / g_c), alpha_rad=alpha, gain_ratio=float(g_s / g_c)), s, c)

@@ -24,7 +24,10 @@ from .errors import FringeInputError
 
 @dataclass
 class ChannelConfig:
-    """One analog channel: offset + gain * sum_n (cos_h[n] cos(n*psi) + sin_h[n] sin(n*psi)), psi = phase + phase_rad."""
+    """One analog channel: offset + gain * sum_n (cos_h[n] cos(n psi) + sin_h[n] sin(n psi)).
+
+    psi is the true fine phase plus `phase_rad`.
+    """
 
     offset: float = 0.0                              # DC offset, fraction of ADC full scale
     gain: float = 0.8                                # scale of the normalised waveform, fraction of full scale
@@ -81,8 +84,8 @@ def seed_encoder() -> SimulationConfig:
     sample's angle noise about 1.3" RMS (the seed's 1.3"-ish scatter at 20" resolution); ADC
     quantisation adds about 0.1".
     """
-    sin_h = {int(n): float(c) for n, c in zip(seeds.SEED001_ORDERS, seeds.SEED001_SIN_COEFFS)}
-    cos_h = {int(n): float(c) for n, c in zip(seeds.SEED001_ORDERS, seeds.SEED001_COS_COEFFS)}
+    sin_h = {int(n): float(c) for n, c in zip(seeds.SEED001_ORDERS, seeds.SEED001_SIN_COEFFS, strict=True)}
+    cos_h = {int(n): float(c) for n, c in zip(seeds.SEED001_ORDERS, seeds.SEED001_COS_COEFFS, strict=True)}
     sin_h[2] = seeds.SEED001_F2["sin"]
     cos_h[2] = seeds.SEED001_F2["cos"]
     gain = 0.9

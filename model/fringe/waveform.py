@@ -18,7 +18,6 @@ import numpy as np
 
 from .longperiod import design_matrix
 
-
 # ---------------------------------------------------------------- the seed's polynomial form
 
 def multiple_angle_matrix(max_order: int) -> np.ndarray:
@@ -153,16 +152,25 @@ def paper_channel(wave: ChannelWaveform) -> PaperChannel:
 class WaveformInverse:
     """Reading -> ideal value (sin or cos of the channel's own phase), as two tables.
 
-    Table `values[branch]` samples the inverse at readings `lo + k*step`; branch 1 holds for
-    `other >= threshold` (the other channel's reading), branch 0 otherwise. Between grid
-    points the inverse is interpolated linearly, exactly as the hardware does.
+    Table `values[branch]` samples the inverse at readings `lo + k*step`. Branch 1 holds when
+    the other channel's reading is at or above a threshold, branch 0 otherwise; the threshold
+    is the other channel's reading at this channel's maximum (`threshold_hi`) for readings in
+    the upper half (`reading >= mid`) and at its minimum (`threshold_lo`) below, so the branch
+    flips exactly at the extremes. Between grid points the inverse is interpolated linearly,
+    exactly as the hardware does.
     """
 
     kind: str
     lo: float
     step: float
     values: np.ndarray        # shape (2, n)
-    threshold: float
+    threshold_hi: float
+    threshold_lo: float
+    mid: float
+
+    def branch(self, y: np.ndarray, other: np.ndarray) -> np.ndarray:
+        thr = np.where(np.asarray(y) >= self.mid, self.threshold_hi, self.threshold_lo)
+        return (np.asarray(other) >= thr).astype(np.int64)
 
     def __call__(self, y: np.ndarray, other: np.ndarray) -> np.ndarray:
         pos = (np.asarray(y, float) - self.lo) / self.step
@@ -170,7 +178,7 @@ class WaveformInverse:
         pos = np.clip(pos, 0, n - 1)
         i = np.minimum(pos.astype(np.int64), n - 2)
         frac = pos - i
-        branch = (np.asarray(other) >= self.threshold).astype(np.int64)
+        branch = self.branch(y, other)
         v0 = self.values[branch, i]
         return v0 + (self.values[branch, i + 1] - v0) * frac
 
@@ -179,7 +187,9 @@ class WaveformInverse:
 
     def to_dict(self) -> dict:
         return {"kind": self.kind, "lo_counts": self.lo, "step_counts": self.step,
-                "threshold_counts": self.threshold, "branch1_means": "other channel >= threshold"}
+                "threshold_hi_counts": self.threshold_hi, "threshold_lo_counts": self.threshold_lo,
+                "mid_counts": self.mid,
+                "branch1_means": "other >= (reading >= mid ? threshold_hi : threshold_lo)"}
 
 
 def build_inverse(wave: ChannelWaveform, other: ChannelWaveform, lo: float, hi: float,
@@ -187,19 +197,19 @@ def build_inverse(wave: ChannelWaveform, other: ChannelWaveform, lo: float, hi: 
     """Invert `wave` on its two monotone half periods, one table per branch.
 
     The halves run between the waveform's minimum and maximum; the branch is told by the other
-    channel, compared with the mean of its readings at this channel's two extremes (it is
-    near its zero crossing there). Near an extreme a sample may land on the wrong half; the
-    two candidate phases then mirror about the extreme, so the value (a sine near its peak)
-    differs only to second order and the arctan hardly weighs it there.
+    channel, compared with its reading at this channel's nearer extreme (it is near its zero
+    crossing there, so the compare is sharp). Only noise can put a sample on the wrong half,
+    and only right at an extreme, where the two candidate values coincide.
     """
     grid = np.linspace(0, 2 * np.pi, 8192, endpoint=False)
     g = wave(grid)
     t_max, t_min = grid[np.argmax(g)], grid[np.argmin(g)]
     rising = _interval(t_min, t_max)
     falling = _interval(t_max, t_min)
-    thr = 0.5 * (float(other(np.array([t_max]))[0]) + float(other(np.array([t_min]))[0]))
+    thr_hi, thr_lo = (float(v) for v in other(np.array([t_max, t_min])))
+    mid = 0.5 * (float(g.max()) + float(g.min()))
     mid_rising = rising[len(rising) // 2]
-    rising_is_branch1 = float(other(np.array([mid_rising]))[0]) >= thr
+    rising_is_branch1 = float(other(np.array([mid_rising]))[0]) >= 0.5 * (thr_hi + thr_lo)
 
     ys = np.linspace(lo, hi, points)
     tables = {}
@@ -218,7 +228,7 @@ def build_inverse(wave: ChannelWaveform, other: ChannelWaveform, lo: float, hi: 
         tables[name] = wave.ideal(t)
     values = np.vstack([tables["falling"], tables["rising"]] if rising_is_branch1
                        else [tables["rising"], tables["falling"]])
-    return WaveformInverse(wave.kind, lo, (hi - lo) / (points - 1), values, thr)
+    return WaveformInverse(wave.kind, lo, (hi - lo) / (points - 1), values, thr_hi, thr_lo, mid)
 
 
 def _interval(start: float, end: float, n: int = 8192) -> np.ndarray:

@@ -1,0 +1,46 @@
+# fringe: every target installs what it needs into .venv first (Python packages from PyPI).
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+OUT    ?= out
+JOBS   ?= 2
+
+.PHONY: setup demo test test-model test-rtl lint bench synth clean help
+
+help:
+	@echo "make demo   - simulate the seed encoder, calibrate, correct, print before/after, write plots ($(OUT)/demo)"
+	@echo "make test   - the whole regression: model tests and cocotb RTL tests (Verilator, GHDL)"
+	@echo "make lint   - ruff on the Python, verilator -Wall and ghdl -a --std=08 on the RTL"
+	@echo "make bench  - accuracy, speed and size figures into results/bench.json and results/bench.md"
+	@echo "make setup  - create .venv and install fringe with its test tools"
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $@
+
+setup: $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/python -m fringe.demo $(OUT)/demo
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -n $(JOBS) -q
+
+test-model: $(STAMP)
+	$(BIN)/python -m pytest -n $(JOBS) -q tests
+
+test-rtl: $(STAMP)
+	$(BIN)/python -m pytest -n $(JOBS) -q tb
+
+lint: $(STAMP)
+	$(BIN)/ruff check model tests tb sim
+	$(BIN)/python sim/lint.py
+
+bench: $(STAMP)
+	$(BIN)/python -m fringe.bench --out results
+
+clean:
+	rm -rf $(OUT) results sim_build .pytest_cache

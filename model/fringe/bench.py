@@ -1,0 +1,147 @@
+"""`make bench`: accuracy, speed and size figures, written to OUT/bench.json and OUT/bench.md.
+
+Benchmarks measure; tests judge correctness. Each figure here is measured on this machine
+in this run; the targets from the issues are printed next to them with pass/fail.
+"""
+
+import argparse
+import glob
+import json
+import os
+import platform
+import sys
+import time
+
+import numpy as np
+
+from . import __version__
+from .calibrate import calibrate, ellipse_only, seed_method, uncorrected
+from .datasets import RM44_ENCODER, halves, read_rm44
+from .evaluate import figures, float_engine, measurement_of, noise_floor_arcsec
+from .metrics import error_arcsec
+from .simulate import seed_encoder, simulate
+
+SHARED_DATA = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data")
+
+
+def seed_preset_accuracy(samples: int = 200_000) -> dict:
+    cfg = seed_encoder()
+    cfg.samples = samples
+    train, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
+    cal = calibrate(train, cfg.encoder())
+    methods = {"uncorrected": uncorrected(cal, val), "ellipse_only": ellipse_only(cal, train),
+               "seed_method": seed_method(cal, train), "fringe_float": cal}
+    out = {name: figures(c, val)[0].to_dict() for name, c in methods.items()}
+    floor = noise_floor_arcsec(cal, cfg, 2)
+    f = out["fringe_float"]
+    out["noise_floor_rms_arcsec"] = round(floor, 4)
+    out["targets"] = {
+        "interp_pp_le_1arcsec": f["interp_pp_arcsec"] <= 1.0,
+        "lp_pp_le_1arcsec": f["lp_pp_arcsec"] <= 1.0,
+        "rms_within_10pct_of_floor": f["rms_arcsec"] <= 1.10 * floor,
+    }
+    out["setup"] = f"seed-encoder preset, {samples} samples; calibrated on seed 1, validated on seed 2"
+    return out
+
+
+def speed(samples: int = 1_000_000) -> dict:
+    cfg = seed_encoder()
+    cfg.samples = samples
+    meas = measurement_of(simulate(cfg, 7))
+    t0 = time.perf_counter()
+    cal = calibrate(meas, cfg.encoder())
+    t_cal = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    float_engine(cal, meas)
+    t_cor = time.perf_counter() - t0
+    return {"samples": samples, "calibrate_s": round(t_cal, 3), "calibrate_target_s": 10.0,
+            "correct_float_samples_per_s": round(samples / t_cor), "correct_float_target": 1_000_000,
+            "targets": {"calibrate_1M_le_10s": t_cal <= 10.0, "correct_float_ge_1M_per_s": samples / t_cor >= 1e6}}
+
+
+def rm44(folder: str) -> dict | str:
+    files = sorted(glob.glob(os.path.join(folder, "rm44_hall_vs_tonic", "*.csv")))
+    if not files:
+        return "skipped: ../shared/data/rm44_hall_vs_tonic not found"
+    rows = {}
+    for path in files:
+        train, val = halves(read_rm44(path))
+        cal = calibrate(train, RM44_ENCODER)
+        raw = figures(uncorrected(cal, val), val)[0]
+        ell = figures(ellipse_only(cal, train), val)[0]
+        fixed, res = figures(cal, val)
+        err = error_arcsec(res.angle_deg, val.ref_deg)
+        rows[os.path.basename(path)] = {
+            "raw_rms_arcsec": round(raw.rms_arcsec, 1), "raw_pp_arcsec": round(raw.pp_arcsec, 1),
+            "ellipse_rms_arcsec": round(ell.rms_arcsec, 1),
+            "corrected_rms_arcsec": round(fixed.rms_arcsec, 1), "corrected_pp_arcsec": round(fixed.pp_arcsec, 1),
+            "noise_estimate_arcsec": round(float(np.std(np.diff(err)) / np.sqrt(2)), 1),
+        }
+    return {"setup": "calibrated on the even samples of each file, validated on the odd ones", "files": rows}
+
+
+def de_vs_desa() -> dict | str:
+    from . import longperiod
+    if not hasattr(longperiod, "de_benchmark"):
+        return "skipped: longperiod.de_benchmark not available"
+    t0 = time.perf_counter()
+    r = longperiod.de_benchmark()
+    r["elapsed_s"] = round(time.perf_counter() - t0, 1)
+    return r
+
+
+def markdown(results: dict) -> str:
+    lines = [f"# fringe bench ({results['meta']['date']}, {results['meta']['machine']})", ""]
+    acc = results["seed_preset"]
+    lines += ["## Seed-encoder preset (arcsec)", "", acc["setup"], "",
+              "| method | RMS | p-p | interp p-p | long-period p-p |", "|---|---|---|---|---|"]
+    for k in ("uncorrected", "ellipse_only", "seed_method", "fringe_float"):
+        f = acc[k]
+        lines.append(f"| {k} | {f['rms_arcsec']:.3f} | {f['pp_arcsec']:.2f} | {f['interp_pp_arcsec']:.3f} | "
+                     f"{f['lp_pp_arcsec']:.3f} |")
+    lines += ["", f"Noise floor (RMS): {acc['noise_floor_rms_arcsec']}\"; targets: {acc['targets']}", ""]
+    sp = results["speed"]
+    lines += ["## Speed", "", f"calibrate {sp['samples']} samples: {sp['calibrate_s']} s; "
+              f"correct --engine float: {sp['correct_float_samples_per_s']:,} samples/s; targets: {sp['targets']}", ""]
+    lines += ["## RM44 real data (arcsec)", ""]
+    r = results["rm44"]
+    if isinstance(r, str):
+        lines.append(r)
+    else:
+        lines += [r["setup"], "", "| file | raw RMS | raw p-p | ellipse RMS | corrected RMS | corrected p-p | noise |",
+                  "|---|---|---|---|---|---|---|"]
+        for name, f in r["files"].items():
+            lines.append(f"| {name} | {f['raw_rms_arcsec']} | {f['raw_pp_arcsec']} | {f['ellipse_rms_arcsec']} | "
+                         f"{f['corrected_rms_arcsec']} | {f['corrected_pp_arcsec']} | {f['noise_estimate_arcsec']} |")
+    lines += ["", "## Seed 000 Fig. 4: DE vs DE+SA", "", "```", json.dumps(results["de_vs_desa"], indent=1), "```", ""]
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="fringe.bench", description=__doc__)
+    p.add_argument("--out", default="results")
+    p.add_argument("--quick", action="store_true", help="smaller runs (for a smoke test)")
+    a = p.parse_args(argv)
+    os.makedirs(a.out, exist_ok=True)
+    results = {"meta": {"fringe": __version__, "date": time.strftime("%Y-%m-%d %H:%M"),
+                        "machine": f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"}}
+    steps = [("seed_preset", lambda: seed_preset_accuracy(40_000 if a.quick else 200_000)),
+             ("speed", lambda: speed(100_000 if a.quick else 1_000_000)),
+             ("rm44", lambda: rm44(SHARED_DATA)),
+             ("de_vs_desa", de_vs_desa)]
+    for name, fn in steps:
+        t0 = time.perf_counter()
+        print(f"bench: {name} ...", flush=True)
+        results[name] = fn()
+        print(f"bench: {name} done in {time.perf_counter() - t0:.1f} s", flush=True)
+    with open(os.path.join(a.out, "bench.json"), "w") as f:
+        json.dump(results, f, indent=2, default=lambda o: o.item() if hasattr(o, "item") else str(o))
+    md = markdown(results)
+    with open(os.path.join(a.out, "bench.md"), "w") as f:
+        f.write(md)
+    print(md)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,39 @@
+"""Judging a calibration on simulated data, where the truth is known."""
+
+import dataclasses
+
+import numpy as np
+
+from .dataio import Measurement
+from .encoder import ARCSEC_PER_REV
+from .metrics import ErrorFigures, error_arcsec, error_figures
+from .pipeline import Calibration, Result, run_float
+from .position import wrap
+from .simulate import Recording, SimulationConfig, simulate
+
+
+def measurement_of(rec: Recording, path: str = "simulated") -> Measurement:
+    c = rec.columns
+    return Measurement(path, c["sin"].astype(float), c["cos"].astype(float), c.get("coarse"),
+                       c.get("ref_deg"), c.get("t_s"))
+
+
+def float_engine(cal: Calibration, meas: Measurement) -> Result:
+    return run_float(cal, meas.sin, meas.cos, meas.coarse)
+
+
+def figures(cal: Calibration, meas: Measurement, engine=float_engine) -> tuple[ErrorFigures, Result]:
+    res = engine(cal, meas)
+    err = error_arcsec(res.angle_deg, meas.ref_deg)
+    return error_figures(err, res.frac, res.position / cal.encoder.lines_per_rev), res
+
+
+def noise_floor_arcsec(cal: Calibration, cfg: SimulationConfig, seed: int, engine=float_engine) -> float:
+    """The RMS error a perfect correction would leave: the same recording with and without the
+    additive noise (same trajectory, same coarse jitter) through the same correction, plus the
+    reference's own quantisation (uniform, q/sqrt(12))."""
+    noisy = engine(cal, measurement_of(simulate(cfg, seed)))
+    clean = engine(cal, measurement_of(simulate(dataclasses.replace(cfg, noise_rms=0.0), seed)))
+    d = wrap((noisy.angle_deg - clean.angle_deg) / 360.0) * ARCSEC_PER_REV
+    ref_q = ARCSEC_PER_REV / (1 << cfg.ref_bits) / np.sqrt(12)
+    return float(np.sqrt(np.mean((d - d.mean()) ** 2) + ref_q ** 2))

@@ -1,0 +1,221 @@
+// fringe_cordic: phase (arctan) and magnitude of the corrected vector, vectoring CORDIC.
+//
+// Formats (docs/architecture.md, "fringe_cordic"), N = ACC_W = FINE_W + GUARD:
+//   x, y   s(IN_W)     x = cosine (c), y = sine (s) of the quadrature stage
+//   pre    if x < 0: x, y = -x, -y and z = 2^(N-1) (half a turn), else z = 0;
+//          x, y scaled by 2^GUARD into s(DP_W), DP_W = IN_W + 2 + GUARD
+//          (1 bit for -(most negative), 1 bit for the CORDIC gain 1.647)
+//   stage  i = 0..STAGES-1: if y >= 0: x, y, z = x + (y >>> i), y - (x >>> i), z + ATAN[i]
+//                           else:      x, y, z = x - (y >>> i), y + (x >>> i), z - ATAN[i]
+//          z is u(N) modulo 2^N (one turn); ATAN[i] = round(atan(2^-i) / (2 pi) * 2^N),
+//          = (ATAN62[i] + 2^(61-N)) >> (62-N) from the shared 62-bit table (function atan62)
+//   phase  u(FINE_W) = ((z + 2^(GUARD-1)) >>> GUARD) mod 2^FINE_W, fraction of a period
+//   mag    u(IN_W+1) = (x + 2^(GUARD-1)) >>> GUARD, magnitude times the CORDIC gain
+//          (no rounding term when GUARD = 0)
+//   x = y = 0 gives mag = 0 and phase = round(sum ATAN) (about 0.2775 turn): meaningless, the
+//   top flags it through the magnitude threshold.
+// Bit-exact model: model/fringe/fixed/cordic.py (error budget: error_budget()).
+//
+// LATENCY = STAGES + 2 clock enables (ce = 1 cycles) from in_valid to out_valid:
+//   1: pre-rotation   2..STAGES+1: micro-rotations 0..STAGES-1   STAGES+2: output rounding
+// One sample per clock. ce = 0 freezes every register; rst (synchronous, active high, wins over
+// ce) clears only the valid pipeline, never the data registers.
+
+`default_nettype none
+
+module fringe_cordic #(
+    parameter integer IN_W   = 18,  // width of the x and y inputs, s(IN_W), 8..30
+    parameter integer FINE_W = 16,  // output phase bits per period, 8..30
+    parameter integer STAGES = 18,  // CORDIC micro-rotations, 4..32 (>= FINE_W+1 for full precision)
+    parameter integer GUARD  = 3,   // extra fractional bits of x, y and the angle accumulator, 0..8
+    parameter integer USER_W = 1    // sideband width, >= 1
+) (
+    input  wire                 clk,
+    input  wire                 rst,       // synchronous, active high: clears valid only
+    input  wire                 ce,        // clock enable: the pipeline advances when 1
+    // vector in
+    input  wire                 in_valid,
+    input  wire [IN_W-1:0]      x,         // s(IN_W), cosine
+    input  wire [IN_W-1:0]      y,         // s(IN_W), sine
+    input  wire [USER_W-1:0]    in_user,
+    // phase and magnitude out
+    output wire                 out_valid,
+    output reg  [FINE_W-1:0]    phase,     // u(FINE_W), fraction of a period
+    output reg  [IN_W:0]        mag,       // u(IN_W+1), magnitude times the CORDIC gain
+    output wire [USER_W-1:0]    out_user
+);
+
+    localparam integer LATENCY = STAGES + 2;
+    localparam integer ACC_W   = FINE_W + GUARD;   // angle accumulator, one turn = 2^ACC_W
+    localparam integer DP_W    = IN_W + 2 + GUARD; // x/y datapath
+    localparam [ACC_W-1:0] HALF_TURN = {1'b1, {(ACC_W-1){1'b0}}};
+
+    generate
+        if (IN_W < 8 || IN_W > 30) begin : g_bad_in_w
+            $error("fringe_cordic: IN_W = %0d out of range 8..30 (instance %m)", IN_W);
+        end
+        if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
+            $error("fringe_cordic: FINE_W = %0d out of range 8..30 (instance %m)", FINE_W);
+        end
+        if (STAGES < 4 || STAGES > 32) begin : g_bad_stages
+            $error("fringe_cordic: STAGES = %0d out of range 4..32 (instance %m)", STAGES);
+        end
+        if (GUARD < 0 || GUARD > 8) begin : g_bad_guard
+            $error("fringe_cordic: GUARD = %0d out of range 0..8 (instance %m)", GUARD);
+        end
+        if (USER_W < 1) begin : g_bad_user_w
+            $error("fringe_cordic: USER_W = %0d must be >= 1 (instance %m)", USER_W);
+        end
+    endgenerate
+
+    // atan(2^-i) / (2 pi) as a 62-bit fraction of a turn, round half up (i = 0..31). The same
+    // table is ATAN62 in model/fringe/fixed/cordic.py and in rtl/vhdl/fringe_cordic.vhd.
+    function [63:0] atan62;
+        input integer i;
+        begin
+            case (i)
+                 0: atan62 = 64'h0800000000000000; // atan(2^-0) = 45.0000000000 deg
+                 1: atan62 = 64'h04B90147677CC21A; // atan(2^-1) = 26.5650511771 deg
+                 2: atan62 = 64'h027ECE16D7B8E7A3; // atan(2^-2) = 14.0362434679 deg
+                 3: atan62 = 64'h0144447507776687; // atan(2^-3) = 7.1250163489 deg
+                 4: atan62 = 64'h00A2C350C39626BB; // atan(2^-4) = 3.5763343750 deg
+                 5: atan62 = 64'h005175F85641189E; // atan(2^-5) = 1.7899106082 deg
+                 6: atan62 = 64'h0028BD87970A098A; // atan(2^-6) = 0.8951737102 deg
+                 7: atan62 = 64'h00145F15447510AC; // atan(2^-7) = 0.4476141709 deg
+                 8: atan62 = 64'h000A2F94D1B430CE; // atan(2^-8) = 0.2238105004 deg
+                 9: atan62 = 64'h000517CBAECC2ACE; // atan(2^-9) = 0.1119056771 deg
+                10: atan62 = 64'h00028BE600246E9F; // atan(2^-10) = 0.0559528919 deg
+                11: atan62 = 64'h000145F3052A032E; // atan(2^-11) = 0.0279764526 deg
+                12: atan62 = 64'h0000A2F98337FB18; // atan(2^-12) = 0.0139882271 deg
+                13: atan62 = 64'h0000517CC1B05CBD; // atan(2^-13) = 0.0069941137 deg
+                14: atan62 = 64'h000028BE60DABA44; // atan(2^-14) = 0.0034970569 deg
+                15: atan62 = 64'h0000145F306DAE9F; // atan(2^-15) = 0.0017485284 deg
+                16: atan62 = 64'h00000A2F9836E17F; // atan(2^-16) = 0.0008742642 deg
+                17: atan62 = 64'h00000517CC1B7205; // atan(2^-17) = 0.0004371321 deg
+                18: atan62 = 64'h0000028BE60DB92B; // atan(2^-18) = 0.0002185661 deg
+                19: atan62 = 64'h00000145F306DC9B; // atan(2^-19) = 0.0001092830 deg
+                20: atan62 = 64'h000000A2F9836E4E; // atan(2^-20) = 0.0000546415 deg
+                21: atan62 = 64'h000000517CC1B727; // atan(2^-21) = 0.0000273208 deg
+                22: atan62 = 64'h00000028BE60DB94; // atan(2^-22) = 0.0000136604 deg
+                23: atan62 = 64'h000000145F306DCA; // atan(2^-23) = 0.0000068302 deg
+                24: atan62 = 64'h0000000A2F9836E5; // atan(2^-24) = 0.0000034151 deg
+                25: atan62 = 64'h0000000517CC1B72; // atan(2^-25) = 0.0000017075 deg
+                26: atan62 = 64'h000000028BE60DB9; // atan(2^-26) = 0.0000008538 deg
+                27: atan62 = 64'h0000000145F306DD; // atan(2^-27) = 0.0000004269 deg
+                28: atan62 = 64'h00000000A2F9836E; // atan(2^-28) = 0.0000002134 deg
+                29: atan62 = 64'h00000000517CC1B7; // atan(2^-29) = 0.0000001067 deg
+                30: atan62 = 64'h0000000028BE60DC; // atan(2^-30) = 0.0000000534 deg
+                31: atan62 = 64'h00000000145F306E; // atan(2^-31) = 0.0000000267 deg
+                default: atan62 = 64'h0000000000000000;
+            endcase
+        end
+    endfunction
+
+    // ---- stage 1: pre-rotation into the right half plane, scale by 2^GUARD ----------------------
+    wire signed [DP_W-1:0] x_ext = {{(DP_W-IN_W){x[IN_W-1]}}, x};
+    wire signed [DP_W-1:0] y_ext = {{(DP_W-IN_W){y[IN_W-1]}}, y};
+    wire                   x_neg = x[IN_W-1];
+    wire signed [DP_W-1:0] x_abs = x_neg ? -x_ext : x_ext;
+    wire signed [DP_W-1:0] y_pre = x_neg ? -y_ext : y_ext;
+
+    // Stage k of these vectors holds the values after k micro-rotations (k = 0: pre-rotated).
+    // y after the last micro-rotation is not needed, hence STAGES slices only.
+    reg [(STAGES+1)*DP_W-1:0]  x_p;
+    reg [STAGES*DP_W-1:0]      y_p;
+    reg [(STAGES+1)*ACC_W-1:0] z_p;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            x_p[0 +: DP_W]  <= x_abs <<< GUARD;
+            y_p[0 +: DP_W]  <= y_pre <<< GUARD;
+            z_p[0 +: ACC_W] <= x_neg ? HALF_TURN : {ACC_W{1'b0}};
+        end
+    end
+
+    // ---- stages 2..STAGES+1: micro-rotations ----------------------------------------------------
+    genvar k;
+    generate
+        for (k = 0; k < STAGES; k = k + 1) begin : g_stage
+            localparam [63:0] ATAN_FULL = (atan62(k) + (64'd1 << (61 - ACC_W))) >> (62 - ACC_W);
+            localparam [ACC_W-1:0] ATAN_K = ATAN_FULL[ACC_W-1:0];  // < 2^(ACC_W-3)
+
+            wire signed [DP_W-1:0]  xi  = x_p[k*DP_W +: DP_W];
+            wire signed [DP_W-1:0]  yi  = y_p[k*DP_W +: DP_W];
+            wire        [ACC_W-1:0] zi  = z_p[k*ACC_W +: ACC_W];
+            wire signed [DP_W-1:0]  ysh = yi >>> k;
+            wire                    neg = yi[DP_W-1];  // y < 0: rotate counter-clockwise
+
+            // a +- b as one adder with carry-in, a + (b ^ {s}) + s (half the LUTs of a mux of a
+            // sum and a difference): x + (y >>> k) or x - (y >>> k); z + ATAN[k] or z - ATAN[k].
+            always @(posedge clk) begin
+                if (ce) begin
+                    x_p[(k+1)*DP_W +: DP_W]   <= xi + (ysh ^ {DP_W{neg}}) + {{(DP_W-1){1'b0}}, neg};
+                    z_p[(k+1)*ACC_W +: ACC_W] <= zi + (ATAN_K ^ {ACC_W{neg}}) + {{(ACC_W-1){1'b0}}, neg};
+                end
+            end
+
+            if (k < STAGES - 1) begin : g_y
+                wire signed [DP_W-1:0] xsh = xi >>> k;
+
+                // y - (x >>> k) or y + (x >>> k)
+                always @(posedge clk) begin
+                    if (ce) begin
+                        y_p[(k+1)*DP_W +: DP_W] <= yi + (xsh ^ {DP_W{~neg}}) + {{(DP_W-1){1'b0}}, ~neg};
+                    end
+                end
+            end
+        end
+    endgenerate
+
+    // ---- stage STAGES+2: output rounding --------------------------------------------------------
+    wire signed [DP_W-1:0]  x_last = x_p[STAGES*DP_W +: DP_W];
+    wire        [ACC_W-1:0] z_last = z_p[STAGES*ACC_W +: ACC_W];
+    wire signed [DP_W-1:0]  x_rnd;
+    wire        [ACC_W-1:0] z_rnd;
+
+    generate
+        if (GUARD > 0) begin : g_round
+            assign x_rnd = x_last + ({{(DP_W-1){1'b0}}, 1'b1} << (GUARD - 1));
+            assign z_rnd = z_last + ({{(ACC_W-1){1'b0}}, 1'b1} << (GUARD - 1));
+            // The GUARD low bits are dropped by the rounding.
+            wire unused_low = &{1'b0, x_rnd[GUARD-1:0], z_rnd[GUARD-1:0]};
+        end else begin : g_no_round
+            assign x_rnd = x_last;
+            assign z_rnd = z_last;
+        end
+    endgenerate
+
+    always @(posedge clk) begin
+        if (ce) begin
+            phase <= z_rnd[ACC_W-1:GUARD];
+            mag   <= x_rnd[IN_W+GUARD:GUARD];
+        end
+    end
+
+    // x >= 0 after the pre-rotation and only grows, below 1.17 * 2^(IN_W+GUARD): its sign bit is 0.
+    wire unused_sign = &{1'b0, x_rnd[DP_W-1]};
+
+    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
+    reg [LATENCY-1:0]        valid_sr;
+    reg [LATENCY*USER_W-1:0] user_sr;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            valid_sr <= {LATENCY{1'b0}};
+        end else if (ce) begin
+            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
+        end
+    end
+
+    assign out_valid = valid_sr[LATENCY-1];
+    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+
+endmodule
+
+`default_nettype wire

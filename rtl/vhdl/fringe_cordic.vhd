@@ -1,0 +1,227 @@
+-- fringe_cordic: phase (arctan) and magnitude of the corrected vector, vectoring CORDIC.
+--
+-- VHDL-2008 twin of rtl/verilog/fringe_cordic.v (same generics, ports and behaviour).
+-- Formats (docs/architecture.md, "fringe_cordic"), N = ACC_W = FINE_W + GUARD:
+--   x, y   s(IN_W)     x = cosine (c), y = sine (s) of the quadrature stage
+--   pre    if x < 0: x, y = -x, -y and z = 2^(N-1) (half a turn), else z = 0;
+--          x, y scaled by 2^GUARD into s(DP_W), DP_W = IN_W + 2 + GUARD
+--          (1 bit for -(most negative), 1 bit for the CORDIC gain 1.647)
+--   stage  i = 0..STAGES-1: if y >= 0: x, y, z = x + (y >>> i), y - (x >>> i), z + ATAN(i)
+--                           else:      x, y, z = x - (y >>> i), y + (x >>> i), z - ATAN(i)
+--          z is u(N) modulo 2^N (one turn); ATAN(i) = round(atan(2^-i) / (2 pi) * 2^N),
+--          = (ATAN62(i) + 2^(61-N)) >> (62-N) from the shared 62-bit table
+--   phase  u(FINE_W) = ((z + 2^(GUARD-1)) >>> GUARD) mod 2^FINE_W, fraction of a period
+--   mag    u(IN_W+1) = (x + 2^(GUARD-1)) >>> GUARD, magnitude times the CORDIC gain
+--          (no rounding term when GUARD = 0)
+--   x = y = 0 gives mag = 0 and phase = round(sum ATAN) (about 0.2775 turn): meaningless, the
+--   top flags it through the magnitude threshold.
+-- Bit-exact model: model/fringe/fixed/cordic.py (error budget: error_budget()).
+--
+-- LATENCY = STAGES + 2 clock enables (ce = 1 cycles) from in_valid to out_valid:
+--   1: pre-rotation   2..STAGES+1: micro-rotations 0..STAGES-1   STAGES+2: output rounding
+-- One sample per clock. ce = 0 freezes every register; rst (synchronous, active high, wins over
+-- ce) clears only the valid pipeline, never the data registers.
+
+library ieee;
+use ieee.std_logic_1164.all;
+use ieee.numeric_std.all;
+
+entity fringe_cordic is
+    generic (
+        IN_W   : integer := 18;  -- width of the x and y inputs, s(IN_W), 8..30
+        FINE_W : integer := 16;  -- output phase bits per period, 8..30
+        STAGES : integer := 18;  -- CORDIC micro-rotations, 4..32 (>= FINE_W+1 for full precision)
+        GUARD  : integer := 3;   -- extra fractional bits of x, y and the angle accumulator, 0..8
+        USER_W : integer := 1    -- sideband width, >= 1
+    );
+    port (
+        clk       : in  std_logic;
+        rst       : in  std_logic;                              -- synchronous: clears valid only
+        ce        : in  std_logic;                              -- clock enable
+        -- vector in
+        in_valid  : in  std_logic;
+        x         : in  std_logic_vector(IN_W - 1 downto 0);    -- s(IN_W), cosine
+        y         : in  std_logic_vector(IN_W - 1 downto 0);    -- s(IN_W), sine
+        in_user   : in  std_logic_vector(USER_W - 1 downto 0);
+        -- phase and magnitude out
+        out_valid : out std_logic;
+        phase     : out std_logic_vector(FINE_W - 1 downto 0);  -- u(FINE_W), fraction of a period
+        mag       : out std_logic_vector(IN_W downto 0);        -- u(IN_W+1), magnitude * CORDIC gain
+        out_user  : out std_logic_vector(USER_W - 1 downto 0)
+    );
+end entity fringe_cordic;
+
+architecture rtl of fringe_cordic is
+
+    -- Stops elaboration with a clear message on illegal generics (before anything is sized).
+    function generics_ok return boolean is
+    begin
+        assert IN_W >= 8 and IN_W <= 30
+            report "fringe_cordic: IN_W = " & integer'image(IN_W) & " out of range 8..30"
+            severity failure;
+        assert FINE_W >= 8 and FINE_W <= 30
+            report "fringe_cordic: FINE_W = " & integer'image(FINE_W) & " out of range 8..30"
+            severity failure;
+        assert STAGES >= 4 and STAGES <= 32
+            report "fringe_cordic: STAGES = " & integer'image(STAGES) & " out of range 4..32"
+            severity failure;
+        assert GUARD >= 0 and GUARD <= 8
+            report "fringe_cordic: GUARD = " & integer'image(GUARD) & " out of range 0..8"
+            severity failure;
+        assert USER_W >= 1
+            report "fringe_cordic: USER_W = " & integer'image(USER_W) & " must be >= 1"
+            severity failure;
+        return true;
+    end function generics_ok;
+    constant GENERICS_CHECKED : boolean := generics_ok;
+
+    constant LATENCY : integer := STAGES + 2;
+    constant ACC_W   : integer := FINE_W + GUARD;     -- angle accumulator, one turn = 2^ACC_W
+    constant DP_W    : integer := IN_W + 2 + GUARD;   -- x/y datapath
+
+    -- atan(2^-i) / (2 pi) as a 62-bit fraction of a turn, round half up (i = 0..31). The same
+    -- table is ATAN62 in model/fringe/fixed/cordic.py and atan62 in rtl/verilog/fringe_cordic.v.
+    type atan62_t is array (0 to 31) of unsigned(63 downto 0);
+    constant ATAN62 : atan62_t := (
+        x"0800000000000000",  --  0: atan(2^-0) = 45.0000000000 deg
+        x"04B90147677CC21A",  --  1: atan(2^-1) = 26.5650511771 deg
+        x"027ECE16D7B8E7A3",  --  2: atan(2^-2) = 14.0362434679 deg
+        x"0144447507776687",  --  3: atan(2^-3) = 7.1250163489 deg
+        x"00A2C350C39626BB",  --  4: atan(2^-4) = 3.5763343750 deg
+        x"005175F85641189E",  --  5: atan(2^-5) = 1.7899106082 deg
+        x"0028BD87970A098A",  --  6: atan(2^-6) = 0.8951737102 deg
+        x"00145F15447510AC",  --  7: atan(2^-7) = 0.4476141709 deg
+        x"000A2F94D1B430CE",  --  8: atan(2^-8) = 0.2238105004 deg
+        x"000517CBAECC2ACE",  --  9: atan(2^-9) = 0.1119056771 deg
+        x"00028BE600246E9F",  -- 10: atan(2^-10) = 0.0559528919 deg
+        x"000145F3052A032E",  -- 11: atan(2^-11) = 0.0279764526 deg
+        x"0000A2F98337FB18",  -- 12: atan(2^-12) = 0.0139882271 deg
+        x"0000517CC1B05CBD",  -- 13: atan(2^-13) = 0.0069941137 deg
+        x"000028BE60DABA44",  -- 14: atan(2^-14) = 0.0034970569 deg
+        x"0000145F306DAE9F",  -- 15: atan(2^-15) = 0.0017485284 deg
+        x"00000A2F9836E17F",  -- 16: atan(2^-16) = 0.0008742642 deg
+        x"00000517CC1B7205",  -- 17: atan(2^-17) = 0.0004371321 deg
+        x"0000028BE60DB92B",  -- 18: atan(2^-18) = 0.0002185661 deg
+        x"00000145F306DC9B",  -- 19: atan(2^-19) = 0.0001092830 deg
+        x"000000A2F9836E4E",  -- 20: atan(2^-20) = 0.0000546415 deg
+        x"000000517CC1B727",  -- 21: atan(2^-21) = 0.0000273208 deg
+        x"00000028BE60DB94",  -- 22: atan(2^-22) = 0.0000136604 deg
+        x"000000145F306DCA",  -- 23: atan(2^-23) = 0.0000068302 deg
+        x"0000000A2F9836E5",  -- 24: atan(2^-24) = 0.0000034151 deg
+        x"0000000517CC1B72",  -- 25: atan(2^-25) = 0.0000017075 deg
+        x"000000028BE60DB9",  -- 26: atan(2^-26) = 0.0000008538 deg
+        x"0000000145F306DD",  -- 27: atan(2^-27) = 0.0000004269 deg
+        x"00000000A2F9836E",  -- 28: atan(2^-28) = 0.0000002134 deg
+        x"00000000517CC1B7",  -- 29: atan(2^-29) = 0.0000001067 deg
+        x"0000000028BE60DC",  -- 30: atan(2^-30) = 0.0000000534 deg
+        x"00000000145F306E"   -- 31: atan(2^-31) = 0.0000000267 deg
+    );
+
+    type acc_arr_t is array (natural range <>) of unsigned(ACC_W - 1 downto 0);
+    type dp_arr_t  is array (natural range <>) of signed(DP_W - 1 downto 0);
+
+    -- ATAN(i) = (ATAN62(i) + 2^(61-ACC_W)) >> (62-ACC_W), i < STAGES (< 2^(ACC_W-3)).
+    function atan_table return acc_arr_t is
+        variable t    : acc_arr_t(0 to STAGES - 1);
+        variable full : unsigned(63 downto 0);
+    begin
+        for i in 0 to STAGES - 1 loop
+            full := shift_right(ATAN62(i) + shift_left(to_unsigned(1, 64), 61 - ACC_W), 62 - ACC_W);
+            t(i) := full(ACC_W - 1 downto 0);
+        end loop;
+        return t;
+    end function atan_table;
+    constant ATAN : acc_arr_t(0 to STAGES - 1) := atan_table;
+
+    -- 2^(GUARD-1) in a W-bit word, 0 when GUARD = 0 (no rounding).
+    function round_term(w : integer) return unsigned is
+    begin
+        if GUARD = 0 then
+            return to_unsigned(0, w);
+        end if;
+        return shift_left(to_unsigned(1, w), GUARD - 1);
+    end function round_term;
+
+    -- Index k: the values after k micro-rotations (k = 0: pre-rotated). y after the last
+    -- micro-rotation is not needed.
+    signal x_p : dp_arr_t(0 to STAGES);
+    signal y_p : dp_arr_t(0 to STAGES - 1);
+    signal z_p : acc_arr_t(0 to STAGES);
+
+    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
+    signal valid_sr : std_logic_vector(1 to LATENCY);
+    signal user_sr  : user_sr_t;
+
+begin
+
+    p_data : process (clk)
+        variable x_ext, y_ext : signed(DP_W - 1 downto 0);
+        variable x_rnd        : signed(DP_W - 1 downto 0);
+        variable z_rnd        : unsigned(ACC_W - 1 downto 0);
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                -- stage 1: pre-rotation into the right half plane, scale by 2^GUARD
+                x_ext := resize(signed(x), DP_W);
+                y_ext := resize(signed(y), DP_W);
+                if x(IN_W - 1) = '1' then
+                    x_p(0) <= shift_left(-x_ext, GUARD);
+                    y_p(0) <= shift_left(-y_ext, GUARD);
+                    z_p(0) <= shift_left(to_unsigned(1, ACC_W), ACC_W - 1);  -- half a turn
+                else
+                    x_p(0) <= shift_left(x_ext, GUARD);
+                    y_p(0) <= shift_left(y_ext, GUARD);
+                    z_p(0) <= (others => '0');
+                end if;
+
+                -- stages 2..STAGES+1: micro-rotations
+                for k in 0 to STAGES - 1 loop
+                    if y_p(k)(DP_W - 1) = '0' then
+                        x_p(k + 1) <= x_p(k) + shift_right(y_p(k), k);
+                        z_p(k + 1) <= z_p(k) + ATAN(k);
+                        if k < STAGES - 1 then
+                            y_p(k + 1) <= y_p(k) - shift_right(x_p(k), k);
+                        end if;
+                    else
+                        x_p(k + 1) <= x_p(k) - shift_right(y_p(k), k);
+                        z_p(k + 1) <= z_p(k) - ATAN(k);
+                        if k < STAGES - 1 then
+                            y_p(k + 1) <= y_p(k) + shift_right(x_p(k), k);
+                        end if;
+                    end if;
+                end loop;
+
+                -- stage STAGES+2: output rounding (x >= 0 here, below 1.17 * 2^(IN_W+GUARD))
+                x_rnd := x_p(STAGES) + signed(round_term(DP_W));
+                z_rnd := z_p(STAGES) + round_term(ACC_W);
+                phase <= std_logic_vector(z_rnd(ACC_W - 1 downto GUARD));
+                mag   <= std_logic_vector(x_rnd(IN_W + GUARD downto GUARD));
+            end if;
+        end if;
+    end process p_data;
+
+    -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
+    p_valid : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                valid_sr <= (others => '0');
+            elsif ce = '1' then
+                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
+            end if;
+        end if;
+    end process p_valid;
+
+    p_user : process (clk)
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                user_sr <= in_user & user_sr(1 to LATENCY - 1);
+            end if;
+        end if;
+    end process p_user;
+
+    out_valid <= valid_sr(LATENCY);
+    out_user  <= user_sr(LATENCY);
+
+end architecture rtl;

