@@ -17,6 +17,7 @@ import os
 
 import numpy as np
 import pytest
+
 from fringe.fixed.cordic import CordicParams, cordic
 
 TOPLEVEL = "fringe_cordic"

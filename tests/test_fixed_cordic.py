@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from fringe.fixed.cordic import (
     ATAN62,
     CordicParams,
