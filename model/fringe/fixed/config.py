@@ -1,0 +1,69 @@
+"""The one description of a core configuration.
+
+It feeds the bit-exact model, the ROM generator, the HDL parameters of the top and the test
+IDs, so widths and table sizes are written once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from ..encoder import Encoder
+from .cordic import CordicParams
+from .quadrature import QuadratureParams
+from .wave_lut import WaveLutParams
+
+
+@dataclass(frozen=True)
+class CoreConfig:
+    adc_w: int = 12            # ADC_W: ADC code width (signed), 4..24
+    lines: int = 256           # LINES: signal periods per revolution, any integer >= 1
+    coarse_w: int = 9          # COARSE_W: coarse code width, 0 = none (periods are counted)
+    wave_addr_w: int = 8       # WAVE_ADDR_W: waveform table address bits per branch (< ADC_W)
+    wave_w: int = 18           # WAVE_W: waveform table / quadrature data width (WAVE_W-2 fraction bits)
+    coef_w: int = 18           # COEF_W: quadrature gain width (COEF_W-2 fraction bits)
+    fine_w: int = 16           # FINE_W: fine phase bits per signal period
+    cordic_stages: int = 18    # CORDIC_STAGES: CORDIC iterations (>= FINE_W+1 for full precision)
+    cordic_guard: int = 3      # CORDIC_GUARD: extra fraction bits inside the CORDIC
+    lp_addr_w: int = 8         # LP_ADDR_W: long-period table entries per revolution = 2^LP_ADDR_W
+    lp_w: int = 18             # LP_W: long-period table value/slope width
+    lp_frac: int = 4           # LP_FRAC: fraction bits of the long-period correction (fine counts)
+    lp_if: int = 8             # LP_IF: interpolation fraction bits of the long-period table
+
+    @classmethod
+    def for_encoder(cls, enc: Encoder, **overrides) -> CoreConfig:
+        """Defaults that fit the encoder: a table of 2^min(ADC_W-1, 8..10) points per branch."""
+        base = dict(adc_w=enc.adc_bits, lines=enc.lines_per_rev, coarse_w=enc.coarse_bits,
+                    wave_addr_w=min(enc.adc_bits - 1, max(8, enc.adc_bits - 4), 10))
+        base.update(overrides)
+        return cls(**base)
+
+    @property
+    def rev(self) -> int:
+        """Fine counts per revolution."""
+        return self.lines << self.fine_w
+
+    @property
+    def pos_w(self) -> int:
+        return max(1, (self.rev - 1).bit_length())
+
+    def wave_lut(self) -> WaveLutParams:
+        return WaveLutParams(self.adc_w, self.wave_addr_w, self.wave_w)
+
+    def quadrature(self) -> QuadratureParams:
+        return QuadratureParams(self.wave_w, self.coef_w)
+
+    def cordic(self) -> CordicParams:
+        return CordicParams(in_w=self.wave_w, fine_w=self.fine_w, stages=self.cordic_stages,
+                            guard=self.cordic_guard)
+
+    def hdl_parameters(self) -> dict[str, int]:
+        return {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self)}
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @property
+    def test_id(self) -> str:
+        return f"adc{self.adc_w}-L{self.lines}-c{self.coarse_w}-f{self.fine_w}"

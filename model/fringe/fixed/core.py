@@ -1,0 +1,136 @@
+"""Bit-exact model of the whole core (`fringe correct --engine model`).
+
+The blocks' fixed-point twins chained as `rtl/verilog/fringe_core.v` chains the blocks:
+waveform tables -> quadrature -> CORDIC -> period count -> long-period table, with the
+status word assembled as in docs/architecture.md. `CoreTables` is what the calibration
+becomes once quantised: exactly the words and register values the hardware holds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..encoder import ARCSEC_PER_REV
+from ..pipeline import (AMP_HIGH, AMP_LOW, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, SATURATED, Calibration,
+                        Result)
+from ..waveform import WaveformInverse
+from . import cordic as cordic_mod
+from . import long_period as lp_mod
+from . import period_count as pc_mod
+from . import quadrature as quad_mod
+from . import wave_lut as wave_mod
+from .config import CoreConfig
+
+
+@dataclass
+class CoreTables:
+    """Table contents and register values of one bank."""
+
+    wave_sin: np.ndarray          # (2, 2^WAVE_ADDR_W + 1) s(WAVE_W) values, branch 0/1
+    wave_cos: np.ndarray
+    branch_sin: tuple[int, int, int]   # (mid, threshold_hi, threshold_lo) as ADC codes: see below
+    branch_cos: tuple[int, int, int]
+    quad: quad_mod.QuadratureCoefs
+    coarse_ofs: int               # fine counts
+    lp: np.ndarray                # (2^LP_ADDR_W,) s(LP_W) values, LP_FRAC fraction bits
+    zero: int                     # u(POS_W), in [0, REV)
+    direction: int                # 1: output runs the other way
+    amp_low: int                  # CORDIC magnitude thresholds (mag units)
+    amp_high: int
+
+
+def _ceil_code(v: float) -> int:
+    """`adc >= v` for integer codes is `adc >= ceil(v)`."""
+    return int(math.ceil(v - 1e-9))
+
+
+def branch_registers(inv: WaveformInverse) -> tuple[int, int, int]:
+    """The top's branch select: branch = other >= (own >= MID ? THR_HI : THR_LO)."""
+    return _ceil_code(inv.mid), _ceil_code(inv.threshold_hi), _ceil_code(inv.threshold_lo)
+
+
+def build_tables(cal: Calibration, cfg: CoreConfig) -> CoreTables:
+    """Quantise a float calibration for the hardware; ValueError if something does not fit."""
+    if not isinstance(cal.inv_sin, WaveformInverse) or not isinstance(cal.inv_cos, WaveformInverse):
+        raise ValueError("the bit-exact core needs waveform tables (this calibration has none)")
+    wl = cfg.wave_lut()
+    wave = {k: wave_mod.make_table(lambda codes, b, inv=inv: inv.value_at(codes, b), wl)
+            for k, inv in (("sin", cal.inv_sin), ("cos", cal.inv_cos))}
+    q = cal.quad
+    quad = quad_mod.quantise_coefs(q.k_ss, q.k_sc, q.k_cc, q.ofs_s, q.ofs_c, cfg.quadrature())
+    coarse_ofs = round((cal.coarse_offset_periods or 0.0) * (1 << cfg.fine_w))
+    lpp = long_period_params(cfg)
+    if cal.long_period is not None:
+        counts = cfg.rev / ARCSEC_PER_REV
+        lp = lp_mod.make_table(lambda pos: cal.long_period(2 * np.pi * pos / cfg.rev) * counts, lpp)
+    else:
+        lp = np.zeros(1 << cfg.lp_addr_w, dtype=np.int64)
+    zero = round(cal.zero_deg / 360.0 * cfg.rev) % cfg.rev
+    gain = cordic_mod.cordic_gain(cfg.cordic_stages) * (1 << (cfg.wave_w - 2))
+    return CoreTables(wave["sin"], wave["cos"], branch_registers(cal.inv_sin), branch_registers(cal.inv_cos),
+                      quad, coarse_ofs, lp, zero, 1 if cal.direction < 0 else 0,
+                      round(cal.amp_low * gain), round(cal.amp_high * gain))
+
+
+def long_period_params(cfg: CoreConfig) -> lp_mod.LongPeriodParams:
+    return lp_mod.LongPeriodParams(cfg.lines, cfg.fine_w, cfg.lp_addr_w, cfg.lp_w, cfg.lp_frac, cfg.lp_if)
+
+
+def period_count_params(cfg: CoreConfig) -> pc_mod.PeriodCountParams:
+    return pc_mod.PeriodCountParams(cfg.fine_w, cfg.lines, cfg.coarse_w)
+
+
+def branch_select(own: np.ndarray, other: np.ndarray, regs: tuple[int, int, int]) -> np.ndarray:
+    mid, hi, lo = regs
+    return (other >= np.where(own >= mid, hi, lo)).astype(np.int64)
+
+
+@dataclass
+class CoreOutput:
+    pos: np.ndarray       # u(POS_W) output position (fine counts, after long-period, zero, direction)
+    status: np.ndarray    # status word
+    phase: np.ndarray     # u(FINE_W) fine phase
+    count_pos: np.ndarray  # u(POS_W) position before the long-period stage
+    mag: np.ndarray       # CORDIC magnitude
+
+
+def run_core(t: CoreTables, cfg: CoreConfig, sin: np.ndarray, cos: np.ndarray,
+             coarse: np.ndarray | None = None) -> CoreOutput:
+    """One stream of samples from reset; every output word as the RTL produces it."""
+    sin = np.asarray(sin, dtype=np.int64)
+    cos = np.asarray(cos, dtype=np.int64)
+    wl = cfg.wave_lut()
+    xs, clip_s = wave_mod.wave_lut(sin, branch_select(sin, cos, t.branch_sin), t.wave_sin, wl)
+    xc, clip_c = wave_mod.wave_lut(cos, branch_select(cos, sin, t.branch_cos), t.wave_cos, wl)
+    s, c, sat = quad_mod.quadrature(xs, xc, t.quad, cfg.quadrature())
+    phase, mag = cordic_mod.cordic(c, s, cfg.cordic())
+    if coarse is None or cfg.coarse_w == 0:
+        coarse = np.zeros(len(sin), dtype=np.int64)
+    pos, overspeed, coarse_err = pc_mod.period_count(phase, np.asarray(coarse, dtype=np.int64), t.coarse_ofs,
+                                                     period_count_params(cfg))
+    out = lp_mod.long_period(pos, t.lp, t.zero, t.direction, long_period_params(cfg))
+    status = (np.where(clip_s, CLIP_SIN, 0) | np.where(clip_c, CLIP_COS, 0)
+              | np.where(mag < t.amp_low, AMP_LOW, 0) | np.where(mag > t.amp_high, AMP_HIGH, 0)
+              | np.where(overspeed, OVERSPEED, 0) | np.where(coarse_err, COARSE_ERR, 0)
+              | np.where(sat, SATURATED, 0)).astype(np.int64)
+    return CoreOutput(out, status, phase, pos, mag)
+
+
+def to_adc_codes(values: np.ndarray, adc_w: int, what: str) -> np.ndarray:
+    """Readings in ADC counts -> integer codes (the hardware sees integers)."""
+    codes = np.round(np.asarray(values, dtype=float)).astype(np.int64)
+    half = 1 << (adc_w - 1)
+    if codes.size and (codes.min() < -half or codes.max() > half - 1):
+        raise ValueError(f"{what}: readings outside the {adc_w}-bit ADC range")
+    return codes
+
+
+def run_model(cal: Calibration, cfg: CoreConfig, sin, cos, coarse=None, tables: CoreTables | None = None) -> Result:
+    """The bit-exact engine with the float engine's result type (angle in degrees)."""
+    t = tables or build_tables(cal, cfg)
+    o = run_core(t, cfg, to_adc_codes(sin, cfg.adc_w, "sin"), to_adc_codes(cos, cfg.adc_w, "cos"), coarse)
+    return Result(angle_deg=o.pos * (360.0 / cfg.rev), status=o.status, frac=o.phase / float(1 << cfg.fine_w),
+                  position=o.count_pos / float(1 << cfg.fine_w), magnitude=o.mag.astype(float))

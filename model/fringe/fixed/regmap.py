@@ -1,0 +1,65 @@
+"""Register map of the core: the calibration values that are not tables.
+
+One register file per bank, REG_W = 32 bits per word, two's complement for signed values
+(sign-extended to 32 bits in the image). The same list drives the ROM image (`regs.mem`),
+the HDL's register decode (fringe_core) and the documentation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import CoreConfig
+
+REG_W = 32
+
+
+@dataclass(frozen=True)
+class Reg:
+    index: int
+    name: str
+    signed: bool
+    width: str        # width as an expression of the configuration (for the docs)
+    meaning: str
+
+
+REGISTERS = (
+    Reg(0, "K_SS", True, "COEF_W", "quadrature gain s' <- (xs - OFS_S)"),
+    Reg(1, "K_SC", True, "COEF_W", "quadrature gain s' <- (xc - OFS_C)"),
+    Reg(2, "K_CC", True, "COEF_W", "quadrature gain c' <- (xc - OFS_C)"),
+    Reg(3, "OFS_S", True, "WAVE_W", "sine offset after the waveform table"),
+    Reg(4, "OFS_C", True, "WAVE_W", "cosine offset after the waveform table"),
+    Reg(5, "MID_S", True, "ADC_W+1", "sine table branch: sin >= MID_S picks THR_HI_S, else THR_LO_S"),
+    Reg(6, "THR_HI_S", True, "ADC_W+1", "sine table branch 1 when cos >= threshold"),
+    Reg(7, "THR_LO_S", True, "ADC_W+1", ""),
+    Reg(8, "MID_C", True, "ADC_W+1", "cosine table branch: cos >= MID_C picks THR_HI_C, else THR_LO_C"),
+    Reg(9, "THR_HI_C", True, "ADC_W+1", "cosine table branch 1 when sin >= threshold"),
+    Reg(10, "THR_LO_C", True, "ADC_W+1", ""),
+    Reg(11, "COARSE_OFS", True, "POS_W+1", "middle of coarse code 0, fine counts"),
+    Reg(12, "ZERO", False, "POS_W", "output zero, fine counts in [0, REV)"),
+    Reg(13, "DIR", False, "1", "1: output runs the other way"),
+    Reg(14, "AMP_LOW", False, "WAVE_W+1", "AMP_LOW flag below this CORDIC magnitude"),
+    Reg(15, "AMP_HIGH", False, "WAVE_W+1", "AMP_HIGH flag above this CORDIC magnitude"),
+)
+N_REGS = 16
+
+
+def widths(cfg: CoreConfig) -> dict[str, int]:
+    w = {"COEF_W": cfg.coef_w, "WAVE_W": cfg.wave_w, "ADC_W+1": cfg.adc_w + 1, "POS_W+1": cfg.pos_w + 1,
+         "POS_W": cfg.pos_w, "1": 1, "WAVE_W+1": cfg.wave_w + 1}
+    return {r.name: w[r.width] for r in REGISTERS}
+
+
+def register_words(values: dict[str, int], cfg: CoreConfig) -> np.ndarray:
+    """Range-check each value against its field and return the 32-bit words of one bank."""
+    wid = widths(cfg)
+    words = np.zeros(N_REGS, dtype=np.int64)
+    for r in REGISTERS:
+        v, w = int(values[r.name]), wid[r.name]
+        lo, hi = (-(1 << (w - 1)), (1 << (w - 1)) - 1) if r.signed else (0, (1 << w) - 1)
+        if not lo <= v <= hi:
+            raise ValueError(f"register {r.name} = {v} does not fit {'s' if r.signed else 'u'}({w}) [{lo}, {hi}]")
+        words[r.index] = v & ((1 << REG_W) - 1)
+    return words

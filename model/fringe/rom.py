@@ -1,0 +1,144 @@
+"""ROM images for synthesis (`fringe rom`): .mem ($readmemh), Intel .mif, Xilinx .coe, VHDL package.
+
+Every image holds bank 0 then bank 1 (both loaded with the same calibration), every word is
+range-checked before anything is written, and the output is deterministic: a header names the
+command, the configuration and the format, never a date.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import __version__
+from .fixed import long_period as lp_mod
+from .fixed import wave_lut as wave_mod
+from .fixed.config import CoreConfig
+from .fixed.core import CoreTables, long_period_params
+from .fixed.regmap import REG_W, REGISTERS, register_words
+from .fixed.table_ram import format_hex
+
+FORMATS = ("mem", "mif", "coe", "vhdl")
+
+
+@dataclass
+class Image:
+    name: str            # file stem, also the VHDL constant name
+    words: np.ndarray    # unsigned words, bank 0 then bank 1
+    width: int
+    what: str
+
+
+def register_values(t: CoreTables) -> dict[str, int]:
+    q = t.quad
+    return {"K_SS": q.k_ss, "K_SC": q.k_sc, "K_CC": q.k_cc, "OFS_S": q.ofs_s, "OFS_C": q.ofs_c,
+            "MID_S": t.branch_sin[0], "THR_HI_S": t.branch_sin[1], "THR_LO_S": t.branch_sin[2],
+            "MID_C": t.branch_cos[0], "THR_HI_C": t.branch_cos[1], "THR_LO_C": t.branch_cos[2],
+            "COARSE_OFS": t.coarse_ofs, "ZERO": t.zero, "DIR": t.direction,
+            "AMP_LOW": t.amp_low, "AMP_HIGH": t.amp_high}
+
+
+def images(t: CoreTables, cfg: CoreConfig) -> list[Image]:
+    """All table images of a configuration, range-checked."""
+    wl = cfg.wave_lut()
+    two_banks = lambda w: np.concatenate([w, w]).astype(np.int64)  # noqa: E731
+    lpp = long_period_params(cfg)
+    return [
+        Image("wave_sin", two_banks(wave_mod.pack_words(t.wave_sin, wl)), wl.word_w,
+              "sine waveform inverse {slope, value}, branch 0 then 1"),
+        Image("wave_cos", two_banks(wave_mod.pack_words(t.wave_cos, wl)), wl.word_w,
+              "cosine waveform inverse {slope, value}, branch 0 then 1"),
+        Image("long_period", two_banks(lp_mod.pack_words(t.lp, lpp)), 2 * cfg.lp_w,
+              "long-period correction {slope, value} over the revolution"),
+        Image("regs", two_banks(register_words(register_values(t), cfg)), REG_W,
+              "registers (docs/architecture.md register map)"),
+    ]
+
+
+def _header(command: str, cfg: CoreConfig, fmt: str, image: Image) -> list[str]:
+    return [f"fringe {__version__} rom: {image.what}",
+            f"command: {command}",
+            f"config: {json.dumps(cfg.to_dict(), sort_keys=True)}",
+            f"format: {fmt}, {len(image.words)} words of {image.width} bits (bank 0 then bank 1)"]
+
+
+def _reg_notes(image: Image) -> list[str]:
+    if image.name != "regs":
+        return []
+    return [f"word {r.index}: {r.name} = {_signed(int(image.words[r.index]), REG_W) if r.signed else int(image.words[r.index])}"
+            f" ({r.meaning})" for r in REGISTERS]
+
+
+def _signed(v: int, w: int) -> int:
+    return v - (1 << w) if v >> (w - 1) else v
+
+
+def render(image: Image, fmt: str, cfg: CoreConfig, command: str) -> str:
+    head = _header(command, cfg, fmt, image) + _reg_notes(image)
+    digits = (image.width + 3) // 4
+    words = [f"{int(v):0{digits}x}" for v in image.words]
+    if fmt == "mem":
+        return format_hex(image.words, image.width, head)
+    if fmt == "mif":
+        lines = [f"-- {h}" for h in head]
+        lines += [f"DEPTH = {len(words)};", f"WIDTH = {image.width};", "ADDRESS_RADIX = HEX;",
+                  "DATA_RADIX = HEX;", "CONTENT BEGIN"]
+        lines += [f"  {i:x} : {w};" for i, w in enumerate(words)]
+        return "\n".join(lines + ["END;"]) + "\n"
+    if fmt == "coe":
+        lines = [f"; {h}" for h in head]
+        lines += ["memory_initialization_radix=16;", "memory_initialization_vector="]
+        lines += [w + ("," if i < len(words) - 1 else ";") for i, w in enumerate(words)]
+        return "\n".join(lines) + "\n"
+    raise ValueError(f"unknown format {fmt}")
+
+
+def vhdl_package(imgs: list[Image], cfg: CoreConfig, command: str) -> str:
+    lines = [f"-- fringe {__version__} rom: VHDL package of all table images",
+             f"-- command: {command}", f"-- config: {json.dumps(cfg.to_dict(), sort_keys=True)}",
+             "library ieee;", "use ieee.std_logic_1164.all;", "", "package fringe_rom_pkg is"]
+    for im in imgs:
+        lines.append(f"  -- {im.what}")
+        lines.append(f"  type {im.name}_rom_t is array (0 to {len(im.words) - 1}) of "
+                     f"std_logic_vector({im.width - 1} downto 0);")
+        lines.append(f"  constant {im.name.upper()}_ROM : {im.name}_rom_t := (")
+        body = [f'    {i} => b"{int(w):0{im.width}b}"' for i, w in enumerate(im.words)]
+        lines.append(",\n".join(body))
+        lines.append("  );")
+    lines.append("end package fringe_rom_pkg;")
+    return "\n".join(lines) + "\n"
+
+
+def write_roms(t: CoreTables, cfg: CoreConfig, out_dir: str, formats=("mem",), command: str = "fringe rom"):
+    """Render everything first (so a range error leaves nothing behind), then move into place."""
+    imgs = images(t, cfg)
+    files = {}
+    for fmt in formats:
+        if fmt not in FORMATS:
+            raise ValueError(f"unknown format '{fmt}' (known: {', '.join(FORMATS)})")
+        if fmt == "vhdl":
+            files["fringe_rom_pkg.vhd"] = vhdl_package(imgs, cfg, command)
+        else:
+            for im in imgs:
+                files[f"{im.name}.{fmt}"] = render(im, fmt, cfg, command)
+    files["core.json"] = json.dumps({"config": cfg.to_dict(), "hdl_parameters": cfg.hdl_parameters(),
+                                     "command": command}, indent=2, sort_keys=True) + "\n"
+    parent = os.path.dirname(os.path.abspath(out_dir))
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(dir=parent, prefix=".tmp-rom-")
+    try:
+        for name, text in files.items():
+            with open(os.path.join(tmp, name), "w", encoding="ascii", newline="\n") as f:
+                f.write(text)
+        if os.path.isdir(out_dir):
+            shutil.rmtree(out_dir)
+        os.replace(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return sorted(files)
