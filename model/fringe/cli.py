@@ -51,6 +51,15 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--engine", choices=ENGINES, default="model",
                    help="model: bit-exact model of the RTL (default); float: floating-point reference; "
                         "verilog/vhdl: the RTL in simulation")
+
+    m = sub.add_parser("rom", help="write the ROM images for synthesis")
+    m.add_argument("cal", help="CAL_DIR from fringe calibrate")
+    m.add_argument("--out", required=True, help="folder to write")
+    m.add_argument("--format", default="mem", help="comma-separated: mem,mif,coe,vhdl (default mem)")
+    for name, what in (("wave-addr-w", "waveform table address bits per branch"),
+                       ("wave-w", "waveform table width"), ("fine-w", "fine phase bits per period"),
+                       ("cordic-stages", "CORDIC iterations"), ("lp-addr-w", "long-period table address bits")):
+        m.add_argument(f"--{name}", type=_positive_int, help=f"{what} (default: the calibration's core.json)")
     return p
 
 
@@ -87,13 +96,15 @@ def cmd_calibrate(a) -> int:
     from .dataio import read_measurement
     from .encoder import load_encoder
 
+    from .engines import core_files
+
     enc = load_encoder(a.encoder)
     meas = read_measurement(a.data, enc)
     cal = calibrate(meas, enc)
-    extra = {}
+    extra = core_files(cal, f"fringe calibrate {a.data} --encoder {a.encoder} --out {a.out}")
     if a.plots:
         from .report import calibration_plots
-        extra = calibration_plots(cal, meas)
+        extra.update(calibration_plots(cal, meas))
     save_calibration(cal, a.out, extra)
     print(summary_text(cal, meas))
     print(f"wrote {a.out}/")
@@ -148,7 +159,23 @@ def cmd_correct(a) -> int:
     return 0
 
 
-COMMANDS = {"simulate": cmd_simulate, "calibrate": cmd_calibrate, "correct": cmd_correct}
+def cmd_rom(a) -> int:
+    from .calstore import load_calibration
+    from .engines import core_config, write_core_roms
+
+    cal = load_calibration(a.cal)
+    formats = [f.strip() for f in a.format.split(",") if f.strip()]
+    overrides = {k: getattr(a, k) for k in ("wave_addr_w", "wave_w", "fine_w", "cordic_stages", "lp_addr_w")
+                 if getattr(a, k) is not None}
+    cfg = core_config(cal, a.cal, **overrides)
+    command = f"fringe rom {a.cal} --out {a.out} --format {','.join(formats)}" + "".join(
+        f" --{k.replace('_', '-')} {v}" for k, v in overrides.items())
+    files = write_core_roms(cal, cfg, a.out, formats, command)
+    print(f"wrote {a.out}/: {', '.join(files)}")
+    return 0
+
+
+COMMANDS = {"simulate": cmd_simulate, "calibrate": cmd_calibrate, "correct": cmd_correct, "rom": cmd_rom}
 
 
 def main(argv=None) -> int:

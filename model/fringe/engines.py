@@ -1,11 +1,66 @@
-"""The correction engines behind `fringe correct --engine`."""
+"""The correction engines behind `fringe correct --engine`, and the core files of a calibration."""
+
+import json
+import os
 
 from .dataio import Measurement
 from .errors import FringeInputError
 from .pipeline import Calibration, Result, run_float
 
+CORE_JSON = "core.json"
+ROM_DIR = "rom"
+
+
+def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
+    """The core configuration of a calibration: CAL_DIR/core.json if present, else the defaults."""
+    from .fixed.config import CoreConfig
+
+    base = {}
+    path = os.path.join(cal_dir, CORE_JSON) if cal_dir else None
+    if path and os.path.exists(path):
+        try:
+            with open(path, encoding="utf-8") as f:
+                base = json.load(f)["config"]
+        except (OSError, ValueError, KeyError) as e:
+            raise FringeInputError(f"core configuration damaged ({e})", path) from None
+    base.update(overrides)
+    try:
+        return CoreConfig.for_encoder(cal.encoder, **base)
+    except (TypeError, ValueError) as e:
+        raise FringeInputError(f"core configuration not possible: {e}", path or "core configuration") from None
+
+
+def write_core_roms(cal: Calibration, cfg, out_dir: str, formats, command: str) -> list[str]:
+    from .fixed.core import build_tables
+    from .rom import write_roms
+
+    try:
+        return write_roms(build_tables(cal, cfg), cfg, out_dir, formats, command)
+    except ValueError as e:
+        raise FringeInputError(str(e), out_dir) from None
+
+
+def core_files(cal: Calibration, command: str) -> dict:
+    """Writers for CAL_DIR: the default core configuration and its ROM images (.mem)."""
+    cfg = core_config(cal)
+
+    def write_json(path):
+        with open(path, "w", encoding="utf-8") as f:
+            json.dump({"config": cfg.to_dict(), "hdl_parameters": cfg.hdl_parameters()}, f, indent=2, sort_keys=True)
+            f.write("\n")
+
+    return {CORE_JSON: write_json, ROM_DIR: lambda path: write_core_roms(cal, cfg, path, ("mem",), command)}
+
 
 def run_engine(name: str, cal: Calibration, meas: Measurement, cal_dir: str) -> Result:
     if name == "float":
         return run_float(cal, meas.sin, meas.cos, meas.coarse)
-    raise FringeInputError(f"engine '{name}' is not built yet in this version (use --engine float)", "--engine")
+    from .fixed.core import run_model
+
+    cfg = core_config(cal, cal_dir)
+    try:
+        if name == "model":
+            return run_model(cal, cfg, meas.sin, meas.cos, meas.coarse)
+    except ValueError as e:
+        raise FringeInputError(str(e), meas.path) from None
+    raise FringeInputError(f"engine '{name}' is not built yet in this version (use model or float)", "--engine")
