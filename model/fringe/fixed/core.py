@@ -14,8 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..encoder import ARCSEC_PER_REV
-from ..pipeline import (AMP_HIGH, AMP_LOW, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, SATURATED, Calibration,
-                        Result)
+from ..pipeline import AMP_HIGH, AMP_LOW, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, SATURATED, Calibration, Result
 from ..waveform import WaveformInverse
 from . import cordic as cordic_mod
 from . import long_period as lp_mod

@@ -179,9 +179,11 @@ def wave_lut(adc, branch, table, params: WaveLutParams, bank=None) -> tuple[np.n
         ``x`` int64 s(WAVE_W) codes (WAVE_FRAC fractional bits) and ``clip`` bool.
     """
     t = check_table(table, params)
-    adc = np.asarray(adc)
+    adc, branch = np.broadcast_arrays(np.asarray(adc), np.asarray(branch))
     if adc.dtype.kind not in "iu":
         raise ValueError(f"adc: integer codes expected, got dtype {adc.dtype}")
+    if branch.dtype.kind not in "iub" or (branch.size and (branch.min() < 0 or branch.max() > 1)):
+        raise ValueError("branch: must be 0 or 1")
     half = 1 << (params.adc_w - 1)
     u = adc.astype(np.int64) + half                    # offset binary, u(ADC_W) when in range
     if u.size and np.any(u >> params.adc_w):
@@ -189,7 +191,7 @@ def wave_lut(adc, branch, table, params: WaveLutParams, bank=None) -> tuple[np.n
     clip = (u == 0) | (u == 2 * half - 1)
     # flat RAM-like index {bank, branch, addr}
     idx = u >> params.fb
-    idx |= np.asarray(branch, dtype=np.int64) << params.wave_addr_w
+    idx |= branch.astype(np.int64) << params.wave_addr_w
     value_tab = t[..., :-1].reshape(-1)
     slope_tab = np.diff(t, axis=-1).reshape(-1)
     if t.ndim == 3:

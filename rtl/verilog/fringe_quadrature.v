@@ -1,0 +1,148 @@
+// fringe_quadrature: offset, gain and quadrature correction (seed 001 eq. 21, Heydemann form).
+//
+// Formats (docs/architecture.md, "fringe_quadrature"):
+//   xs, xc, ofs_s, ofs_c, s, c   s(WAVE_W) with WAVE_FRAC = WAVE_W - 2 fractional bits
+//   k_ss, k_sc, k_cc             s(COEF_W) with COEF_FRAC = COEF_W - 2 fractional bits
+//   s = sat((k_ss*(xs-ofs_s) + k_sc*(xc-ofs_c) + 2^(COEF_FRAC-1)) >>> COEF_FRAC)
+//   c = sat((k_cc*(xc-ofs_c) + 2^(COEF_FRAC-1)) >>> COEF_FRAC)
+//   sat(v) clamps v to s(WAVE_W); flag `sat` when s or c was clamped.
+// The differences are exact (s(WAVE_W+1)), the products and the sum are exact, the only
+// rounding is the final shift (round half up). Bit-exact model: model/fringe/fixed/quadrature.py.
+//
+// The coefficient inputs are sampled in the same clock as xs/xc (they travel with the sample),
+// so the top may switch the coefficient bank between any two samples.
+//
+// LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
+//   1: differences, coefficients registered   2: products   3: sums + rounding constant
+//   4: shift and saturate
+// ce = 0 freezes every register; rst (synchronous, active high, wins over ce) clears only the
+// valid pipeline, never the data registers.
+
+`default_nettype none
+
+module fringe_quadrature #(
+    parameter integer WAVE_W = 18,  // data, offset and output width, 8..32
+    parameter integer COEF_W = 18,  // gain coefficient width, 8..27 (COEF_W-2 fractional bits)
+    parameter integer USER_W = 1    // sideband width, >= 1
+) (
+    input  wire              clk,
+    input  wire              rst,        // synchronous, active high: clears valid only
+    input  wire              ce,         // clock enable: the pipeline advances when 1
+    // sample in
+    input  wire              in_valid,
+    input  wire [WAVE_W-1:0] xs,         // s(WAVE_W): sine channel after the wave LUT
+    input  wire [WAVE_W-1:0] xc,         // s(WAVE_W): cosine channel after the wave LUT
+    input  wire [USER_W-1:0] in_user,
+    // coefficients, sampled with the sample
+    input  wire [WAVE_W-1:0] ofs_s,      // s(WAVE_W): sine offset
+    input  wire [WAVE_W-1:0] ofs_c,      // s(WAVE_W): cosine offset
+    input  wire [COEF_W-1:0] k_ss,       // s(COEF_W): sine gain (1/cos a)
+    input  wire [COEF_W-1:0] k_sc,       // s(COEF_W): cosine-into-sine term (tan a)
+    input  wire [COEF_W-1:0] k_cc,       // s(COEF_W): cosine gain
+    // sample out
+    output wire              out_valid,
+    output reg  [WAVE_W-1:0] s,          // s(WAVE_W), WAVE_W-2 fractional bits
+    output reg  [WAVE_W-1:0] c,          // s(WAVE_W), WAVE_W-2 fractional bits
+    output reg               sat,        // s or c saturated
+    output wire [USER_W-1:0] out_user
+);
+
+    localparam integer LATENCY   = 4;
+    localparam integer COEF_FRAC = COEF_W - 2;
+    localparam integer D_W       = WAVE_W + 1;       // x - ofs, exact
+    localparam integer P_W       = COEF_W + D_W;     // k * (x - ofs), exact
+    localparam integer S_W       = P_W + 1;          // sum of two products + rounding, exact
+    localparam integer Q_W       = S_W - COEF_FRAC;  // after the shift: WAVE_W + 4
+    localparam [S_W-1:0] RND     = {{(S_W-1){1'b0}}, 1'b1} << (COEF_FRAC - 1);
+
+    generate
+        if (WAVE_W < 8 || WAVE_W > 32) begin : g_bad_wave_w
+            $error("fringe_quadrature: WAVE_W = %0d out of range 8..32 (instance %m)", WAVE_W);
+        end
+        if (COEF_W < 8 || COEF_W > 27) begin : g_bad_coef_w
+            $error("fringe_quadrature: COEF_W = %0d out of range 8..27 (instance %m)", COEF_W);
+        end
+        if (USER_W < 1) begin : g_bad_user_w
+            $error("fringe_quadrature: USER_W = %0d must be >= 1 (instance %m)", USER_W);
+        end
+    endgenerate
+
+    // ---- stage 1: differences; coefficients travel with the sample --------------------------
+    reg signed [D_W-1:0]    ds1, dc1;
+    reg signed [COEF_W-1:0] k_ss1, k_sc1, k_cc1;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            ds1   <= $signed({xs[WAVE_W-1], xs}) - $signed({ofs_s[WAVE_W-1], ofs_s});
+            dc1   <= $signed({xc[WAVE_W-1], xc}) - $signed({ofs_c[WAVE_W-1], ofs_c});
+            k_ss1 <= k_ss;
+            k_sc1 <= k_sc;
+            k_cc1 <= k_cc;
+        end
+    end
+
+    // ---- stage 2: products ------------------------------------------------------------------
+    reg signed [P_W-1:0] pss2, psc2, pcc2;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            pss2 <= k_ss1 * ds1;
+            psc2 <= k_sc1 * dc1;
+            pcc2 <= k_cc1 * dc1;
+        end
+    end
+
+    // ---- stage 3: sums + rounding constant --------------------------------------------------
+    reg signed [S_W-1:0] sum_s3, sum_c3;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            sum_s3 <= pss2 + psc2 + $signed(RND);
+            sum_c3 <= pcc2 + $signed(RND);
+        end
+    end
+
+    // ---- stage 4: shift (floor) and saturate ------------------------------------------------
+    wire [Q_W-1:0] qs3 = sum_s3[S_W-1:COEF_FRAC];
+    wire [Q_W-1:0] qc3 = sum_c3[S_W-1:COEF_FRAC];
+    // in range of s(WAVE_W) when the bits above the sign bit repeat it
+    wire ovf_s3 = (qs3[Q_W-1:WAVE_W-1] != {(Q_W-WAVE_W+1){qs3[Q_W-1]}});
+    wire ovf_c3 = (qc3[Q_W-1:WAVE_W-1] != {(Q_W-WAVE_W+1){qc3[Q_W-1]}});
+    localparam [WAVE_W-1:0] MAX_W = {1'b0, {(WAVE_W-1){1'b1}}};
+    localparam [WAVE_W-1:0] MIN_W = {1'b1, {(WAVE_W-1){1'b0}}};
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s   <= ovf_s3 ? (qs3[Q_W-1] ? MIN_W : MAX_W) : qs3[WAVE_W-1:0];
+            c   <= ovf_c3 ? (qc3[Q_W-1] ? MIN_W : MAX_W) : qc3[WAVE_W-1:0];
+            sat <= ovf_s3 | ovf_c3;
+        end
+    end
+
+    // ---- valid (the only reset registers) and sideband, LATENCY stages ----------------------
+    reg [LATENCY-1:0]        valid_sr;
+    reg [LATENCY*USER_W-1:0] user_sr;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            valid_sr <= {LATENCY{1'b0}};
+        end else if (ce) begin
+            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
+        end
+    end
+
+    assign out_valid = valid_sr[LATENCY-1];
+    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+
+    // The low COEF_FRAC bits of the sums are the fraction dropped by the shift.
+    wire unused_ok = &{1'b0, sum_s3[COEF_FRAC-1:0], sum_c3[COEF_FRAC-1:0]};
+
+endmodule
+
+`default_nettype wire

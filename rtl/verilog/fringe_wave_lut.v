@@ -1,0 +1,161 @@
+// fringe_wave_lut: waveform inverse of one channel as an interpolated table (seed 001).
+//
+// Formats (docs/architecture.md, "fringe_wave_lut"):
+//   adc    s(ADC_W)  ADC code
+//   index  u = adc + 2^(ADC_W-1), FB = ADC_W - WAVE_ADDR_W, addr = u >> FB, frac = u mod 2^FB
+//   table  word {slope, value}, both s(WAVE_W), value in [WAVE_W-1:0], slope in [2*WAVE_W-1:WAVE_W],
+//          read at {bank, branch, addr}; slope[k] = value[k+1] - value[k]
+//   x      s(WAVE_W) with WAVE_FRAC = WAVE_W - 2 fractional bits:
+//          x = value + ((slope * frac + 2^(FB-1)) >>> FB)
+//          (lies between two table values, so it cannot overflow for a range-checked table)
+//   clip   adc is the most negative or the most positive code
+// Bit-exact model: model/fringe/fixed/wave_lut.py.
+//
+// LATENCY = 3 clock enables (ce = 1 cycles) from in_valid to out_valid:
+//   1: table RAM read (fringe_table_ram, registered)   2: slope * frac + 2^(FB-1)
+//   3: value + (product >>> FB)
+// ce = 0 freezes every register (including the RAM read); rst (synchronous, active high,
+// wins over ce) clears only the valid pipeline, never the data registers. The table write port
+// is independent of ce: write the bank that no sample in flight carries, then switch `bank`;
+// each sample reads the bank it carries, at the clock enable that accepts it.
+
+`default_nettype none
+
+module fringe_wave_lut #(
+    parameter integer ADC_W       = 12,  // ADC code width, 4..24
+    parameter integer WAVE_ADDR_W = 8,   // table address bits per branch, 2..ADC_W-1
+    parameter integer WAVE_W      = 18,  // table value and output width, 8..32
+    parameter         INIT_FILE   = "",  // $readmemh image of both banks (4*2^WAVE_ADDR_W words); "" = zeros
+    parameter integer USER_W      = 1    // sideband width, >= 1
+) (
+    input  wire                      clk,
+    input  wire                      rst,       // synchronous, active high: clears valid only
+    input  wire                      ce,        // clock enable: the pipeline advances when 1
+    // sample in
+    input  wire                      in_valid,
+    input  wire [ADC_W-1:0]          adc,       // s(ADC_W)
+    input  wire                      branch,    // other channel on its positive side
+    input  wire                      bank,      // table bank serving this sample
+    input  wire [USER_W-1:0]         in_user,
+    // table write port: address {bank, branch, addr}, word {slope, value}
+    input  wire                      wr_en,
+    input  wire [WAVE_ADDR_W+1:0]    wr_addr,
+    input  wire [2*WAVE_W-1:0]       wr_data,
+    // sample out
+    output wire                      out_valid,
+    output reg  [WAVE_W-1:0]         x,         // s(WAVE_W), WAVE_W-2 fractional bits
+    output reg                       clip,
+    output wire [USER_W-1:0]         out_user
+);
+
+    localparam integer LATENCY = 3;
+    localparam integer FB      = ADC_W - WAVE_ADDR_W;  // fraction bits of the index, >= 1
+    localparam integer PROD_W  = WAVE_W + FB + 1;       // s(WAVE_W) * u(FB), plus rounding
+    localparam [PROD_W-1:0] RND = {{(PROD_W-1){1'b0}}, 1'b1} << (FB - 1);
+
+    generate
+        if (ADC_W < 4 || ADC_W > 24) begin : g_bad_adc_w
+            $error("fringe_wave_lut: ADC_W = %0d out of range 4..24 (instance %m)", ADC_W);
+        end
+        if (WAVE_ADDR_W < 2 || WAVE_ADDR_W > ADC_W - 1) begin : g_bad_wave_addr_w
+            $error("fringe_wave_lut: WAVE_ADDR_W = %0d out of range 2..ADC_W-1 = %0d (instance %m)",
+                   WAVE_ADDR_W, ADC_W - 1);
+        end
+        if (WAVE_W < 8 || WAVE_W > 32) begin : g_bad_wave_w
+            $error("fringe_wave_lut: WAVE_W = %0d out of range 8..32 (instance %m)", WAVE_W);
+        end
+        if (USER_W < 1) begin : g_bad_user_w
+            $error("fringe_wave_lut: USER_W = %0d must be >= 1 (instance %m)", USER_W);
+        end
+    endgenerate
+
+    // ---- stage 0 (combinational): index ----------------------------------------------------
+    wire [ADC_W-1:0]       u0    = {~adc[ADC_W-1], adc[ADC_W-2:0]};  // adc + 2^(ADC_W-1)
+    wire [WAVE_ADDR_W-1:0] addr0 = u0[ADC_W-1:FB];
+    wire [FB-1:0]          frac0 = u0[FB-1:0];
+    wire                   clip0 = (u0 == {ADC_W{1'b0}}) || (u0 == {ADC_W{1'b1}});
+
+    // ---- stage 1: table read ----------------------------------------------------------------
+    wire [2*WAVE_W-1:0] word1;
+
+    fringe_table_ram #(
+        .ADDR_W    (WAVE_ADDR_W + 1),
+        .DATA_W    (2 * WAVE_W),
+        .INIT_FILE (INIT_FILE)
+    ) u_table (
+        .clk     (clk),
+        .wr_en   (wr_en),
+        .wr_addr (wr_addr),
+        .wr_data (wr_data),
+        .rd_en   (ce),
+        .rd_addr ({bank, branch, addr0}),
+        .rd_data (word1)
+    );
+
+    reg          [FB-1:0] frac1;
+    reg                   clip1;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            frac1 <= frac0;
+            clip1 <= clip0;
+        end
+    end
+
+    wire signed [WAVE_W-1:0] slope1 = word1[2*WAVE_W-1:WAVE_W];
+    wire signed [WAVE_W-1:0] value1 = word1[WAVE_W-1:0];
+
+    // ---- stage 2: slope * frac + 2^(FB-1) ---------------------------------------------------
+    reg signed [PROD_W-1:0] prod2;
+    reg signed [WAVE_W-1:0] value2;
+    reg                     clip2;
+
+    wire signed [FB:0] frac1_s = {1'b0, frac1};
+
+    always @(posedge clk) begin
+        if (ce) begin
+            prod2  <= slope1 * frac1_s + $signed(RND);
+            value2 <= value1;
+            clip2  <= clip1;
+        end
+    end
+
+    // ---- stage 3: value + (product >>> FB) --------------------------------------------------
+    // The interpolated step lies between 0 and slope, and x between value[k] and value[k+1]:
+    // the sum is exact modulo 2^WAVE_W.
+    wire [WAVE_W-1:0] step2 = prod2[FB+WAVE_W-1:FB];
+
+    always @(posedge clk) begin
+        if (ce) begin
+            x    <= value2 + step2;
+            clip <= clip2;
+        end
+    end
+
+    // ---- valid (the only reset registers) and sideband, LATENCY stages ----------------------
+    reg [LATENCY-1:0]        valid_sr;
+    reg [LATENCY*USER_W-1:0] user_sr;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            valid_sr <= {LATENCY{1'b0}};
+        end else if (ce) begin
+            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
+        end
+    end
+
+    assign out_valid = valid_sr[LATENCY-1];
+    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+
+    // prod2[PROD_W-1:FB+WAVE_W] only carries the sign of the step, already implied by step2.
+    wire unused_ok = &{1'b0, prod2[PROD_W-1:FB+WAVE_W], prod2[FB-1:0]};
+
+endmodule
+
+`default_nettype wire

@@ -1,0 +1,162 @@
+-- fringe_quadrature: offset, gain and quadrature correction (seed 001 eq. 21, Heydemann form).
+--
+-- VHDL-2008 twin of rtl/verilog/fringe_quadrature.v (same generics, ports, latency and
+-- bit-exact behaviour).
+--
+-- Formats (docs/architecture.md, "fringe_quadrature"):
+--   xs, xc, ofs_s, ofs_c, s, c   s(WAVE_W) with WAVE_FRAC = WAVE_W - 2 fractional bits
+--   k_ss, k_sc, k_cc             s(COEF_W) with COEF_FRAC = COEF_W - 2 fractional bits
+--   s = sat((k_ss*(xs-ofs_s) + k_sc*(xc-ofs_c) + 2^(COEF_FRAC-1)) >>> COEF_FRAC)
+--   c = sat((k_cc*(xc-ofs_c) + 2^(COEF_FRAC-1)) >>> COEF_FRAC)
+--   sat(v) clamps v to s(WAVE_W); flag `sat` when s or c was clamped.
+-- The differences are exact (s(WAVE_W+1)), the products and the sum are exact, the only
+-- rounding is the final shift (round half up). Bit-exact model: model/fringe/fixed/quadrature.py.
+--
+-- The coefficient inputs are sampled in the same clock as xs/xc (they travel with the sample),
+-- so the top may switch the coefficient bank between any two samples.
+--
+-- LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
+--   1: differences, coefficients registered   2: products   3: sums + rounding constant
+--   4: shift and saturate
+-- ce = 0 freezes every register; rst (synchronous, active high, wins over ce) clears only the
+-- valid pipeline, never the data registers.
+
+library ieee;
+use ieee.std_logic_1164.all;
+use ieee.numeric_std.all;
+
+entity fringe_quadrature is
+    generic (
+        WAVE_W : integer := 18;   -- data, offset and output width, 8..32
+        COEF_W : integer := 18;   -- gain coefficient width, 8..27 (COEF_W-2 fractional bits)
+        USER_W : integer := 1     -- sideband width, >= 1
+    );
+    port (
+        clk       : in  std_logic;
+        rst       : in  std_logic;   -- synchronous, active high: clears valid only
+        ce        : in  std_logic;   -- clock enable: the pipeline advances when 1
+        -- sample in
+        in_valid  : in  std_logic;
+        xs        : in  std_logic_vector(WAVE_W - 1 downto 0);   -- s(WAVE_W): sine channel
+        xc        : in  std_logic_vector(WAVE_W - 1 downto 0);   -- s(WAVE_W): cosine channel
+        in_user   : in  std_logic_vector(USER_W - 1 downto 0);
+        -- coefficients, sampled with the sample
+        ofs_s     : in  std_logic_vector(WAVE_W - 1 downto 0);   -- s(WAVE_W): sine offset
+        ofs_c     : in  std_logic_vector(WAVE_W - 1 downto 0);   -- s(WAVE_W): cosine offset
+        k_ss      : in  std_logic_vector(COEF_W - 1 downto 0);   -- s(COEF_W): sine gain (1/cos a)
+        k_sc      : in  std_logic_vector(COEF_W - 1 downto 0);   -- s(COEF_W): cosine-into-sine (tan a)
+        k_cc      : in  std_logic_vector(COEF_W - 1 downto 0);   -- s(COEF_W): cosine gain
+        -- sample out
+        out_valid : out std_logic;
+        s         : out std_logic_vector(WAVE_W - 1 downto 0);   -- s(WAVE_W), WAVE_W-2 frac bits
+        c         : out std_logic_vector(WAVE_W - 1 downto 0);   -- s(WAVE_W), WAVE_W-2 frac bits
+        sat       : out std_logic;                               -- s or c saturated
+        out_user  : out std_logic_vector(USER_W - 1 downto 0)
+    );
+end entity fringe_quadrature;
+
+architecture rtl of fringe_quadrature is
+
+    -- Stops elaboration with a clear message on illegal generics (before anything is sized).
+    function generics_ok return boolean is
+    begin
+        assert WAVE_W >= 8 and WAVE_W <= 32
+            report "fringe_quadrature: WAVE_W = " & integer'image(WAVE_W) & " out of range 8..32"
+            severity failure;
+        assert COEF_W >= 8 and COEF_W <= 27
+            report "fringe_quadrature: COEF_W = " & integer'image(COEF_W) & " out of range 8..27"
+            severity failure;
+        assert USER_W >= 1
+            report "fringe_quadrature: USER_W = " & integer'image(USER_W) & " must be >= 1"
+            severity failure;
+        return true;
+    end function generics_ok;
+    constant GENERICS_CHECKED : boolean := generics_ok;
+
+    constant LATENCY   : integer := 4;
+    constant COEF_FRAC : integer := COEF_W - 2;
+    constant D_W       : integer := WAVE_W + 1;        -- x - ofs, exact
+    constant P_W       : integer := COEF_W + D_W;      -- k * (x - ofs), exact
+    constant S_W       : integer := P_W + 1;           -- sum of two products + rounding, exact
+    constant Q_W       : integer := S_W - COEF_FRAC;   -- after the shift: WAVE_W + 4
+    constant RND       : signed(S_W - 1 downto 0) := shift_left(to_signed(1, S_W), COEF_FRAC - 1);
+    constant MAX_W     : signed(WAVE_W - 1 downto 0) := '0' & (WAVE_W - 2 downto 0 => '1');
+    constant MIN_W     : signed(WAVE_W - 1 downto 0) := '1' & (WAVE_W - 2 downto 0 => '0');
+
+    -- Clamp q to s(WAVE_W): in range when the bits above the sign bit repeat it. The flag tells
+    -- whether q was out of range.
+    procedure saturate(q : in signed(Q_W - 1 downto 0); signal y : out std_logic_vector;
+                       variable ovf : out boolean) is
+    begin
+        -- (compared as std_logic_vector: the predefined "/=", silent on pipeline-fill 'U's)
+        if std_logic_vector(q(Q_W - 1 downto WAVE_W - 1)) /= (Q_W - 1 downto WAVE_W - 1 => q(Q_W - 1)) then
+            y   <= std_logic_vector(MIN_W) when q(Q_W - 1) = '1' else std_logic_vector(MAX_W);
+            ovf := true;
+        else
+            y   <= std_logic_vector(q(WAVE_W - 1 downto 0));
+            ovf := false;
+        end if;
+    end procedure saturate;
+
+    signal ds1, dc1           : signed(D_W - 1 downto 0);
+    signal k_ss1, k_sc1, k_cc1 : signed(COEF_W - 1 downto 0);
+    signal pss2, psc2, pcc2   : signed(P_W - 1 downto 0);
+    signal sum_s3, sum_c3     : signed(S_W - 1 downto 0);
+
+    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
+    signal valid_sr : std_logic_vector(1 to LATENCY);
+    signal user_sr  : user_sr_t;
+
+begin
+
+    p_data : process (clk)
+        variable ovf_s, ovf_c : boolean;
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                -- stage 1: differences; coefficients travel with the sample
+                ds1   <= resize(signed(xs), D_W) - resize(signed(ofs_s), D_W);
+                dc1   <= resize(signed(xc), D_W) - resize(signed(ofs_c), D_W);
+                k_ss1 <= signed(k_ss);
+                k_sc1 <= signed(k_sc);
+                k_cc1 <= signed(k_cc);
+                -- stage 2: products
+                pss2  <= k_ss1 * ds1;
+                psc2  <= k_sc1 * dc1;
+                pcc2  <= k_cc1 * dc1;
+                -- stage 3: sums + rounding constant
+                sum_s3 <= resize(pss2, S_W) + resize(psc2, S_W) + RND;
+                sum_c3 <= resize(pcc2, S_W) + RND;
+                -- stage 4: shift (floor) and saturate
+                saturate(sum_s3(S_W - 1 downto COEF_FRAC), s, ovf_s);
+                saturate(sum_c3(S_W - 1 downto COEF_FRAC), c, ovf_c);
+                sat <= '1' when ovf_s or ovf_c else '0';
+            end if;
+        end if;
+    end process p_data;
+
+    -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
+    p_valid : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                valid_sr <= (others => '0');
+            elsif ce = '1' then
+                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
+            end if;
+        end if;
+    end process p_valid;
+
+    p_user : process (clk)
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                user_sr <= in_user & user_sr(1 to LATENCY - 1);
+            end if;
+        end if;
+    end process p_user;
+
+    out_valid <= valid_sr(LATENCY);
+    out_user  <= user_sr(LATENCY);
+
+end architecture rtl;
