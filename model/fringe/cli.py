@@ -95,7 +95,6 @@ def cmd_calibrate(a) -> int:
     from .calstore import save_calibration
     from .dataio import read_measurement
     from .encoder import load_encoder
-
     from .engines import core_files
 
     enc = load_encoder(a.encoder)
