@@ -70,8 +70,11 @@ def _header(command: str, cfg: CoreConfig, fmt: str, image: Image) -> list[str]:
 def _reg_notes(image: Image) -> list[str]:
     if image.name != "regs":
         return []
-    return [f"word {r.index}: {r.name} = {_signed(int(image.words[r.index]), REG_W) if r.signed else int(image.words[r.index])}"
-            f" ({r.meaning})" for r in REGISTERS]
+    notes = []
+    for r in REGISTERS:
+        word = int(image.words[r.index])
+        notes.append(f"word {r.index}: {r.name} = {_signed(word, REG_W) if r.signed else word} ({r.meaning})")
+    return notes
 
 
 def _signed(v: int, w: int) -> int:
