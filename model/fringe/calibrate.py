@@ -36,6 +36,9 @@ class CalibrationOptions:
     wave_harmonics_max: int = 31     # general model: BIC chooses up to this many
     lp_harmonics_max: int = 64       # BIC chooses up to this many
     table_points: int | None = None  # None: one point per ADC code, at most 2^16 + 1
+    # closed loop: error already explained by other terms (arcsec, encoder frame, per sample), kept
+    # out of the long-period fit and added to the reference phase of the waveform fit
+    known_error_arcsec: np.ndarray | None = None
 
 
 def _fail(meas: Measurement, problem: str):
@@ -165,12 +168,25 @@ def fit_long_period(cal: Calibration, meas: Measurement, use: np.ndarray, opts: 
     rev = encoder_rev(cal, meas)
     find_direction_and_zero(cal, meas, rev)
     err = lp_error_arcsec(cal, meas, rev)
+    if opts.known_error_arcsec is not None:
+        err = err - opts.known_error_arcsec
     x = 2 * np.pi * (rev[use] % 1.0)
     # harmonics L, 2L, ... of the revolution are functions of the fine phase: the waveform tables own them
     cal.long_period, n, rms = fit_select(x, err[use], opts.lp_harmonics_max,
                                          skip_multiples_of=cal.encoder.lines_per_rev)
     cal.fit["lp_harmonics"] = n
     cal.fit["lp_residual_rms_arcsec"] = rms
+
+
+def reference_phase(cal: Calibration, meas: Measurement, rev: np.ndarray,
+                    known_error_arcsec: np.ndarray | None = None) -> np.ndarray:
+    """The disc's fine phase per sample (rad): the reference angle plus the encoder's long-period
+    error (the graduation error moves the fringes): 2*pi*lines*(truth + e(rev))."""
+    truth = cal.direction * (meas.ref_deg / 360.0 - cal.zero_deg / 360.0)
+    disc = truth + cal.long_period(2 * np.pi * (rev % 1.0)) / ARCSEC_PER_REV
+    if known_error_arcsec is not None:
+        disc = disc + known_error_arcsec / ARCSEC_PER_REV
+    return 2 * np.pi * cal.encoder.lines_per_rev * disc
 
 
 def refine_with_reference(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
@@ -180,10 +196,8 @@ def refine_with_reference(cal: Calibration, meas: Measurement, use: np.ndarray, 
     graduation error moves the fringes): 2*pi*lines*(truth + e(rev)).
     """
     for _ in range(opts.ref_iterations):
-        rev = encoder_rev(cal, meas)
-        truth = cal.direction * (meas.ref_deg / 360.0 - cal.zero_deg / 360.0)
-        disc = truth + cal.long_period(2 * np.pi * (rev % 1.0)) / ARCSEC_PER_REV
-        _refit_waveforms(cal, meas, use, 2 * np.pi * cal.encoder.lines_per_rev * disc, opts)
+        _refit_waveforms(cal, meas, use, reference_phase(cal, meas, encoder_rev(cal, meas), opts.known_error_arcsec),
+                         opts)
         sync_coarse(cal, meas)
         fit_long_period(cal, meas, use, opts)
 

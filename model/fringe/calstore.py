@@ -48,6 +48,9 @@ def to_json_dict(cal: Calibration) -> dict:
             "status": {"amp_low": cal.amp_low, "amp_high": cal.amp_high,
                        "units": "corrected vector magnitude (1 = unit circle)"},
         },
+        "closed_loop": {"adaptive_offset_gain": cal.adaptive,
+                        "rev_normalisation": None if cal.rev_norm is None else cal.rev_norm.to_dict(),
+                        "angle_terms": [t.to_dict() for t in cal.angle_terms]},
         "skipped": cal.skipped,
         "fit": cal.fit,
     }
@@ -118,6 +121,17 @@ def load_calibration(cal_dir: str) -> Calibration:
                           amp_low=float(st["status"]["amp_low"]), amp_high=float(st["status"]["amp_high"]),
                           skipped=list(d.get("skipped", [])), provenance=d.get("provenance", {}),
                           fit=d.get("fit", {}))
+        loop = d.get("closed_loop") or {}
+        cal.adaptive = bool(loop.get("adaptive_offset_gain", False))
+        if loop.get("rev_normalisation"):
+            from .effects import RevNormalisation
+            cal.rev_norm = RevNormalisation.from_dict(loop["rev_normalisation"])
+        if loop.get("angle_terms"):
+            from .effects import LIBRARY, FittedEffect
+            for t in loop["angle_terms"]:
+                if t["name"] not in LIBRARY:
+                    raise ValueError(f"unknown closed-loop term '{t['name']}'")
+                cal.angle_terms.append(FittedEffect.from_dict(t))
         if st.get("coarse"):
             cal.coarse_offset_periods = float(st["coarse"]["offset_periods"])
         if st.get("long_period"):

@@ -52,6 +52,12 @@ def build_parser() -> argparse.ArgumentParser:
                    help="model: bit-exact model of the RTL (default); float: floating-point reference; "
                         "verilog/vhdl: the RTL in simulation")
 
+    lp = sub.add_parser("loop", help="closed loop: find what the declared model misses, add it, report")
+    lp.add_argument("data", help="DATA.csv with ref_deg")
+    lp.add_argument("--encoder", required=True, help="encoder description ENC.json")
+    lp.add_argument("--out", required=True, help="DIR to write (report.md, report.json, cal/)")
+    lp.add_argument("--validate", help="a second recording to judge each effect on (default: interleaved half)")
+
     m = sub.add_parser("rom", help="write the ROM images for synthesis")
     m.add_argument("cal", help="CAL_DIR from fringe calibrate")
     m.add_argument("--out", required=True, help="folder to write")
@@ -126,7 +132,7 @@ def summary_text(cal, meas) -> str:
     for s in cal.skipped:
         lines.append(f"skipped: {s}")
     if meas.ref_deg is not None:
-        res = run_float(cal, meas.sin, meas.cos, meas.coarse)
+        res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
         err = error_arcsec(res.angle_deg, meas.ref_deg)
         fig = error_figures(err, res.frac, res.position / cal.encoder.lines_per_rev)
         lines.append(f"on the calibration data: RMS {fig.rms_arcsec:.3f}\", interpolation {fig.interp_pp_arcsec:.3f}\" "
@@ -158,6 +164,28 @@ def cmd_correct(a) -> int:
     return 0
 
 
+def cmd_loop(a) -> int:
+    from .dataio import read_measurement
+    from .encoder import load_encoder
+    from .loop import run_loop, write_outputs
+
+    enc = load_encoder(a.encoder)
+    train = read_measurement(a.data, enc)
+    val = read_measurement(a.validate, enc) if a.validate else None
+    base, state, report = run_loop(train, enc, val)
+    write_outputs(base, state, report, train, val, a.out)
+    b, f = report["before"], report["after"]
+    print(f"declared model: RMS {b['rms_arcsec']:.3f}\"; with the added effects: RMS {f['rms_arcsec']:.3f}\" "
+          f"(noise floor {report['noise_floor_arcsec']:.3f}\", on {report['validation']})")
+    for e in report["effects_added"]:
+        print(f"added {e['name']} ({e['correction']}): {e['evidence']}; "
+              f"{e['rms_before_arcsec']:.3f}\" -> {e['rms_after_arcsec']:.3f}\"")
+    for e in report["effects_rejected"]:
+        print(f"not kept {e['name']}: {e['why_not_kept']}")
+    print(f"wrote {a.out}/report.md, report.json, cal/")
+    return 0
+
+
 def cmd_rom(a) -> int:
     from .calstore import load_calibration
     from .engines import core_config, write_core_roms
@@ -174,7 +202,8 @@ def cmd_rom(a) -> int:
     return 0
 
 
-COMMANDS = {"simulate": cmd_simulate, "calibrate": cmd_calibrate, "correct": cmd_correct, "rom": cmd_rom}
+COMMANDS = {"simulate": cmd_simulate, "calibrate": cmd_calibrate, "correct": cmd_correct, "rom": cmd_rom,
+            "loop": cmd_loop}
 
 
 def main(argv=None) -> int:

@@ -47,7 +47,7 @@ def main(argv=None) -> int:
     print(f"{'method':28s} {'RMS':>8s} {'p-p':>8s} {'interp p-p':>11s} {'long-period p-p':>16s}")
     curves = {}
     for name, c in methods.items():
-        res = run_float(c, val.sin, val.cos, val.coarse)
+        res = run_float(c, val.sin, val.cos, val.coarse, val.t_s)
         err = error_arcsec(res.angle_deg, val.ref_deg)
         f = error_figures(err, res.frac, res.position / enc.lines_per_rev)
         print(f"{name:28s} {f.rms_arcsec:8.2f} {f.pp_arcsec:8.2f} {f.interp_pp_arcsec:11.2f} {f.lp_pp_arcsec:16.2f}")

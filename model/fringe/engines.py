@@ -54,9 +54,12 @@ def core_files(cal: Calibration, command: str) -> dict:
 
 def run_engine(name: str, cal: Calibration, meas: Measurement, cal_dir: str) -> Result:
     if name == "float":
-        return run_float(cal, meas.sin, meas.cos, meas.coarse)
+        return run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
     from .fixed.core import run_model
 
+    if cal.angle_terms or cal.adaptive or cal.rev_norm is not None:
+        raise FringeInputError("this calibration carries closed-loop stages (fringe loop) that the bit-exact "
+                               "core does not implement yet: use --engine float", cal_dir)
     cfg = core_config(cal, cal_dir)
     try:
         if name == "model":

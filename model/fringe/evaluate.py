@@ -19,7 +19,7 @@ def measurement_of(rec: Recording, path: str = "simulated") -> Measurement:
 
 
 def float_engine(cal: Calibration, meas: Measurement) -> Result:
-    return run_float(cal, meas.sin, meas.cos, meas.coarse)
+    return run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
 
 
 def figures(cal: Calibration, meas: Measurement, engine=float_engine) -> tuple[ErrorFigures, Result]:

@@ -34,6 +34,9 @@ class Calibration:
     zero_deg: float = 0.0                        # added last, in the output direction
     amp_low: float = 0.5                         # loss-of-signal thresholds on the corrected magnitude
     amp_high: float = 1.5
+    adaptive: bool = False                       # online offset/gain tracker (closed loop: drift)
+    rev_norm: object | None = None               # offsets/gains over the revolution (effects.RevNormalisation)
+    angle_terms: list = field(default_factory=list)   # closed-loop hardware terms (effects.FittedEffect)
     waves: dict = field(default_factory=dict)    # fitted channel models (for reports and plots)
     skipped: list = field(default_factory=list)
     provenance: dict = field(default_factory=dict)
@@ -49,7 +52,12 @@ class Result:
     magnitude: np.ndarray       # corrected vector magnitude (1 nominal)
 
 
-def fine_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
+def fine_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray, psi: np.ndarray | None = None):
+    if cal.rev_norm is not None and psi is not None:
+        sin, cos = cal.rev_norm.apply(sin, cos, psi)
+    if cal.adaptive:
+        from .effects import tracked_phase
+        return tracked_phase(cal, sin, cos)
     xs = cal.inv_sin(sin, cos) if cal.inv_sin is not None else sin
     xc = cal.inv_cos(cos, sin) if cal.inv_cos is not None else cos
     s, c = cal.quad.apply(xs, xc)
@@ -75,10 +83,25 @@ def output_angle(cal: Calibration, position: np.ndarray) -> np.ndarray:
     return (cal.direction * rev * 360.0 + cal.zero_deg) % 360.0
 
 
-def run_float(cal: Calibration, sin: np.ndarray, cos: np.ndarray, coarse: np.ndarray | None = None) -> Result:
+def sample_times(n: int, t: np.ndarray | None) -> np.ndarray:
+    """The recording's time stamps, or the sample index when it has none."""
+    return np.arange(n, dtype=float) if t is None else np.asarray(t, float)
+
+
+def run_float(cal: Calibration, sin: np.ndarray, cos: np.ndarray, coarse: np.ndarray | None = None,
+              t: np.ndarray | None = None) -> Result:
     enc = cal.encoder
     frac, mag = fine_phase(cal, sin, cos)
     pos, coarse_err, fast = encoder_position(cal, frac, coarse)
+    if cal.rev_norm is not None:     # the position in the revolution from a first pass selects the gains
+        frac, mag = fine_phase(cal, sin, cos, 2 * np.pi * pos / enc.lines_per_rev)
+        pos, coarse_err, fast = encoder_position(cal, frac, coarse)
+    if cal.angle_terms:
+        from .effects import make_context
+        ctx = make_context(frac, pos, enc.lines_per_rev, sample_times(len(frac), t), mag)
+        correction = sum(term.predict(ctx) for term in cal.angle_terms)
+        # the terms model the error of the output angle: map it back into the encoder's direction
+        pos = (pos - cal.direction * correction / ARCSEC_PER_REV * enc.lines_per_rev) % enc.lines_per_rev
     lo, hi = -enc.adc_half_range, enc.adc_half_range - 1
     status = (np.where((sin <= lo) | (sin >= hi), CLIP_SIN, 0)
               | np.where((cos <= lo) | (cos >= hi), CLIP_COS, 0)

@@ -61,7 +61,7 @@ def calibration_plots(cal: Calibration, meas) -> dict:
         def err_plot(p):
             curves = {}
             for label, c in (("uncorrected", uncorrected(cal, meas)), ("corrected", cal)):
-                res = run_float(c, meas.sin, meas.cos, meas.coarse)
+                res = run_float(c, meas.sin, meas.cos, meas.coarse, meas.t_s)
                 curves[label] = (error_arcsec(res.angle_deg, meas.ref_deg), res.frac,
                                  res.position / cal.encoder.lines_per_rev)
             error_plot(p, curves)

@@ -67,6 +67,21 @@ class SimulationConfig:
     speed_mean_rev_s: float = 0.6
     speed_swing_rev_s: float = 1.2
     start_rev: float = 0.0
+    # ---- effects outside the seeds' model (all off by default); the closed loop must find them
+    # offsets and gains that vary over the revolution (disc or magnet eccentricity, air gap):
+    # relative gain 1 + sum_m (a cos m psi + b sin m psi) on both channels, psi the mechanical angle,
+    # and per-channel offset modulations (fraction of FS), {order: (cos amplitude, sin amplitude)}
+    rev_gain_mod: dict[int, tuple[float, float]] = field(default_factory=dict)
+    rev_offset_mod_sin: dict[int, tuple[float, float]] = field(default_factory=dict)
+    rev_offset_mod_cos: dict[int, tuple[float, float]] = field(default_factory=dict)
+    sampling_skew_s: float = 0.0          # the cos channel is sampled this much later than the sin channel
+    drift_offset_rms: float = 0.0         # slow random drift of each channel's offset (fraction of FS, RMS)
+    drift_gain_rms: float = 0.0           # slow random drift of each channel's gain (relative, RMS)
+    drift_timescale_s: float = 5.0        # typical period of the drift
+    hysteresis_arcsec: float = 0.0        # the readhead lags by half of this in the direction of motion
+    ref_lag_s: float = 0.0                # the reference is sampled this much earlier than the ADC
+    vibration_arcsec: float = 0.0         # amplitude of a vibration between encoder and reference
+    vibration_hz: float = 0.0
 
     def encoder(self) -> Encoder:
         full_scale = None
@@ -154,29 +169,59 @@ def simulate(cfg: SimulationConfig, seed: int = 1) -> Recording:
     if cfg.samples < 2:
         raise FringeInputError(f"needs at least 2 samples, got {cfg.samples}", "--samples")
     rng = np.random.default_rng(seed)
+    effects_rng = np.random.default_rng([seed, 1])    # effects never disturb the noise draws
     t, theta = trajectory(cfg, rng)
     disc = theta + graduation_error_arcsec(cfg, theta) / ARCSEC_PER_REV
+    disc += (cfg.vibration_arcsec * np.sin(2 * np.pi * cfg.vibration_hz * t)
+             - 0.5 * cfg.hysteresis_arcsec * _direction(theta)) / ARCSEC_PER_REV
     phase = 2 * np.pi * cfg.lines_per_rev * disc
+    psi = 2 * np.pi * theta
+    gain_mod = 1.0 + fourier_arcsec(cfg.rev_gain_mod, psi)
     half = enc.adc_half_range
 
-    def channel(ch: ChannelConfig):
-        clean = (ch.offset + ch.gain * ch.waveform(phase + ch.phase_rad)) * half
+    def channel(ch: ChannelConfig, ph: np.ndarray, offset_mod: dict):
+        offset = ch.offset + fourier_arcsec(offset_mod, psi) + _drift(t, cfg.drift_offset_rms, cfg, effects_rng)
+        gain = ch.gain * gain_mod * (1.0 + _drift(t, cfg.drift_gain_rms, cfg, effects_rng))
+        clean = (offset + gain * ch.waveform(ph + ch.phase_rad)) * half
         noisy = clean + rng.normal(0.0, cfg.noise_rms * half, clean.shape)
         return clean, np.clip(np.round(noisy), -half, half - 1).astype(np.int64)
 
-    clean_s, adc_s = channel(cfg.sin_channel)
-    clean_c, adc_c = channel(cfg.cos_channel)
+    clean_s, adc_s = channel(cfg.sin_channel, phase, cfg.rev_offset_mod_sin)
+    phase_c = np.interp(t + cfg.sampling_skew_s, t, phase) if cfg.sampling_skew_s else phase
+    clean_c, adc_c = channel(cfg.cos_channel, phase_c, cfg.rev_offset_mod_cos)
     cols = {"t_s": t, "sin": adc_s, "cos": adc_c}
     if cfg.coarse_bits:
         cpos = (disc + (cfg.coarse_misalignment_periods
                         + rng.normal(0.0, cfg.coarse_jitter_periods, disc.shape)) / cfg.lines_per_rev)
         cols["coarse"] = np.floor(cpos * (1 << cfg.coarse_bits)).astype(np.int64) % (1 << cfg.coarse_bits)
-    ref_rev = (cfg.ref_direction * theta + cfg.ref_zero_deg / 360.0
-               + fourier_arcsec(cfg.ref_error_arcsec, 2 * np.pi * theta) / ARCSEC_PER_REV)
+    ref_theta = np.interp(t - cfg.ref_lag_s, t, theta) if cfg.ref_lag_s else theta
+    ref_rev = (cfg.ref_direction * ref_theta + cfg.ref_zero_deg / 360.0
+               + fourier_arcsec(cfg.ref_error_arcsec, 2 * np.pi * ref_theta) / ARCSEC_PER_REV)
     counts = 1 << cfg.ref_bits
     ref_rev = np.floor(np.mod(ref_rev, 1.0) * counts) / counts
     cols["ref_deg"] = ref_rev * 360.0
     return Recording(cols, theta, phase, clean_s, clean_c, enc)
+
+
+def _direction(theta: np.ndarray) -> np.ndarray:
+    """+1 / -1 by the direction of motion; a standstill keeps the last direction."""
+    d = np.sign(np.gradient(theta))
+    idx = np.where(d != 0, np.arange(len(d)), 0)
+    np.maximum.accumulate(idx, out=idx)
+    d = d[idx]
+    d[d == 0] = 1
+    return d
+
+
+def _drift(t: np.ndarray, rms: float, cfg: SimulationConfig, rng: np.random.Generator) -> np.ndarray:
+    """A smooth random wander of RMS `rms`: three sinusoids near the drift timescale, new each recording."""
+    if not rms:
+        return np.zeros_like(t)
+    periods = cfg.drift_timescale_s * rng.uniform(0.5, 2.0, 3)
+    phases = rng.uniform(0, 2 * np.pi, 3)
+    weights = rng.normal(0, 1, 3)
+    y = sum(w * np.sin(2 * np.pi * t / p + ph) for w, p, ph in zip(weights, periods, phases, strict=True))
+    return rms * y / np.sqrt(np.mean(y * y))
 
 
 def csv_formats() -> dict:

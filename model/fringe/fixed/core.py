@@ -14,7 +14,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..encoder import ARCSEC_PER_REV
-from ..pipeline import AMP_HIGH, AMP_LOW, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, SATURATED, Calibration, Result
+from ..pipeline import (
+    AMP_HIGH,
+    AMP_LOW,
+    BANK,
+    CLIP_COS,
+    CLIP_SIN,
+    COARSE_ERR,
+    OVERSPEED,
+    SATURATED,
+    Calibration,
+    Result,
+)
 from ..waveform import WaveformInverse
 from . import cordic as cordic_mod
 from . import long_period as lp_mod
@@ -115,6 +126,71 @@ def run_core(t: CoreTables, cfg: CoreConfig, sin: np.ndarray, cos: np.ndarray,
               | np.where(mag < t.amp_low, AMP_LOW, 0) | np.where(mag > t.amp_high, AMP_HIGH, 0)
               | np.where(overspeed, OVERSPEED, 0) | np.where(coarse_err, COARSE_ERR, 0)
               | np.where(sat, SATURATED, 0)).astype(np.int64)
+    return CoreOutput(out, status, phase, pos, mag)
+
+
+#: Clock enables of fringe_core's own input register (the branch select), see core_latency().
+INPUT_LATENCY = 1
+
+
+def core_latency(cfg: CoreConfig) -> int:
+    """LATENCY of rtl/*/fringe_core (and fringe_top): clock enables from in_valid to out_valid.
+
+    The input register (branch select) plus the blocks: wave LUT, quadrature, CORDIC, period
+    count, long-period table.
+    """
+    return (INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + cfg.cordic().latency
+            + pc_mod.LATENCY + lp_mod.LATENCY)
+
+
+def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreConfig, sin: np.ndarray,
+                   cos: np.ndarray, coarse: np.ndarray | None, bank: np.ndarray) -> CoreOutput:
+    """One stream from reset in which sample i is served by ``banks[bank[i]]`` (bank swaps in
+    mid-stream, as fringe_core does: every sample carries its bank through the pipeline).
+
+    The status word carries BANK (bit 7) for samples of bank 1, as the RTL's does; with every
+    sample in bank 0 the result equals ``run_core(banks[0], ...)``. The only state of the core
+    (the period counter and the previous phase of the overspeed flag) follows the stream, not
+    the bank, so each stateless stage is evaluated per bank and selected per sample.
+    """
+    sin = np.asarray(sin, dtype=np.int64)
+    cos = np.asarray(cos, dtype=np.int64)
+    bank = np.asarray(bank, dtype=np.int64)
+    if bank.shape != sin.shape or np.any((bank < 0) | (bank >= len(banks))):
+        raise ValueError(f"bank: one index in [0, {len(banks)}) per sample")
+    n = len(sin)
+    if coarse is None or cfg.coarse_w == 0:
+        coarse = np.zeros(n, dtype=np.int64)
+    coarse = np.asarray(coarse, dtype=np.int64)
+    wl, qp = cfg.wave_lut(), cfg.quadrature()
+
+    def pick(values):
+        """values[b] computed with bank b -> per-sample selection."""
+        out = np.array(values[0], copy=True)
+        for b in range(1, len(values)):
+            out = np.where(bank == b, values[b], out)
+        return out
+
+    per = []
+    for t in banks:
+        xs, clip_s = wave_mod.wave_lut(sin, branch_select(sin, cos, t.branch_sin), t.wave_sin, wl)
+        xc, clip_c = wave_mod.wave_lut(cos, branch_select(cos, sin, t.branch_cos), t.wave_cos, wl)
+        per.append((xs, xc, clip_s, clip_c))
+    xs, xc, clip_s, clip_c = (pick([p[k] for p in per]) for k in range(4))
+    per = [quad_mod.quadrature(xs, xc, t.quad, qp) for t in banks]
+    s, c, sat = (pick([p[k] for p in per]) for k in range(3))
+    phase, mag = cordic_mod.cordic(c, s, cfg.cordic())
+    pcp = period_count_params(cfg)
+    per = [pc_mod.period_count(phase, coarse, t.coarse_ofs, pcp) for t in banks]
+    pos, overspeed, coarse_err = (pick([p[k] for p in per]) for k in range(3))
+    lpp = long_period_params(cfg)
+    out = pick([lp_mod.long_period(pos, t.lp, t.zero, t.direction, lpp) for t in banks])
+    amp_low = pick([np.full(n, t.amp_low, dtype=np.int64) for t in banks])
+    amp_high = pick([np.full(n, t.amp_high, dtype=np.int64) for t in banks])
+    status = (np.where(clip_s, CLIP_SIN, 0) | np.where(clip_c, CLIP_COS, 0)
+              | np.where(mag < amp_low, AMP_LOW, 0) | np.where(mag > amp_high, AMP_HIGH, 0)
+              | np.where(overspeed, OVERSPEED, 0) | np.where(coarse_err, COARSE_ERR, 0)
+              | np.where(sat, SATURATED, 0) | np.where(bank == 1, BANK, 0)).astype(np.int64)
     return CoreOutput(out, status, phase, pos, mag)
 
 

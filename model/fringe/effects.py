@@ -1,0 +1,294 @@
+"""The effect library of the closed loop: effects outside the seeds' model.
+
+Each effect has a signature (regressors of the angle error in the domains where it shows),
+a model term (the same regressors, fitted by least squares: every term is linear in its
+weights), and a place where its correction lives:
+- "hardware": a correction stage the core can carry (it uses only what the core knows online:
+  fine phase, position in the revolution, a filtered speed, the direction of motion);
+- "adaptive": the effect does not repeat between recordings (drift), so its correction is an
+  online tracker working from the signals themselves;
+- "artefact": the effect is in the measurement, not in the encoder (the reference's lag, a
+  vibration between encoder and reference); it is compensated in the evaluation only.
+
+Angle-domain terms are the first-order image of the signal-domain cause: an offset that
+changes over the revolution shows as a first-order fine-phase error whose size follows the
+revolution, a gain as a second-order one, a channel sampling skew as a second-order error
+proportional to speed, and so on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .position import wrap
+
+SPEED_ALPHA = 1.0 / 32        # EMA of the speed estimate, per sample (the core's speed filter)
+REV_ORDERS = 4                # revolution orders for modulated terms
+TIME_ORDERS = 3               # Legendre degree for slow changes in time
+
+
+@dataclass
+class Context:
+    """What every term may depend on, per sample."""
+
+    phi: np.ndarray     # fine phase, rad
+    psi: np.ndarray     # position in the revolution, rad
+    t: np.ndarray       # time, s
+    speed: np.ndarray   # filtered speed, rev/s (causal, as the core would estimate it)
+    accel: np.ndarray   # rev/s^2
+    direction: np.ndarray   # +1 / -1
+    magnitude: np.ndarray   # corrected signal magnitude (1 nominal)
+
+
+def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, alpha: float = SPEED_ALPHA) -> np.ndarray:
+    """Causal first-order filter of the sample-to-sample speed (what a hardware tracker gives)."""
+    from scipy.signal import lfilter
+
+    dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if len(t) > 1 else 1.0))
+    raw = np.diff(rev_unwrapped, prepend=rev_unwrapped[0]) / np.where(dt > 0, dt, 1.0)
+    raw[0] = raw[1] if len(raw) > 1 else 0.0
+    return lfilter([alpha], [1, alpha - 1], raw, zi=[raw[0] * (1 - alpha)])[0]
+
+
+def make_context(frac: np.ndarray, position_periods: np.ndarray, lines: int, t: np.ndarray,
+                 magnitude: np.ndarray) -> Context:
+    rev = position_periods / lines
+    unwrapped = rev[0] + np.concatenate([[0.0], np.cumsum(wrap(np.diff(rev)))])
+    v = speed_estimate(unwrapped, t)
+    acc = np.gradient(v, t) if len(t) > 2 else np.zeros_like(v)
+    d = np.sign(v)
+    d[d == 0] = 1
+    return Context(2 * np.pi * frac, 2 * np.pi * (rev % 1.0), t, v, acc, d, magnitude)
+
+
+def _rev_modulated(orders_phi, ctx: Context, m_orders=REV_ORDERS) -> list[np.ndarray]:
+    cols = []
+    for k in orders_phi:
+        ck, sk = np.cos(k * ctx.phi), np.sin(k * ctx.phi)
+        for m in range(1, m_orders + 1):
+            cm, sm = np.cos(m * ctx.psi), np.sin(m * ctx.psi)
+            cols += [ck * cm, ck * sm, sk * cm, sk * sm]
+    return cols
+
+
+def _legendre_time(ctx: Context, degree=TIME_ORDERS) -> list[np.ndarray]:
+    span = ctx.t[-1] - ctx.t[0]
+    x = 2 * (ctx.t - ctx.t[0]) / span - 1 if span > 0 else np.zeros_like(ctx.t)
+    return [np.polynomial.legendre.Legendre.basis(d)(x) for d in range(1, degree + 1)]
+
+
+@dataclass
+class Effect:
+    name: str
+    cause: str                 # the physical effect, in words
+    signature: str             # where and how it shows
+    correction: str            # "hardware", "adaptive" or "artefact"
+    where: str                 # which stage carries it
+    columns: object            # ctx -> list of regressors
+    needs: tuple = ()          # context conditions: "speed", "direction", "time"
+
+    def design(self, ctx: Context) -> np.ndarray:
+        return np.column_stack(self.columns(ctx))
+
+
+def _speed_cols(ctx):
+    return [ctx.speed]
+
+
+def _skew_cols(ctx):
+    # cos channel late by tau: c = cos(phi + delta), delta = 2 pi lines v tau, and
+    # atan2(sin phi, c) - phi = delta sin^2 phi = (delta / 2)(1 - cos 2 phi): one term, not two
+    return [ctx.speed * (1 - np.cos(2 * ctx.phi))]
+
+
+def _hyst_cols(ctx):
+    cols = [ctx.direction.astype(float)]
+    for m in range(1, REV_ORDERS + 1):
+        cols += [ctx.direction * np.cos(m * ctx.psi), ctx.direction * np.sin(m * ctx.psi)]
+    return cols
+
+
+def _drift_cols(ctx):
+    cols = []
+    for k in (1, 2):
+        for f in (np.cos(k * ctx.phi), np.sin(k * ctx.phi)):
+            cols += [f * p for p in _legendre_time(ctx)]
+    return cols
+
+
+def _accel_cols(ctx):
+    return [ctx.accel]
+
+
+def _amplitude_cols(ctx):
+    a = ctx.magnitude - np.mean(ctx.magnitude)
+    return [a, a * np.cos(2 * ctx.phi), a * np.sin(2 * ctx.phi)]
+
+
+LIBRARY = {
+    "rev_offset_gain": Effect(
+        "rev_offset_gain", "offsets and gains that vary over the revolution (disc or magnet eccentricity, air gap)",
+        "fine-phase orders 1 and 2 whose size follows the revolution (sidebands of the signal period)",
+        "hardware", "per-sector offset/gain correction indexed by the position in the revolution",
+        lambda ctx: _rev_modulated((1, 2), ctx)),
+    "sampling_skew": Effect(
+        "sampling_skew", "the two channels are sampled at different instants",
+        "speed x (1 - cos 2 phi): a second-order fine-phase error and half as much lag, both in proportion to speed",
+        "hardware", "speed-dependent phase correction (quadrature stage, filtered speed)", _skew_cols, ("speed",)),
+    "hysteresis": Effect(
+        "hysteresis", "direction-dependent error (backlash, magnetic hysteresis, readhead tilt)",
+        "an error that changes sign with the direction of motion, possibly varying over the revolution",
+        "hardware", "direction-dependent long-period table", _hyst_cols, ("direction",)),
+    "ref_lag": Effect(
+        "ref_lag", "time lag between the reference and the ADC samples",
+        "an error proportional to speed with no fine-phase structure",
+        "artefact", "the measurement (shift the reference in time); nothing in the hardware", _speed_cols,
+        ("speed",)),
+    "drift": Effect(
+        "drift", "offsets and gains drifting over time (temperature, supply)",
+        "fine-phase orders 1 and 2 whose size changes slowly with time",
+        "adaptive", "online offset/gain tracker after the quadrature stage (adapts from the signals)", _drift_cols,
+        ("time",)),
+    "acceleration": Effect(
+        "acceleration", "error proportional to acceleration (shaft torsion between encoder and reference)",
+        "an error following the acceleration", "artefact", "the mechanical set-up; nothing in the hardware",
+        _accel_cols, ("speed",)),
+    "amplitude": Effect(
+        "amplitude", "error depending on the signal amplitude (waveform changes with air gap, ADC nonlinearity)",
+        "an error following the corrected magnitude", "artefact", "not modelled further: reported",
+        _amplitude_cols),
+}
+
+
+@dataclass
+class FittedEffect:
+    name: str
+    weights: np.ndarray
+    tone_hz: float = 0.0       # for the "tone" artefact
+
+    def to_dict(self) -> dict:
+        e = LIBRARY.get(self.name)
+        d = {"name": self.name, "weights": [float(w) for w in self.weights],
+             "units": "arcsec per regressor (effects.LIBRARY[name].columns)"}
+        if e is not None:
+            d.update(correction=e.correction, where=e.where)
+        if self.tone_hz:
+            d["tone_hz"] = self.tone_hz
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> FittedEffect:
+        return cls(d["name"], np.asarray(d["weights"], float), float(d.get("tone_hz", 0.0)))
+
+    def predict(self, ctx: Context) -> np.ndarray:
+        if self.name == "tone":
+            return tone_columns(ctx, self.tone_hz) @ self.weights
+        return LIBRARY[self.name].design(ctx) @ self.weights
+
+
+def tone_columns(ctx: Context, f: float) -> np.ndarray:
+    return np.column_stack([np.cos(2 * np.pi * f * ctx.t), np.sin(2 * np.pi * f * ctx.t)])
+
+
+@dataclass
+class AngleCorrections:
+    """Hardware-carried terms, subtracted from the output angle (arcsec)."""
+
+    terms: list[FittedEffect] = field(default_factory=list)
+
+    def arcsec(self, ctx: Context) -> np.ndarray:
+        total = np.zeros_like(ctx.phi)
+        for term in self.terms:
+            total += term.predict(ctx)
+        return total
+
+
+# ---------------------------------------------------------------- offsets and gains over the revolution
+
+@dataclass
+class RevNormalisation:
+    """Per channel: reading -> (reading - offset(psi)) / (1 + gain(psi)), Fourier in psi (orders 1..M).
+
+    The hardware form is a small table over the revolution (per-sector offset and gain) in front of
+    the waveform tables, indexed by the position of the previous sample.
+    """
+
+    weights: dict   # kind -> (offset cos/sin weights (2M,), gain cos/sin weights (2M,))
+
+    @staticmethod
+    def basis(psi: np.ndarray, orders: int = REV_ORDERS) -> np.ndarray:
+        return np.column_stack([f(m * psi) for m in range(1, orders + 1) for f in (np.cos, np.sin)])
+
+    def apply(self, sin: np.ndarray, cos: np.ndarray, psi: np.ndarray):
+        b = self.basis(psi)
+        out = []
+        for kind, y in (("sin", sin), ("cos", cos)):
+            off, gain = self.weights[kind]
+            out.append((y - b @ off) / (1.0 + b @ gain))
+        return out[0], out[1]
+
+    def to_dict(self) -> dict:
+        return {k: {"offset_counts": [float(x) for x in o], "gain_relative": [float(x) for x in g]}
+                for k, (o, g) in self.weights.items()} | {"basis": "cos psi, sin psi, cos 2psi, ..."}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> RevNormalisation:
+        return cls({k: (np.asarray(d[k]["offset_counts"]), np.asarray(d[k]["gain_relative"])) for k in ("sin", "cos")})
+
+
+def fit_rev_normalisation(waves: dict, sin: np.ndarray, cos: np.ndarray, phi: np.ndarray,
+                          psi: np.ndarray) -> RevNormalisation:
+    """Least squares, linearised: y - W(phi) = offset(psi) + gain(psi) * (W(phi) - w0)."""
+    b = RevNormalisation.basis(psi)
+    weights = {}
+    for kind, y in (("sin", sin), ("cos", cos)):
+        w = waves[kind](phi)
+        ac = w - waves[kind].weights[0]
+        x = np.column_stack([b, b * ac[:, None]])
+        coef, *_ = np.linalg.lstsq(x, y - w, rcond=None)
+        weights[kind] = (coef[:b.shape[1]], coef[b.shape[1]:])
+    return RevNormalisation(weights)
+
+
+# ---------------------------------------------------------------- adaptive offset/gain tracker
+
+BLOCK = 256          # samples per update
+TRACK_GAIN = 0.5     # fraction of each block's estimate taken into the running correction
+
+
+def tracked_phase(cal, sin: np.ndarray, cos: np.ndarray, block: int = BLOCK, gain: float = TRACK_GAIN):
+    """Fine phase with an online tracker of each channel's offset and gain, in front of the tables.
+
+    A drifting gain changes a near-triangular waveform's shape against the tables, so it must be
+    undone on the raw readings. Per block: the readings (normalised with the running estimates) are
+    fitted as offset + gain * (W(theta) - w0) against the calibrated waveform W at the block's own
+    phase; a fraction of the block's residual offset and gain goes into the running estimates,
+    which apply from the NEXT block on (causal, as the hardware would). At the fixed point the
+    normalised readings follow the calibrated waveform. Standstill blocks do not update.
+    """
+    from .pipeline import fine_phase
+
+    off = {"sin": 0.0, "cos": 0.0}
+    g = {"sin": 1.0, "cos": 1.0}
+    frac = np.empty(len(sin))
+    mag = np.empty(len(sin))
+    plain = dataclasses.replace(cal, adaptive=False)
+    psi_c = cal.waves["cos"].psi
+    for start in range(0, len(sin), block):
+        sl = slice(start, start + block)
+        ys = {"sin": (sin[sl] - off["sin"]) / g["sin"], "cos": (cos[sl] - off["cos"]) / g["cos"]}
+        frac[sl], mag[sl] = fine_phase(plain, ys["sin"], ys["cos"])
+        theta = 2 * np.pi * frac[sl] - psi_c
+        if len(theta) < 16 or np.ptp(np.unwrap(theta)) < 2 * np.pi:
+            continue
+        for kind in ("sin", "cos"):
+            w = cal.waves[kind]
+            ac = w(theta) - w.weights[0]
+            (d_off, d_gain), *_ = np.linalg.lstsq(np.column_stack([np.ones_like(ac), ac]), ys[kind] - w.weights[0],
+                                                  rcond=None)
+            off[kind] += gain * d_off * g[kind]
+            g[kind] *= 1 + gain * (d_gain - 1)
+    return frac, mag

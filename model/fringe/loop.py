@@ -1,0 +1,371 @@
+"""The closed loop (`fringe loop`): calibrate the declared model, find what its residual still
+holds, name the physical effect, add it, and report the error before and after.
+
+Every test is against the noise floor estimated from the data itself (successive differences
+of the residual: the systematic parts change slowly from one sample to the next, the noise
+does not). An effect is added only when it is significant (chi-square of the explained sum of
+squares against that noise, p < 1e-6), matters (it removes at least 1 % of the residual RMS),
+and lowers the error on validation data (the --validate recording, or, without one, the
+interleaved half of the recording that was not used to fit).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from .calibrate import calibrate
+from .dataio import Measurement
+from .effects import LIBRARY, Context, FittedEffect, make_context, tone_columns
+from .encoder import ARCSEC_PER_REV, Encoder
+from .errors import FringeInputError
+from .metrics import error_arcsec, error_figures
+from .pipeline import Calibration, run_float, sample_times
+
+P_VALUE = 1e-6
+MIN_GAIN = 0.01          # an effect must remove at least this fraction of the residual RMS
+MAX_EFFECTS = 5
+VALIDATION_BLOCKS = 50   # interleaved blocks when there is no --validate recording
+
+
+def noise_sigma(r: np.ndarray) -> float:
+    """Noise RMS from successive differences, robust to outliers (MAD)."""
+    d = np.diff(r)
+    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2))
+
+
+@dataclass
+class Evaluation:
+    r: np.ndarray            # residual (arcsec), artefacts compensated
+    ctx: Context
+    figures: dict
+    rms: float
+
+
+@dataclass
+class LoopState:
+    cal: Calibration
+    artefacts: list[FittedEffect] = field(default_factory=list)   # compensated in the evaluation only
+    ref_lag_s: float = 0.0        # the reference's lag behind the ADC (a measurement artefact)
+
+
+def shift_reference(meas: Measurement, lag_s: float) -> Measurement:
+    """The reference as it would read if sampled with the ADC: ref(t + lag), on the unwrapped angle."""
+    if not lag_s:
+        return meas
+    t = sample_times(len(meas), meas.t_s)
+    unwrapped = np.rad2deg(np.unwrap(np.deg2rad(meas.ref_deg)))
+    return dataclasses.replace(meas, ref_deg=np.mod(np.interp(t + lag_s, t, unwrapped), 360.0))
+
+
+def evaluate(state: LoopState, meas: Measurement) -> Evaluation:
+    meas = shift_reference(meas, state.ref_lag_s)
+    res = run_float(state.cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
+    r = error_arcsec(res.angle_deg, meas.ref_deg)
+    ctx = make_context(res.frac, res.position, state.cal.encoder.lines_per_rev, sample_times(len(r), meas.t_s),
+                       res.magnitude)
+    for art in state.artefacts:       # refitted on each recording: they do not belong to the encoder
+        x = _design(art.name, ctx, art.tone_hz)
+        w, *_ = np.linalg.lstsq(x - x.mean(0), r - r.mean(), rcond=None)
+        r = r - (x - x.mean(0)) @ w
+    r = r - r.mean()
+    fig = error_figures(r, res.frac, res.position / state.cal.encoder.lines_per_rev).to_dict()
+    return Evaluation(r, ctx, fig, float(np.sqrt(np.mean(r * r))))
+
+
+def _design(name: str, ctx: Context, tone_hz: float = 0.0) -> np.ndarray:
+    return tone_columns(ctx, tone_hz) if name == "tone" else LIBRARY[name].design(ctx)
+
+
+@dataclass
+class Test:
+    name: str
+    weights: np.ndarray
+    explained_rms: float
+    rms_after: float
+    p_value: float
+    dof: int
+    tone_hz: float = 0.0
+
+
+def test_terms(r: np.ndarray, x: np.ndarray, sigma: float, name: str, tone_hz: float = 0.0) -> Test:
+    xc = x - x.mean(0)
+    w, *_ = np.linalg.lstsq(xc, r - r.mean(), rcond=None)
+    fit = xc @ w
+    chi2 = float(fit @ fit) / max(sigma, 1e-12) ** 2
+    p = float(stats.chi2.sf(chi2, x.shape[1]))
+    rest = r - r.mean() - fit
+    return Test(name, w, float(np.sqrt(np.mean(fit * fit))), float(np.sqrt(np.mean(rest * rest))), p,
+                x.shape[1], tone_hz)
+
+
+def testable(name: str, ctx: Context) -> str | None:
+    """Why a domain cannot be tested on this recording (None if it can)."""
+    needs = LIBRARY[name].needs if name in LIBRARY else ("time",)
+    v = ctx.speed
+    if "speed" in needs and np.std(v) < 0.05 * max(np.mean(np.abs(v)), 1e-12):
+        return "the speed hardly changes in this recording, so speed effects cannot be told from a constant"
+    if "direction" in needs and (np.all(ctx.direction > 0) or np.all(ctx.direction < 0)):
+        return "the recording moves in one direction only"
+    if "time" in needs and len(ctx.t) < 200:
+        return "too few samples in time"
+    return None
+
+
+def find_tone(r: np.ndarray, ctx: Context) -> float | None:
+    """Frequency (Hz) of the strongest line in the residual's spectrum over time, if the time axis is uniform."""
+    dt = np.diff(ctx.t)
+    if len(r) < 256 or np.ptp(dt) > 1e-3 * np.mean(dt):
+        return None
+    spec = np.abs(np.fft.rfft((r - r.mean()) * np.hanning(len(r)))) ** 2
+    freqs = np.fft.rfftfreq(len(r), np.mean(dt))
+    spec[:4] = 0                       # slow trends belong to the drift test
+    k = int(np.argmax(spec))
+    return float(freqs[k]) if spec[k] > 50 * np.median(spec[1:]) else None
+
+
+def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
+    tests, skipped = [], {}
+    for name in LIBRARY:
+        if name in exclude:
+            continue
+        why = testable(name, ev.ctx)
+        if why:
+            skipped[name] = why
+            continue
+        tests.append(test_terms(ev.r, LIBRARY[name].design(ev.ctx), sigma, name))
+    if "tone" not in exclude:
+        f = find_tone(ev.r, ev.ctx)
+        if f:
+            tests.append(test_terms(ev.r, tone_columns(ev.ctx, f), sigma, "tone", f))
+    return tests, skipped
+
+
+TONE_EFFECT = dict(cause="a tone in time: vibration between encoder and reference, or interference",
+                   correction="artefact", where="the measurement set-up; nothing in the hardware")
+
+
+def describe(name: str) -> dict:
+    if name == "tone":
+        return TONE_EFFECT
+    e = LIBRARY[name]
+    return {"cause": e.cause, "signature": e.signature, "correction": e.correction, "where": e.where}
+
+
+def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
+    new = LoopState(dataclasses.replace(state.cal, angle_terms=list(state.cal.angle_terms)), list(state.artefacts),
+                    state.ref_lag_s)
+    kind = "artefact" if t.name == "tone" else LIBRARY[t.name].correction
+    fitted = FittedEffect(t.name, t.weights, t.tone_hz)
+    if t.name == "ref_lag":
+        # r = direction * speed * lag: shift the reference, calibrate again without the lag in it, and
+        # repeat (the first calibration absorbed part of the lag into its long-period table)
+        w = float(t.weights[0])
+        for _ in range(8):     # each round leaves a fraction of the lag: iterate until it is negligible
+            new.ref_lag_s += w * state.cal.direction / ARCSEC_PER_REV
+            fresh = calibrate(shift_reference(fit_data, new.ref_lag_s), state.cal.encoder)
+            new.cal = dataclasses.replace(fresh, rev_norm=state.cal.rev_norm, adaptive=state.cal.adaptive,
+                                          angle_terms=list(state.cal.angle_terms))
+            ev = evaluate(LoopState(new.cal, [], new.ref_lag_s), fit_data)
+            w = float(test_terms(ev.r, LIBRARY["ref_lag"].design(ev.ctx), 1.0, "ref_lag").weights[0])
+            if abs(w) * np.std(ev.ctx.speed) < 0.01 * noise_sigma(ev.r):
+                break
+    elif t.name == "rev_offset_gain":
+        new.cal = fit_rev_offset_gain(new.cal, shift_reference(fit_data, state.ref_lag_s))
+    elif kind == "hardware":
+        new.cal.angle_terms.append(fitted)
+        new.cal = refit_angle_terms(new.cal, shift_reference(fit_data, state.ref_lag_s))
+    elif kind == "adaptive":
+        new.cal.adaptive = True
+    else:
+        new.artefacts.append(fitted)
+    return new
+
+
+def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) -> Calibration:
+    """Signal-domain fit: offsets and gains over the revolution against the reference's phase, then the
+    declared model re-calibrated on the normalised signals (its waveform was biased by the effect)."""
+    from .calibrate import reference_phase
+    from .effects import fit_rev_normalisation
+
+    new = cal
+    for _ in range(rounds):
+        res = run_float(new, meas.sin, meas.cos, meas.coarse, meas.t_s)
+        rev = res.position / cal.encoder.lines_per_rev
+        raw_norm = new.rev_norm
+        phi = reference_phase(new, meas, rev)
+        psi = 2 * np.pi * (rev % 1.0)
+        norm = fit_rev_normalisation(new.waves, meas.sin, meas.cos, phi, psi) if raw_norm is None else \
+            _compose(raw_norm, fit_rev_normalisation(new.waves, *raw_norm.apply(meas.sin, meas.cos, psi), phi, psi))
+        s, c = norm.apply(meas.sin, meas.cos, psi)
+        fresh = calibrate(dataclasses.replace(meas, sin=s, cos=c), cal.encoder)
+        new = dataclasses.replace(fresh, rev_norm=norm, angle_terms=list(cal.angle_terms), adaptive=cal.adaptive)
+    return new
+
+
+def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> Calibration:
+    """Re-calibrate the declared model with the terms' error held out of it, then refit the terms
+    jointly on what the declared model leaves: neither absorbs the other's error."""
+    from .calibrate import CalibrationOptions
+
+    names = [t.name for t in cal.angle_terms]
+    for _ in range(rounds):
+        res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
+        ctx = make_context(res.frac, res.position, cal.encoder.lines_per_rev, sample_times(len(res.frac), meas.t_s),
+                           res.magnitude)
+        known = cal.direction * sum(t.predict(ctx) for t in cal.angle_terms)   # output frame -> encoder frame
+        base = calibrate(meas, cal.encoder, CalibrationOptions(known_error_arcsec=known))
+        base = dataclasses.replace(base, rev_norm=cal.rev_norm, adaptive=cal.adaptive)
+        r = error_arcsec(run_float(base, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
+        x = np.column_stack([LIBRARY[n].design(ctx) for n in names])
+        w, *_ = np.linalg.lstsq(x - x.mean(0), r - r.mean(), rcond=None)
+        splits = np.cumsum([LIBRARY[n].design(ctx).shape[1] for n in names])[:-1]
+        cal = dataclasses.replace(base, angle_terms=[FittedEffect(n, ww) for n, ww in zip(names, np.split(w, splits),
+                                                                                          strict=True)])
+    return cal
+
+
+def _compose(first, second):
+    """Normalisations applied one after the other, to first order in the (small) weights."""
+    from .effects import RevNormalisation
+    return RevNormalisation({k: (first.weights[k][0] + second.weights[k][0], first.weights[k][1] + second.weights[k][1])
+                             for k in ("sin", "cos")})
+
+
+def split(meas: Measurement, blocks: int = VALIDATION_BLOCKS) -> tuple[Measurement, Measurement]:
+    """Interleaved blocks: both halves cover the revolution and the whole time span."""
+    idx = (np.arange(len(meas)) * blocks // len(meas)) % 2
+    return meas.subset(idx == 0), meas.subset(idx == 1)
+
+
+def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = None
+             ) -> tuple[LoopState, LoopState, dict]:
+    if train.ref_deg is None:
+        raise FringeInputError("the closed loop needs a reference (a ref_deg column) to measure the residual; "
+                               "without one, run 'fringe calibrate' (reference-free: conic and waveform "
+                               "against the smooth-motion phase)", train.path)
+    if validate is None:
+        fit_data, val_data, val_name = (*split(train), "interleaved half of the recording")
+    else:
+        if validate.ref_deg is None:
+            raise FringeInputError("the validation recording has no ref_deg column", validate.path)
+        fit_data, val_data, val_name = train, validate, validate.path
+    state = base = LoopState(calibrate(fit_data, enc))
+    ev_fit, ev_val = evaluate(state, fit_data), evaluate(state, val_data)
+    sigma = noise_sigma(ev_fit.r)
+    report = {"data": train.path, "validation": val_name, "noise_floor_arcsec": round(sigma, 4),
+              "noise_floor_method": "robust RMS of successive differences of the residual / sqrt(2)",
+              "before": _figs(ev_val), "effects_added": [], "effects_rejected": [], "iterations": []}
+    excluded: set = set()
+    for _ in range(MAX_EFFECTS):
+        tests, skipped = candidates(ev_fit, sigma, excluded)
+        good = [t for t in tests if t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * ev_fit.rms]
+        report["iterations"].append({"residual_rms_arcsec": round(ev_fit.rms, 4), "tests": [
+            {"effect": t.name, "explained_rms_arcsec": round(t.explained_rms, 4), "p_value": t.p_value,
+             "dof": t.dof} for t in sorted(tests, key=lambda t: t.rms_after)], "not_testable": skipped})
+        if not good:
+            break
+        # BIC: between effects that explain nearly the same, the one with fewer terms
+        n = len(ev_fit.r)
+        best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
+        trial = apply(state, best, fit_data)
+        val_after = evaluate(trial, val_data)
+        entry = {"name": best.name, **describe(best.name),
+                 "evidence": f"explains {best.explained_rms:.3f}\" RMS of the residual ({best.dof} terms, "
+                             f"p = {best.p_value:.1e} against the {sigma:.3f}\" noise floor)"
+                             + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
+                 "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
+        excluded.add(best.name)
+        if val_after.rms < (1 - 0.5 * MIN_GAIN) * ev_val.rms:
+            report["effects_added"].append(entry)
+            state, ev_val = trial, val_after
+            ev_fit = evaluate(state, fit_data)
+        else:
+            entry["why_not_kept"] = f"did not lower the error on the validation data ({val_name})"
+            report["effects_rejected"].append(entry)
+    report["after"] = _figs(ev_val)
+    report["unexplained"] = unexplained(ev_fit, sigma)
+    report["artefacts"] = [a.to_dict() for a in state.artefacts]
+    if state.ref_lag_s:
+        report["artefacts"].append({"name": "ref_lag", "lag_s": state.ref_lag_s,
+                                    "correction": "artefact", "where": LIBRARY["ref_lag"].where})
+    return base, state, report
+
+
+def _figs(ev: Evaluation) -> dict:
+    return {"rms_arcsec": round(ev.rms, 4), "pp_arcsec": round(float(np.ptp(ev.r)), 4),
+            "interp_pp_arcsec": ev.figures["interp_pp_arcsec"], "lp_pp_arcsec": ev.figures["lp_pp_arcsec"]}
+
+
+def _fourier(x: np.ndarray, orders) -> np.ndarray:
+    return np.column_stack([f(k * x) for k in orders for f in (np.cos, np.sin)])
+
+
+def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
+    """What is still significant, by domain (or why a domain could not be tested)."""
+    ctx = ev.ctx
+    domains = {
+        "fine phase": (lambda: _fourier(ctx.phi, range(1, 33)), None),
+        "revolution": (lambda: _fourier(ctx.psi, range(1, 65)), None),
+        "fine phase x revolution": (lambda: LIBRARY["rev_offset_gain"].design(ctx), None),
+        "time (trend)": (lambda: np.column_stack([np.polynomial.legendre.Legendre.basis(d)(
+            2 * (ctx.t - ctx.t[0]) / max(np.ptp(ctx.t), 1e-12) - 1) for d in (1, 2, 3)]), None),
+        "speed": (lambda: np.column_stack([ctx.speed, ctx.speed ** 2]), testable("ref_lag", ctx)),
+        "acceleration": (lambda: ctx.accel[:, None], testable("acceleration", ctx)),
+        "direction": (lambda: ctx.direction[:, None].astype(float), testable("hysteresis", ctx)),
+        "amplitude": (lambda: LIBRARY["amplitude"].design(ctx), None),
+    }
+    out = []
+    for domain, (design, why) in domains.items():
+        if why:
+            out.append({"domain": domain, "description": f"not tested: {why}", "rms_arcsec": None})
+            continue
+        x = design()
+        if len(ev.r) < 4 * x.shape[1]:
+            out.append({"domain": domain, "description": "not tested: too few samples for this domain",
+                        "rms_arcsec": None})
+            continue
+        t = test_terms(ev.r, x, sigma, domain)
+        if t.p_value < P_VALUE and t.explained_rms > 0.1 * sigma:
+            out.append({"domain": domain, "description": f"significant structure left ({t.dof} terms, "
+                        f"p = {t.p_value:.1e}); no effect in the library explains it",
+                        "rms_arcsec": round(t.explained_rms, 4)})
+    tone = find_tone(ev.r, ctx)
+    if tone:
+        t = test_terms(ev.r, tone_columns(ctx, tone), sigma, "tone", tone)
+        if t.p_value < P_VALUE and t.explained_rms > 0.1 * sigma:
+            out.append({"domain": "time (tones)", "description": f"a line at {tone:.3f} Hz",
+                        "rms_arcsec": round(t.explained_rms, 4)})
+    out.append({"domain": "noise", "description": "random part (the floor)", "rms_arcsec": round(sigma, 4)})
+    return out
+
+
+def write_outputs(base: LoopState, state: LoopState, report: dict, train: Measurement,
+                  validate: Measurement | None, out_dir: str):
+    """DIR/report.json, DIR/report.md with plots, DIR/cal/; all or nothing."""
+    from .calstore import save_calibration
+    from .loopreport import write_markdown, write_plots
+
+    parent = os.path.dirname(os.path.abspath(out_dir))
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(dir=parent, prefix=".tmp-loop-")
+    try:
+        save_calibration(state.cal, os.path.join(tmp, "cal"))
+        plots = write_plots(base, state, train if validate is None else validate, tmp)
+        with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
+            json.dump(report, f, indent=2, default=float)
+            f.write("\n")
+        write_markdown(report, plots, os.path.join(tmp, "report.md"))
+        if os.path.isdir(out_dir):
+            shutil.rmtree(out_dir)
+        os.replace(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

