@@ -5,36 +5,19 @@ RMS within 25 % of the noise floor, which the simulator knows exactly: the same 
 the additive noise, through the same correction (`evaluate.noise_floor_arcsec`).
 """
 
-import dataclasses
 import json
 
 import pytest
 
 from fringe.evaluate import measurement_of, noise_floor_arcsec
 from fringe.loop import run_loop
-from fringe.simulate import seed_encoder, simulate
-
-SAMPLES = 100_000
-
-CASES = {
-    "none": ({}, set()),
-    "rev_offset_gain": (dict(rev_offset_mod_sin={1: (0.004, 0.0)}, rev_gain_mod={1: (0.003, 0.002)}),
-                        {"rev_offset_gain"}),
-    "sampling_skew": (dict(sampling_skew_s=2e-6), {"sampling_skew"}),
-    "drift": (dict(drift_offset_rms=0.003, drift_gain_rms=0.003), {"drift"}),
-    "hysteresis": (dict(hysteresis_arcsec=3.0), {"hysteresis"}),
-    "ref_lag": (dict(ref_lag_s=2e-5), {"ref_lag"}),
-    "tone": (dict(vibration_arcsec=2.0, vibration_hz=37.0), {"tone"}),
-    "eccentricity+hysteresis": (dict(rev_offset_mod_sin={1: (0.004, 0.0)}, rev_gain_mod={1: (0.003, 0.002)},
-                                     hysteresis_arcsec=3.0), {"rev_offset_gain", "hysteresis"}),
-    "ref_lag+skew": (dict(ref_lag_s=2e-5, sampling_skew_s=2e-6), {"ref_lag", "sampling_skew"}),
-}
+from fringe.scenarios import SCENARIOS, scenario
+from fringe.simulate import simulate
 
 
-@pytest.mark.parametrize("case", list(CASES))
+@pytest.mark.parametrize("case", list(SCENARIOS))
 def test_loop_names_the_undeclared_effect(case):
-    effects, expected = CASES[case]
-    cfg = dataclasses.replace(seed_encoder(), samples=SAMPLES, **effects)
+    cfg, expected = scenario(case)
     base, state, report = run_loop(measurement_of(simulate(cfg, 1)), cfg.encoder(), measurement_of(simulate(cfg, 2)))
     found = {e["name"] for e in report["effects_added"]}
     assert found == expected, json.dumps(report["effects_added"], indent=1)

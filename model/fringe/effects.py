@@ -157,8 +157,9 @@ LIBRARY = {
         "an error following the acceleration", "artefact", "the mechanical set-up; nothing in the hardware",
         _accel_cols, ("speed",)),
     "amplitude": Effect(
-        "amplitude", "error depending on the signal amplitude (waveform changes with air gap, ADC nonlinearity)",
-        "an error following the corrected magnitude", "artefact", "not modelled further: reported",
+        "amplitude", "error depending on the signal amplitude (the waveform's shape changes with the air gap)",
+        "fine-phase order 2 and an offset whose size follows the corrected magnitude",
+        "hardware", "magnitude-dependent phase correction (the CORDIC magnitude, known online)",
         _amplitude_cols),
 }
 

@@ -32,7 +32,7 @@ from .pipeline import Calibration, run_float, sample_times
 P_VALUE = 1e-6
 MIN_GAIN = 0.01          # an effect must remove at least this fraction of the residual RMS
 MAX_EFFECTS = 5
-VALIDATION_BLOCKS = 50   # interleaved blocks when there is no --validate recording
+VALIDATION_BLOCKS = 500  # interleaved blocks when there is no --validate recording
 
 
 def noise_sigma(r: np.ndarray) -> float:
@@ -71,10 +71,14 @@ def evaluate(state: LoopState, meas: Measurement) -> Evaluation:
     r = error_arcsec(res.angle_deg, meas.ref_deg)
     ctx = make_context(res.frac, res.position, state.cal.encoder.lines_per_rev, sample_times(len(r), meas.t_s),
                        res.magnitude)
-    for art in state.artefacts:       # refitted on each recording: they do not belong to the encoder
+    for art in state.artefacts:
         x = _design(art.name, ctx, art.tone_hz)
-        w, *_ = np.linalg.lstsq(x - x.mean(0), r - r.mean(), rcond=None)
-        r = r - (x - x.mean(0)) @ w
+        x = x - x.mean(0)
+        if art.name == "tone":          # a tone's phase does not repeat between recordings: refit it
+            w, *_ = np.linalg.lstsq(x, r - r.mean(), rcond=None)
+        else:                            # everything else must repeat: the weights fitted on the fit data
+            w = art.weights
+        r = r - x @ w
     r = r - r.mean()
     fig = error_figures(r, res.frac, res.position / state.cal.encoder.lines_per_rev).to_dict()
     return Evaluation(r, ctx, fig, float(np.sqrt(np.mean(r * r))))
@@ -119,16 +123,26 @@ def testable(name: str, ctx: Context) -> str | None:
     return None
 
 
-def find_tone(r: np.ndarray, ctx: Context) -> float | None:
-    """Frequency (Hz) of the strongest line in the residual's spectrum over time, if the time axis is uniform."""
+def find_tone(r: np.ndarray, ctx: Context) -> tuple[float, int] | None:
+    """The strongest line in the residual's spectrum over time (Hz) and how many lines were searched.
+
+    Needs a uniform time axis. At a steady speed, time and position are the same axis: a line at a
+    multiple of the revolution rate is then a position error, not a tone, and is not offered.
+    """
     dt = np.diff(ctx.t)
     if len(r) < 256 or np.ptp(dt) > 1e-3 * np.mean(dt):
         return None
     spec = np.abs(np.fft.rfft((r - r.mean()) * np.hanning(len(r)))) ** 2
     freqs = np.fft.rfftfreq(len(r), np.mean(dt))
     spec[:4] = 0                       # slow trends belong to the drift test
+    v = np.abs(ctx.speed)
+    if np.std(v) < 0.05 * np.mean(v):  # steady speed: drop the revolution harmonics (+- one bin)
+        rate = np.mean(v)
+        m = np.round(freqs / rate)
+        bin_hz = freqs[1] if len(freqs) > 1 else 1.0
+        spec[(m >= 1) & (np.abs(freqs - m * rate) <= 1.5 * bin_hz)] = 0
     k = int(np.argmax(spec))
-    return float(freqs[k]) if spec[k] > 50 * np.median(spec[1:]) else None
+    return (float(freqs[k]), len(spec)) if spec[k] > 50 * np.median(spec[1:]) else None
 
 
 def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
@@ -142,9 +156,12 @@ def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], 
             continue
         tests.append(test_terms(ev.r, LIBRARY[name].design(ev.ctx), sigma, name))
     if "tone" not in exclude:
-        f = find_tone(ev.r, ev.ctx)
-        if f:
-            tests.append(test_terms(ev.r, tone_columns(ev.ctx, f), sigma, "tone", f))
+        found = find_tone(ev.r, ev.ctx)
+        if found:
+            f, searched = found
+            t = test_terms(ev.r, tone_columns(ev.ctx, f), sigma, "tone", f)
+            t.p_value = min(1.0, t.p_value * searched)      # the strongest of `searched` lines
+            tests.append(t)
     return tests, skipped
 
 
@@ -337,10 +354,11 @@ def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
             out.append({"domain": domain, "description": f"significant structure left ({t.dof} terms, "
                         f"p = {t.p_value:.1e}); no effect in the library explains it",
                         "rms_arcsec": round(t.explained_rms, 4)})
-    tone = find_tone(ev.r, ctx)
-    if tone:
+    found = find_tone(ev.r, ctx)
+    if found:
+        tone, searched = found
         t = test_terms(ev.r, tone_columns(ctx, tone), sigma, "tone", tone)
-        if t.p_value < P_VALUE and t.explained_rms > 0.1 * sigma:
+        if t.p_value * searched < P_VALUE and t.explained_rms > 0.1 * sigma:
             out.append({"domain": "time (tones)", "description": f"a line at {tone:.3f} Hz",
                         "rms_arcsec": round(t.explained_rms, 4)})
     out.append({"domain": "noise", "description": "random part (the floor)", "rms_arcsec": round(sigma, 4)})
