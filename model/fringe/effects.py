@@ -41,6 +41,7 @@ class Context:
     accel: np.ndarray   # rev/s^2
     direction: np.ndarray   # +1 / -1
     magnitude: np.ndarray   # corrected signal magnitude (1 nominal)
+    lines: int = 1          # signal periods per revolution
 
 
 def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, alpha: float = SPEED_ALPHA) -> np.ndarray:
@@ -61,7 +62,7 @@ def make_context(frac: np.ndarray, position_periods: np.ndarray, lines: int, t: 
     acc = np.gradient(v, t) if len(t) > 2 else np.zeros_like(v)
     d = np.sign(v)
     d[d == 0] = 1
-    return Context(2 * np.pi * frac, 2 * np.pi * (rev % 1.0), t, v, acc, d, magnitude)
+    return Context(2 * np.pi * frac, 2 * np.pi * (rev % 1.0), t, v, acc, d, magnitude, lines)
 
 
 def _rev_modulated(orders_phi, ctx: Context, m_orders=REV_ORDERS) -> list[np.ndarray]:
@@ -133,7 +134,7 @@ LIBRARY = {
         "rev_offset_gain", "offsets and gains that vary over the revolution (disc or magnet eccentricity, air gap)",
         "fine-phase orders 1 and 2 whose size follows the revolution (sidebands of the signal period)",
         "hardware", "per-sector offset/gain correction indexed by the position in the revolution",
-        lambda ctx: _rev_modulated((1, 2), ctx)),
+        lambda ctx: _rev_modulated((1, 2), ctx), ("periods",)),
     "sampling_skew": Effect(
         "sampling_skew", "the two channels are sampled at different instants",
         "speed x (1 - cos 2 phi): a second-order fine-phase error and half as much lag, both in proportion to speed",

@@ -120,6 +120,9 @@ def testable(name: str, ctx: Context) -> str | None:
         return "the recording moves in one direction only"
     if "time" in needs and len(ctx.t) < 200:
         return "too few samples in time"
+    if "periods" in needs and ctx.lines < 4:
+        return (f"with {ctx.lines} signal period(s) per revolution the revolution and the fine phase are nearly "
+                "the same angle: a change over the revolution is a waveform error (the tables own it)")
     return None
 
 
@@ -292,14 +295,19 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         # BIC: between effects that explain nearly the same, the one with fewer terms
         n = len(ev_fit.r)
         best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
-        trial = apply(state, best, fit_data)
+        excluded.add(best.name)
+        try:
+            trial = apply(state, best, fit_data)
+        except FringeInputError as e:
+            report["effects_rejected"].append({"name": best.name, **describe(best.name), "evidence": "",
+                                               "why_not_kept": f"re-calibration with it failed: {e}"})
+            continue
         val_after = evaluate(trial, val_data)
         entry = {"name": best.name, **describe(best.name),
                  "evidence": f"explains {best.explained_rms:.3f}\" RMS of the residual ({best.dof} terms, "
                              f"p = {best.p_value:.1e} against the {sigma:.3f}\" noise floor)"
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
                  "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
-        excluded.add(best.name)
         if val_after.rms < (1 - 0.5 * MIN_GAIN) * ev_val.rms:
             report["effects_added"].append(entry)
             state, ev_val = trial, val_after
@@ -331,7 +339,7 @@ def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
     domains = {
         "fine phase": (lambda: _fourier(ctx.phi, range(1, 33)), None),
         "revolution": (lambda: _fourier(ctx.psi, range(1, 65)), None),
-        "fine phase x revolution": (lambda: LIBRARY["rev_offset_gain"].design(ctx), None),
+        "fine phase x revolution": (lambda: LIBRARY["rev_offset_gain"].design(ctx), testable("rev_offset_gain", ctx)),
         "time (trend)": (lambda: np.column_stack([np.polynomial.legendre.Legendre.basis(d)(
             2 * (ctx.t - ctx.t[0]) / max(np.ptp(ctx.t), 1e-12) - 1) for d in (1, 2, 3)]), None),
         "speed": (lambda: np.column_stack([ctx.speed, ctx.speed ** 2]), testable("ref_lag", ctx)),
