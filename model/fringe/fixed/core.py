@@ -209,3 +209,35 @@ def run_model(cal: Calibration, cfg: CoreConfig, sin, cos, coarse=None, tables: 
     o = run_core(t, cfg, to_adc_codes(sin, cfg.adc_w, "sin"), to_adc_codes(cos, cfg.adc_w, "cos"), coarse)
     return Result(angle_deg=o.pos * (360.0 / cfg.rev), status=o.status, frac=o.phase / float(1 << cfg.fine_w),
                   position=o.count_pos / float(1 << cfg.fine_w), magnitude=o.mag.astype(float))
+
+
+def error_budget(t: CoreTables, cfg: CoreConfig, quad_float=None) -> dict:
+    """Bound on |model - float engine| per stage and in total, in arcsec of the output angle.
+
+    - waveform tables: `wave_lut.error_budget` (table quantisation and linear interpolation between
+      2^WAVE_ADDR_W points), the worse channel, both channels adding; an error dx in a unit-circle
+      component moves the angle by at most dx / r (r the corrected magnitude, >= 1/2 unless AMP_LOW);
+    - quadrature: `quadrature.error_budget` (rounding and coefficient quantisation), s and c;
+    - CORDIC: `cordic.phase_error_bound` at the smallest magnitude that does not raise AMP_LOW;
+    - long period: `long_period.error_budget` (interpolation between 2^LP_ADDR_W entries, rounding);
+    - output: the position is an integer number of fine counts (1/2 count).
+    The float engine's own dense tables are exact to well below these.
+    """
+    counts_per_rad = (1 << cfg.fine_w) / (2 * math.pi)
+    lsb_rad = 2.0 ** -(cfg.wave_w - 2)
+    r_min = 0.5                                      # AMP_LOW is set at half the calibrated magnitude
+    wl = cfg.wave_lut()
+    wave = sum(float(np.max(wave_mod.error_budget(wl, tab))) for tab in (t.wave_sin, t.wave_cos)) * lsb_rad / r_min
+    k = quad_float or (1.0, 0.0, 1.0)
+    bs, bc = quad_mod.error_budget(cfg.quadrature(), *k)
+    quad = (bs + bc) * lsb_rad / r_min
+    cp = cfg.cordic()
+    r_lsb = r_min * (1 << (cfg.wave_w - 2))
+    cordic = float(cordic_mod.phase_error_bound(cp, r_lsb))
+    lp = lp_mod.error_budget(long_period_params(cfg), t.lp)
+    arcsec_per_count = ARCSEC_PER_REV / cfg.rev
+    stages = {"wave_tables": wave * counts_per_rad, "quadrature": quad * counts_per_rad, "cordic": cordic,
+              "long_period": lp, "output_rounding": 0.5}
+    out = {name: round(v * arcsec_per_count, 5) for name, v in stages.items()}
+    out["total_arcsec"] = round(sum(stages.values()) * arcsec_per_count, 5)
+    return out
