@@ -13,6 +13,7 @@ from .calibrate import ellipse_only, seed_method, uncorrected
 from .calstore import load_calibration
 from .dataio import read_measurement
 from .encoder import load_encoder
+from .engines import run_engine
 from .metrics import error_arcsec, error_figures
 from .pipeline import run_float
 from .report import error_plot, lissajous_plot
@@ -35,23 +36,27 @@ def main(argv=None) -> int:
          "--seed", "1"])
     run(["simulate", "--preset", "seed-encoder", "--out", p("validation.csv"), "--seed", "2"])
     run(["calibrate", p("calibration.csv"), "--encoder", p("encoder.json"), "--out", p("cal"), "--plots"])
-    run(["correct", p("validation.csv"), "--cal", p("cal"), "--out", p("corrected.csv"), "--engine", "float"])
+    run(["correct", p("validation.csv"), "--cal", p("cal"), "--out", p("corrected.csv")])
 
     enc = load_encoder(p("encoder.json"))
     cal = load_calibration(p("cal"))
     train = read_measurement(p("calibration.csv"), enc)
     val = read_measurement(p("validation.csv"), enc)
     methods = {"uncorrected": uncorrected(cal, val), "ellipse only (Heydemann)": ellipse_only(cal, train),
-               "seed 001+000 method": seed_method(cal, train), "fringe": cal}
+               "seed 001+000 method": seed_method(cal, train), "fringe (float)": cal,
+               "fringe (bit-exact core)": "model"}
     print("\nError on the validation recording against ref_deg (arcsec; systematic parts are bin means):")
     print(f"{'method':28s} {'RMS':>8s} {'p-p':>8s} {'interp p-p':>11s} {'long-period p-p':>16s}")
     curves = {}
     for name, c in methods.items():
-        res = run_float(c, val.sin, val.cos, val.coarse, val.t_s)
+        if c == "model":
+            res = run_engine("model", cal, val, p("cal"))
+        else:
+            res = run_float(c, val.sin, val.cos, val.coarse, val.t_s)
         err = error_arcsec(res.angle_deg, val.ref_deg)
         f = error_figures(err, res.frac, res.position / enc.lines_per_rev)
         print(f"{name:28s} {f.rms_arcsec:8.2f} {f.pp_arcsec:8.2f} {f.interp_pp_arcsec:11.2f} {f.lp_pp_arcsec:16.2f}")
-        if name in ("uncorrected", "fringe"):
+        if name in ("uncorrected", "fringe (bit-exact core)"):
             curves[name] = (err, res.frac, res.position / enc.lines_per_rev)
     print("(seed 001 reports 162.5\" -> 47.5\" p-p interpolation error; seed 000 +45/-17.5\" -> +10/-8.75\")")
     error_plot(p("error_before_after.png"), curves)
