@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+LATENCY = 6   # clock enables in the RTL: index, table read, product, correction, wrap, zero and direction
 NAME = "fringe_long_period"
 
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+LATENCY = 2   # clock enables in the RTL: delta and coarse centre; period number and position
 NAME = "fringe_period_count"
 
 
