@@ -2,12 +2,11 @@
 
 import json
 import os
-import shutil
-import tempfile
 
 import numpy as np
 
 from . import __version__
+from .dataio import atomic_dir
 from .encoder import encoder_from_dict
 from .errors import FringeInputError
 from .longperiod import FourierSeries
@@ -58,10 +57,7 @@ def to_json_dict(cal: Calibration) -> dict:
 
 def save_calibration(cal: Calibration, out_dir: str, extra_files: dict | None = None):
     """Write everything into a temporary folder and move it into place only when complete."""
-    parent = os.path.dirname(os.path.abspath(out_dir))
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(dir=parent, prefix=".tmp-cal-")
-    try:
+    with atomic_dir(out_dir, ".tmp-cal-") as tmp:
         with open(os.path.join(tmp, CAL_JSON), "w", encoding="utf-8") as f:
             json.dump(to_json_dict(cal), f, indent=2, default=_jsonable)
             f.write("\n")
@@ -69,14 +65,6 @@ def save_calibration(cal: Calibration, out_dir: str, extra_files: dict | None = 
             write_wave_tables(os.path.join(tmp, WAVE_CSV), cal.inv_sin, cal.inv_cos)
         for name, writer in (extra_files or {}).items():
             writer(os.path.join(tmp, name))
-        if os.path.isdir(out_dir):
-            shutil.rmtree(out_dir)
-        elif os.path.exists(out_dir):
-            raise FringeInputError("exists and is not a directory", out_dir)
-        os.replace(tmp, out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
 
 
 def _jsonable(o):

@@ -156,6 +156,26 @@ def atomic_output(path: str, mode: str = "w"):
         raise
 
 
+@contextmanager
+def atomic_dir(out_dir: str, prefix: str = ".tmp-"):
+    """Build a folder under a temporary name beside `out_dir`; it replaces `out_dir` only on success."""
+    import shutil
+
+    parent = os.path.dirname(os.path.abspath(out_dir))
+    os.makedirs(parent, exist_ok=True)
+    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
+        raise FringeInputError("exists and is not a directory", out_dir)
+    tmp = tempfile.mkdtemp(dir=parent, prefix=prefix)
+    try:
+        yield tmp
+        if os.path.isdir(out_dir):
+            shutil.rmtree(out_dir)
+        os.replace(tmp, out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
 def write_csv(path: str, columns: dict, comments: tuple[str, ...] = (), formats: dict | None = None):
     """Write columns (equal-length arrays) as the spec's CSV, atomically."""
     names = list(columns)

@@ -14,15 +14,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
 
 from .calibrate import calibrate
-from .dataio import Measurement
+from .dataio import Measurement, atomic_dir
 from .effects import LIBRARY, Context, FittedEffect, make_context, tone_columns
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
@@ -379,19 +377,10 @@ def write_outputs(base: LoopState, state: LoopState, report: dict, train: Measur
     from .calstore import save_calibration
     from .loopreport import write_markdown, write_plots
 
-    parent = os.path.dirname(os.path.abspath(out_dir))
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(dir=parent, prefix=".tmp-loop-")
-    try:
+    with atomic_dir(out_dir, ".tmp-loop-") as tmp:
         save_calibration(state.cal, os.path.join(tmp, "cal"))
         plots = write_plots(base, state, train if validate is None else validate, tmp)
         with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
             json.dump(report, f, indent=2, default=float)
             f.write("\n")
         write_markdown(report, plots, os.path.join(tmp, "report.md"))
-        if os.path.isdir(out_dir):
-            shutil.rmtree(out_dir)
-        os.replace(tmp, out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise

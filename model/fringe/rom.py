@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
-import tempfile
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import __version__
+from .dataio import atomic_dir
 from .fixed import long_period as lp_mod
 from .fixed import wave_lut as wave_mod
 from .fixed.config import CoreConfig
@@ -131,17 +130,8 @@ def write_roms(t: CoreTables, cfg: CoreConfig, out_dir: str, formats=("mem",), c
                 files[f"{im.name}.{fmt}"] = render(im, fmt, cfg, command)
     files["core.json"] = json.dumps({"config": cfg.to_dict(), "hdl_parameters": cfg.hdl_parameters(),
                                      "command": command}, indent=2, sort_keys=True) + "\n"
-    parent = os.path.dirname(os.path.abspath(out_dir))
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(dir=parent, prefix=".tmp-rom-")
-    try:
+    with atomic_dir(out_dir, ".tmp-rom-") as tmp:
         for name, text in files.items():
             with open(os.path.join(tmp, name), "w", encoding="ascii", newline="\n") as f:
                 f.write(text)
-        if os.path.isdir(out_dir):
-            shutil.rmtree(out_dir)
-        os.replace(tmp, out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return sorted(files)

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from ..encoder import Encoder
 from .cordic import CordicParams
+from .period_count import rev_and_pos_w
 from .quadrature import QuadratureParams
 from .wave_lut import WaveLutParams
 
@@ -42,11 +43,11 @@ class CoreConfig:
     @property
     def rev(self) -> int:
         """Fine counts per revolution."""
-        return self.lines << self.fine_w
+        return rev_and_pos_w(self.lines, self.fine_w)[0]
 
     @property
     def pos_w(self) -> int:
-        return max(1, (self.rev - 1).bit_length())
+        return rev_and_pos_w(self.lines, self.fine_w)[1]
 
     def wave_lut(self) -> WaveLutParams:
         return WaveLutParams(self.adc_w, self.wave_addr_w, self.wave_w)

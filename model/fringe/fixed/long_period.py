@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .period_count import rev_and_pos_w
+
 LATENCY = 6   # clock enables in the RTL: index, table read, product, correction, wrap, zero and direction
 NAME = "fringe_long_period"
 
@@ -48,11 +50,12 @@ class LongPeriodParams:
 
     @property
     def rev(self) -> int:
-        return self.lines << self.fine_w
+        """Fine counts per revolution."""
+        return rev_and_pos_w(self.lines, self.fine_w)[0]
 
     @property
     def pos_w(self) -> int:
-        return max(1, (self.rev - 1).bit_length())
+        return rev_and_pos_w(self.lines, self.fine_w)[1]
 
     @property
     def recip(self) -> int:

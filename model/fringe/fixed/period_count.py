@@ -24,6 +24,12 @@ LATENCY = 2   # clock enables in the RTL: delta and coarse centre; period number
 NAME = "fringe_period_count"
 
 
+def rev_and_pos_w(lines: int, fine_w: int) -> tuple[int, int]:
+    """Fine counts per revolution, and the bits of a position in [0, REV)."""
+    rev = lines << fine_w
+    return rev, max(1, (rev - 1).bit_length())
+
+
 @dataclass(frozen=True)
 class PeriodCountParams:
     fine_w: int     # FINE_W: fine phase bits per period, 8..30
@@ -47,11 +53,11 @@ class PeriodCountParams:
 
     @property
     def rev(self) -> int:
-        return self.lines << self.fine_w
+        return rev_and_pos_w(self.lines, self.fine_w)[0]
 
     @property
     def pos_w(self) -> int:
-        return max(1, (self.rev - 1).bit_length())
+        return rev_and_pos_w(self.lines, self.fine_w)[1]
 
     @property
     def coarse_tol(self) -> int:
