@@ -70,7 +70,8 @@ def top_parameters(cfg: CoreConfig, init_dir: str | os.PathLike | None = None,
     parameters with their quotes, GHDL without)."""
     lpp = long_period_params(cfg)
     p: dict[str, object] = dict(cfg.hdl_parameters())
-    p["LP_RECIP"] = int(lpp.recip)
+    # LP_RECIP is a 64-bit parameter in Verilog (a natural, < 2^31, in VHDL)
+    p["LP_RECIP"] = f"64'd{int(lpp.recip)}" if sim == "verilator" else int(lpp.recip)
     p["LP_SHIFT"] = int(lpp.shift)
     if init_dir is not None:
         for generic, stem in INIT_FILES.items():

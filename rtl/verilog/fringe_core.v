@@ -1,0 +1,316 @@
+// fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock.
+//
+//   sin, cos s(ADC_W) -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
+//   -> fringe_cordic -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W))
+//   -> fringe_long_period -> pos u(POS_W), status (8 bits)
+// Formats, register map and status word: docs/architecture.md. Bit-exact model:
+// model/fringe/fixed/core.py (run_core; run_core_banks for a bank swap in mid-stream).
+//
+// Register file: 2 banks x 16 words of 32 bits (model/fringe/fixed/regmap.py), initialised from
+// REGS_INIT (bank 0 words 0..15, then bank 1). Every sample takes the active bank when it is
+// accepted and carries the bank bit (and its early flags: clip, sat, magnitude) in the blocks'
+// user sideband, so each stage reads the tables and registers of the sample's own bank:
+//   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, AMP_LOW/AMP_HIGH
+//   at the CORDIC output, COARSE_OFS at the period-count input, ZERO/DIR at the long-period input.
+// Configuration write port (independent of ce): cfg_wr_addr[17:16] selects 0 registers and
+// control, 1 sine table, 2 cosine table, 3 long-period table; cfg_wr_addr[15:0] is the word within
+// one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
+// Writes always go to the inactive bank. Register word 0x80 is CTRL: writing bit 0 = 1 swaps the
+// banks at that clock edge; a sample accepted at the same edge still takes the old bank, every
+// later sample the new one. Software rule: after a swap, wait until the samples accepted before
+// it have come out (LATENCY clock enables) before writing the now inactive bank.
+// rst (synchronous, active high) clears the sample pipeline (valid bits, the period counter);
+// the register file, the tables and the active bank are configuration and keep their values
+// (power-up: bank 0, the init files).
+//
+// LATENCY = CORDIC_STAGES + 18 clock enables from in_valid to out_valid:
+//   1 input register (branch select) + 3 fringe_wave_lut + 4 fringe_quadrature
+//   + CORDIC_STAGES+2 fringe_cordic + 2 fringe_period_count + 6 fringe_long_period.
+// ce = 0 freezes the pipeline (the tables keep their write port).
+
+`default_nettype none
+
+module fringe_core #(
+    parameter integer ADC_W         = 12,  // ADC code width (signed), 4..24
+    parameter integer LINES         = 256, // signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
+    parameter integer COARSE_W      = 9,   // coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
+    parameter integer WAVE_ADDR_W   = 8,   // waveform table address bits per branch, 2..min(ADC_W-1, 15)
+    parameter integer WAVE_W        = 18,  // waveform table / quadrature data width, 8..31
+    parameter integer COEF_W        = 18,  // quadrature gain width (COEF_W-2 fraction bits), 8..27
+    parameter integer FINE_W        = 16,  // fine phase bits per signal period, 8..30
+    parameter integer CORDIC_STAGES = 18,  // CORDIC micro-rotations, 4..32
+    parameter integer CORDIC_GUARD  = 3,   // extra fraction bits inside the CORDIC, 0..8
+    parameter integer LP_ADDR_W     = 8,   // long-period table entries per revolution = 2^LP_ADDR_W, <= 16
+    parameter integer LP_W          = 18,  // long-period table value/slope width, <= 32
+    parameter integer LP_FRAC       = 4,   // fraction bits of the long-period correction (fine counts)
+    parameter integer LP_IF         = 8,   // interpolation fraction bits of the long-period table
+    parameter [63:0]  LP_RECIP      = 64'd1, // long-period index multiplier (fringe.fixed.long_period.index_mapping)
+    parameter integer LP_SHIFT      = 16,  // long-period index shift (fringe.fixed.long_period.index_mapping)
+    parameter         REGS_INIT     = "",  // $readmemh image of the registers, 2 x 16 words of 32 bits
+    parameter         WAVE_SIN_INIT = "",  // $readmemh image of the sine table, both banks
+    parameter         WAVE_COS_INIT = "",  // $readmemh image of the cosine table, both banks
+    parameter         LP_INIT       = ""   // $readmemh image of the long-period table, both banks
+) (
+    input  wire             clk,
+    input  wire             rst,          // synchronous, active high: clears the sample pipeline
+    input  wire             ce,           // clock enable: the pipeline advances when 1
+    // sample in
+    input  wire             in_valid,
+    input  wire [ADC_W-1:0] sin,          // s(ADC_W)
+    input  wire [ADC_W-1:0] cos,          // s(ADC_W)
+    input  wire [((COARSE_W > 0) ? COARSE_W : 1)-1:0] coarse,  // u(COARSE_W); 1 bit, ignored, when COARSE_W = 0
+    // sample out
+    output wire             out_valid,
+    output wire [$clog2(LINES)+FINE_W-1:0] pos,  // u(POS_W) position, fine counts, [0, LINES*2^FINE_W)
+    output wire [7:0]       status,       // status word (docs/architecture.md), bit 7 = BANK
+    // configuration write port
+    input  wire             cfg_wr_en,
+    input  wire [17:0]      cfg_wr_addr,
+    input  wire [63:0]      cfg_wr_data,
+    output wire             active_bank
+);
+
+    // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
+    /* verilator lint_off UNUSEDPARAM */
+    localparam integer LATENCY = CORDIC_STAGES + 18;
+    /* verilator lint_on UNUSEDPARAM */
+    localparam integer POS_W   = $clog2(LINES) + FINE_W;        // clog2(LINES * 2^FINE_W)
+    localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width
+    localparam integer REG_W   = 32;
+    localparam integer AMP_W   = WAVE_W + 1;   // CORDIC magnitude u(WAVE_W+1)
+    localparam integer BR_W    = ADC_W + 1;    // branch thresholds s(ADC_W+1)
+
+    generate
+        if (POS_W > 31) begin : g_bad_pos_w
+            $error("fringe_core: POS_W = clog2(LINES) + FINE_W = %0d > 31: registers are 32-bit (instance %m)",
+                   POS_W);
+        end
+        if (LINES < 1) begin : g_bad_lines
+            $error("fringe_core: LINES = %0d must be >= 1 (instance %m)", LINES);
+        end
+        if (WAVE_ADDR_W + 1 > 16) begin : g_bad_wave_addr_w
+            $error("fringe_core: WAVE_ADDR_W = %0d: a table bank must fit the 16-bit word address (instance %m)",
+                   WAVE_ADDR_W);
+        end
+        if (LP_ADDR_W > 16) begin : g_bad_lp_addr_w
+            $error("fringe_core: LP_ADDR_W = %0d > 16: a table bank must fit the 16-bit word address (instance %m)",
+                   LP_ADDR_W);
+        end
+        if (WAVE_W > 31 || ADC_W > 31) begin : g_bad_reg_fields
+            $error("fringe_core: WAVE_W = %0d, ADC_W = %0d: register fields must fit 32 bits (instance %m)",
+                   WAVE_W, ADC_W);
+        end
+        if (LP_W > 32) begin : g_bad_lp_w
+            $error("fringe_core: LP_W = %0d > 32: a table word {slope, value} must fit cfg_wr_data (instance %m)",
+                   LP_W);
+        end
+    endgenerate
+
+    // ---- register file and bank control (configuration, not reset) ----------------------------
+    // regs[{bank, index}], index as in model/fringe/fixed/regmap.py
+    localparam [3:0] R_K_SS = 4'd0, R_K_SC = 4'd1, R_K_CC = 4'd2, R_OFS_S = 4'd3, R_OFS_C = 4'd4;
+    localparam [3:0] R_MID_S = 4'd5, R_THR_HI_S = 4'd6, R_THR_LO_S = 4'd7;
+    localparam [3:0] R_MID_C = 4'd8, R_THR_HI_C = 4'd9, R_THR_LO_C = 4'd10;
+    localparam [3:0] R_COARSE_OFS = 4'd11, R_ZERO = 4'd12, R_DIR = 4'd13, R_AMP_LOW = 4'd14, R_AMP_HIGH = 4'd15;
+    localparam [15:0] CTRL_WORD = 16'h0080;
+
+    reg [REG_W-1:0] regs [0:31];
+    reg             bank_r;
+
+    initial bank_r = 1'b0;   // power-up value (configuration: rst does not touch it)
+
+    generate
+        if (REGS_INIT != "") begin : g_regs_file
+            initial $readmemh(REGS_INIT, regs);
+        end else begin : g_regs_zero
+            integer i;
+            initial begin
+                for (i = 0; i < 32; i = i + 1) begin
+                    regs[i] = {REG_W{1'b0}};
+                end
+            end
+        end
+    endgenerate
+
+    wire [1:0]  cfg_sel  = cfg_wr_addr[17:16];
+    wire [15:0] cfg_word = cfg_wr_addr[15:0];
+    wire        wr_bank  = ~bank_r;   // writes go to the inactive bank
+
+    always @(posedge clk) begin
+        if (cfg_wr_en && cfg_sel == 2'd0 && cfg_word < 16'd16) begin
+            regs[{wr_bank, cfg_word[3:0]}] <= cfg_wr_data[REG_W-1:0];
+        end
+    end
+
+    always @(posedge clk) begin
+        if (cfg_wr_en && cfg_sel == 2'd0 && cfg_word == CTRL_WORD && cfg_wr_data[0]) begin
+            bank_r <= ~bank_r;
+        end
+    end
+
+    assign active_bank = bank_r;
+
+    // table write enables: the word must lie inside one bank
+    wire wave_word_ok = (cfg_word >> (WAVE_ADDR_W + 1)) == 16'd0;
+    wire lp_word_ok   = (cfg_word >> LP_ADDR_W) == 16'd0;
+    wire wr_sin       = cfg_wr_en && cfg_sel == 2'd1 && wave_word_ok;
+    wire wr_cos       = cfg_wr_en && cfg_sel == 2'd2 && wave_word_ok;
+    wire wr_lp        = cfg_wr_en && cfg_sel == 2'd3 && lp_word_ok;
+    wire [WAVE_ADDR_W+1:0] wave_wr_addr = {wr_bank, cfg_word[WAVE_ADDR_W:0]};
+    wire [LP_ADDR_W:0]     lp_wr_addr   = {wr_bank, cfg_word[LP_ADDR_W-1:0]};
+
+    // ---- stage 1 (registered): the sample takes the active bank; branch selects -----------------
+    // branch_s = cos >= (sin >= MID_S ? THR_HI_S : THR_LO_S), branch_c likewise with sin/cos swapped.
+    wire signed [BR_W-1:0] sin_x   = {sin[ADC_W-1], sin};
+    wire signed [BR_W-1:0] cos_x   = {cos[ADC_W-1], cos};
+    wire signed [BR_W-1:0] mid_s   = regs[{bank_r, R_MID_S}][BR_W-1:0];
+    wire signed [BR_W-1:0] hi_s    = regs[{bank_r, R_THR_HI_S}][BR_W-1:0];
+    wire signed [BR_W-1:0] lo_s    = regs[{bank_r, R_THR_LO_S}][BR_W-1:0];
+    wire signed [BR_W-1:0] mid_c   = regs[{bank_r, R_MID_C}][BR_W-1:0];
+    wire signed [BR_W-1:0] hi_c    = regs[{bank_r, R_THR_HI_C}][BR_W-1:0];
+    wire signed [BR_W-1:0] lo_c    = regs[{bank_r, R_THR_LO_C}][BR_W-1:0];
+    wire                   br_s0   = (sin_x >= mid_s) ? (cos_x >= hi_s) : (cos_x >= lo_s);
+    wire                   br_c0   = (cos_x >= mid_c) ? (sin_x >= hi_c) : (sin_x >= lo_c);
+
+    reg             valid1;
+    reg [ADC_W-1:0] sin1, cos1;
+    reg [CW-1:0]    coarse1;
+    reg             bank1, br_s1, br_c1;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            valid1 <= 1'b0;
+        end else if (ce) begin
+            valid1 <= in_valid;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            sin1    <= sin;
+            cos1    <= cos;
+            coarse1 <= coarse;
+            bank1   <= bank_r;
+            br_s1   <= br_s0;
+            br_c1   <= br_c0;
+        end
+    end
+
+    // ---- stages 2..4: waveform tables ------------------------------------------------------------
+    localparam integer U_WL = CW + 1;   // {coarse, bank}
+    wire              wl_valid;
+    wire [WAVE_W-1:0] xs, xc;
+    wire              clip_s, clip_c;
+    wire [U_WL-1:0]   wl_user;
+    wire              wl_valid_c;
+    wire [0:0]        wl_user_c;
+
+    fringe_wave_lut #(
+        .ADC_W(ADC_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W), .INIT_FILE(WAVE_SIN_INIT), .USER_W(U_WL)
+    ) u_wave_sin (
+        .clk(clk), .rst(rst), .ce(ce),
+        .in_valid(valid1), .adc(sin1), .branch(br_s1), .bank(bank1), .in_user({coarse1, bank1}),
+        .wr_en(wr_sin), .wr_addr(wave_wr_addr), .wr_data(cfg_wr_data[2*WAVE_W-1:0]),
+        .out_valid(wl_valid), .x(xs), .clip(clip_s), .out_user(wl_user)
+    );
+
+    // Same latency as the sine table: its valid and sideband duplicate the sine's.
+    fringe_wave_lut #(
+        .ADC_W(ADC_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W), .INIT_FILE(WAVE_COS_INIT), .USER_W(1)
+    ) u_wave_cos (
+        .clk(clk), .rst(rst), .ce(ce),
+        .in_valid(valid1), .adc(cos1), .branch(br_c1), .bank(bank1), .in_user(1'b0),
+        .wr_en(wr_cos), .wr_addr(wave_wr_addr), .wr_data(cfg_wr_data[2*WAVE_W-1:0]),
+        .out_valid(wl_valid_c), .x(xc), .clip(clip_c), .out_user(wl_user_c)
+    );
+
+    wire          wl_bank   = wl_user[0];
+    wire [CW-1:0] wl_coarse = wl_user[U_WL-1:1];
+
+    // ---- stages 5..8: quadrature, coefficients of the sample's bank ------------------------------
+    localparam integer U_Q = CW + 3;    // {coarse, clip_c, clip_s, bank}
+    wire              q_valid;
+    wire [WAVE_W-1:0] qs, qc;
+    wire              q_sat;
+    wire [U_Q-1:0]    q_user;
+
+    fringe_quadrature #(.WAVE_W(WAVE_W), .COEF_W(COEF_W), .USER_W(U_Q)) u_quad (
+        .clk(clk), .rst(rst), .ce(ce),
+        .in_valid(wl_valid), .xs(xs), .xc(xc), .in_user({wl_coarse, clip_c, clip_s, wl_bank}),
+        .ofs_s(regs[{wl_bank, R_OFS_S}][WAVE_W-1:0]),
+        .ofs_c(regs[{wl_bank, R_OFS_C}][WAVE_W-1:0]),
+        .k_ss(regs[{wl_bank, R_K_SS}][COEF_W-1:0]),
+        .k_sc(regs[{wl_bank, R_K_SC}][COEF_W-1:0]),
+        .k_cc(regs[{wl_bank, R_K_CC}][COEF_W-1:0]),
+        .out_valid(q_valid), .s(qs), .c(qc), .sat(q_sat), .out_user(q_user)
+    );
+
+    // ---- stages 9..CORDIC_STAGES+10: CORDIC (x = c, y = s) ---------------------------------------
+    localparam integer U_C = CW + 4;    // {coarse, sat, clip_c, clip_s, bank}
+    wire              c_valid;
+    wire [FINE_W-1:0] phase;
+    wire [AMP_W-1:0]  mag;
+    wire [U_C-1:0]    c_user;
+
+    fringe_cordic #(
+        .IN_W(WAVE_W), .FINE_W(FINE_W), .STAGES(CORDIC_STAGES), .GUARD(CORDIC_GUARD), .USER_W(U_C)
+    ) u_cordic (
+        .clk(clk), .rst(rst), .ce(ce),
+        .in_valid(q_valid), .x(qc), .y(qs), .in_user({q_user[U_Q-1:3], q_sat, q_user[2:0]}),
+        .out_valid(c_valid), .phase(phase), .mag(mag), .out_user(c_user)
+    );
+
+    wire          c_bank   = c_user[0];
+    wire [CW-1:0] c_coarse = c_user[U_C-1:4];
+    // magnitude flags with the thresholds of the sample's bank
+    wire [AMP_W-1:0] amp_low  = regs[{c_bank, R_AMP_LOW}][AMP_W-1:0];
+    wire [AMP_W-1:0] amp_high = regs[{c_bank, R_AMP_HIGH}][AMP_W-1:0];
+    wire             f_low    = mag < amp_low;
+    wire             f_high   = mag > amp_high;
+
+    // ---- period count ----------------------------------------------------------------------------
+    localparam integer U_P = 6;         // {amp_high, amp_low, sat, clip_c, clip_s, bank}
+    wire             p_valid;
+    wire [POS_W-1:0] p_pos;
+    wire             p_overspeed, p_coarse_err;
+    wire [U_P-1:0]   p_user;
+
+    fringe_period_count #(
+        .FINE_W(FINE_W), .LINES(LINES), .COARSE_W(COARSE_W), .USER_W(U_P)
+    ) u_count (
+        .clk(clk), .rst(rst), .ce(ce),
+        .in_valid(c_valid), .phase(phase), .coarse(c_coarse),
+        .coarse_ofs(regs[{c_bank, R_COARSE_OFS}][POS_W:0]),
+        .in_user({f_high, f_low, c_user[3:0]}),
+        .out_valid(p_valid), .pos(p_pos), .overspeed(p_overspeed), .coarse_err(p_coarse_err),
+        .out_user(p_user)
+    );
+
+    // ---- long-period table, zero and direction -------------------------------------------------
+    localparam integer U_L = 8;         // {bank, sat, coarse_err, overspeed, amp_high, amp_low, clip_c, clip_s}
+    wire p_bank = p_user[0];
+    wire [U_L-1:0] l_user;
+
+    fringe_long_period #(
+        .LINES(LINES), .FINE_W(FINE_W), .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC),
+        .LP_IF(LP_IF), .LP_RECIP(LP_RECIP), .LP_SHIFT(LP_SHIFT), .INIT_FILE(LP_INIT), .USER_W(U_L)
+    ) u_long (
+        .clk(clk), .rst(rst), .ce(ce),
+        .in_valid(p_valid), .pos(p_pos), .bank(p_bank),
+        .zero(regs[{p_bank, R_ZERO}][POS_W-1:0]),
+        .dir(regs[{p_bank, R_DIR}][0]),
+        .in_user({p_bank, p_user[3], p_coarse_err, p_overspeed, p_user[5:4], p_user[2:1]}),
+        .wr_en(wr_lp), .wr_addr(lp_wr_addr), .wr_data(cfg_wr_data[2*LP_W-1:0]),
+        .out_valid(out_valid), .pos_out(pos), .out_user(l_user)
+    );
+
+    // The cosine table runs in step with the sine table (same latency): its valid and sideband
+    // are duplicates. cfg_wr_data above the widest table word is not used.
+    wire unused_ok = &{1'b0, wl_valid_c, wl_user_c, cfg_wr_data};
+
+    // status word: bit 0 CLIP_SIN .. 6 SATURATED, 7 BANK (the blocks' sideband, registered)
+    assign status = l_user;
+
+endmodule
+
+`default_nettype wire

@@ -1,0 +1,117 @@
+// fringe_top: fringe_core with AXI4-Stream sample input and position output.
+//
+// docs/architecture.md, "Top level":
+//   s_axis_tdata = {coarse lane, cos lane, sin lane}: sin in [ADC_W-1:0], cos from bit ADC_LANE,
+//                  coarse from bit 2*ADC_LANE (no coarse lane when COARSE_W = 0), each field
+//                  right-aligned in a lane of whole bytes, ADC_LANE = 8*ceil(ADC_W/8); the padding
+//                  bits of a lane are ignored.
+//   m_axis_tdata = {status (8 bits), position lane (8*ceil(POS_W/8) bits)}, the position
+//                  right-aligned and zero-padded.
+//   Backpressure: the whole pipeline advances on ce = !m_axis_tvalid || m_axis_tready and
+//   s_axis_tready = ce: one sample per clock, nothing lost or duplicated. m_axis_tvalid is the
+//   core's registered out_valid, so m_axis_tdata is stable while the sink stalls.
+//   Configuration write port and active_bank: see rtl/verilog/fringe_core.v.
+// rst (synchronous, active high) empties the pipeline: m_axis_tvalid is 0 after it, samples in
+// flight and a sample taken in the same clock are dropped.
+//
+// LATENCY = fringe_core LATENCY = CORDIC_STAGES + 18 clocks from the s_axis handshake to
+// m_axis_tvalid when the sink does not stall (every stall adds its cycles).
+
+`default_nettype none
+
+module fringe_top #(
+    parameter integer ADC_W         = 12,  // ADC code width (signed), 4..24
+    parameter integer LINES         = 256, // signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
+    parameter integer COARSE_W      = 9,   // coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
+    parameter integer WAVE_ADDR_W   = 8,   // waveform table address bits per branch, 2..min(ADC_W-1, 15)
+    parameter integer WAVE_W        = 18,  // waveform table / quadrature data width, 8..31
+    parameter integer COEF_W        = 18,  // quadrature gain width (COEF_W-2 fraction bits), 8..27
+    parameter integer FINE_W        = 16,  // fine phase bits per signal period, 8..30
+    parameter integer CORDIC_STAGES = 18,  // CORDIC micro-rotations, 4..32
+    parameter integer CORDIC_GUARD  = 3,   // extra fraction bits inside the CORDIC, 0..8
+    parameter integer LP_ADDR_W     = 8,   // long-period table entries per revolution = 2^LP_ADDR_W, <= 16
+    parameter integer LP_W          = 18,  // long-period table value/slope width, <= 32
+    parameter integer LP_FRAC       = 4,   // fraction bits of the long-period correction (fine counts)
+    parameter integer LP_IF         = 8,   // interpolation fraction bits of the long-period table
+    parameter [63:0]  LP_RECIP      = 64'd1, // long-period index multiplier (fringe.fixed.long_period.index_mapping)
+    parameter integer LP_SHIFT      = 16,  // long-period index shift (fringe.fixed.long_period.index_mapping)
+    parameter         REGS_INIT     = "",  // $readmemh image of the registers, 2 x 16 words of 32 bits
+    parameter         WAVE_SIN_INIT = "",  // $readmemh image of the sine table, both banks
+    parameter         WAVE_COS_INIT = "",  // $readmemh image of the cosine table, both banks
+    parameter         LP_INIT       = ""   // $readmemh image of the long-period table, both banks
+) (
+    input  wire                clk,
+    input  wire                rst,            // synchronous, active high
+    // AXI4-Stream samples in
+    // S_DATA_W = 2*ADC_LANE + COARSE_LANE bits
+    input  wire [2*(8*((ADC_W+7)/8)) + 8*((COARSE_W+7)/8) - 1:0] s_axis_tdata,
+    input  wire                s_axis_tvalid,
+    output wire                s_axis_tready,
+    // AXI4-Stream positions out
+    // M_DATA_W = POS_LANE + 8 bits
+    output wire [8*(($clog2(LINES)+FINE_W+7)/8) + 8 - 1:0] m_axis_tdata,
+    output wire                m_axis_tvalid,
+    input  wire                m_axis_tready,
+    // configuration write port (fringe_core)
+    input  wire                cfg_wr_en,
+    input  wire [17:0]         cfg_wr_addr,
+    input  wire [63:0]         cfg_wr_data,
+    output wire                active_bank
+);
+
+    // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
+    /* verilator lint_off UNUSEDPARAM */
+    localparam integer LATENCY = CORDIC_STAGES + 18;
+    /* verilator lint_on UNUSEDPARAM */
+    localparam integer CW          = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width of the core
+    localparam integer POS_W       = $clog2(LINES) + FINE_W;         // position bits
+    localparam integer ADC_LANE    = 8 * ((ADC_W + 7) / 8);          // bits of the sin and cos lanes
+    localparam integer POS_LANE    = 8 * ((POS_W + 7) / 8);          // bits of the position lane
+
+    wire ce = !m_axis_tvalid || m_axis_tready;
+    assign s_axis_tready = ce;
+
+    wire [CW-1:0] coarse;
+
+    generate
+        if (COARSE_W > 0) begin : g_coarse
+            assign coarse = s_axis_tdata[2*ADC_LANE +: COARSE_W];
+        end else begin : g_no_coarse
+            assign coarse = 1'b0;
+        end
+    endgenerate
+
+    wire [POS_W-1:0] pos;
+    wire [7:0]       status;
+
+    fringe_core #(
+        .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
+        .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
+        .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
+        .LP_SHIFT(LP_SHIFT), .REGS_INIT(REGS_INIT), .WAVE_SIN_INIT(WAVE_SIN_INIT),
+        .WAVE_COS_INIT(WAVE_COS_INIT), .LP_INIT(LP_INIT)
+    ) u_core (
+        .clk(clk), .rst(rst), .ce(ce),
+        .in_valid(s_axis_tvalid),
+        .sin(s_axis_tdata[ADC_W-1:0]),
+        .cos(s_axis_tdata[ADC_LANE +: ADC_W]),
+        .coarse(coarse),
+        .out_valid(m_axis_tvalid), .pos(pos), .status(status),
+        .cfg_wr_en(cfg_wr_en), .cfg_wr_addr(cfg_wr_addr), .cfg_wr_data(cfg_wr_data),
+        .active_bank(active_bank)
+    );
+
+    generate
+        if (POS_LANE > POS_W) begin : g_pos_pad
+            assign m_axis_tdata = {status, {(POS_LANE - POS_W){1'b0}}, pos};
+        end else begin : g_pos_full
+            assign m_axis_tdata = {status, pos};
+        end
+    endgenerate
+
+    // The padding bits of the input lanes carry nothing.
+    wire unused_ok = &{1'b0, s_axis_tdata};
+
+endmodule
+
+`default_nettype wire

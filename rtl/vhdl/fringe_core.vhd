@@ -1,0 +1,447 @@
+-- fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock.
+--
+-- VHDL-2008 twin of rtl/verilog/fringe_core.v (same generics, ports, latency and bit-exact
+-- behaviour).
+--
+--   sin, cos s(ADC_W) -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
+--   -> fringe_cordic -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W))
+--   -> fringe_long_period -> pos u(POS_W), status (8 bits)
+-- Formats, register map and status word: docs/architecture.md. Bit-exact model:
+-- model/fringe/fixed/core.py (run_core; run_core_banks for a bank swap in mid-stream).
+--
+-- Register file: 2 banks x 16 words of 32 bits (model/fringe/fixed/regmap.py), initialised from
+-- REGS_INIT (bank 0 words 0..15, then bank 1). Every sample takes the active bank when it is
+-- accepted and carries the bank bit (and its early flags: clip, sat, magnitude) in the blocks'
+-- user sideband, so each stage reads the tables and registers of the sample's own bank:
+--   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, AMP_LOW/AMP_HIGH
+--   at the CORDIC output, COARSE_OFS at the period-count input, ZERO/DIR at the long-period input.
+-- Configuration write port (independent of ce): cfg_wr_addr[17:16] selects 0 registers and
+-- control, 1 sine table, 2 cosine table, 3 long-period table; cfg_wr_addr[15:0] is the word within
+-- one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
+-- Writes always go to the inactive bank. Register word 0x80 is CTRL: writing bit 0 = 1 swaps the
+-- banks at that clock edge; a sample accepted at the same edge still takes the old bank, every
+-- later sample the new one. Software rule: after a swap, wait until the samples accepted before
+-- it have come out (LATENCY clock enables) before writing the now inactive bank.
+-- rst (synchronous, active high) clears the sample pipeline (valid bits, the period counter);
+-- the register file, the tables and the active bank are configuration and keep their values
+-- (power-up: bank 0, the init files).
+--
+-- LATENCY = CORDIC_STAGES + 18 clock enables from in_valid to out_valid:
+--   1 input register (branch select) + 3 fringe_wave_lut + 4 fringe_quadrature
+--   + CORDIC_STAGES+2 fringe_cordic + 2 fringe_period_count + 6 fringe_long_period.
+-- ce = 0 freezes the pipeline (the tables keep their write port).
+
+library ieee;
+use ieee.std_logic_1164.all;
+use ieee.numeric_std.all;
+use ieee.math_real.all;
+use std.textio.all;
+
+entity fringe_core is
+    generic (
+        ADC_W         : integer := 12;    -- ADC code width (signed), 4..24
+        LINES         : integer := 256;   -- signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
+        COARSE_W      : integer := 9;     -- coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
+        WAVE_ADDR_W   : integer := 8;     -- waveform table address bits per branch, 2..min(ADC_W-1, 15)
+        WAVE_W        : integer := 18;    -- waveform table / quadrature data width, 8..31
+        COEF_W        : integer := 18;    -- quadrature gain width (COEF_W-2 fraction bits), 8..27
+        FINE_W        : integer := 16;    -- fine phase bits per signal period, 8..30
+        CORDIC_STAGES : integer := 18;    -- CORDIC micro-rotations, 4..32
+        CORDIC_GUARD  : integer := 3;     -- extra fraction bits inside the CORDIC, 0..8
+        LP_ADDR_W     : integer := 8;     -- long-period table entries per revolution = 2^LP_ADDR_W, <= 16
+        LP_W          : integer := 18;    -- long-period table value/slope width, <= 32
+        LP_FRAC       : integer := 4;     -- fraction bits of the long-period correction (fine counts)
+        LP_IF         : integer := 8;     -- interpolation fraction bits of the long-period table
+        LP_RECIP      : natural := 1;     -- long-period index multiplier (index_mapping; < 2^31 in VHDL)
+        LP_SHIFT      : integer := 16;    -- long-period index shift (fringe.fixed.long_period.index_mapping)
+        REGS_INIT     : string  := "";    -- $readmemh image of the registers, 2 x 16 words of 32 bits
+        WAVE_SIN_INIT : string  := "";    -- $readmemh image of the sine table, both banks
+        WAVE_COS_INIT : string  := "";    -- $readmemh image of the cosine table, both banks
+        LP_INIT       : string  := ""     -- $readmemh image of the long-period table, both banks
+    );
+    port (
+        clk         : in  std_logic;
+        rst         : in  std_logic;      -- synchronous, active high: clears the sample pipeline
+        ce          : in  std_logic;      -- clock enable: the pipeline advances when 1
+        -- sample in
+        in_valid    : in  std_logic;
+        sin         : in  std_logic_vector(ADC_W - 1 downto 0);   -- s(ADC_W)
+        cos         : in  std_logic_vector(ADC_W - 1 downto 0);   -- s(ADC_W)
+        coarse      : in  std_logic_vector(maximum(COARSE_W, 1) - 1 downto 0);  -- u(COARSE_W); 1 bit, ignored, when 0
+        -- sample out
+        out_valid   : out std_logic;
+        -- u(POS_W), POS_W = clog2(LINES * 2^FINE_W), fine counts, [0, LINES*2^FINE_W)
+        pos         : out std_logic_vector(integer(ceil(log2(real(LINES)))) + FINE_W - 1 downto 0);
+        status      : out std_logic_vector(7 downto 0);           -- status word, bit 7 = BANK
+        -- configuration write port
+        cfg_wr_en   : in  std_logic;
+        cfg_wr_addr : in  std_logic_vector(17 downto 0);
+        cfg_wr_data : in  std_logic_vector(63 downto 0);
+        active_bank : out std_logic
+    );
+end entity fringe_core;
+
+architecture rtl of fringe_core is
+
+    function clog2(n : integer) return integer is
+        variable r : integer := 0;
+    begin
+        while 2 ** r < n loop
+            r := r + 1;
+        end loop;
+        return r;
+    end function clog2;
+
+    constant POS_W : integer := clog2(LINES) + FINE_W;     -- clog2(LINES * 2^FINE_W)
+    constant CW    : integer := maximum(COARSE_W, 1);      -- coarse port width
+    constant POS_PORT_W : integer := pos'length;           -- the port's width (from math_real log2)
+
+    -- Stops elaboration with a clear message on illegal generics (before anything is sized).
+    function generics_ok return boolean is
+    begin
+        assert LINES >= 1
+            report "fringe_core: LINES = " & integer'image(LINES) & " must be >= 1" severity failure;
+        assert POS_W <= 31
+            report "fringe_core: POS_W = clog2(LINES) + FINE_W = " & integer'image(POS_W)
+                   & " > 31: registers are 32-bit" severity failure;
+        assert WAVE_ADDR_W + 1 <= 16
+            report "fringe_core: WAVE_ADDR_W = " & integer'image(WAVE_ADDR_W)
+                   & ": a table bank must fit the 16-bit word address" severity failure;
+        assert LP_ADDR_W <= 16
+            report "fringe_core: LP_ADDR_W = " & integer'image(LP_ADDR_W)
+                   & " > 16: a table bank must fit the 16-bit word address" severity failure;
+        assert WAVE_W <= 31 and ADC_W <= 31
+            report "fringe_core: WAVE_W = " & integer'image(WAVE_W) & ", ADC_W = " & integer'image(ADC_W)
+                   & ": register fields must fit 32 bits" severity failure;
+        assert POS_PORT_W = POS_W
+            report "fringe_core: port width (real log2) differs from clog2(LINES) + FINE_W" severity failure;
+        assert LP_W <= 32
+            report "fringe_core: LP_W = " & integer'image(LP_W)
+                   & " > 32: a table word {slope, value} must fit cfg_wr_data" severity failure;
+        return true;
+    end function generics_ok;
+    constant GENERICS_CHECKED : boolean := generics_ok;
+
+    constant LATENCY : integer := CORDIC_STAGES + 18;
+    constant REG_W   : integer := 32;
+    constant AMP_W   : integer := WAVE_W + 1;   -- CORDIC magnitude u(WAVE_W+1)
+    constant BR_W    : integer := ADC_W + 1;    -- branch thresholds s(ADC_W+1)
+
+    -- register indices (model/fringe/fixed/regmap.py)
+    constant R_K_SS       : integer := 0;
+    constant R_K_SC       : integer := 1;
+    constant R_K_CC       : integer := 2;
+    constant R_OFS_S      : integer := 3;
+    constant R_OFS_C      : integer := 4;
+    constant R_MID_S      : integer := 5;
+    constant R_THR_HI_S   : integer := 6;
+    constant R_THR_LO_S   : integer := 7;
+    constant R_MID_C      : integer := 8;
+    constant R_THR_HI_C   : integer := 9;
+    constant R_THR_LO_C   : integer := 10;
+    constant R_COARSE_OFS : integer := 11;
+    constant R_ZERO       : integer := 12;
+    constant R_DIR        : integer := 13;
+    constant R_AMP_LOW    : integer := 14;
+    constant R_AMP_HIGH   : integer := 15;
+    constant CTRL_WORD    : integer := 16#80#;
+
+    type regs_t is array (0 to 31) of std_logic_vector(REG_W - 1 downto 0);
+
+    -- Reads a $readmemh image (as fringe_table_ram): one word per line, "//" comment lines and
+    -- empty lines skipped; all zeros when the name is "".
+    impure function init_regs(fname : string) return regs_t is
+        file     f    : text;
+        variable l    : line;
+        variable m    : regs_t := (others => (others => '0'));
+        variable w    : std_logic_vector(REG_W - 1 downto 0);
+        variable good : boolean;
+        variable n    : integer := 0;
+        variable ch   : character;
+        variable stat : file_open_status;
+    begin
+        if fname'length = 0 then
+            return m;
+        end if;
+        file_open(stat, f, fname, read_mode);
+        assert stat = open_ok
+            report "fringe_core: cannot open REGS_INIT """ & fname & """" severity failure;
+        while not endfile(f) and n < 32 loop
+            readline(f, l);
+            while l'length > 0 loop
+                exit when l(l'left) /= ' ' and l(l'left) /= HT;
+                read(l, ch);
+            end loop;
+            if l'length = 0 then
+                next;
+            end if;
+            if l'length >= 2 then
+                if l(l'left to l'left + 1) = "//" then
+                    next;
+                end if;
+            end if;
+            hread(l, w, good);
+            assert good
+                report "fringe_core: REGS_INIT """ & fname & """ word " & integer'image(n)
+                       & " is not a hex number of 8 digits" severity failure;
+            m(n) := w;
+            n    := n + 1;
+        end loop;
+        file_close(f);
+        return m;
+    end function init_regs;
+
+    signal regs   : regs_t := init_regs(REGS_INIT);
+    signal bank_r : std_logic := '0';
+
+    -- field `lo`..`lo+w-1` of register `idx` of bank `b`
+    function reg_field(r : regs_t; b : std_logic; idx : integer; w : integer) return std_logic_vector is
+    begin
+        if b = '1' then
+            return r(16 + idx)(w - 1 downto 0);
+        end if;
+        return r(idx)(w - 1 downto 0);
+    end function reg_field;
+
+    -- configuration decode
+    signal cfg_sel      : std_logic_vector(1 downto 0);
+    signal cfg_word     : unsigned(15 downto 0);
+    signal wr_bank      : std_logic;
+    signal wr_sin       : std_logic;
+    signal wr_cos       : std_logic;
+    signal wr_lp        : std_logic;
+    signal wave_wr_addr : std_logic_vector(WAVE_ADDR_W + 1 downto 0);
+    signal lp_wr_addr   : std_logic_vector(LP_ADDR_W downto 0);
+
+    -- stage 1
+    signal valid1       : std_logic;
+    signal sin1, cos1   : std_logic_vector(ADC_W - 1 downto 0);
+    signal coarse1      : std_logic_vector(CW - 1 downto 0);
+    signal bank1        : std_logic;
+    signal br_s1, br_c1 : std_logic;
+
+    -- waveform tables: user {coarse, bank}
+    constant U_WL : integer := CW + 1;
+    signal wl_in_user   : std_logic_vector(U_WL - 1 downto 0);
+    signal wl_valid     : std_logic;
+    signal xs, xc       : std_logic_vector(WAVE_W - 1 downto 0);
+    signal clip_s       : std_logic;
+    signal clip_c       : std_logic;
+    signal wl_user      : std_logic_vector(U_WL - 1 downto 0);
+    signal wl_valid_c   : std_logic;            -- duplicate of wl_valid
+    signal wl_user_c    : std_logic_vector(0 downto 0);
+    signal wl_bank      : std_logic;
+
+    -- quadrature: user {coarse, clip_c, clip_s, bank}
+    constant U_Q : integer := CW + 3;
+    signal q_in_user    : std_logic_vector(U_Q - 1 downto 0);
+    signal q_valid      : std_logic;
+    signal qs, qc       : std_logic_vector(WAVE_W - 1 downto 0);
+    signal q_sat        : std_logic;
+    signal q_user       : std_logic_vector(U_Q - 1 downto 0);
+
+    -- CORDIC: user {coarse, sat, clip_c, clip_s, bank}
+    constant U_C : integer := CW + 4;
+    signal c_in_user    : std_logic_vector(U_C - 1 downto 0);
+    signal c_valid      : std_logic;
+    signal phase        : std_logic_vector(FINE_W - 1 downto 0);
+    signal mag          : std_logic_vector(AMP_W - 1 downto 0);
+    signal c_user       : std_logic_vector(U_C - 1 downto 0);
+    signal c_bank       : std_logic;
+    signal f_low        : std_logic;
+    signal f_high       : std_logic;
+
+    -- period count: user {amp_high, amp_low, sat, clip_c, clip_s, bank}
+    constant U_P : integer := 6;
+    signal p_in_user    : std_logic_vector(U_P - 1 downto 0);
+    signal p_valid      : std_logic;
+    signal p_pos        : std_logic_vector(POS_W - 1 downto 0);
+    signal p_overspeed  : std_logic;
+    signal p_coarse_err : std_logic;
+    signal p_user       : std_logic_vector(U_P - 1 downto 0);
+    signal p_bank       : std_logic;
+    signal p_zero       : std_logic_vector(POS_W - 1 downto 0);
+    signal p_dir        : std_logic_vector(0 downto 0);
+
+    -- long period: user {bank, sat, coarse_err, overspeed, amp_high, amp_low, clip_c, clip_s}
+    constant U_L : integer := 8;
+    signal l_in_user    : std_logic_vector(U_L - 1 downto 0);
+    signal l_user       : std_logic_vector(U_L - 1 downto 0);
+
+begin
+
+    -- ---- register file and bank control (configuration, not reset) ----------------------------
+    cfg_sel  <= cfg_wr_addr(17 downto 16);
+    cfg_word <= unsigned(cfg_wr_addr(15 downto 0));
+    wr_bank  <= not bank_r;                 -- writes go to the inactive bank
+
+    p_cfg : process (clk)
+    begin
+        if rising_edge(clk) then
+            if cfg_wr_en = '1' and cfg_sel = "00" then
+                if cfg_word < 16 then
+                    regs(to_integer(unsigned(wr_bank & std_logic_vector(cfg_word(3 downto 0)))))
+                        <= cfg_wr_data(REG_W - 1 downto 0);
+                end if;
+                if cfg_word = CTRL_WORD and cfg_wr_data(0) = '1' then
+                    bank_r <= not bank_r;
+                end if;
+            end if;
+        end if;
+    end process p_cfg;
+
+    active_bank <= bank_r;
+
+    -- table write enables: the word must lie inside one bank
+    wr_sin <= '1' when cfg_wr_en = '1' and cfg_sel = "01" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
+    wr_cos <= '1' when cfg_wr_en = '1' and cfg_sel = "10" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
+    wr_lp  <= '1' when cfg_wr_en = '1' and cfg_sel = "11" and shift_right(cfg_word, LP_ADDR_W) = 0 else '0';
+    wave_wr_addr <= wr_bank & std_logic_vector(cfg_word(WAVE_ADDR_W downto 0));
+    lp_wr_addr   <= wr_bank & std_logic_vector(cfg_word(LP_ADDR_W - 1 downto 0));
+
+    -- ---- stage 1 (registered): the sample takes the active bank; branch selects -----------------
+    -- branch_s = cos >= (sin >= MID_S ? THR_HI_S : THR_LO_S), branch_c likewise with sin/cos swapped.
+    p_valid1 : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                valid1 <= '0';
+            elsif ce = '1' then
+                valid1 <= in_valid;
+            end if;
+        end if;
+    end process p_valid1;
+
+    p_stage1 : process (clk)
+        variable s_x, c_x : signed(BR_W - 1 downto 0);
+        variable thr      : signed(BR_W - 1 downto 0);
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                sin1    <= sin;
+                cos1    <= cos;
+                coarse1 <= coarse;
+                bank1   <= bank_r;
+                -- (only on defined inputs: no numeric_std warnings while the inputs are undriven)
+                if not is_x(sin) and not is_x(cos) then
+                    s_x := resize(signed(sin), BR_W);
+                    c_x := resize(signed(cos), BR_W);
+                    if s_x >= signed(reg_field(regs, bank_r, R_MID_S, BR_W)) then
+                        thr := signed(reg_field(regs, bank_r, R_THR_HI_S, BR_W));
+                    else
+                        thr := signed(reg_field(regs, bank_r, R_THR_LO_S, BR_W));
+                    end if;
+                    br_s1 <= '1' when c_x >= thr else '0';
+                    if c_x >= signed(reg_field(regs, bank_r, R_MID_C, BR_W)) then
+                        thr := signed(reg_field(regs, bank_r, R_THR_HI_C, BR_W));
+                    else
+                        thr := signed(reg_field(regs, bank_r, R_THR_LO_C, BR_W));
+                    end if;
+                    br_c1 <= '1' when s_x >= thr else '0';
+                else
+                    br_s1 <= 'X';
+                    br_c1 <= 'X';
+                end if;
+            end if;
+        end if;
+    end process p_stage1;
+
+    -- ---- stages 2..4: waveform tables ------------------------------------------------------------
+    wl_in_user <= coarse1 & bank1;
+
+    u_wave_sin : entity work.fringe_wave_lut
+        generic map (ADC_W => ADC_W, WAVE_ADDR_W => WAVE_ADDR_W, WAVE_W => WAVE_W,
+                     INIT_FILE => WAVE_SIN_INIT, USER_W => U_WL)
+        port map (
+            clk => clk, rst => rst, ce => ce,
+            in_valid => valid1, adc => sin1, branch => br_s1, bank => bank1, in_user => wl_in_user,
+            wr_en => wr_sin, wr_addr => wave_wr_addr, wr_data => cfg_wr_data(2 * WAVE_W - 1 downto 0),
+            out_valid => wl_valid, x => xs, clip => clip_s, out_user => wl_user
+        );
+
+    -- Same latency as the sine table: its valid and sideband duplicate the sine's.
+    u_wave_cos : entity work.fringe_wave_lut
+        generic map (ADC_W => ADC_W, WAVE_ADDR_W => WAVE_ADDR_W, WAVE_W => WAVE_W,
+                     INIT_FILE => WAVE_COS_INIT, USER_W => 1)
+        port map (
+            clk => clk, rst => rst, ce => ce,
+            in_valid => valid1, adc => cos1, branch => br_c1, bank => bank1, in_user => "0",
+            wr_en => wr_cos, wr_addr => wave_wr_addr, wr_data => cfg_wr_data(2 * WAVE_W - 1 downto 0),
+            out_valid => wl_valid_c, x => xc, clip => clip_c, out_user => wl_user_c
+        );
+
+    wl_bank <= wl_user(0);
+
+    -- ---- stages 5..8: quadrature, coefficients of the sample's bank ------------------------------
+    q_in_user <= wl_user(U_WL - 1 downto 1) & clip_c & clip_s & wl_bank;
+
+    u_quad : entity work.fringe_quadrature
+        generic map (WAVE_W => WAVE_W, COEF_W => COEF_W, USER_W => U_Q)
+        port map (
+            clk => clk, rst => rst, ce => ce,
+            in_valid => wl_valid, xs => xs, xc => xc, in_user => q_in_user,
+            ofs_s => reg_field(regs, wl_bank, R_OFS_S, WAVE_W),
+            ofs_c => reg_field(regs, wl_bank, R_OFS_C, WAVE_W),
+            k_ss  => reg_field(regs, wl_bank, R_K_SS, COEF_W),
+            k_sc  => reg_field(regs, wl_bank, R_K_SC, COEF_W),
+            k_cc  => reg_field(regs, wl_bank, R_K_CC, COEF_W),
+            out_valid => q_valid, s => qs, c => qc, sat => q_sat, out_user => q_user
+        );
+
+    -- ---- stages 9..CORDIC_STAGES+10: CORDIC (x = c, y = s) ---------------------------------------
+    c_in_user <= q_user(U_Q - 1 downto 3) & q_sat & q_user(2 downto 0);
+
+    u_cordic : entity work.fringe_cordic
+        generic map (IN_W => WAVE_W, FINE_W => FINE_W, STAGES => CORDIC_STAGES, GUARD => CORDIC_GUARD,
+                     USER_W => U_C)
+        port map (
+            clk => clk, rst => rst, ce => ce,
+            in_valid => q_valid, x => qc, y => qs, in_user => c_in_user,
+            out_valid => c_valid, phase => phase, mag => mag, out_user => c_user
+        );
+
+    c_bank <= c_user(0);
+    -- magnitude flags with the thresholds of the sample's bank (only on a defined magnitude: no
+    -- numeric_std warnings while the pipeline fills)
+    f_low  <= '1' when not is_x(mag)
+                       and unsigned(mag) < unsigned(reg_field(regs, c_bank, R_AMP_LOW, AMP_W)) else '0';
+    f_high <= '1' when not is_x(mag)
+                       and unsigned(mag) > unsigned(reg_field(regs, c_bank, R_AMP_HIGH, AMP_W)) else '0';
+
+    -- ---- period count ----------------------------------------------------------------------------
+    p_in_user <= f_high & f_low & c_user(3 downto 0);
+
+    u_count : entity work.fringe_period_count
+        generic map (FINE_W => FINE_W, LINES => LINES, COARSE_W => COARSE_W, USER_W => U_P)
+        port map (
+            clk => clk, rst => rst, ce => ce,
+            in_valid => c_valid, phase => phase, coarse => c_user(U_C - 1 downto 4),
+            coarse_ofs => reg_field(regs, c_bank, R_COARSE_OFS, POS_W + 1),
+            in_user => p_in_user,
+            out_valid => p_valid, pos => p_pos, overspeed => p_overspeed, coarse_err => p_coarse_err,
+            out_user => p_user
+        );
+
+    -- ---- long-period table, zero and direction -------------------------------------------------
+    p_bank    <= p_user(0);
+    p_zero    <= reg_field(regs, p_bank, R_ZERO, POS_W);
+    p_dir     <= reg_field(regs, p_bank, R_DIR, 1);
+    l_in_user <= p_bank & p_user(3) & p_coarse_err & p_overspeed & p_user(5 downto 4) & p_user(2 downto 1);
+
+    u_long : entity work.fringe_long_period
+        generic map (LINES => LINES, FINE_W => FINE_W, LP_ADDR_W => LP_ADDR_W, LP_W => LP_W,
+                     LP_FRAC => LP_FRAC, LP_IF => LP_IF, LP_RECIP => LP_RECIP, LP_SHIFT => LP_SHIFT,
+                     INIT_FILE => LP_INIT, USER_W => U_L)
+        port map (
+            clk => clk, rst => rst, ce => ce,
+            in_valid => p_valid, pos => p_pos, bank => p_bank,
+            zero => p_zero, dir => p_dir(0),
+            in_user => l_in_user,
+            wr_en => wr_lp, wr_addr => lp_wr_addr, wr_data => cfg_wr_data(2 * LP_W - 1 downto 0),
+            out_valid => out_valid, pos_out => pos, out_user => l_user
+        );
+
+    -- status word: bit 0 CLIP_SIN .. 6 SATURATED, 7 BANK (the blocks' sideband, registered)
+    status <= l_user;
+
+end architecture rtl;
