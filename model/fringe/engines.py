@@ -66,4 +66,11 @@ def run_engine(name: str, cal: Calibration, meas: Measurement, cal_dir: str) -> 
             return run_model(cal, cfg, meas.sin, meas.cos, meas.coarse)
     except ValueError as e:
         raise FringeInputError(str(e), meas.path) from None
-    raise FringeInputError(f"engine '{name}' is not built yet in this version (use model or float)", "--engine")
+    from .rtlsim import RtlSimulationError, run_rtl_result
+
+    try:
+        return run_rtl_result(cal, cfg, meas.sin, meas.cos, meas.coarse, name)
+    except ValueError as e:
+        raise FringeInputError(str(e), meas.path) from None
+    except RtlSimulationError as e:
+        raise FringeInputError(f"the {name} simulation failed: {str(e).splitlines()[0]}", "--engine") from None

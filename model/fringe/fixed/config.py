@@ -60,7 +60,12 @@ class CoreConfig:
                             guard=self.cordic_guard)
 
     def hdl_parameters(self) -> dict[str, int]:
-        return {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self)}
+        """Parameters/generics of fringe_core and fringe_top (with the long-period index mapping)."""
+        from .long_period import index_mapping
+
+        p = {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self)}
+        p["LP_RECIP"], p["LP_SHIFT"] = index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if)
+        return p
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
