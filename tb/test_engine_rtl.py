@@ -64,3 +64,22 @@ def test_run_rtl_result_is_the_model_angle(rm44):
     r = run_rtl_result(cal, cfg, meas.sin, meas.cos, None, sim="verilog")
     m = run_model(cal, cfg, meas.sin, meas.cos, None, tables=tables)
     assert np.array_equal(r.angle_deg, m.angle_deg) and np.array_equal(r.status, m.status)
+
+
+def test_cli_correct_verilog_rows_equal_model(tmp_path, capsys):
+    """`fringe correct --engine verilog` writes the same rows as `--engine model` (a simulated
+    seed-encoder file through the whole command line)."""
+    from fringe.cli import main
+
+    d = tmp_path
+    assert main(["simulate", "--preset", "seed-encoder", "--out", str(d / "a.csv"), "--encoder-out",
+                 str(d / "e.json"), "--samples", "30000", "--seed", "5"]) == 0
+    assert main(["simulate", "--preset", "seed-encoder", "--out", str(d / "b.csv"), "--samples", "3000",
+                 "--seed", "6"]) == 0
+    assert main(["calibrate", str(d / "a.csv"), "--encoder", str(d / "e.json"), "--out", str(d / "cal")]) == 0
+    for engine in ("model", "verilog"):
+        assert main(["correct", str(d / "b.csv"), "--cal", str(d / "cal"), "--out", str(d / f"{engine}.csv"),
+                     "--engine", engine]) == 0
+    rows = {e: [ln for ln in (d / f"{e}.csv").read_text().splitlines() if not ln.startswith("#")]
+            for e in ("model", "verilog")}
+    assert len(rows["model"]) == 3001 and rows["model"] == rows["verilog"]
