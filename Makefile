@@ -6,13 +6,16 @@ STAMP  := $(VENV)/.installed
 OUT    ?= out
 JOBS   ?= 2
 
+SYNTH_STAMP := $(VENV)/.installed-synth
+
 .PHONY: setup demo test test-model test-rtl lint bench synth clean help
 
 help:
 	@echo "make demo   - simulate the seed encoder, calibrate, correct, print before/after, write plots ($(OUT)/demo)"
 	@echo "make test   - the whole regression: model tests and cocotb RTL tests (Verilator, GHDL)"
 	@echo "make lint   - ruff on the Python, verilator -Wall and ghdl -a --std=08 on the RTL"
-	@echo "make bench  - accuracy, speed and size figures into results/bench.json and results/bench.md"
+	@echo "make bench  - accuracy, speed and size (runs make synth) into results/bench.json and results/bench.md"
+	@echo "make synth  - Yosys + nextpnr for iCE40 UP5K and ECP5-25k: LUT, FF, DSP, BRAM, Fmax into results/synth.json"
 	@echo "make setup  - create .venv and install fringe with its test tools"
 
 $(STAMP): pyproject.toml
@@ -39,8 +42,15 @@ lint: $(STAMP)
 	$(BIN)/ruff check model tests tb sim
 	$(BIN)/python sim/lint.py
 
-bench: $(STAMP)
+bench: synth
 	$(BIN)/python -m fringe.bench --out results
+
+$(SYNTH_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -e '.[test,synth]'
+	touch $@
+
+synth: $(SYNTH_STAMP)
+	$(BIN)/python sim/synth.py --out results --configs seed,line1
 
 clean:
 	rm -rf $(OUT) results sim_build .pytest_cache

@@ -147,6 +147,15 @@ def loop_rm44(folder: str) -> dict | str:
     return {"setup": "fringe loop, fitted on the even samples, validated on the odd ones", "files": rows}
 
 
+def synthesis(out_dir: str) -> dict | str:
+    """The figures of the last `make synth` (sim/synth.py writes OUT/synth.json)."""
+    path = os.path.join(out_dir, "synth.json")
+    if not os.path.exists(path):
+        return "not run: make synth writes results/synth.json (make bench runs it first)"
+    with open(path) as f:
+        return json.load(f)
+
+
 def markdown(results: dict) -> str:
     lines = [f"# fringe bench ({results['meta']['date']}, {results['meta']['machine']})", ""]
     acc = results["seed_preset"]
@@ -191,6 +200,18 @@ def markdown(results: dict) -> str:
             lines.append(f"| {name} | {r['rms_before_arcsec']} | {r['rms_after_arcsec']} | {r['noise_floor_arcsec']} | "
                          f"{', '.join(r['added']) or '-'} | {'; '.join(r['left']) or '-'} |")
     lines += ["", "## Seed 000 Fig. 4: DE vs DE+SA", "", "```", json.dumps(results["de_vs_desa"], indent=1), "```", ""]
+    lines += ["## Synthesis (make synth: Yosys + nextpnr)", ""]
+    sy = results["synthesis"]
+    if isinstance(sy, str):
+        lines.append(sy)
+    else:
+        lines += ["| config | device | LUT | FF | DSP | BRAM | Fmax MHz | target | meets | latency (cycles) |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
+        for r in sy["runs"]:
+            cells = [r["config"], r["device"]] + [r.get(k) for k in ("luts", "flip_flops", "dsp", "bram", "fmax_mhz",
+                                                                        "target_mhz", "meets_target", "latency_cycles")]
+            lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    lines.append("")
     return "\n".join(lines)
 
 
@@ -207,7 +228,8 @@ def main(argv=None) -> int:
              ("rm44", lambda: rm44(SHARED_DATA)),
              ("loop_scenarios", lambda: loop_scenarios(40_000 if a.quick else 100_000)),
              ("loop_rm44", lambda: loop_rm44(SHARED_DATA)),
-             ("de_vs_desa", de_vs_desa)]
+             ("de_vs_desa", de_vs_desa),
+             ("synthesis", lambda: synthesis(a.out))]
     for name, fn in steps:
         t0 = time.perf_counter()
         print(f"bench: {name} ...", flush=True)

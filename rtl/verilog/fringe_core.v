@@ -23,8 +23,8 @@
 // the register file, the tables and the active bank are configuration and keep their values
 // (power-up: bank 0, the init files).
 //
-// LATENCY = CORDIC_STAGES + 18 clock enables from in_valid to out_valid:
-//   1 input register (branch select) + 3 fringe_wave_lut + 4 fringe_quadrature
+// LATENCY = CORDIC_STAGES + 19 clock enables from in_valid to out_valid:
+//   2 input registers (bank thresholds, branch select) + 3 fringe_wave_lut + 4 fringe_quadrature
 //   + CORDIC_STAGES+2 fringe_cordic + 2 fringe_period_count + 6 fringe_long_period.
 // ce = 0 freezes the pipeline (the tables keep their write port).
 
@@ -72,7 +72,7 @@ module fringe_core #(
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 18;
+    localparam integer LATENCY = CORDIC_STAGES + 19;
     /* verilator lint_on UNUSEDPARAM */
     localparam integer POS_W   = $clog2(LINES) + FINE_W;        // clog2(LINES * 2^FINE_W)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width
@@ -159,16 +159,41 @@ module fringe_core #(
     wire [WAVE_ADDR_W+1:0] wave_wr_addr = {wr_bank, cfg_word[WAVE_ADDR_W:0]};
     wire [LP_ADDR_W:0]     lp_wr_addr   = {wr_bank, cfg_word[LP_ADDR_W-1:0]};
 
-    // ---- stage 1 (registered): the sample takes the active bank; branch selects -----------------
+    // ---- stage 1 (registered): the sample takes the active bank and that bank's branch thresholds --
+    // (the register file read and the compares sit in separate stages: one long path otherwise)
+    reg                    valid0;
+    reg [ADC_W-1:0]        sin0, cos0;
+    reg [CW-1:0]           coarse0;
+    reg                    bank0;
+    reg signed [BR_W-1:0]  mid_s, hi_s, lo_s, mid_c, hi_c, lo_c;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            valid0 <= 1'b0;
+        end else if (ce) begin
+            valid0 <= in_valid;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            sin0    <= sin;
+            cos0    <= cos;
+            coarse0 <= coarse;
+            bank0   <= bank_r;
+            mid_s   <= regs[{bank_r, R_MID_S}][BR_W-1:0];
+            hi_s    <= regs[{bank_r, R_THR_HI_S}][BR_W-1:0];
+            lo_s    <= regs[{bank_r, R_THR_LO_S}][BR_W-1:0];
+            mid_c   <= regs[{bank_r, R_MID_C}][BR_W-1:0];
+            hi_c    <= regs[{bank_r, R_THR_HI_C}][BR_W-1:0];
+            lo_c    <= regs[{bank_r, R_THR_LO_C}][BR_W-1:0];
+        end
+    end
+
+    // ---- stage 2 (registered): branch selects ------------------------------------------------------
     // branch_s = cos >= (sin >= MID_S ? THR_HI_S : THR_LO_S), branch_c likewise with sin/cos swapped.
-    wire signed [BR_W-1:0] sin_x   = {sin[ADC_W-1], sin};
-    wire signed [BR_W-1:0] cos_x   = {cos[ADC_W-1], cos};
-    wire signed [BR_W-1:0] mid_s   = regs[{bank_r, R_MID_S}][BR_W-1:0];
-    wire signed [BR_W-1:0] hi_s    = regs[{bank_r, R_THR_HI_S}][BR_W-1:0];
-    wire signed [BR_W-1:0] lo_s    = regs[{bank_r, R_THR_LO_S}][BR_W-1:0];
-    wire signed [BR_W-1:0] mid_c   = regs[{bank_r, R_MID_C}][BR_W-1:0];
-    wire signed [BR_W-1:0] hi_c    = regs[{bank_r, R_THR_HI_C}][BR_W-1:0];
-    wire signed [BR_W-1:0] lo_c    = regs[{bank_r, R_THR_LO_C}][BR_W-1:0];
+    wire signed [BR_W-1:0] sin_x   = {sin0[ADC_W-1], sin0};
+    wire signed [BR_W-1:0] cos_x   = {cos0[ADC_W-1], cos0};
     wire                   br_s0   = (sin_x >= mid_s) ? (cos_x >= hi_s) : (cos_x >= lo_s);
     wire                   br_c0   = (cos_x >= mid_c) ? (sin_x >= hi_c) : (sin_x >= lo_c);
 
@@ -181,16 +206,16 @@ module fringe_core #(
         if (rst) begin
             valid1 <= 1'b0;
         end else if (ce) begin
-            valid1 <= in_valid;
+            valid1 <= valid0;
         end
     end
 
     always @(posedge clk) begin
         if (ce) begin
-            sin1    <= sin;
-            cos1    <= cos;
-            coarse1 <= coarse;
-            bank1   <= bank_r;
+            sin1    <= sin0;
+            cos1    <= cos0;
+            coarse1 <= coarse0;
+            bank1   <= bank0;
             br_s1   <= br_s0;
             br_c1   <= br_c0;
         end

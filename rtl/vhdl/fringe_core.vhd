@@ -26,8 +26,8 @@
 -- the register file, the tables and the active bank are configuration and keep their values
 -- (power-up: bank 0, the init files).
 --
--- LATENCY = CORDIC_STAGES + 18 clock enables from in_valid to out_valid:
---   1 input register (branch select) + 3 fringe_wave_lut + 4 fringe_quadrature
+-- LATENCY = CORDIC_STAGES + 19 clock enables from in_valid to out_valid:
+--   2 input registers (bank thresholds, branch select) + 3 fringe_wave_lut + 4 fringe_quadrature
 --   + CORDIC_STAGES+2 fringe_cordic + 2 fringe_period_count + 6 fringe_long_period.
 -- ce = 0 freezes the pipeline (the tables keep their write port).
 
@@ -122,7 +122,7 @@ architecture rtl of fringe_core is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := CORDIC_STAGES + 18;
+    constant LATENCY : integer := CORDIC_STAGES + 19;
     constant REG_W   : integer := 32;
     constant AMP_W   : integer := WAVE_W + 1;   -- CORDIC magnitude u(WAVE_W+1)
     constant BR_W    : integer := ADC_W + 1;    -- branch thresholds s(ADC_W+1)
@@ -213,7 +213,13 @@ architecture rtl of fringe_core is
     signal wave_wr_addr : std_logic_vector(WAVE_ADDR_W + 1 downto 0);
     signal lp_wr_addr   : std_logic_vector(LP_ADDR_W downto 0);
 
-    -- stage 1
+    -- stage 1: the sample and its bank's branch thresholds
+    signal valid0       : std_logic;
+    signal sin0, cos0   : std_logic_vector(ADC_W - 1 downto 0);
+    signal coarse0      : std_logic_vector(CW - 1 downto 0);
+    signal bank0        : std_logic;
+    signal mid_s, hi_s, lo_s, mid_c, hi_c, lo_c : signed(BR_W - 1 downto 0);
+    -- stage 2: branch selects
     signal valid1       : std_logic;
     signal sin1, cos1   : std_logic_vector(ADC_W - 1 downto 0);
     signal coarse1      : std_logic_vector(CW - 1 downto 0);
@@ -299,43 +305,65 @@ begin
     wave_wr_addr <= wr_bank & std_logic_vector(cfg_word(WAVE_ADDR_W downto 0));
     lp_wr_addr   <= wr_bank & std_logic_vector(cfg_word(LP_ADDR_W - 1 downto 0));
 
-    -- ---- stage 1 (registered): the sample takes the active bank; branch selects -----------------
-    -- branch_s = cos >= (sin >= MID_S ? THR_HI_S : THR_LO_S), branch_c likewise with sin/cos swapped.
-    p_valid1 : process (clk)
+    -- ---- stage 1 (registered): the sample takes the active bank and that bank's branch thresholds --
+    -- (the register file read and the compares sit in separate stages: one long path otherwise)
+    p_input_valid : process (clk)
     begin
         if rising_edge(clk) then
             if rst = '1' then
+                valid0 <= '0';
                 valid1 <= '0';
             elsif ce = '1' then
-                valid1 <= in_valid;
+                valid0 <= in_valid;
+                valid1 <= valid0;
             end if;
         end if;
-    end process p_valid1;
+    end process p_input_valid;
 
     p_stage1 : process (clk)
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                sin0    <= sin;
+                cos0    <= cos;
+                coarse0 <= coarse;
+                bank0   <= bank_r;
+                mid_s   <= signed(reg_field(regs, bank_r, R_MID_S, BR_W));
+                hi_s    <= signed(reg_field(regs, bank_r, R_THR_HI_S, BR_W));
+                lo_s    <= signed(reg_field(regs, bank_r, R_THR_LO_S, BR_W));
+                mid_c   <= signed(reg_field(regs, bank_r, R_MID_C, BR_W));
+                hi_c    <= signed(reg_field(regs, bank_r, R_THR_HI_C, BR_W));
+                lo_c    <= signed(reg_field(regs, bank_r, R_THR_LO_C, BR_W));
+            end if;
+        end if;
+    end process p_stage1;
+
+    -- ---- stage 2 (registered): branch selects ------------------------------------------------------
+    -- branch_s = cos >= (sin >= MID_S ? THR_HI_S : THR_LO_S), branch_c likewise with sin/cos swapped.
+    p_stage2 : process (clk)
         variable s_x, c_x : signed(BR_W - 1 downto 0);
         variable thr      : signed(BR_W - 1 downto 0);
     begin
         if rising_edge(clk) then
             if ce = '1' then
-                sin1    <= sin;
-                cos1    <= cos;
-                coarse1 <= coarse;
-                bank1   <= bank_r;
+                sin1    <= sin0;
+                cos1    <= cos0;
+                coarse1 <= coarse0;
+                bank1   <= bank0;
                 -- (only on defined inputs: no numeric_std warnings while the inputs are undriven)
-                if not is_x(sin) and not is_x(cos) then
-                    s_x := resize(signed(sin), BR_W);
-                    c_x := resize(signed(cos), BR_W);
-                    if s_x >= signed(reg_field(regs, bank_r, R_MID_S, BR_W)) then
-                        thr := signed(reg_field(regs, bank_r, R_THR_HI_S, BR_W));
+                if not is_x(sin0) and not is_x(cos0) then
+                    s_x := resize(signed(sin0), BR_W);
+                    c_x := resize(signed(cos0), BR_W);
+                    if s_x >= mid_s then
+                        thr := hi_s;
                     else
-                        thr := signed(reg_field(regs, bank_r, R_THR_LO_S, BR_W));
+                        thr := lo_s;
                     end if;
                     br_s1 <= '1' when c_x >= thr else '0';
-                    if c_x >= signed(reg_field(regs, bank_r, R_MID_C, BR_W)) then
-                        thr := signed(reg_field(regs, bank_r, R_THR_HI_C, BR_W));
+                    if c_x >= mid_c then
+                        thr := hi_c;
                     else
-                        thr := signed(reg_field(regs, bank_r, R_THR_LO_C, BR_W));
+                        thr := lo_c;
                     end if;
                     br_c1 <= '1' when s_x >= thr else '0';
                 else
@@ -344,7 +372,7 @@ begin
                 end if;
             end if;
         end if;
-    end process p_stage1;
+    end process p_stage2;
 
     -- ---- stages 2..4: waveform tables ------------------------------------------------------------
     wl_in_user <= coarse1 & bank1;

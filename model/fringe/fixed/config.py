@@ -34,9 +34,18 @@ class CoreConfig:
 
     @classmethod
     def for_encoder(cls, enc: Encoder, **overrides) -> CoreConfig:
-        """Defaults that fit the encoder: a table of 2^min(ADC_W-1, 8..10) points per branch."""
+        """Defaults that fit the encoder and a small FPGA.
+
+        Tables of 2^min(ADC_W-1, 8..10) points per branch; table values 3 bits wider than the ADC
+        (13 fraction bits for a 12-bit ADC, so their rounding stays below the ADC's); gains of 16
+        bits, so every quadrature product is one 16x16 DSP (the iCE40 UP5K has eight); a CORDIC of
+        FINE_W + 1 stages. `make bench` reports what these cost against 18-bit datapaths.
+        """
+        wave_w = min(31, max(15, enc.adc_bits + 3))
         base = dict(adc_w=enc.adc_bits, lines=enc.lines_per_rev, coarse_w=enc.coarse_bits,
-                    wave_addr_w=min(enc.adc_bits - 1, max(8, enc.adc_bits - 4), 10))
+                    wave_addr_w=min(enc.adc_bits - 1, max(8, enc.adc_bits - 4), 10),
+                    wave_w=wave_w, coef_w=min(27, max(16, enc.adc_bits + 2)),
+                    cordic_stages=overrides.get("fine_w", cls.fine_w) + 1)
         base.update(overrides)
         return cls(**base)
 

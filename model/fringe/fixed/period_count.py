@@ -1,17 +1,32 @@
-"""Bit-exact model of ``fringe_period_count``: coarse/fine combination and period counting.
+"""Bit-exact model of ``fringe_period_count``: coarse/fine combination, or period counting.
 
-Contract: docs/architecture.md, section fringe_period_count. With REV = LINES * 2^FINE_W:
+Mirrors ``rtl/verilog/fringe_period_count.v`` and ``rtl/vhdl/fringe_period_count.vhd`` (contract in
+``docs/architecture.md``, section fringe_period_count). With ``REV = LINES * 2^FINE_W`` fine counts
+per revolution and ``POS_W = clog2(REV) = FINE_W + clog2(LINES)`` (at most 48):
 
-- overspeed: ``delta = phase - phase_prev`` as a signed FINE_W-bit number; flagged when
-  ``|delta| >= 2^(FINE_W-2)``; phase_prev is the previous valid sample's phase; the first
-  sample after reset never flags;
-- COARSE_W > 0: ``centre = (coarse*LINES << (FINE_W-COARSE_W)) + coarse_ofs``,
-  ``d = centre - phase``, ``n = (d + 2^(FINE_W-1)) >>> FINE_W``, ``r = d - n*2^FINE_W``,
-  ``coarse_err = |r| > COARSE_TOL``, n wrapped into [0, LINES), ``pos = n*2^FINE_W + phase``;
-- COARSE_W = 0: ``pos = (pos_prev + delta) mod REV``, the first sample after reset gives
-  ``pos = phase``.
+- ``delta = phase - phase_prev`` taken modulo ``2^FINE_W`` as a signed FINE_W-bit number, where
+  ``phase_prev`` is the phase of the previous valid sample; ``overspeed = |delta| >= 2^(FINE_W-2)``
+  (a quarter period); the first valid sample after reset never flags (its delta is 0);
+- ``COARSE_W > 0`` (absolute): ``cpos = (coarse * LINES) << (FINE_W - COARSE_W)`` (the start of the
+  code's span, ``REV / 2^COARSE_W`` fine counts per code), ``centre = cpos + coarse_ofs``,
+  ``d = centre - phase``, ``n = (d + 2^(FINE_W-1)) >>> FINE_W`` (the period nearest to the centre),
+  ``r = d - n * 2^FINE_W``, ``coarse_err = |r| > COARSE_TOL`` with
+  ``COARSE_TOL = (LINES << (FINE_W - COARSE_W - 2)) + 2^(FINE_W-2)`` (the midpoint between half a
+  coarse code and half a period), then ``n`` wrapped into [0, LINES) and
+  ``pos = n * 2^FINE_W + phase``;
+- ``COARSE_W = 0`` (incremental): ``pos = (pos_prev + delta) mod REV`` with ``pos_prev`` the previous
+  valid output; the first valid sample after reset gives ``pos = phase``; ``coarse_err = 0``.
 
-The stream given to `period_count` starts right after a reset.
+``coarse_ofs`` is a calibrated register (the misalignment of the coarse code plus half a code);
+calibration gives less than half a period, and the hardware supports ``|coarse_ofs| <= 2^FINE_W``:
+then ``n`` lies in [-2, LINES+1] and one add or subtract of LINES wraps it (``period_count`` checks
+the range and raises ``ValueError`` outside it).
+
+`period_count` takes a stream of valid samples that starts right after a reset (the RTL's state
+restarts there); it is vectorised (cumulative sums for the incremental counter).
+
+The RTL has ``LATENCY = 2`` enabled clocks: (1) delta, overspeed and the coarse centre;
+(2) period number, wrap and position (the counter).
 """
 
 from __future__ import annotations
@@ -20,75 +35,191 @@ from dataclasses import dataclass
 
 import numpy as np
 
-LATENCY = 2   # clock enables in the RTL: delta and coarse centre; period number and position
+__all__ = [
+    "LATENCY",
+    "POS_W_MAX",
+    "PeriodCountParams",
+    "clog2",
+    "latency",
+    "period_count",
+    "rev_and_pos_w",
+]
+
+#: Enabled clocks from ``in_valid`` to ``out_valid`` in the RTL.
+LATENCY = 2
+#: Widest position the blocks support: ``FINE_W + clog2(LINES) <= 48`` (REV < 2^48 fits int64 with room).
+POS_W_MAX = 48
 NAME = "fringe_period_count"
 
 
+def clog2(v: int) -> int:
+    """ceil(log2(v)) for v >= 1 (0 for 1), as Verilog's ``$clog2``."""
+    return max(0, (int(v) - 1).bit_length())
+
+
 def rev_and_pos_w(lines: int, fine_w: int) -> tuple[int, int]:
-    """Fine counts per revolution, and the bits of a position in [0, REV)."""
-    rev = lines << fine_w
-    return rev, max(1, (rev - 1).bit_length())
+    """``(REV, POS_W)``: fine counts per revolution ``LINES * 2^FINE_W`` and ``FINE_W + clog2(LINES)``.
+
+    ``POS_W`` is ``clog2(REV)``, the bits of a position in [0, REV).
+    """
+    return int(lines) << int(fine_w), int(fine_w) + clog2(lines)
+
+
+def _check_int(name: str, v, block: str = NAME) -> None:
+    if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
+        raise ValueError(f"{block}: {name} must be an integer, got {v!r}")
+
+
+def check_lines_fine_w(lines, fine_w, block: str) -> None:
+    """The FINE_W / LINES checks shared by fringe_period_count and fringe_long_period (HDL messages)."""
+    _check_int("FINE_W", fine_w, block)
+    _check_int("LINES", lines, block)
+    if not 8 <= fine_w <= 30:
+        raise ValueError(f"{block}: FINE_W = {fine_w} out of range 8..30")
+    if not 1 <= lines <= 1 << 20:
+        raise ValueError(f"{block}: LINES = {lines} out of range 1..2^20")
+    pos_w = fine_w + clog2(lines)
+    if pos_w > POS_W_MAX:
+        raise ValueError(f"{block}: POS_W = FINE_W + clog2(LINES) = {pos_w} exceeds {POS_W_MAX}")
 
 
 @dataclass(frozen=True)
 class PeriodCountParams:
-    fine_w: int     # FINE_W: fine phase bits per period, 8..30
-    lines: int      # LINES: periods per revolution, 1..2^20, any integer
-    coarse_w: int   # COARSE_W: coarse code bits, 0 = none; else FINE_W >= COARSE_W + 2, 2^COARSE_W >= LINES
+    """Parameters of ``fringe_period_count`` (same names, limits and messages as the HDL)."""
 
-    def __post_init__(self):
-        if not 8 <= self.fine_w <= 30:
-            raise ValueError(f"{NAME}: FINE_W = {self.fine_w} out of range 8..30")
-        if not 1 <= self.lines <= (1 << 20):
-            raise ValueError(f"{NAME}: LINES = {self.lines} out of range 1..2^20")
-        if self.fine_w + max(0, (self.lines - 1).bit_length()) > 48:
-            raise ValueError(f"{NAME}: FINE_W + clog2(LINES) = {self.fine_w + (self.lines - 1).bit_length()} "
-                             "exceeds 48")
-        if self.coarse_w:
-            if not 1 <= self.coarse_w <= 24 or self.fine_w < self.coarse_w + 2:
-                raise ValueError(f"{NAME}: COARSE_W = {self.coarse_w} must be 0 or 1..24 with "
-                                 f"FINE_W >= COARSE_W + 2")
-            if (1 << self.coarse_w) < self.lines:
-                raise ValueError(f"{NAME}: 2^COARSE_W = {1 << self.coarse_w} < LINES = {self.lines}")
+    fine_w: int     # FINE_W: fine phase bits per signal period, 8..30
+    lines: int      # LINES: signal periods per revolution, 1..2^20, any integer; FINE_W + clog2(LINES) <= 48
+    coarse_w: int   # COARSE_W: coarse code bits, 0 = none (periods are counted); else 1..24,
+                    #   COARSE_W <= FINE_W - 2 and 2^COARSE_W >= LINES
 
+    def __post_init__(self) -> None:
+        check_lines_fine_w(self.lines, self.fine_w, NAME)
+        _check_int("COARSE_W", self.coarse_w)
+        if self.coarse_w != 0 and not (1 <= self.coarse_w <= 24 and self.coarse_w <= self.fine_w - 2):
+            raise ValueError(f"{NAME}: COARSE_W = {self.coarse_w} out of range: 0 (no coarse code) or "
+                             "1..24 with COARSE_W <= FINE_W - 2")
+        if self.coarse_w and (1 << self.coarse_w) < self.lines:
+            raise ValueError(f"{NAME}: 2^COARSE_W = {1 << self.coarse_w} is less than LINES = {self.lines}")
+
+    # ---- derived constants (names as in the HDL)
     @property
     def rev(self) -> int:
+        """REV: fine counts per revolution, LINES * 2^FINE_W."""
         return rev_and_pos_w(self.lines, self.fine_w)[0]
 
     @property
     def pos_w(self) -> int:
+        """POS_W: bits of the position, FINE_W + clog2(LINES) = clog2(REV)."""
         return rev_and_pos_w(self.lines, self.fine_w)[1]
 
     @property
+    def coarse_span(self) -> int:
+        """Fine counts per coarse code, REV / 2^COARSE_W = LINES << (FINE_W - COARSE_W) (0 without)."""
+        return self.lines << (self.fine_w - self.coarse_w) if self.coarse_w else 0
+
+    @property
     def coarse_tol(self) -> int:
-        """Midpoint between half a coarse code and half a period, fine counts."""
-        return (self.lines << (self.fine_w - self.coarse_w - 2)) + (1 << (self.fine_w - 2)) if self.coarse_w else 0
+        """COARSE_TOL: largest accepted |r|, the midpoint between half a code and half a period (0 without)."""
+        if not self.coarse_w:
+            return 0
+        return (self.lines << (self.fine_w - self.coarse_w - 2)) + (1 << (self.fine_w - 2))
+
+    @property
+    def ofs_max(self) -> int:
+        """The supported |coarse_ofs|: 2^FINE_W (one period)."""
+        return 1 << self.fine_w
+
+    @property
+    def latency(self) -> int:
+        """LATENCY: enabled clocks from in_valid to out_valid, 2."""
+        return LATENCY
 
     def hdl_parameters(self) -> dict[str, int]:
+        """The HDL parameter/generic map (``FINE_W``, ``LINES``, ``COARSE_W``)."""
         return {"FINE_W": self.fine_w, "LINES": self.lines, "COARSE_W": self.coarse_w}
 
 
-def _delta(phase: np.ndarray, fine_w: int) -> np.ndarray:
-    """Signed FINE_W-bit difference to the previous sample (0 for the first)."""
-    half = 1 << (fine_w - 1)
-    d = np.diff(phase, prepend=phase[:1])
-    return ((d + half) & ((1 << fine_w) - 1)) - half
+def latency(params: PeriodCountParams) -> int:
+    """Clock enables from ``in_valid`` to ``out_valid`` in the RTL: 2."""
+    return LATENCY
 
 
-def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams):
-    """(pos, overspeed, coarse_err) for a stream that starts right after reset."""
+def _int_array(name: str, v, lo: int, hi: int) -> np.ndarray:
+    """v as int64, checked to be integers in [lo, hi]."""
+    a = np.asarray(v)
+    if a.size and not np.issubdtype(a.dtype, np.integer):
+        raise ValueError(f"{NAME}: {name} must be integers, got dtype {a.dtype}")
+    a = a.astype(np.int64, copy=False)
+    if a.size and (a.min() < lo or a.max() > hi):
+        bad = a.ravel()[np.flatnonzero((a.ravel() < lo) | (a.ravel() > hi))[0]]
+        raise ValueError(f"{NAME}: {name} = {bad} outside {lo}..{hi}")
+    return a
+
+
+def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Position and flags for a stream of valid samples that starts right after reset.
+
+    Args:
+        phase: u(FINE_W) fine phases, one-dimensional (the stream, in order).
+        coarse: u(COARSE_W) coarse codes of the same length; ignored (may be None) when COARSE_W = 0.
+        coarse_ofs: s(POS_W+1) middle of coarse code 0 in fine counts, a scalar or one value per
+            sample (the register value each sample saw); |coarse_ofs| <= 2^FINE_W. Ignored when
+            COARSE_W = 0.
+        params: the block parameters.
+
+    Returns:
+        ``(pos, overspeed, coarse_err)``: int64 positions in [0, REV) and two bool arrays.
+
+    Raises:
+        ValueError: an input outside its format or range, or mismatched lengths.
+    """
     p = params
-    phase = np.asarray(phase, dtype=np.int64)
-    delta = _delta(phase, p.fine_w)
+    ph = _int_array("phase", phase, 0, (1 << p.fine_w) - 1)
+    if ph.ndim != 1:
+        raise ValueError(f"{NAME}: phase must be one-dimensional (a stream), got shape {ph.shape}")
+    n = ph.size
+    half = 1 << (p.fine_w - 1)
+    mask = (1 << p.fine_w) - 1
+    # delta as s(FINE_W); 0 for the first sample (it has no predecessor)
+    delta = np.empty(n, dtype=np.int64)
+    if n:
+        delta[0] = 0
+        np.subtract(ph[1:], ph[:-1], out=delta[1:])
+        delta[1:] += half
+        delta[1:] &= mask
+        delta[1:] -= half
     overspeed = np.abs(delta) >= (1 << (p.fine_w - 2))
-    if p.coarse_w:
-        coarse = np.asarray(coarse, dtype=np.int64)
-        centre = ((coarse * p.lines) << (p.fine_w - p.coarse_w)) + int(coarse_ofs)
-        d = centre - phase
-        n = (d + (1 << (p.fine_w - 1))) >> p.fine_w
-        r = d - (n << p.fine_w)
-        coarse_err = np.abs(r) > p.coarse_tol
-        n = np.mod(n, p.lines)
-        return (n << p.fine_w) + phase, overspeed, coarse_err
-    pos = np.mod(phase[0] + np.cumsum(delta), p.rev) if len(phase) else phase
-    return pos, overspeed, np.zeros(len(phase), dtype=bool)
+
+    if p.coarse_w == 0:
+        if n == 0:
+            return ph.copy(), overspeed, np.zeros(0, dtype=bool)
+        # |running sum| < n * 2^(FINE_W-1): int64 holds 2^34 samples of the widest phase
+        pos = np.cumsum(delta)
+        pos += ph[0]
+        pos %= p.rev
+        return pos, overspeed, np.zeros(n, dtype=bool)
+
+    if coarse is None:
+        raise ValueError(f"{NAME}: coarse codes are required when COARSE_W = {p.coarse_w}")
+    co = _int_array("coarse", coarse, 0, (1 << p.coarse_w) - 1)
+    if co.shape != ph.shape:
+        raise ValueError(f"{NAME}: coarse shape {co.shape} differs from phase shape {ph.shape}")
+    ofs = _int_array("coarse_ofs", coarse_ofs, -p.ofs_max, p.ofs_max)
+    if ofs.ndim and ofs.shape != ph.shape:
+        raise ValueError(f"{NAME}: coarse_ofs must be a scalar or one value per sample, got shape {ofs.shape}")
+    d = co * p.lines
+    d <<= p.fine_w - p.coarse_w      # cpos
+    d += ofs                         # centre
+    d -= ph
+    t = d + half
+    nper = t >> p.fine_w             # floor((d + 2^(FINE_W-1)) / 2^FINE_W)
+    r = (t & mask) - half            # d - n * 2^FINE_W
+    coarse_err = np.abs(r) > p.coarse_tol
+    # |coarse_ofs| <= 2^FINE_W keeps n in [-2, LINES+1]: one add or subtract of LINES, as the RTL
+    if p.lines == 1:
+        nper[:] = 0
+    else:
+        nper += np.where(nper < 0, p.lines, np.where(nper >= p.lines, -p.lines, 0))
+    pos = (nper << p.fine_w) | ph
+    return pos, overspeed, coarse_err

@@ -1,0 +1,76 @@
+// fringe_synth_wrap: fringe_top behind a handful of pins, for synthesis and timing runs only.
+//
+// The core's wide AXI-Stream and configuration ports do not fit a small package (the iCE40 UP5K
+// SG48 has 39 I/O). Here every input word comes from one long shift register fed by a serial pin
+// (sdi), and the output word is folded by XOR into 8 registered pins, so no logic of the core can
+// be optimised away: every input bit can reach it and every output bit is observed. All I/O is
+// registered, so the timing report measures the core, not the pads.
+
+`default_nettype none
+
+module fringe_synth_wrap #(
+    parameter integer ADC_W = 12, parameter integer LINES = 256, parameter integer COARSE_W = 9,
+    parameter integer WAVE_ADDR_W = 8, parameter integer WAVE_W = 18, parameter integer COEF_W = 18,
+    parameter integer FINE_W = 16, parameter integer CORDIC_STAGES = 18, parameter integer CORDIC_GUARD = 3,
+    parameter integer LP_ADDR_W = 8, parameter integer LP_W = 18, parameter integer LP_FRAC = 4,
+    parameter integer LP_IF = 8, parameter [63:0] LP_RECIP = 64'd1, parameter integer LP_SHIFT = 16,
+    parameter REGS_INIT = "", parameter WAVE_SIN_INIT = "", parameter WAVE_COS_INIT = "", parameter LP_INIT = ""
+) (
+    input  wire       clk,
+    input  wire       rst,
+    input  wire       sdi,        // serial data into the input shift register
+    input  wire       s_valid,
+    input  wire       cfg_we,
+    input  wire       m_ready,
+    output reg        s_ready,
+    output reg        m_valid,
+    output reg        bank,
+    output reg  [7:0] dout        // XOR fold of the output word
+);
+    localparam integer S_W = 2 * (8 * ((ADC_W + 7) / 8)) + 8 * ((COARSE_W + 7) / 8);
+    localparam integer M_W = 8 * (($clog2(LINES) + FINE_W + 7) / 8) + 8;
+    localparam integer SR_W = S_W + 18 + 64;
+
+    reg  [SR_W-1:0] sr;
+    reg             s_valid_r, cfg_we_r, m_ready_r, rst_r;
+    wire [M_W-1:0]  m_data;
+    wire            s_ready_w, m_valid_w, bank_w;
+
+    always @(posedge clk) begin
+        sr        <= {sr[SR_W-2:0], sdi};
+        s_valid_r <= s_valid;
+        cfg_we_r  <= cfg_we;
+        m_ready_r <= m_ready;
+        rst_r     <= rst;
+    end
+
+    fringe_top #(
+        .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
+        .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
+        .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
+        .LP_SHIFT(LP_SHIFT), .REGS_INIT(REGS_INIT), .WAVE_SIN_INIT(WAVE_SIN_INIT),
+        .WAVE_COS_INIT(WAVE_COS_INIT), .LP_INIT(LP_INIT)
+    ) u_top (
+        .clk(clk), .rst(rst_r),
+        .s_axis_tdata(sr[S_W-1:0]), .s_axis_tvalid(s_valid_r), .s_axis_tready(s_ready_w),
+        .m_axis_tdata(m_data), .m_axis_tvalid(m_valid_w), .m_axis_tready(m_ready_r),
+        .cfg_wr_en(cfg_we_r), .cfg_wr_addr(sr[S_W +: 18]), .cfg_wr_data(sr[S_W+18 +: 64]),
+        .active_bank(bank_w)
+    );
+
+    integer i;
+    reg [7:0] fold;
+    always @(*) begin
+        fold = 8'd0;
+        for (i = 0; i < M_W; i = i + 1) fold[i % 8] = fold[i % 8] ^ m_data[i];
+    end
+
+    always @(posedge clk) begin
+        s_ready <= s_ready_w;
+        m_valid <= m_valid_w;
+        bank    <= bank_w;
+        dout    <= fold;
+    end
+endmodule
+
+`default_nettype wire
