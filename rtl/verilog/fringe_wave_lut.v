@@ -11,9 +11,9 @@
 //   clip   adc is the most negative or the most positive code
 // Bit-exact model: model/fringe/fixed/wave_lut.py.
 //
-// LATENCY = 3 clock enables (ce = 1 cycles) from in_valid to out_valid:
-//   1: table RAM read (fringe_table_ram, registered)   2: slope * frac + 2^(FB-1)
-//   3: value + (product >>> FB)
+// LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
+//   1: table RAM read (fringe_table_ram, registered)   2: the RAM's output register
+//   3: slope * frac + 2^(FB-1)   4: value + (product >>> FB)
 // ce = 0 freezes every register (including the RAM read); rst (synchronous, active high,
 // wins over ce) clears only the valid pipeline, never the data registers. The table write port
 // is independent of ce: write the bank that no sample in flight carries, then switch `bank`;
@@ -48,7 +48,7 @@ module fringe_wave_lut #(
     output wire [USER_W-1:0]         out_user
 );
 
-    localparam integer LATENCY = 3;
+    localparam integer LATENCY = 4;
     localparam integer FB      = ADC_W - WAVE_ADDR_W;  // fraction bits of the index, >= 1
     localparam integer PROD_W  = WAVE_W + FB + 1;       // s(WAVE_W) * u(FB), plus rounding
     localparam [PROD_W-1:0] RND = {{(PROD_W-1){1'b0}}, 1'b1} << (FB - 1);
@@ -92,18 +92,23 @@ module fringe_wave_lut #(
         .rd_data (word1)
     );
 
-    reg          [FB-1:0] frac1;
-    reg                   clip1;
+    reg          [FB-1:0] frac0r, frac1;
+    reg                   clip0r, clip1;
+    reg  [2*WAVE_W-1:0]   word1r;
 
+    // stage 1b: the RAM's output register (a block RAM's clock-to-out then feeds no logic)
     always @(posedge clk) begin
         if (ce) begin
-            frac1 <= frac0;
-            clip1 <= clip0;
+            frac0r <= frac0;
+            clip0r <= clip0;
+            word1r <= word1;
+            frac1  <= frac0r;
+            clip1  <= clip0r;
         end
     end
 
-    wire signed [WAVE_W-1:0] slope1 = word1[2*WAVE_W-1:WAVE_W];
-    wire signed [WAVE_W-1:0] value1 = word1[WAVE_W-1:0];
+    wire signed [WAVE_W-1:0] slope1 = word1r[2*WAVE_W-1:WAVE_W];
+    wire signed [WAVE_W-1:0] value1 = word1r[WAVE_W-1:0];
 
     // ---- stage 2: slope * frac + 2^(FB-1) ---------------------------------------------------
     reg signed [PROD_W-1:0] prod2;

@@ -14,9 +14,9 @@
 --   clip   adc is the most negative or the most positive code
 -- Bit-exact model: model/fringe/fixed/wave_lut.py.
 --
--- LATENCY = 3 clock enables (ce = 1 cycles) from in_valid to out_valid:
---   1: table RAM read (fringe_table_ram, registered)   2: slope * frac + 2^(FB-1)
---   3: value + (product >>> FB)
+-- LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
+--   1: table RAM read (fringe_table_ram, registered)   2: the RAM's output register
+--   3: slope * frac + 2^(FB-1)   4: value + (product >>> FB)
 -- ce = 0 freezes every register (including the RAM read); rst (synchronous, active high,
 -- wins over ce) clears only the valid pipeline, never the data registers. The table write port
 -- is independent of ce: write the bank that no sample in flight carries, then switch `bank`;
@@ -78,7 +78,7 @@ architecture rtl of fringe_wave_lut is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := 3;
+    constant LATENCY : integer := 4;
     constant FB      : integer := ADC_W - WAVE_ADDR_W;   -- fraction bits of the index, >= 1
     constant PROD_W  : integer := WAVE_W + FB + 1;        -- s(WAVE_W) * u(FB), plus rounding
 
@@ -93,6 +93,9 @@ architecture rtl of fringe_wave_lut is
     -- stage 2
     signal prod2   : signed(PROD_W - 1 downto 0);
     signal value2  : signed(WAVE_W - 1 downto 0);
+    signal frac0r  : unsigned(FB - 1 downto 0);
+    signal clip0r  : std_logic;
+    signal word1r  : std_logic_vector(2 * WAVE_W - 1 downto 0);
     signal clip2   : std_logic;
     -- valid and sideband
     type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
@@ -128,14 +131,17 @@ begin
     begin
         if rising_edge(clk) then
             if ce = '1' then
-                -- stage 1
-                frac1  <= unsigned(u0(FB - 1 downto 0));
-                clip1  <= clip0;
+                -- stage 1: table read; stage 1b: the RAM's output register
+                frac0r <= unsigned(u0(FB - 1 downto 0));
+                clip0r <= clip0;
+                word1r <= word1;
+                frac1  <= frac0r;
+                clip1  <= clip0r;
                 -- stage 2: slope * frac + 2^(FB-1)
                 rnd    := shift_left(to_signed(1, PROD_W), FB - 1);
-                prod2  <= resize(signed(word1(2 * WAVE_W - 1 downto WAVE_W)) * signed('0' & frac1),
+                prod2  <= resize(signed(word1r(2 * WAVE_W - 1 downto WAVE_W)) * signed('0' & frac1),
                                  PROD_W) + rnd;
-                value2 <= signed(word1(WAVE_W - 1 downto 0));
+                value2 <= signed(word1r(WAVE_W - 1 downto 0));
                 clip2  <= clip1;
                 -- stage 3: value + (product >>> FB), exact modulo 2^WAVE_W (x lies between two
                 -- table values)

@@ -33,7 +33,7 @@ __all__ = [
 ]
 
 #: Clock enables from ``in_valid`` to ``out_valid`` in the RTL (RAM read, multiply, add).
-LATENCY = 3
+LATENCY = 4
 
 
 @dataclass(frozen=True)
