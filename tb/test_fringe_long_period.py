@@ -1,146 +1,397 @@
-"""fringe_long_period (Verilog and VHDL) against the bit-exact model, every output word exactly.
+"""fringe_long_period RTL (Verilog and VHDL) against the bit-exact model, every output word.
 
-Tables: bank 0 and bank 1 loaded with different corrections from the init file; in mid-stream
-bank 1 is rewritten through the write port while samples read bank 0, then samples switch to
-bank 1 and must see the new table. Traffic: random positions with the revolution wrap and both
-ends, random zero and direction, full speed, then random gaps, stalls and a reset.
+Two halves in one file (the cocotb ``examples/adder`` layout):
+
+- cocotb coroutines (``long_period_*``), run inside the simulator: they read the configuration
+  from ``FRINGE_LP_PARAMS`` (JSON of the HDL parameters) and the seed from ``FRINGE_SEED``;
+- the pytest launcher ``test_fringe_long_period`` builds and runs them with
+  ``sim/cocotb_runner.py`` over several parameter sets and both simulators (``--sims``).
+
+The run is planned before the simulation (``tb/planned_stream.py``), table writes included, so
+each sample's expected word comes from the vectorised model with the table contents it reads:
+
+1. both banks from INIT_FILE (two different smooth corrections), the bank chosen per sample:
+   full speed, then random in_valid gaps, ce stalls and resets;
+2. bank 1 rewritten through the write port (one word per clock, whatever ce is, junk on the bus
+   when wr_en = 0) with arbitrary words, extremes included, while samples read bank 0 and earlier
+   samples are still in flight; then both banks again (the any-word wrap guarantee);
+3. bank 0 rewritten with a new smooth table while samples read bank 1; then both banks.
+
+Positions: uniform, 0, 1, REV-2, REV-1, both sides of entry boundaries, with zero at 0, REV-1 or
+anywhere, both directions; corrections large enough to wrap pos - step both ways.
+
+Replay a failure: ``FRINGE_SEED=<seed in the message> pytest tb/test_fringe_long_period.py -k ...``.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from fringe.fixed.long_period import LongPeriodParams, index_mapping, long_period, make_table, pack_words
+from fringe.fixed.long_period import (
+    LATENCY,
+    LongPeriodParams,
+    index_mapping,
+    long_period_words,
+    make_table,
+    pack_words,
+)
 
 TOPLEVEL = "fringe_long_period"
-LATENCY = 6
 DEFAULT_SEED = 777
-
-# (LINES, FINE_W, LP_ADDR_W, LP_W, LP_FRAC, LP_IF)
-PARAM_SETS = [(256, 16, 8, 18, 4, 8), (100, 12, 6, 16, 3, 6), (1, 16, 10, 18, 4, 8)]
+REPO = Path(__file__).resolve().parent.parent
 
 
-def tables(p: LongPeriodParams, seed: int) -> list[np.ndarray]:
-    """Three smooth corrections (a few fine counts to hundreds), as table values."""
+# ============================================================================ stimulus (pure Python)
+
+
+def smooth_table(p: LongPeriodParams, seed: int, scale: float) -> np.ndarray:
+    """Values of a sum of four random harmonics, peak about ``scale`` of the s(LP_W) range."""
     rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(3):
-        a = rng.uniform(-1, 1, (4, 2)) * min(300.0, 2 ** (p.lp_w - 2 - p.lp_frac))
-        out.append(make_table(lambda pos, a=a: sum(a[m, 0] * np.cos((m + 1) * 2 * np.pi * pos / p.rev)
-                                                   + a[m, 1] * np.sin((m + 1) * 2 * np.pi * pos / p.rev)
-                                                   for m in range(4)) / 4, p))
-    return out
+    a = rng.uniform(-1.0, 1.0, (4, 2))
+    amp = scale * (2.0 ** (p.lp_w - 1 - p.lp_frac)) / 4
+
+    def err(pos):
+        x = 2 * np.pi * np.asarray(pos, dtype=float) / p.rev
+        return amp * sum(a[m, 0] * np.cos((m + 1) * x) + a[m, 1] * np.sin((m + 1) * x) for m in range(4))
+
+    return make_table(err, p)
 
 
-def params_of(ps) -> tuple[LongPeriodParams, dict]:
-    lines, fw, aw, w, frac, interp = ps
-    p = LongPeriodParams(lines, fw, aw, w, frac, interp)
-    recip, shift = index_mapping(lines, fw, aw, interp)
-    hdl = {"LINES": lines, "FINE_W": fw, "LP_ADDR_W": aw, "LP_W": w, "LP_FRAC": frac, "LP_IF": interp,
-           "LP_RECIP": recip, "LP_SHIFT": shift, "USER_W": 2}
-    return p, hdl
+def init_words(p: LongPeriodParams) -> np.ndarray:
+    """(2, N) RAM words of INIT_FILE: bank 0 and bank 1, two different smooth corrections of
+    opposite signs at position 0 (so that pos - step wraps both ways near 0 and REV-1)."""
+    t0, t1 = smooth_table(p, 1, 0.9), smooth_table(p, 2, 0.5)
+    if (t0[0] > 0) == (t1[0] > 0):
+        t1 = -t1
+    return np.stack([pack_words(t0, p), pack_words(t1, p)])
 
+
+def raw_words(p: LongPeriodParams, rng: np.random.Generator) -> list[int]:
+    """Arbitrary words (slopes unrelated to the values), the extreme fields in the first entries."""
+    w = p.lp_w
+    lo, hi = 1 << (w - 1), (1 << (w - 1)) - 1          # the codes of -2^(w-1) and 2^(w-1)-1
+    fields = [(lo, lo), (hi, hi), (lo, hi), (hi, lo)]   # (slope, value)
+    fields += [(int(a), int(b)) for a, b in rng.integers(0, 1 << w, (p.entries - len(fields), 2))]
+    return [(s << w) | v for s, v in fields]
+
+
+def entry_ends(p: LongPeriodParams, ks) -> list[int]:
+    """First and last position of the entries ks (frac 0 and frac at its largest)."""
+    return [q for k in ks for q in (-(-(k * p.rev) // p.entries), -(-((k + 1) * p.rev) // p.entries) - 1)]
+
+
+def positions(p: LongPeriodParams, rng: np.random.Generator, n: int, hot=()) -> np.ndarray:
+    """Uniform positions, 15 % of them at 0, 1, REV-2, REV-1, both sides of entry boundaries, and
+    ``hot`` positions."""
+    ks = [0, 1, 2, 3, p.entries - 1] + list(rng.integers(0, p.entries, 4))
+    edges = [0, 1, p.rev - 2, p.rev - 1, *entry_ends(p, ks), *hot]
+    edges = np.array(edges, dtype=np.int64)
+    edges = np.mod(np.concatenate([edges, edges + 1, edges - 1]), p.rev)
+    pos = rng.integers(0, p.rev, n)
+    pick = rng.random(n) < 0.15
+    pos[pick] = rng.choice(edges, pick.sum())
+    return pos
+
+
+def build_plan(p: LongPeriodParams, user_w: int, seed: int):
+    """The cycles of the whole run with their expected outputs, and the table contents over time."""
+    from planned_stream import Cycle
+
+    rng = np.random.default_rng(seed)
+    n = p.entries
+    word_mask = (1 << (2 * p.lp_w)) - 1
+    words = init_words(p).astype(object)        # current RAM contents (Python ints: up to 64 bits)
+    cycles: list[Cycle] = []
+    pending: list[tuple[int, int, int, int, int, int]] = []   # (cycle, pos, zero, dir, bank, user)
+
+    def flush_expect():
+        """Expected words of the offered samples so far, with the current table contents."""
+        if not pending:
+            return
+        idx, pos, zero, d, bank, user = (np.array(col, dtype=np.int64) for col in zip(*pending, strict=True))
+        out = long_period_words(pos, np.array(words.tolist(), dtype=np.uint64), zero, d, p, bank=bank)
+        for j, i in enumerate(idx):
+            cycles[i].expect = (int(out[j]), int(user[j]))
+        pending.clear()
+
+    def write_bus(k=None, bank=None, word=None) -> dict[str, int]:
+        if k is None:   # idle bus: junk that must not be written
+            return {"wr_en": 0, "wr_addr": int(rng.integers(0, 2 * n)),
+                    "wr_data": int(rng.integers(0, 1 << 62)) & word_mask}
+        return {"wr_en": 1, "wr_addr": (bank << p.lp_addr_w) | k, "wr_data": int(word)}
+
+    def section(n_samples, p_ce, p_valid, banks=(0, 1), resets=(), writes=None, note="", hot=()):
+        pos = positions(p, rng, n_samples, hot)
+        zero = np.where(rng.random(n_samples) < 0.5, rng.integers(0, p.rev, n_samples),
+                        rng.choice([0, p.rev - 1], n_samples))
+        d = rng.integers(0, 2, n_samples)
+        bank = rng.choice(banks, n_samples)
+        writes = list(writes or [])
+        i = cyc = 0
+        while i < n_samples or writes:
+            rst = int(cyc in resets)
+            ce = int(rng.random() < p_ce)
+            bus = write_bus(*writes.pop(0)) if writes else write_bus()
+            user = int(rng.integers(0, 1 << user_w))
+            if i < n_samples and rng.random() < p_valid:
+                c = Cycle(rst, ce, 1, {"pos": int(pos[i]), "zero": int(zero[i]), "dir": int(d[i]),
+                                       "bank": int(bank[i]), "in_user": user, **bus}, note=note)
+                pending.append((len(cycles), int(pos[i]), int(zero[i]), int(d[i]), int(bank[i]), user))
+                if c.accepted or rst:
+                    i += 1
+            else:
+                c = Cycle(rst, ce, 0, {"pos": int(rng.integers(0, 1 << p.pos_w)), "zero": int(rng.integers(0, p.rev)),
+                                       "dir": int(rng.integers(0, 2)), "bank": int(rng.integers(0, 2)),
+                                       "in_user": user, **bus}, note="idle")
+            cycles.append(c)
+            cyc += 1
+
+    def settle(k=2):
+        """ce = 1 idle clocks: every sample taken so far has read the table."""
+        for _ in range(k):
+            cycles.append(Cycle(0, 1, 0, {"in_user": 0, **write_bus()}, note="settle"))
+
+    cycles.append(Cycle(1, 1, 0, {"pos": 0, "zero": 0, "dir": 0, "bank": 0, "in_user": 0, **write_bus()},
+                        note="power-up reset"))
+    # 1. both init banks, per-sample bank: full speed, then gaps, stalls and resets
+    section(500, 1.0, 1.0, note="init tables, full speed")
+    section(700, 0.75, 0.7, resets={150, 151, 420}, note="init tables, gaps and stalls")
+    flush_expect()
+    settle()
+    # 2. bank 1 <- arbitrary words while samples read bank 0
+    new1 = raw_words(p, rng)
+    section(n // 2 + 20, 0.8, 0.8, banks=(0,), writes=[(k, 1, new1[k]) for k in range(n)],
+            note="bank 0 while bank 1 is written")
+    flush_expect()
+    words[1] = new1
+    # the extreme words sit in entries 0..3: their ends give the largest |corr|
+    section(600, 0.85, 0.8, resets={300}, note="bank 0 and the arbitrary bank 1", hot=entry_ends(p, range(4)) * 4)
+    flush_expect()
+    settle()
+    # 3. bank 0 <- a new smooth table while samples read bank 1
+    new0 = pack_words(-smooth_table(p, 3, 0.7), p)
+    section(n // 2 + 20, 0.8, 0.8, banks=(1,), writes=[(k, 0, int(new0[k])) for k in range(n)],
+            note="bank 1 while bank 0 is written")
+    flush_expect()
+    words[0] = [int(v) for v in new0]
+    section(400, 1.0, 0.9, note="new bank 0 and bank 1")
+    flush_expect()
+    for _ in range(LATENCY + 2):
+        cycles.append(Cycle(0, 1, 0, {"in_user": 0, **write_bus()}, note="drain"))
+    return cycles
+
+
+# ============================================================================ cocotb side
 
 try:
     import cocotb
-except ImportError:  # pragma: no cover
+    from cocotb.triggers import FallingEdge
+except ImportError:  # pragma: no cover - pytest side without cocotb: the launcher skips
     cocotb = None
 
+
+def params_of(raw: dict) -> LongPeriodParams:
+    return LongPeriodParams(raw["LINES"], raw["FINE_W"], raw["LP_ADDR_W"], raw["LP_W"], raw["LP_FRAC"], raw["LP_IF"],
+                            raw["LP_RECIP"], raw["LP_SHIFT"])
+
+
+def _config() -> tuple[LongPeriodParams, int, int]:
+    raw = json.loads(os.environ["FRINGE_LP_PARAMS"])
+    return params_of(raw), int(raw["USER_W"]), int(os.environ.get("FRINGE_SEED", DEFAULT_SEED))
+
+
 if cocotb is not None:
-    from pipeline_check import StreamChecker, lv, start_clock
+    from planned_stream import drive, hdl_constant, measure_latency, start_clock
+
+    def _read(dut) -> tuple[int, int]:
+        return int(dut.pos_out.value), int(dut.out_user.value)
+
+    @cocotb.test()
+    async def long_period_latency(dut):
+        """One sample: out_valid exactly LATENCY = 6 clocks later, for one clock, with the model's word."""
+        p, user_w, seed = _config()
+        assert len(dut.pos) == p.pos_w and len(dut.zero) == p.pos_w and len(dut.pos_out) == p.pos_w
+        assert len(dut.wr_data) == 2 * p.lp_w and len(dut.wr_addr) == p.lp_addr_w + 1
+        assert len(dut.in_user) == user_w
+        await start_clock(dut)
+        dut.wr_en.value = 0
+        pos, zero, user = p.rev - 1, p.rev // 3, (1 << user_w) - 1
+
+        def apply():
+            dut.pos.value = pos
+            dut.zero.value = zero
+            dut.dir.value = 1
+            dut.bank.value = 1
+            dut.in_user.value = user
+
+        n = await measure_latency(dut, apply)
+        if n != p.latency:
+            raise AssertionError(f"latency {n} clocks, documented LATENCY = {p.latency}")
+        want = int(long_period_words(np.array([pos]), init_words(p), zero, 1, p, bank=np.array([1]))[0])
+        if _read(dut) != (want, user):
+            raise AssertionError(f"latency sample: RTL {_read(dut)}, model {(want, user)}")
+        await FallingEdge(dut.clk)
+        if int(dut.out_valid.value):
+            raise AssertionError("out_valid high for more than one clock")
+        hdl_lat = hdl_constant(dut, "LATENCY")
+        if hdl_lat is not None and hdl_lat != p.latency:
+            raise AssertionError(f"HDL LATENCY = {hdl_lat}, model {p.latency}")
+        dut._log.info("latency %d clocks (HDL constant: %s)", p.latency, hdl_lat)
 
     @cocotb.test()
     async def long_period_stream(dut):
-        raw = json.loads(os.environ["FRINGE_LP_PARAMS"])
-        p = LongPeriodParams(raw["LINES"], raw["FINE_W"], raw["LP_ADDR_W"], raw["LP_W"], raw["LP_FRAC"], raw["LP_IF"])
-        seed = int(os.environ.get("FRINGE_SEED", DEFAULT_SEED))
-        rng = np.random.default_rng(seed)
-        t0, t1, t1_new = tables(p, 5)
-        bank_tables = np.array([t0, t1])
-        new_words = pack_words(t1_new, p)
-        n_entries = 1 << p.lp_addr_w
+        """The planned run: every output word against the model, exact timing, table rewrites."""
+        p, user_w, seed = _config()
+        tag = f"{p}, USER_W={user_w}, seed={seed}; replay with FRINGE_SEED={seed}"
+        cycles = build_plan(p, user_w, seed)
         await start_clock(dut)
-        from cocotb.triggers import FallingEdge, RisingEdge
-        dut.rst.value, dut.ce.value, dut.in_valid.value = 1, 1, 0      # power-up reset
-        await RisingEdge(dut.clk)
-        await FallingEdge(dut.clk)
-        dut.wr_en.value = 0
-        dut.wr_addr.value = 0
-        dut.wr_data.value = 0
-        checker = StreamChecker(dut, LATENCY, lambda: (lv(dut.pos_out), lv(dut.out_user)), f"seed {seed}")
-        edge = [0, 1, p.rev - 1, p.rev - 2, p.rev // 2] + [int(k * p.rev / n_entries) for k in range(4)]
-        state = {"bank": 0}
-
-        def make_sample(cyc):
-            pos = int(rng.choice(edge)) if rng.random() < 0.1 else int(rng.integers(0, p.rev))
-            zero = int(rng.integers(0, p.rev)) if rng.random() < 0.5 else 0
-            direction = int(rng.integers(0, 2))
-            user = int(rng.integers(0, 4))
-            b = state["bank"]
-            dut.pos.value, dut.zero.value, dut.dir.value = pos, zero, direction
-            dut.bank.value, dut.in_user.value = b, user
-            exp = long_period(np.array([pos]), bank_tables[b], zero, direction, p)
-            return int(exp[0]), user
-
-        def make_idle(cyc):
-            dut.pos.value = int(rng.integers(0, p.rev))
-
-        # full speed on the two init banks, then gaps, stalls and a reset
-        for phase_cycles, p_valid, p_ce, resets in ((300, 1.0, 1.0, ()), (600, 0.7, 0.8, (350,))):
-            for _ in range(2):
-                state["bank"] ^= 1
-                await checker.run(phase_cycles // 2, make_sample, make_idle, rng, p_valid, p_ce, resets)
-        await checker.flush(make_idle, rng)
-        # rewrite bank 1 while samples read bank 0
-        state["bank"] = 0
-        writes = list(enumerate(new_words))
-
-        def on_cycle(cyc):
-            if writes:
-                k, w = writes.pop(0)
-                dut.wr_en.value = 1
-                dut.wr_addr.value = (1 << p.lp_addr_w) | k
-                dut.wr_data.value = int(w)
-            else:
-                dut.wr_en.value = 0
-
-        await checker.run(n_entries + 20, make_sample, make_idle, rng, 0.9, 0.9, (), on_cycle=on_cycle)
-        dut.wr_en.value = 0
-        await checker.flush(make_idle, rng)
-        bank_tables[1] = t1_new
-        state["bank"] = 1
-        await checker.run(400, make_sample, make_idle, rng, 0.8, 0.8)
-        await checker.flush(make_idle, rng)
-        assert checker.n_out > 800, checker.n_out     # every one of them compared
+        st = await drive(dut, cycles, p.latency, lambda: _read(dut), tag)
+        if st.dropped == 0:
+            raise AssertionError(f"[{tag}] no reset dropped a sample in flight: test not effective")
+        dut._log.info("%d cycles, %d samples taken, %d words checked bit-exact, %d dropped by resets",
+                      st.cycles, st.accepted, st.checked, st.dropped)
 
 
-def _init_file(ps) -> str:
-    """Both banks' words as the RAM's hex image (a fixed path per parameter set: builds are cached)."""
+# ============================================================================ pytest side
+
+PARAM_SETS = [
+    # (LongPeriodParams, USER_W)
+    # widest words, 2^(LP_W - LP_FRAC) = REV: |step| reaches a whole revolution with arbitrary words
+    (LongPeriodParams(lines=256, fine_w=16, lp_addr_w=8, lp_w=32, lp_frac=8, lp_if=16), 3),
+    # REV not a power of two (LP_RECIP = 335545, LP_SHIFT = 31), no rounding term (LP_FRAC = 0)
+    (LongPeriodParams(lines=100, fine_w=12, lp_addr_w=6, lp_w=14, lp_frac=0, lp_if=6), 1),
+    # one line, 1024 entries of 64 counts
+    (LongPeriodParams(lines=1, fine_w=16, lp_addr_w=10, lp_w=18, lp_frac=4, lp_if=8), 2),
+]
+
+
+def _id(ps) -> str:
+    p, user_w = ps
+    return f"L{p.lines}-F{p.fine_w}-A{p.lp_addr_w}-W{p.lp_w}-FR{p.lp_frac}-IF{p.lp_if}-U{user_w}"
+
+
+def test_plan_is_effective():
+    """The plans exercise what the module docstring promises (checked without a simulator)."""
+    for p, user_w in PARAM_SETS:
+        cycles = build_plan(p, user_w, DEFAULT_SEED)
+        acc = [c for c in cycles if c.accepted]
+        assert all(c.expect is not None for c in acc)
+        pos = {c.drive["pos"] for c in acc}
+        assert {0, p.rev - 1} <= pos, _id((p, user_w))
+        assert {c.drive["bank"] for c in acc} == {0, 1} and {c.drive["dir"] for c in acc} == {0, 1}
+        writes = [c for c in cycles if c.drive.get("wr_en")]
+        assert len(writes) == 2 * p.entries and any(not c.ce for c in writes)
+        # pos - step wraps both ways for some samples (the corrections are large)
+        wd = init_words(p)
+        steps = [(c.drive["pos"], c.drive["bank"]) for c in acc[:1000]]
+        pc = [int(long_period_words(np.array([q]), wd, 0, 0, p, bank=np.array([b]))[0]) for q, b in steps]
+        assert any(a - b > p.rev // 2 for (a, _), b in zip(steps, pc, strict=True))
+        assert any(b - a > p.rev // 2 for (a, _), b in zip(steps, pc, strict=True))
+
+
+def _latency_in_source(path: Path) -> int:
+    text = path.read_text()
+    m = re.search(r"localparam\s+integer\s+LATENCY\s*=\s*(\d+)\s*;", text) or \
+        re.search(r"constant\s+LATENCY\s*:\s*integer\s*:=\s*(\d+)\s*;", text, re.I)
+    assert m, f"no LATENCY constant in {path}"
+    return int(m.group(1))
+
+
+def test_latency_constant_matches_model():
+    assert _latency_in_source(REPO / "rtl/verilog/fringe_long_period.v") == LATENCY
+    assert _latency_in_source(REPO / "rtl/vhdl/fringe_long_period.vhd") == LATENCY
+
+
+def _hdl_params(lines, fine_w, addr, lp_w, frac, lp_if, recip=None, shift=None) -> dict:
+    if recip is None:
+        try:
+            recip, shift = index_mapping(lines, fine_w, addr, lp_if)
+        except (ValueError, ZeroDivisionError):
+            recip, shift = 1, 16
+    return {"LINES": lines, "FINE_W": fine_w, "LP_ADDR_W": addr, "LP_W": lp_w, "LP_FRAC": frac, "LP_IF": lp_if,
+            "LP_RECIP": recip, "LP_SHIFT": shift}
+
+
+ILLEGAL = [
+    _hdl_params(256, 7, 8, 18, 4, 8),
+    _hdl_params(256, 31, 8, 18, 4, 8),
+    _hdl_params(0, 16, 8, 18, 4, 8, 1, 16),
+    _hdl_params((1 << 20) + 1, 16, 8, 18, 4, 8, 1, 16),
+    _hdl_params((1 << 18) + 1, 30, 8, 18, 4, 8, 1, 16),
+    _hdl_params(256, 16, 1, 18, 4, 8),
+    _hdl_params(256, 16, 17, 18, 4, 8),
+    _hdl_params(1, 8, 9, 16, 4, 8),                  # 512 entries > REV = 256
+    _hdl_params(256, 16, 8, 7, 0, 8),
+    _hdl_params(256, 16, 8, 33, 12, 8),
+    _hdl_params(256, 16, 8, 18, 17, 8),
+    _hdl_params(256, 16, 8, 18, 4, 0, 1, 16),
+    _hdl_params(256, 16, 8, 18, 4, 17, 1, 17),
+    _hdl_params(1, 16, 10, 21, 4, 8),                 # 2^17 > REV = 2^16
+    _hdl_params(256, 16, 8, 18, 4, 8, 1, 4),          # LP_SHIFT < LP_IF
+    _hdl_params(256, 16, 8, 18, 4, 8, 1, 128),
+    _hdl_params(256, 16, 8, 18, 4, 8, 2, 16),         # wrong reciprocals
+    _hdl_params(256, 16, 8, 18, 4, 8, 1, 15),
+    _hdl_params(100, 12, 6, 14, 0, 6, 335544, 31),    # one below index_mapping's
+    _hdl_params(100, 12, 6, 14, 0, 6, 0, 31),
+]
+
+
+def _model_error(d: dict) -> str:
+    with pytest.raises(ValueError) as e:
+        LongPeriodParams(d["LINES"], d["FINE_W"], d["LP_ADDR_W"], d["LP_W"], d["LP_FRAC"], d["LP_IF"],
+                         d["LP_RECIP"], d["LP_SHIFT"])
+    return str(e.value)
+
+
+@pytest.mark.parametrize("params", ILLEGAL, ids=lambda d: "_".join(f"{k}{v}" for k, v in d.items()))
+def test_illegal_parameters_stop_elaboration(sim, params):
+    """The HDL stops with the model's message (the model raises the same text)."""
+    from elab_check import elaborate
+
+    msg = _model_error(params)
+    hdl = dict(params)
+    if sim == "verilator":
+        hdl["LP_RECIP"] = f"64'd{hdl['LP_RECIP']}"
+    rc, out = elaborate(TOPLEVEL, sim, hdl)
+    assert rc != 0 and msg in out, f"{msg!r} not in:\n{out[-3000:]}"
+
+
+def test_illegal_user_w_stops_elaboration(sim):
+    from elab_check import elaborate
+
+    rc, out = elaborate(TOPLEVEL, sim, {"USER_W": 0})
+    assert rc != 0 and "fringe_long_period: USER_W = 0 must be >= 1" in out, out[-3000:]
+
+
+def _init_file(p: LongPeriodParams) -> Path:
+    """Both banks' initial words as the RAM's hex image (a fixed path per parameter set)."""
     from fringe.fixed.table_ram import write_hex
 
-    p, _ = params_of(ps)
-    t0, t1, _ = tables(p, 5)
-    path = Path(tempfile.gettempdir()) / "fringe_tb" / f"lp_{'_'.join(map(str, ps))}.mem"
-    write_hex(path, np.concatenate([pack_words(t0, p), pack_words(t1, p)]), 2 * p.lp_w, ["test tables"])
-    return str(path)
+    path = Path(tempfile.gettempdir()) / "fringe_tb" / (
+        f"long_period_L{p.lines}_F{p.fine_w}_A{p.lp_addr_w}_W{p.lp_w}_FR{p.lp_frac}.mem")
+    return write_hex(path, init_words(p).ravel(), 2 * p.lp_w,
+                     [f"tb/test_fringe_long_period.py initial tables: {p}",
+                      "bank 0 then bank 1; word {slope, value}"])
 
 
-@pytest.mark.parametrize("ps", PARAM_SETS, ids=[f"L{a}-f{b}-a{c}" for a, b, c, *_ in PARAM_SETS])
+@pytest.mark.parametrize("ps", PARAM_SETS, ids=[_id(ps) for ps in PARAM_SETS])
 def test_fringe_long_period(sim, ps):
     from cocotb_runner import run_block
 
-    p, hdl = params_of(ps)
+    p, user_w = ps
+    hdl = {**p.hdl_parameters(), "USER_W": user_w}
     if sim == "ghdl" and hdl["LP_RECIP"] >= 1 << 31:
         pytest.skip("LP_RECIP >= 2^31 does not fit a VHDL integer generic (documented limit)")
-    path = _init_file(ps)
-    env = {"FRINGE_LP_PARAMS": json.dumps(hdl)}
-    hdl["INIT_FILE"] = f'"{path}"' if sim == "verilator" else path     # a Verilog string needs its quotes
+    env = {"FRINGE_LP_PARAMS": json.dumps(hdl), "FRINGE_SEED": os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))}
+    path = _init_file(p)
+    hdl["INIT_FILE"] = f'"{path}"' if sim == "verilator" else str(path)   # a Verilog string needs its quotes
     if sim == "verilator":
-        hdl["LP_RECIP"] = f"64'd{hdl['LP_RECIP']}"                     # a 64-bit parameter
-    run_block(TOPLEVEL, "test_fringe_long_period", hdl, sim=sim, extra_env=env)
+        hdl["LP_RECIP"] = f"64'd{hdl['LP_RECIP']}"                        # a 64-bit parameter
+    run_block(TOPLEVEL, "test_fringe_long_period", hdl, sim=sim, timeout_s=240, extra_env=env)

@@ -1,72 +1,116 @@
-// fringe_long_period: the seed 000 harmonic (long-period) table, then direction and zero.
+// fringe_long_period: the seed 000 harmonic (long-period) correction table with linear
+// interpolation, then the output direction and zero.
 //
-// Formats (docs/architecture.md, "fringe_long_period"), REV = LINES * 2^FINE_W fine counts,
-// POS_W = FINE_W + clog2(LINES), 2^LP_ADDR_W table entries per revolution:
-//   t      = pos * LP_RECIP;  entry = t >> LP_SHIFT;  frac = (t >> (LP_SHIFT - LP_IF)) mod 2^LP_IF
-//   word   = {slope, value}, both s(LP_W), fine counts with LP_FRAC fraction bits, from the
-//            two-bank fringe_table_ram at {bank, entry}; slope[k] = value[k+1] - value[k] (wrapping)
-//   corr   = value + ((slope * frac + 2^(LP_IF-1)) >>> LP_IF)
-//   pos_c  = (pos - ((corr + 2^(LP_FRAC-1)) >>> LP_FRAC)) mod REV     (no rounding term if LP_FRAC = 0)
-//   pos_out = dir ? (zero - pos_c) mod REV : (pos_c + zero) mod REV
-// LP_RECIP and LP_SHIFT come from model/fringe/fixed/long_period.py index_mapping(): the entry is
-// exactly floor(pos * 2^LP_ADDR_W / REV); a power-of-two REV makes LP_RECIP a power of two (a shift).
-// Bit-exact model: model/fringe/fixed/long_period.py.
+// Formats (docs/architecture.md, "fringe_long_period"); REV = LINES * 2^FINE_W fine counts per
+// revolution, POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 48), N = 2^LP_ADDR_W entries
+// per revolution (entry k at position k * REV / N):
+//   pos, zero  u(POS_W) in [0, REV)      dir: 1 = the output runs the other way
+//   t       = pos * LP_RECIP;  entry = t >> LP_SHIFT;  frac = (t >> (LP_SHIFT - LP_IF)) mod 2^LP_IF
+//             (LP_RECIP, LP_SHIFT from model/fringe/fixed/long_period.py index_mapping(): entry is
+//             exactly floor(pos * N / REV); elaboration checks the proof's bound; a power-of-two
+//             REV makes LP_RECIP a power of two, a shift)
+//   word    = {slope, value}, both s(LP_W), fine counts with LP_FRAC fraction bits, read from the
+//             two-bank fringe_table_ram at {bank, entry}; slope[k] = value[k+1] - value[k] with
+//             value[N] = value[0] (the revolution wraps)
+//   corr    = value + ((slope * frac + 2^(LP_IF-1)) >>> LP_IF)
+//   step    = (corr + 2^(LP_FRAC-1)) >>> LP_FRAC       (LP_FRAC = 0: step = corr)
+//   pos_c   = (pos - step) mod REV
+//   pos_out = dir ? (zero - pos_c) mod REV : (pos_c + zero) mod REV, u(POS_W) in [0, REV)
+// 2^(LP_W - LP_FRAC) <= REV bounds |step| by REV for any table contents, so one add or subtract
+// of REV wraps each result. Bit-exact model: model/fringe/fixed/long_period.py.
 //
-// LATENCY = 6 clock enables from in_valid to out_valid:
-//   1 index product   2 table read   3 slope x fraction   4 correction, rounded to counts
-//   5 subtract, wrap   6 direction and zero, wrap
-// rst (synchronous, active high, wins over ce) clears the valid pipeline only. The table's write
-// port works whatever ce is.
+// The table is written through wr_en / wr_addr ({bank, entry}) / wr_data, passed to
+// fringe_table_ram whatever ce is; write only the bank no sample in flight reads.
+//
+// LATENCY = 6 clock enables (ce = 1 cycles) from in_valid to out_valid:
+//   1 index product   2 table read   3 slope x fraction (+ rounding constants)
+//   4 correction rounded to fine counts, subtracted from pos   5 wrap into [0, REV)
+//   6 zero and direction, wrap
+// One sample per clock. ce = 0 freezes every register (and the table read); rst (synchronous,
+// active high, wins over ce) clears only the valid pipeline, never the data registers.
 
 `default_nettype none
 
 module fringe_long_period #(
-    parameter integer LINES     = 256,    // signal periods per revolution, >= 1
+    parameter integer LINES     = 256,    // signal periods per revolution, 1..2^20; FINE_W + clog2(LINES) <= 48
     parameter integer FINE_W    = 16,     // fine phase bits per period, 8..30
     parameter integer LP_ADDR_W = 8,      // 2^LP_ADDR_W table entries per revolution, 2..16, 2^LP_ADDR_W <= REV
-    parameter integer LP_W      = 18,     // value and slope width, 8..32; corrections stay below REV/2
+    parameter integer LP_W      = 18,     // width of value and slope, 8..32; 2^(LP_W - LP_FRAC) <= REV
     parameter integer LP_FRAC   = 4,      // fraction bits of the correction (fine counts), 0..16
-    parameter integer LP_IF     = 8,      // interpolation fraction bits, 1..16, <= LP_SHIFT
-    parameter [63:0]  LP_RECIP  = 64'd1,  // index multiplier, from index_mapping()
-    parameter integer LP_SHIFT  = 16,     // index shift, from index_mapping()
-    parameter         INIT_FILE = "",     // $readmemh image, 2 banks x 2^LP_ADDR_W words {slope, value}
-    parameter integer USER_W    = 1,      // sideband width, >= 1
-    // derived: do not override
-    parameter integer POS_W     = FINE_W + ((LINES > 1) ? $clog2(LINES) : 0)
+    parameter integer LP_IF     = 8,      // interpolation fraction bits, 1..16
+    parameter [63:0]  LP_RECIP  = 64'd1,  // index multiplier, from index_mapping() (checked at elaboration)
+    parameter integer LP_SHIFT  = 16,     // index shift, LP_IF..127, from index_mapping() (checked)
+    parameter         INIT_FILE = "",     // $readmemh image of the table, 2 banks x 2^LP_ADDR_W words; "" = zeros
+    parameter integer USER_W    = 1       // sideband width, >= 1
 ) (
-    input  wire                 clk,
-    input  wire                 rst,
-    input  wire                 ce,
-    input  wire                 in_valid,
-    input  wire [POS_W-1:0]     pos,        // u(POS_W), in [0, REV)
-    input  wire                 bank,       // table bank of this sample
-    input  wire [POS_W-1:0]     zero,       // u(POS_W), in [0, REV)
-    input  wire                 dir,        // 1: the output runs the other way
-    input  wire [USER_W-1:0]    in_user,
-    input  wire                 wr_en,      // table write port: {bank, entry}
-    input  wire [LP_ADDR_W:0]   wr_addr,
-    input  wire [2*LP_W-1:0]    wr_data,
-    output wire                 out_valid,
-    output reg  [POS_W-1:0]     pos_out,    // u(POS_W), in [0, REV)
-    output wire [USER_W-1:0]    out_user
+    input  wire                              clk,
+    input  wire                              rst,       // synchronous, active high: clears valid only
+    input  wire                              ce,        // clock enable: the pipeline advances when 1
+    // sample in
+    input  wire                              in_valid,
+    input  wire [FINE_W+$clog2(LINES)-1:0]   pos,       // u(POS_W), in [0, REV)
+    input  wire                              bank,      // table bank of this sample
+    input  wire [FINE_W+$clog2(LINES)-1:0]   zero,      // u(POS_W), in [0, REV)
+    input  wire                              dir,       // 1: the output runs the other way
+    input  wire [USER_W-1:0]                 in_user,
+    // table write port (software side), independent of ce
+    input  wire                              wr_en,
+    input  wire [LP_ADDR_W:0]                wr_addr,   // {bank, entry}
+    input  wire [2*LP_W-1:0]                 wr_data,   // {slope, value}
+    // position out
+    output wire                              out_valid,
+    output reg  [FINE_W+$clog2(LINES)-1:0]   pos_out,   // u(POS_W), in [0, REV)
+    output wire [USER_W-1:0]                 out_user
 );
 
     localparam integer LATENCY = 6;
-    localparam integer RECIP_W = (LP_RECIP > 64'd1) ? $clog2(LP_RECIP + 64'd1) : 1;
-    localparam integer T_W     = POS_W + RECIP_W;          // the index product
-    localparam integer PR_W    = LP_W + LP_IF + 1;         // slope x fraction, signed
-    localparam integer C_W     = LP_W + 2;                 // correction, signed
-    localparam integer WW      = ((POS_W > C_W) ? POS_W : C_W) + 2;  // signed position arithmetic
+    localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
     localparam [63:0]  LINES64 = {32'd0, LINES};
-    localparam [63:0]  REV64   = LINES64 << FINE_W;
+    localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^48 when legal
+
+    // ---- parameter checks -------------------------------------------------------------------------
+    // 2-adic valuation of LINES (trailing zero bits), LINES in 1..2^20
+    function integer tz;
+        input integer v;
+        integer k;
+        begin
+            tz = 0;
+            for (k = 1; k <= 20; k = k + 1) begin
+                if (v % (1 << k) == 0) begin
+                    tz = k;
+                end
+            end
+        end
+    endfunction
+
+    // Granlund-Montgomery bound (see check_index_mapping in the model), on 256-bit constants:
+    // E = LP_RECIP * REV - 2^(LP_ADDR_W + LP_SHIFT) >= 0 and (REV - 1) * E < 2^(G + LP_SHIFT),
+    // 2^G = gcd(2^LP_ADDR_W, REV).
+    localparam integer   V2      = FINE_W + tz(LINES);
+    localparam integer   G_LOG   = (LP_ADDR_W < V2) ? LP_ADDR_W : V2;
+    localparam [255:0]   REV_X   = {192'd0, REV64};
+    localparam [255:0]   PROD_X  = {192'd0, LP_RECIP} * REV_X;
+    localparam [255:0]   POW_X   = 256'd1 << (LP_ADDR_W + LP_SHIFT);
+    localparam [255:0]   E_X     = PROD_X - POW_X;
+    localparam [255:0]   LHS_X   = (REV_X - 256'd1) * E_X;
+    localparam [255:0]   RHS_X   = 256'd1 << (G_LOG + LP_SHIFT);
+    localparam           MAP_OK  = (LP_RECIP != 64'd0) && (PROD_X >= POW_X) && (LHS_X < RHS_X);
 
     generate
         if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
             $error("fringe_long_period: FINE_W = %0d out of range 8..30 (instance %m)", FINE_W);
         end
-        if (LP_ADDR_W < 2 || LP_ADDR_W > 16 || (64'd1 << LP_ADDR_W) > REV64) begin : g_bad_addr_w
-            $error("fringe_long_period: LP_ADDR_W = %0d out of range 2..16 or above clog2(REV) (instance %m)",
-                   LP_ADDR_W);
+        if (LINES < 1 || LINES > (1 << 20)) begin : g_bad_lines
+            $error("fringe_long_period: LINES = %0d out of range 1..2^20 (instance %m)", LINES);
+        end
+        if (POS_W > 48) begin : g_bad_pos_w
+            $error("fringe_long_period: POS_W = FINE_W + clog2(LINES) = %0d exceeds 48 (instance %m)", POS_W);
+        end
+        if (LP_ADDR_W < 2 || LP_ADDR_W > 16) begin : g_bad_addr_w
+            $error("fringe_long_period: LP_ADDR_W = %0d out of range 2..16 (instance %m)", LP_ADDR_W);
+        end else if ((64'd1 << LP_ADDR_W) > REV64) begin : g_bad_entries
+            $error("fringe_long_period: 2^LP_ADDR_W = %0d entries exceed REV = LINES * 2^FINE_W (instance %m)",
+                   1 << LP_ADDR_W);
         end
         if (LP_W < 8 || LP_W > 32) begin : g_bad_lp_w
             $error("fringe_long_period: LP_W = %0d out of range 8..32 (instance %m)", LP_W);
@@ -74,22 +118,60 @@ module fringe_long_period #(
         if (LP_FRAC < 0 || LP_FRAC > 16) begin : g_bad_lp_frac
             $error("fringe_long_period: LP_FRAC = %0d out of range 0..16 (instance %m)", LP_FRAC);
         end
-        if (LP_IF < 1 || LP_IF > 16 || LP_IF > LP_SHIFT) begin : g_bad_lp_if
-            $error("fringe_long_period: LP_IF = %0d out of range 1..16 or above LP_SHIFT (instance %m)", LP_IF);
+        if (LP_IF < 1 || LP_IF > 16) begin : g_bad_lp_if
+            $error("fringe_long_period: LP_IF = %0d out of range 1..16 (instance %m)", LP_IF);
         end
-        if ((64'd1 << (LP_W - 1 - LP_FRAC)) >= (REV64 >> 1)) begin : g_bad_range
-            $error("fringe_long_period: LP_W - LP_FRAC allows corrections of half a revolution (instance %m)");
+        if (LP_W - LP_FRAC >= 0 && (64'd1 << (LP_W - LP_FRAC)) > REV64) begin : g_bad_range
+            $error("fringe_long_period: LP_W - LP_FRAC = %0d: corrections up to 2^%0d fine counts exceed REV = LINES * 2^FINE_W (instance %m)",
+                   LP_W - LP_FRAC, LP_W - LP_FRAC);
+        end
+        if (LP_SHIFT < LP_IF || LP_SHIFT > 127) begin : g_bad_shift
+            $error("fringe_long_period: LP_SHIFT = %0d out of range LP_IF = %0d .. 127 (instance %m)",
+                   LP_SHIFT, LP_IF);
+        end else if (!MAP_OK) begin : g_bad_map
+            $error("fringe_long_period: LP_RECIP = %0d, LP_SHIFT = %0d do not map every position to floor(pos * 2^LP_ADDR_W / REV); take them from index_mapping() (instance %m)",
+                   LP_RECIP, LP_SHIFT);
         end
         if (USER_W < 1) begin : g_bad_user_w
             $error("fringe_long_period: USER_W = %0d must be >= 1 (instance %m)", USER_W);
         end
     endgenerate
 
-    wire [WW-1:0] rev_w = REV64[WW-1:0];   // REV < 2^POS_W+1 fits
+    // ---- widths --------------------------------------------------------------------------------------
+    localparam integer RECIP_W = (LP_RECIP > 64'd1) ? $clog2(LP_RECIP + 64'd1) : 1;
+    localparam integer T_W0    = POS_W + RECIP_W;
+    localparam integer T_W     = (T_W0 > LP_SHIFT + LP_ADDR_W) ? T_W0 : LP_SHIFT + LP_ADDR_W;  // index product
+    localparam integer PR_W    = LP_W + LP_IF + 1;    // slope x frac (+ 2^(LP_IF-1)): |.| < 2^(LP_W-1+LP_IF)
+    localparam integer C_W     = ((LP_W > LP_FRAC) ? LP_W : LP_FRAC) + 2;  // value + 2^(LP_FRAC-1) + ip
+    localparam integer PX_W    = (PR_W > C_W) ? PR_W : C_W;                 // the product, sign-extended
+    localparam integer WW      = POS_W + 2;           // signed positions: pos - step, zero +- REV
+    localparam [255:0]   RECIP_X = {192'd0, LP_RECIP};
+    localparam [T_W-1:0] RECIP_T = RECIP_X[T_W-1:0];   // T_W >= RECIP_W: no bit lost
+    localparam [WW-1:0]  REV_W   = REV64[WW-1:0];
 
-    // ---- 1: index product ------------------------------------------------------------------------
-    wire [T_W-1:0] recip_w = LP_RECIP[T_W-1:0];
-    wire [T_W-1:0] t = {{RECIP_W{1'b0}}, pos} * recip_w;
+    // ---- valid (reset) and sideband, LATENCY stages ----------------------------------------------
+    reg [LATENCY-1:0]        valid_sr;
+    reg [LATENCY*USER_W-1:0] user_sr;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            valid_sr <= {LATENCY{1'b0}};
+        end else if (ce) begin
+            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
+        end
+    end
+
+    assign out_valid = valid_sr[LATENCY-1];
+    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+
+    // ---- 1: index product ----------------------------------------------------------------------------
+    wire [T_W-1:0] t = {{(T_W-POS_W){1'b0}}, pos} * RECIP_T;
     reg  [LP_ADDR_W-1:0] s1_entry;
     reg  [LP_IF-1:0]     s1_frac;
     reg  [POS_W-1:0]     s1_pos, s1_zero;
@@ -106,14 +188,17 @@ module fringe_long_period #(
         end
     end
 
-    // ---- 2: table read -----------------------------------------------------------------------------
+    // ---- 2: table read ---------------------------------------------------------------------------------
     wire [2*LP_W-1:0] word;
+
     fringe_table_ram #(
         .ADDR_W(LP_ADDR_W), .DATA_W(2 * LP_W), .INIT_FILE(INIT_FILE)
     ) u_table (
-        .clk(clk), .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),
+        .clk(clk),
+        .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),
         .rd_en(ce), .rd_addr({s1_bank, s1_entry}), .rd_data(word)
     );
+
     reg [LP_IF-1:0] s2_frac;
     reg [POS_W-1:0] s2_pos, s2_zero;
     reg             s2_dir;
@@ -127,98 +212,92 @@ module fringe_long_period #(
         end
     end
 
-    // ---- 3: slope x fraction -----------------------------------------------------------------------
+    // ---- 3: slope x fraction, with the rounding constants added here ------------------------------
     wire signed [LP_W-1:0]  value = word[LP_W-1:0];
     wire signed [LP_W-1:0]  slope = word[2*LP_W-1:LP_W];
-    wire signed [PR_W-1:0]  prod = slope * $signed({1'b0, s2_frac});
+    wire signed [PR_W-1:0]  prod  = slope * $signed({1'b0, s2_frac});   // s(LP_W) x u(LP_IF)
+    wire signed [PR_W-1:0]  prod_rnd = prod + $signed({{(PR_W-LP_IF){1'b0}}, 1'b1, {(LP_IF-1){1'b0}}});
+    wire signed [C_W-1:0]   value_x = {{(C_W-LP_W){value[LP_W-1]}}, value};
+    wire signed [C_W-1:0]   value_rnd;
     reg  signed [PR_W-1:0]  s3_prod;
-    reg  signed [LP_W-1:0]  s3_value;
+    reg  signed [C_W-1:0]   s3_value;
     reg  [POS_W-1:0]        s3_pos, s3_zero;
     reg                     s3_dir;
 
+    generate
+        if (LP_FRAC > 0) begin : g_round
+            assign value_rnd = value_x + $signed({{(C_W-LP_FRAC){1'b0}}, 1'b1, {(LP_FRAC-1){1'b0}}});
+        end else begin : g_no_round
+            assign value_rnd = value_x;
+        end
+    endgenerate
+
     always @(posedge clk) begin
         if (ce) begin
-            s3_prod  <= prod;
-            s3_value <= value;
+            s3_prod  <= prod_rnd;          // slope * frac + 2^(LP_IF-1)
+            s3_value <= value_rnd;         // value + 2^(LP_FRAC-1)
             s3_pos   <= s2_pos;
             s3_zero  <= s2_zero;
             s3_dir   <= s2_dir;
         end
     end
 
-    // ---- 4: correction, rounded to whole fine counts -----------------------------------------------
-    wire signed [PR_W-1:0] prod_rnd = s3_prod + $signed({{(PR_W-LP_IF){1'b0}}, 1'b1, {(LP_IF-1){1'b0}}});
-    wire signed [PR_W-1:0] prod_sh = prod_rnd >>> LP_IF;   // |slope * frac / 2^LP_IF| < 2^(LP_W-1)
-    wire signed [C_W-1:0]  corr = $signed({{2{s3_value[LP_W-1]}}, s3_value}) + $signed(prod_sh[C_W-1:0]);
-    wire signed [C_W-1:0]  step;
-    generate
-        if (LP_FRAC > 0) begin : g_round
-            wire signed [C_W-1:0] corr_rnd = corr + $signed({{(C_W-LP_FRAC){1'b0}}, 1'b1, {(LP_FRAC-1){1'b0}}});
-            assign step = corr_rnd >>> LP_FRAC;
-        end else begin : g_no_round
-            assign step = corr;
-        end
-    endgenerate
-    reg signed [WW-1:0] s4_pos_c;
-    reg [POS_W-1:0]     s4_zero;
-    reg                 s4_dir;
+    // ---- 4: step = (value + round(slope * frac / 2^LP_IF) + 2^(LP_FRAC-1)) >>> LP_FRAC; pos - step ---
+    wire signed [PX_W-1:0] prod_x = {{(PX_W-PR_W){s3_prod[PR_W-1]}}, s3_prod};
+    wire signed [PX_W-1:0] ip     = prod_x >>> LP_IF;                // round(slope * frac / 2^LP_IF), s(LP_W)
+    wire signed [C_W-1:0]  corr   = s3_value + ip[C_W-1:0];          // |corr| <= 2^LP_W + 2^(LP_FRAC-1)
+    wire signed [C_W-LP_FRAC-1:0] step = corr[C_W-1:LP_FRAC];       // >>> LP_FRAC
+    reg  signed [WW-1:0]   s4_pos_c;
+    reg  [POS_W-1:0]       s4_zero;
+    reg                    s4_dir;
 
     always @(posedge clk) begin
         if (ce) begin
-            s4_pos_c <= $signed({{(WW-POS_W){1'b0}}, s3_pos}) - $signed({{(WW-C_W){step[C_W-1]}}, step});
+            // |step| <= 2^(LP_W-LP_FRAC) <= REV <= 2^POS_W: pos - step fits s(POS_W+2)
+            s4_pos_c <= $signed({2'b00, s3_pos}) - $signed({{(WW-C_W+LP_FRAC){step[C_W-LP_FRAC-1]}}, step});
             s4_zero  <= s3_zero;
             s4_dir   <= s3_dir;
         end
     end
 
-    // ---- 5: wrap into [0, REV) -------------------------------------------------------------------
-    wire signed [WW-1:0] rev_s = $signed(rev_w);
-    wire signed [WW-1:0] wrapped = (s4_pos_c < 0) ? s4_pos_c + rev_s
-                                 : ((s4_pos_c >= rev_s) ? s4_pos_c - rev_s : s4_pos_c);
-    reg [POS_W-1:0] s5_pos_c, s5_zero;
-    reg             s5_dir;
+    // ---- 5: wrap into [0, REV): the two alternatives in parallel; zero -+ REV for stage 6 ---------
+    wire signed [WW-1:0] c_up   = s4_pos_c + $signed(REV_W);
+    wire signed [WW-1:0] c_down = s4_pos_c - $signed(REV_W);
+    wire signed [WW-1:0] c_wrap = s4_pos_c[WW-1] ? c_up : (c_down[WW-1] ? s4_pos_c : c_down);
+    wire        [WW-1:0] zero_x = {2'b00, s4_zero};
+    reg  [POS_W-1:0]     s5_pos_c;
+    reg  [WW-1:0]        s5_zero, s5_zero_alt;
+    reg                  s5_dir;
 
     always @(posedge clk) begin
         if (ce) begin
-            s5_pos_c <= wrapped[POS_W-1:0];
-            s5_zero  <= s4_zero;
-            s5_dir   <= s4_dir;
+            s5_pos_c    <= c_wrap[POS_W-1:0];
+            s5_zero     <= zero_x;
+            // the wrapped alternative of stage 6: dir ? zero + REV - pos_c : zero - REV + pos_c
+            s5_zero_alt <= s4_dir ? zero_x + REV_W : zero_x - REV_W;
+            s5_dir      <= s4_dir;
         end
     end
 
-    // ---- 6: direction and zero ---------------------------------------------------------------------
-    wire signed [WW-1:0] zero_w = $signed({{(WW-POS_W){1'b0}}, s5_zero});
-    wire signed [WW-1:0] pos_c_w = $signed({{(WW-POS_W){1'b0}}, s5_pos_c});
-    wire signed [WW-1:0] out_raw = s5_dir ? zero_w - pos_c_w : pos_c_w + zero_w;
-    wire signed [WW-1:0] out_wrap = (out_raw < 0) ? out_raw + rev_s
-                                  : ((out_raw >= rev_s) ? out_raw - rev_s : out_raw);
+    // ---- 6: zero and direction, wrap -----------------------------------------------------------------
+    // dir = 0: a = pos_c + zero in [0, 2 REV - 2], b = a - REV; take b when b >= 0.
+    // dir = 1: a = zero - pos_c in (-REV, REV),    b = a + REV; take b when a < 0.
+    wire [WW-1:0] pc_x = {2'b00, s5_pos_c};
+    wire [WW-1:0] a    = s5_dir ? s5_zero - pc_x : s5_zero + pc_x;
+    wire [WW-1:0] b    = s5_dir ? s5_zero_alt - pc_x : s5_zero_alt + pc_x;
+    wire          use_b = s5_dir ? a[WW-1] : ~b[WW-1];
+    wire [WW-1:0] o    = use_b ? b : a;
 
     always @(posedge clk) begin
         if (ce) begin
-            pos_out <= out_wrap[POS_W-1:0];
+            pos_out <= o[POS_W-1:0];
         end
     end
 
-    // bits dropped by the index and the roundings, and the sign bits of wrapped positions
-    wire unused = &{1'b0, t, prod_rnd, prod_sh, wrapped[WW-1:POS_W], out_wrap[WW-1:POS_W]};
-
-    // ---- valid (reset) and sideband ------------------------------------------------------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1 -: USER_W];
+    // Bits that carry nothing: the index product above the entry and below the fraction, the
+    // product's rounded-off bits and sign extension, the step's fraction bits, the sign bits of
+    // wrapped positions (in [0, REV)).
+    wire unused = &{1'b0, t, ip, corr, c_wrap[WW-1:POS_W], o[WW-1:POS_W]};
 
 endmodule
 

@@ -1,56 +1,64 @@
-// fringe_period_count: coarse/fine combination, or period counting without a coarse code.
+// fringe_period_count: coarse/fine combination (absolute position from a coarse code), or period
+// counting without one; overspeed and coarse-code checks.
 //
-// Formats (docs/architecture.md, "fringe_period_count"), REV = LINES * 2^FINE_W fine counts per
-// revolution, POS_W = FINE_W + clog2(LINES):
-//   delta      s(FINE_W) = phase - phase of the previous valid sample (modulo 2^FINE_W)
-//   overspeed  |delta| >= 2^(FINE_W-2) (a quarter period); never on the first sample after reset
+// Formats (docs/architecture.md, "fringe_period_count"); REV = LINES * 2^FINE_W fine counts per
+// revolution, POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 48):
+//   phase       u(FINE_W)    fine phase, a fraction of a signal period
+//   coarse      u(COARSE_W)  coarse code, 2^COARSE_W codes per revolution (1 unused bit when COARSE_W = 0)
+//   coarse_ofs  s(POS_W+1)   calibrated middle of coarse code 0, fine counts; |coarse_ofs| <= 2^FINE_W;
+//                            a register the top holds stable, taken with each sample
+//   delta       s(FINE_W)    = phase - phase_prev modulo 2^FINE_W, phase_prev the previous valid sample's
+//   overspeed   |delta| >= 2^(FINE_W-2) (a quarter period); never on the first valid sample after reset
 //   COARSE_W > 0:
-//     centre   = (coarse * LINES << (FINE_W - COARSE_W)) + coarse_ofs       (coarse_ofs s(POS_W+1))
-//     d        = centre - phase;  n = (d + 2^(FINE_W-1)) >>> FINE_W;  r = d - n * 2^FINE_W
-//     coarse_err = |r| > COARSE_TOL = (LINES << (FINE_W-COARSE_W-2)) + 2^(FINE_W-2)
-//     pos      = (n mod LINES) * 2^FINE_W + phase      (|coarse_ofs| <= 2^FINE_W: n in [-1, LINES])
+//     centre    = ((coarse * LINES) << (FINE_W - COARSE_W)) + coarse_ofs
+//     d         = centre - phase;  n = (d + 2^(FINE_W-1)) >>> FINE_W;  r = d - n * 2^FINE_W
+//     coarse_err = |r| > COARSE_TOL = (LINES << (FINE_W-COARSE_W-2)) + 2^(FINE_W-2), the midpoint
+//                 between half a coarse code and half a period
+//     pos       = (n mod LINES) * 2^FINE_W + phase; |coarse_ofs| <= 2^FINE_W keeps n in [-2, LINES+1],
+//                 so one add or subtract of LINES wraps it (LINES = 1: n mod 1 = 0). Outside that
+//                 range pos is not defined (the model refuses it).
 //   COARSE_W = 0:
-//     pos      = (pos_prev + delta) mod REV; the first valid sample after reset gives pos = phase
+//     pos       = (pos_prev + delta) mod REV, pos_prev the previous valid output; the first valid
+//                 sample after reset gives pos = phase. coarse_err = 0; coarse and coarse_ofs unused.
+//   pos u(POS_W) in [0, REV).
 // Bit-exact model: model/fringe/fixed/period_count.py.
 //
-// LATENCY = 2 clock enables from in_valid to out_valid:
-//   1: delta, overspeed, coarse centre   2: period number, wrap, position (and the counter)
-// rst (synchronous, active high, wins over ce) clears the valid pipeline and the "have a previous
-// sample" state, so counting restarts at the next sample.
+// LATENCY = 2 clock enables (ce = 1 cycles) from in_valid to out_valid:
+//   1: delta, overspeed, coarse centre   2: period number, wrap, position (the counter)
+// One sample per clock. ce = 0 freezes every register. rst (synchronous, active high, wins over ce)
+// clears the valid pipeline and the "previous sample seen" state, so the next valid sample is the
+// first again; the data registers (phase_prev, the position) are never reset. The outputs update
+// on valid samples only.
 
 `default_nettype none
 
 module fringe_period_count #(
     parameter integer FINE_W   = 16,   // fine phase bits per signal period, 8..30
-    parameter integer LINES    = 256,  // signal periods per revolution, 1..2^20, any integer
-    parameter integer COARSE_W = 9,    // coarse code bits, 0 = none; else FINE_W >= COARSE_W + 2, 2^COARSE_W >= LINES
-    parameter integer USER_W   = 1,    // sideband width, >= 1
-    // derived: do not override
-    parameter integer POS_W    = FINE_W + ((LINES > 1) ? $clog2(LINES) : 0),
-    parameter integer CW       = (COARSE_W > 0) ? COARSE_W : 1
+    parameter integer LINES    = 256,  // signal periods per revolution, 1..2^20, any integer; FINE_W + clog2(LINES) <= 48
+    parameter integer COARSE_W = 9,    // coarse code bits: 0 = none (periods counted), else 1..24, <= FINE_W-2, 2^COARSE_W >= LINES
+    parameter integer USER_W   = 1     // sideband width, >= 1
 ) (
-    input  wire               clk,
-    input  wire               rst,
-    input  wire               ce,
-    input  wire               in_valid,
-    input  wire [FINE_W-1:0]  phase,       // u(FINE_W)
-    input  wire [CW-1:0]      coarse,      // u(COARSE_W), ignored when COARSE_W = 0
-    input  wire [POS_W:0]     coarse_ofs,  // s(POS_W+1), fine counts, |value| <= 2^FINE_W
-    input  wire [USER_W-1:0]  in_user,
-    output wire               out_valid,
-    output reg  [POS_W-1:0]   pos,         // u(POS_W), in [0, REV)
-    output reg                overspeed,
-    output reg                coarse_err,
-    output wire [USER_W-1:0]  out_user
+    input  wire                               clk,
+    input  wire                               rst,         // synchronous, active high
+    input  wire                               ce,          // clock enable: the pipeline advances when 1
+    // sample in
+    input  wire                               in_valid,
+    input  wire [FINE_W-1:0]                  phase,       // u(FINE_W)
+    input  wire [((COARSE_W > 0) ? COARSE_W : 1)-1:0] coarse,  // u(COARSE_W); unused when COARSE_W = 0
+    input  wire [FINE_W+$clog2(LINES):0]      coarse_ofs,  // s(POS_W+1), fine counts, |value| <= 2^FINE_W
+    input  wire [USER_W-1:0]                  in_user,
+    // position out
+    output wire                               out_valid,
+    output reg  [FINE_W+$clog2(LINES)-1:0]    pos,         // u(POS_W), in [0, REV)
+    output reg                                overspeed,
+    output reg                                coarse_err,
+    output wire [USER_W-1:0]                  out_user
 );
 
     localparam integer LATENCY = 2;
-    localparam integer W = POS_W + 3;       // working width of the signed position arithmetic
-    localparam integer SH = (COARSE_W > 0) ? FINE_W - COARSE_W : 0;
-    localparam [W-1:0] HALF = {{(W-FINE_W){1'b0}}, 1'b1, {(FINE_W-1){1'b0}}};
-    localparam [63:0] LINES64 = {32'd0, LINES};
-    localparam [63:0] TOL64 = (COARSE_W > 0)
-                              ? ((LINES64 << (FINE_W - COARSE_W - 2)) + (64'd1 << (FINE_W - 2))) : 64'd0;
+    localparam integer POS_W   = FINE_W + $clog2(LINES);   // clog2(REV)
+    localparam integer N_W     = POS_W - FINE_W;           // period number bits (0 when LINES = 1)
+    localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;
 
     generate
         if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
@@ -59,90 +67,22 @@ module fringe_period_count #(
         if (LINES < 1 || LINES > (1 << 20)) begin : g_bad_lines
             $error("fringe_period_count: LINES = %0d out of range 1..2^20 (instance %m)", LINES);
         end
-        if (COARSE_W != 0 && (COARSE_W < 1 || COARSE_W > 24 || FINE_W < COARSE_W + 2)) begin : g_bad_coarse_w
-            $error("fringe_period_count: COARSE_W = %0d must be 0 or 1..24 with FINE_W >= COARSE_W + 2 (instance %m)",
-                   COARSE_W);
+        if (POS_W > 48) begin : g_bad_pos_w
+            $error("fringe_period_count: POS_W = FINE_W + clog2(LINES) = %0d exceeds 48 (instance %m)", POS_W);
         end
-        if (COARSE_W > 0 && (1 << COARSE_W) < LINES) begin : g_bad_coarse_lines
-            $error("fringe_period_count: 2^COARSE_W < LINES (instance %m)");
+        if (COARSE_W != 0 && (COARSE_W < 1 || COARSE_W > 24 || COARSE_W > FINE_W - 2)) begin : g_bad_coarse_w
+            $error("fringe_period_count: COARSE_W = %0d out of range: 0 (no coarse code) or 1..24 with COARSE_W <= FINE_W - 2 (instance %m)",
+                   COARSE_W);
+        end else if (COARSE_W > 0 && (1 << COARSE_W) < LINES) begin : g_bad_coarse_lines
+            $error("fringe_period_count: 2^COARSE_W = %0d is less than LINES = %0d (instance %m)",
+                   1 << COARSE_W, LINES);
         end
         if (USER_W < 1) begin : g_bad_user_w
             $error("fringe_period_count: USER_W = %0d must be >= 1 (instance %m)", USER_W);
         end
     endgenerate
 
-    // ---- stage 1: delta to the previous sample, overspeed, coarse centre ------------------------
-    reg  [FINE_W-1:0] prev_phase;
-    reg               have_prev;      // state: a valid sample has been seen since reset
-    wire [FINE_W-1:0] delta = phase - prev_phase;
-    wire [FINE_W-1:0] delta_abs = delta[FINE_W-1] ? -delta : delta;
-    wire              fast = have_prev && (delta_abs >= (1 << (FINE_W - 2)));
-
-    wire [W-1:0] lines_w = LINES64[W-1:0];
-    wire [W-1:0] tol = TOL64[W-1:0];
-    wire [W-1:0] coarse_w = {{(W-CW){1'b0}}, coarse};
-    wire [W-1:0] ofs_w = {{(W-POS_W-1){coarse_ofs[POS_W]}}, coarse_ofs};
-    wire [W-1:0] centre = ((coarse_w * lines_w) << SH) + ofs_w;
-
-    reg  [W-1:0]      s1_centre;
-    reg  [FINE_W-1:0] s1_phase, s1_delta;
-    reg               s1_fast, s1_first;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            have_prev <= 1'b0;
-        end else if (ce && in_valid) begin
-            have_prev <= 1'b1;
-        end
-        if (ce) begin
-            if (in_valid) prev_phase <= phase;
-            s1_centre <= centre;
-            s1_phase  <= phase;
-            s1_delta  <= delta;
-            s1_fast   <= fast;
-            s1_first  <= !have_prev;
-        end
-    end
-
-    // ---- stage 2: period number and position ----------------------------------------------------
-    wire [W-1:0] phase_w = {{(W-FINE_W){1'b0}}, s1_phase};
-    wire [W-1:0] rev_w = lines_w << FINE_W;
-    wire [W-1:0] d = s1_centre - phase_w;
-    wire [W-1:0] d_half = d + HALF;
-    wire [W-1:0] n_raw = {{FINE_W{d_half[W-1]}}, d_half[W-1:FINE_W]};      // floor((d + half) / 2^FINE_W)
-    wire [W-1:0] r = {{(W-FINE_W){1'b0}}, d_half[FINE_W-1:0]} - HALF;      // d - n * 2^FINE_W
-    wire [W-1:0] r_abs = r[W-1] ? -r : r;
-    wire [W-1:0] n_wrap = n_raw[W-1] ? n_raw + lines_w
-                        : (n_raw >= lines_w ? n_raw - lines_w : n_raw);
-    wire [W-1:0] pos_coarse = (n_wrap << FINE_W) | phase_w;
-
-    reg  [POS_W-1:0] pos_count;       // state of the incremental counter (previous output)
-    wire [W-1:0] delta_w = {{(W-FINE_W){s1_delta[FINE_W-1]}}, s1_delta};
-    wire [W-1:0] pos_prev_w = {{(W-POS_W){1'b0}}, pos_count};
-    wire [W-1:0] sum = pos_prev_w + delta_w;
-    wire [W-1:0] pos_next = sum[W-1] ? sum + rev_w : (sum >= rev_w ? sum - rev_w : sum);
-
-    always @(posedge clk) begin
-        if (ce && valid_sr[0]) begin
-            pos_count <= s1_first ? {{(POS_W-FINE_W){1'b0}}, s1_phase} : pos_next[POS_W-1:0];
-        end
-        if (ce) begin
-            overspeed <= s1_fast;
-            if (COARSE_W > 0) begin
-                pos        <= pos_coarse[POS_W-1:0];
-                coarse_err <= r_abs > tol;
-            end else begin
-                pos        <= s1_first ? {{(POS_W-FINE_W){1'b0}}, s1_phase} : pos_next[POS_W-1:0];
-                coarse_err <= 1'b0;
-            end
-        end
-    end
-
-    // bits that carry no information in a configuration
-    wire unused = &{1'b0, n_wrap[W-1:POS_W-FINE_W], pos_coarse[W-1:POS_W], pos_next[W-1:POS_W], r_abs[W-1],
-                    n_raw[W-1]};
-
-    // ---- valid (reset) and sideband, LATENCY stages ----------------------------------------------
+    // ---- valid (reset) and sideband, LATENCY stages ---------------------------------------------
     reg [LATENCY-1:0]        valid_sr;
     reg [LATENCY*USER_W-1:0] user_sr;
 
@@ -152,13 +92,157 @@ module fringe_period_count #(
         end else if (ce) begin
             valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
         end
+    end
+
+    always @(posedge clk) begin
         if (ce) begin
             user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
         end
     end
 
     assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1 -: USER_W];
+    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+
+    wire take = ce & in_valid;       // stage 1 takes a sample
+    wire done = ce & valid_sr[0];    // stage 2 produces an output
+
+    // ---- stage 1: delta to the previous valid sample, overspeed --------------------------------
+    // |delta| >= 2^(FINE_W-2) for delta as s(FINE_W) is delta in [2^(FINE_W-2), 3 * 2^(FINE_W-2)]
+    // read as unsigned (the most negative delta, -2^(FINE_W-1), is inside).
+    localparam [FINE_W-1:0] Q1 = {2'b01, {(FINE_W-2){1'b0}}};
+    localparam [FINE_W-1:0] Q3 = {2'b11, {(FINE_W-2){1'b0}}};
+
+    reg  [FINE_W-1:0] phase_prev;    // data: the previous valid sample's phase
+    reg               have_prev;     // state: a valid sample was taken since reset
+    wire [FINE_W-1:0] delta = phase - phase_prev;
+    reg  [FINE_W-1:0] s1_phase;
+    reg               s1_over;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            have_prev <= 1'b0;
+        end else if (take) begin
+            have_prev <= 1'b1;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (take) begin
+            phase_prev <= phase;
+        end
+        if (ce) begin
+            s1_phase <= phase;
+            s1_over  <= have_prev & (delta >= Q1) & (delta <= Q3);
+        end
+    end
+
+    always @(posedge clk) begin
+        if (done) begin
+            overspeed <= s1_over;
+        end
+    end
+
+    generate
+        if (COARSE_W > 0) begin : g_coarse
+            // ---- absolute position from the coarse code -----------------------------------------
+            localparam integer W  = POS_W + 3;      // signed: centre and d for any s(POS_W+1) offset
+            localparam integer SH = FINE_W - COARSE_W;
+            localparam integer NR = W - FINE_W;     // signed period number before the wrap
+            localparam [63:0]   LINES64 = {32'd0, LINES};
+            localparam [W-1:0]  LINES_W = LINES64[W-1:0];
+            localparam [W-1:0]  HALF    = {{(W-FINE_W){1'b0}}, 1'b1, {(FINE_W-1){1'b0}}};
+            localparam [NR-1:0] LINES_N = LINES64[NR-1:0];
+            // COARSE_TOL < 2^(FINE_W-1) + 1, as s(FINE_W+1)
+            localparam [FINE_W:0] TOL = (LINES_W[FINE_W:0] << (FINE_W - COARSE_W - 2))
+                                      + {3'b001, {(FINE_W-2){1'b0}}};
+            localparam [FINE_W:0] HALF_R = {2'b01, {(FINE_W-1){1'b0}}};
+
+            // stage 1: centre = (coarse * LINES << (FINE_W - COARSE_W)) + coarse_ofs (< REV + 2^POS_W)
+            wire [W-1:0] cpos   = ({{(W-CW){1'b0}}, coarse} * LINES_W) << SH;
+            wire [W-1:0] ofs_w  = {{(W-POS_W-1){coarse_ofs[POS_W]}}, coarse_ofs};
+            reg  [W-1:0] s1_centre;
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    s1_centre <= cpos + ofs_w;
+                end
+            end
+
+            // stage 2: nearest period n, residual r, n mod LINES
+            wire [W-1:0]  d  = s1_centre - {{(W-FINE_W){1'b0}}, s1_phase};
+            wire [W-1:0]  dh = d + HALF;
+            wire [NR-1:0] n  = dh[W-1:FINE_W];                          // floor((d + half) / 2^FINE_W)
+            wire signed [FINE_W:0] r = $signed({1'b0, dh[FINE_W-1:0]} - HALF_R);   // in [-2^(FINE_W-1), 2^(FINE_W-1))
+            wire signed [FINE_W:0] tol = $signed(TOL);
+            wire err = (r > tol) | (r < -tol);
+
+            always @(posedge clk) begin
+                if (done) begin
+                    coarse_err <= err;
+                end
+            end
+
+            if (N_W > 0) begin : g_lines
+                // n in [-2, LINES+1]: n + LINES if n < 0, n - LINES if that is >= 0, else n
+                wire [NR-1:0] n_up   = n + LINES_N;
+                wire [NR-1:0] n_down = n - LINES_N;
+                wire [NR-1:0] n_wrap = n[NR-1] ? n_up : (n_down[NR-1] ? n : n_down);
+
+                always @(posedge clk) begin
+                    if (done) begin
+                        pos <= {n_wrap[N_W-1:0], s1_phase};
+                    end
+                end
+
+                // n_wrap < LINES <= 2^N_W: its upper bits are zero
+                wire unused_n = &{1'b0, n_wrap[NR-1:N_W]};
+            end else begin : g_one_line
+                // LINES = 1: n mod 1 = 0, the position is the phase
+                always @(posedge clk) begin
+                    if (done) begin
+                        pos <= s1_phase;
+                    end
+                end
+
+                wire unused_n = &{1'b0, n};
+            end
+
+            // d's low bits only matter through r; the top bits of cpos are zero (cpos < REV)
+            wire unused_c = &{1'b0, dh[FINE_W-1:0], cpos[W-1:POS_W]};
+        end else begin : g_count
+            // ---- incremental: pos = (pos_prev + delta) mod REV ----------------------------------
+            localparam integer SW = POS_W + 2;      // signed sum: [-2^(FINE_W-1), REV + 2^(FINE_W-1))
+            localparam [63:0]   LINES64 = {32'd0, LINES};
+            localparam [SW-1:0] REV_S   = LINES64[SW-1:0] << FINE_W;
+
+            reg  [FINE_W-1:0] s1_delta;
+            reg               s1_first;
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    s1_delta <= delta;
+                    s1_first <= ~have_prev;
+                end
+            end
+
+            // pos holds pos_prev (it only changes on valid samples): one adder, and the two
+            // wrapped alternatives in parallel
+            wire [SW-1:0] sum  = {2'b00, pos} + {{(SW-FINE_W){s1_delta[FINE_W-1]}}, s1_delta};
+            wire [SW-1:0] sum_up   = sum + REV_S;
+            wire [SW-1:0] sum_down = sum - REV_S;
+            wire [SW-1:0] nxt  = sum[SW-1] ? sum_up : (sum_down[SW-1] ? sum : sum_down);
+
+            always @(posedge clk) begin
+                if (done) begin
+                    pos        <= s1_first ? {{N_W{1'b0}}, s1_phase} : nxt[POS_W-1:0];
+                    coarse_err <= 1'b0;
+                end
+            end
+
+            // no coarse code; nxt < REV <= 2^POS_W
+            wire unused_c = &{1'b0, coarse, coarse_ofs, nxt[SW-1:POS_W]};
+        end
+    endgenerate
 
 endmodule
 

@@ -1,13 +1,38 @@
--- fringe_long_period: the seed 000 harmonic (long-period) table, then direction and zero.
+-- fringe_long_period: the seed 000 harmonic (long-period) correction table with linear
+-- interpolation, then the output direction and zero.
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_long_period.v (same generics, ports, latency and bit-exact
--- behaviour; see there for the formats). One difference: VHDL integers are 32 bits, so LP_RECIP is
--- limited to 2^31 - 1 here (every power-of-two REV, and most others with LP_IF <= 6); the Verilog
--- takes 64 bits. Elaboration stops with a message when it does not fit.
--- Bit-exact model: model/fringe/fixed/long_period.py.
+-- behaviour). Formats (docs/architecture.md, "fringe_long_period"); REV = LINES * 2^FINE_W fine
+-- counts per revolution, POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 48),
+-- N = 2^LP_ADDR_W entries per revolution (entry k at position k * REV / N):
+--   pos, zero  u(POS_W) in [0, REV)      dir: 1 = the output runs the other way
+--   t       = pos * LP_RECIP;  entry = t >> LP_SHIFT;  frac = (t >> (LP_SHIFT - LP_IF)) mod 2^LP_IF
+--             (LP_RECIP, LP_SHIFT from model/fringe/fixed/long_period.py index_mapping(): entry is
+--             exactly floor(pos * N / REV); elaboration checks the proof's bound; a power-of-two
+--             REV makes LP_RECIP a power of two, a shift)
+--   word    = {slope, value}, both s(LP_W), fine counts with LP_FRAC fraction bits, read from the
+--             two-bank fringe_table_ram at {bank, entry}; slope[k] = value[k+1] - value[k] with
+--             value[N] = value[0] (the revolution wraps)
+--   corr    = value + ((slope * frac + 2^(LP_IF-1)) >>> LP_IF)
+--   step    = (corr + 2^(LP_FRAC-1)) >>> LP_FRAC       (LP_FRAC = 0: step = corr)
+--   pos_c   = (pos - step) mod REV
+--   pos_out = dir ? (zero - pos_c) mod REV : (pos_c + zero) mod REV, u(POS_W) in [0, REV)
+-- 2^(LP_W - LP_FRAC) <= REV bounds |step| by REV for any table contents, so one add or subtract
+-- of REV wraps each result. Bit-exact model: model/fringe/fixed/long_period.py.
+-- VHDL integers are 32 bits: LP_RECIP is a natural here (< 2^31; index_mapping gives about REV or
+-- less, so REV up to about 2^30), the Verilog takes 64 bits.
 --
--- LATENCY = 6 clock enables: 1 index product, 2 table read, 3 slope x fraction,
--- 4 correction rounded to counts, 5 subtract and wrap, 6 direction and zero.
+-- The table is written through wr_en / wr_addr ({bank, entry}) / wr_data, passed to
+-- fringe_table_ram whatever ce is; write only the bank no sample in flight reads.
+--
+-- LATENCY = 6 clock enables (ce = 1 cycles) from in_valid to out_valid:
+--   1 index product   2 table read   3 slope x fraction (+ rounding constants)
+--   4 correction rounded to fine counts, subtracted from pos   5 wrap into [0, REV)
+--   6 zero and direction, wrap
+-- One sample per clock. ce = 0 freezes every register (and the table read); rst (synchronous,
+-- active high, wins over ce) clears only the valid pipeline, never the data registers.
+-- The port widths use ceil(log2(real(LINES))) (exact in GHDL for LINES <= 2^20); elaboration
+-- checks it against an integer clog2.
 
 library ieee;
 use ieee.std_logic_1164.all;
@@ -16,107 +41,214 @@ use ieee.math_real.all;
 
 entity fringe_long_period is
     generic (
-        LINES     : integer := 256;    -- signal periods per revolution, >= 1
-        FINE_W    : integer := 16;     -- fine phase bits per period, 8..30
-        LP_ADDR_W : integer := 8;      -- 2^LP_ADDR_W table entries per revolution, 2..16
-        LP_W      : integer := 18;     -- value and slope width, 8..32
-        LP_FRAC   : integer := 4;      -- fraction bits of the correction (fine counts), 0..16
-        LP_IF     : integer := 8;      -- interpolation fraction bits, 1..16, <= LP_SHIFT
-        LP_RECIP  : natural := 1;      -- index multiplier, from index_mapping() (< 2^31 in VHDL)
-        LP_SHIFT  : integer := 16;     -- index shift, from index_mapping()
-        INIT_FILE : string  := "";     -- hex image, 2 banks x 2^LP_ADDR_W words {slope, value}
-        USER_W    : integer := 1;      -- sideband width, >= 1
-        -- derived: do not override
-        POS_W     : integer := integer(ceil(log2(real(LINES)))) + FINE_W
+        LINES     : integer := 256;  -- signal periods per revolution, 1..2^20; FINE_W + clog2(LINES) <= 48
+        FINE_W    : integer := 16;   -- fine phase bits per period, 8..30
+        LP_ADDR_W : integer := 8;    -- 2^LP_ADDR_W table entries per revolution, 2..16, 2^LP_ADDR_W <= REV
+        LP_W      : integer := 18;   -- width of value and slope, 8..32; 2^(LP_W - LP_FRAC) <= REV
+        LP_FRAC   : integer := 4;    -- fraction bits of the correction (fine counts), 0..16
+        LP_IF     : integer := 8;    -- interpolation fraction bits, 1..16
+        LP_RECIP  : natural := 1;    -- index multiplier, from index_mapping() (checked; < 2^31 in VHDL)
+        LP_SHIFT  : integer := 16;   -- index shift, LP_IF..127, from index_mapping() (checked)
+        INIT_FILE : string  := "";   -- hex image of the table, 2 banks x 2^LP_ADDR_W words; "" = zeros
+        USER_W    : integer := 1     -- sideband width, >= 1
     );
     port (
         clk       : in  std_logic;
-        rst       : in  std_logic;
-        ce        : in  std_logic;
+        rst       : in  std_logic;                              -- synchronous: clears valid only
+        ce        : in  std_logic;                              -- clock enable
+        -- sample in
         in_valid  : in  std_logic;
-        pos       : in  std_logic_vector(POS_W - 1 downto 0);
-        bank      : in  std_logic;
-        zero      : in  std_logic_vector(POS_W - 1 downto 0);
-        dir       : in  std_logic;
+        pos       : in  std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+                                                                -- u(POS_W), in [0, REV)
+        bank      : in  std_logic;                              -- table bank of this sample
+        zero      : in  std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+                                                                -- u(POS_W), in [0, REV)
+        dir       : in  std_logic;                              -- 1: the output runs the other way
         in_user   : in  std_logic_vector(USER_W - 1 downto 0);
+        -- table write port (software side), independent of ce
         wr_en     : in  std_logic;
-        wr_addr   : in  std_logic_vector(LP_ADDR_W downto 0);
-        wr_data   : in  std_logic_vector(2 * LP_W - 1 downto 0);
+        wr_addr   : in  std_logic_vector(LP_ADDR_W downto 0);   -- {bank, entry}
+        wr_data   : in  std_logic_vector(2 * LP_W - 1 downto 0);  -- {slope, value}
+        -- position out
         out_valid : out std_logic;
-        pos_out   : out std_logic_vector(POS_W - 1 downto 0);
+        pos_out   : out std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+                                                                -- u(POS_W), in [0, REV)
         out_user  : out std_logic_vector(USER_W - 1 downto 0)
     );
 end entity fringe_long_period;
 
 architecture rtl of fringe_long_period is
 
-    function bits(n : natural) return integer is
+    -- ceil(log2(v)) for v >= 1, on integers
+    function clog2(v : integer) return integer is
+        variable b : integer := 0;
+    begin
+        while b < 31 and 2**b < v loop
+            b := b + 1;
+        end loop;
+        return b;
+    end function clog2;
+
+    -- bits of a natural (at least 1)
+    function bits(v : natural) return integer is
         variable b : integer := 1;
     begin
-        while b < 31 and 2**b <= n loop
+        while b < 31 and 2**b <= v loop
             b := b + 1;
         end loop;
         return b;
     end function bits;
 
+    -- 2-adic valuation of LINES (trailing zero bits), LINES in 1..2^20
+    function tz(v : integer) return integer is
+        variable k : integer := 0;
+    begin
+        for i in 1 to 20 loop
+            if v mod 2**i = 0 then
+                k := i;
+            end if;
+        end loop;
+        return k;
+    end function tz;
+
+    -- Granlund-Montgomery bound (see check_index_mapping in the model), on 256-bit numbers:
+    -- E = LP_RECIP * REV - 2^(LP_ADDR_W + LP_SHIFT) >= 0 and (REV - 1) * E < 2^(G + LP_SHIFT),
+    -- 2^G = gcd(2^LP_ADDR_W, REV).
+    function map_ok return boolean is
+        variable rev_x, prod, pw, e, lhs, rhs : unsigned(255 downto 0);
+        variable g_log : integer;
+    begin
+        g_log := minimum(LP_ADDR_W, FINE_W + tz(LINES));
+        rev_x := shift_left(to_unsigned(LINES, 256), FINE_W);
+        prod  := resize(to_unsigned(LP_RECIP, 256) * rev_x, 256);
+        pw    := shift_left(to_unsigned(1, 256), LP_ADDR_W + LP_SHIFT);
+        if LP_RECIP = 0 or prod < pw then
+            return false;
+        end if;
+        e   := prod - pw;
+        lhs := resize((rev_x - 1) * e, 256);
+        rhs := shift_left(to_unsigned(1, 256), g_log + LP_SHIFT);
+        return lhs < rhs;
+    end function map_ok;
+
+    -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
         assert FINE_W >= 8 and FINE_W <= 30
-            report "fringe_long_period: FINE_W = " & integer'image(FINE_W) & " out of range 8..30" severity failure;
-        assert LP_ADDR_W >= 2 and LP_ADDR_W <= 16 and LP_ADDR_W <= POS_W
-            report "fringe_long_period: LP_ADDR_W = " & integer'image(LP_ADDR_W)
-                   & " out of range 2..16 or above clog2(REV)" severity failure;
+            report "fringe_long_period: FINE_W = " & integer'image(FINE_W) & " out of range 8..30"
+            severity failure;
+        assert LINES >= 1 and LINES <= 2**20
+            report "fringe_long_period: LINES = " & integer'image(LINES) & " out of range 1..2^20"
+            severity failure;
+        assert FINE_W + clog2(LINES) <= 48
+            report "fringe_long_period: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
+                   & " exceeds 48"
+            severity failure;
+        assert LP_ADDR_W >= 2 and LP_ADDR_W <= 16
+            report "fringe_long_period: LP_ADDR_W = " & integer'image(LP_ADDR_W) & " out of range 2..16"
+            severity failure;
+        -- 2^LP_ADDR_W <= REV = LINES * 2^FINE_W
+        assert LP_ADDR_W <= FINE_W or LINES >= 2**(LP_ADDR_W - FINE_W)
+            report "fringe_long_period: 2^LP_ADDR_W = " & integer'image(2**LP_ADDR_W)
+                   & " entries exceed REV = LINES * 2^FINE_W"
+            severity failure;
         assert LP_W >= 8 and LP_W <= 32
-            report "fringe_long_period: LP_W = " & integer'image(LP_W) & " out of range 8..32" severity failure;
+            report "fringe_long_period: LP_W = " & integer'image(LP_W) & " out of range 8..32"
+            severity failure;
         assert LP_FRAC >= 0 and LP_FRAC <= 16
             report "fringe_long_period: LP_FRAC = " & integer'image(LP_FRAC) & " out of range 0..16"
             severity failure;
-        assert LP_IF >= 1 and LP_IF <= 16 and LP_IF <= LP_SHIFT
-            report "fringe_long_period: LP_IF = " & integer'image(LP_IF) & " out of range 1..16 or above LP_SHIFT"
+        assert LP_IF >= 1 and LP_IF <= 16
+            report "fringe_long_period: LP_IF = " & integer'image(LP_IF) & " out of range 1..16"
             severity failure;
-        assert LP_W - 1 - LP_FRAC < POS_W - 1
-            report "fringe_long_period: LP_W - LP_FRAC allows corrections of half a revolution" severity failure;
+        -- 2^(LP_W - LP_FRAC) <= REV
+        assert LP_W - LP_FRAC <= FINE_W or LINES >= 2**(LP_W - LP_FRAC - FINE_W)
+            report "fringe_long_period: LP_W - LP_FRAC = " & integer'image(LP_W - LP_FRAC)
+                   & ": corrections up to 2^" & integer'image(LP_W - LP_FRAC)
+                   & " fine counts exceed REV = LINES * 2^FINE_W"
+            severity failure;
+        assert LP_SHIFT >= LP_IF and LP_SHIFT <= 127
+            report "fringe_long_period: LP_SHIFT = " & integer'image(LP_SHIFT) & " out of range LP_IF = "
+                   & integer'image(LP_IF) & " .. 127"
+            severity failure;
+        assert map_ok
+            report "fringe_long_period: LP_RECIP = " & integer'image(LP_RECIP) & ", LP_SHIFT = "
+                   & integer'image(LP_SHIFT) & " do not map every position to floor(pos * 2^LP_ADDR_W / REV);"
+                   & " take them from index_mapping()"
+            severity failure;
         assert USER_W >= 1
-            report "fringe_long_period: USER_W = " & integer'image(USER_W) & " must be >= 1" severity failure;
+            report "fringe_long_period: USER_W = " & integer'image(USER_W) & " must be >= 1"
+            severity failure;
+        assert integer(ceil(log2(real(maximum(LINES, 1))))) = clog2(LINES)
+            report "fringe_long_period: ceil(log2(real(LINES))) is not exact in this tool (port widths)"
+            severity failure;
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
     constant LATENCY : integer := 6;
+    constant POS_W   : integer := FINE_W + clog2(LINES);            -- clog2(REV)
     constant RECIP_W : integer := bits(LP_RECIP);
-    constant T_W     : integer := POS_W + RECIP_W;
-    constant PR_W    : integer := LP_W + LP_IF + 1;
-    constant C_W     : integer := LP_W + 2;
-    constant WW      : integer := maximum(POS_W, C_W) + 2;
-    constant REV_S   : signed(WW - 1 downto 0) := shift_left(to_signed(LINES, WW), FINE_W);
+    constant T_W     : integer := maximum(POS_W + RECIP_W, LP_SHIFT + LP_ADDR_W);  -- index product
+    constant PR_W    : integer := LP_W + LP_IF + 1;                 -- slope x frac (+ 2^(LP_IF-1))
+    constant C_W     : integer := maximum(LP_W, LP_FRAC) + 2;       -- value + 2^(LP_FRAC-1) + ip
+    constant PX_W    : integer := maximum(PR_W, C_W);               -- the product, sign-extended
+    constant WW      : integer := POS_W + 2;                        -- signed positions
+    constant REV_W   : unsigned(WW - 1 downto 0) := shift_left(to_unsigned(LINES, WW), FINE_W);
 
-    signal s1_entry : unsigned(LP_ADDR_W - 1 downto 0);
-    signal s1_frac, s2_frac : unsigned(LP_IF - 1 downto 0);
-    signal s1_pos, s1_zero, s2_pos, s2_zero, s3_pos, s3_zero, s4_zero, s5_pos_c, s5_zero
-        : unsigned(POS_W - 1 downto 0);
-    signal s1_bank, s1_dir, s2_dir, s3_dir, s4_dir, s5_dir : std_logic;
-    signal word     : std_logic_vector(2 * LP_W - 1 downto 0);
-    signal s3_prod  : signed(PR_W - 1 downto 0);
-    signal s3_value : signed(LP_W - 1 downto 0);
-    signal s4_pos_c : signed(WW - 1 downto 0);
-    signal rd_addr  : std_logic_vector(LP_ADDR_W downto 0);
+    -- 2^(k-1) in a w-bit signed word, 0 when k = 0 (no rounding)
+    function round_term(w, k : integer) return signed is
+    begin
+        if k = 0 then
+            return to_signed(0, w);
+        end if;
+        return shift_left(to_signed(1, w), k - 1);
+    end function round_term;
 
-    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
     signal valid_sr : std_logic_vector(1 to LATENCY);
+    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
     signal user_sr  : user_sr_t;
 
-    function wrap(v : signed) return signed is
-    begin
-        if v < 0 then
-            return v + REV_S;
-        elsif v >= REV_S then
-            return v - REV_S;
-        end if;
-        return v;
-    end function wrap;
+    signal s1_entry          : unsigned(LP_ADDR_W - 1 downto 0);
+    signal s1_frac, s2_frac  : unsigned(LP_IF - 1 downto 0);
+    signal s1_pos, s1_zero, s2_pos, s2_zero, s3_pos, s3_zero, s4_zero, s5_pos_c
+                             : unsigned(POS_W - 1 downto 0);
+    signal s1_bank           : std_logic;
+    signal s1_dir, s2_dir, s3_dir, s4_dir, s5_dir : std_logic;
+    signal rd_addr           : std_logic_vector(LP_ADDR_W downto 0);
+    signal word              : std_logic_vector(2 * LP_W - 1 downto 0);
+    signal s3_prod           : signed(PR_W - 1 downto 0);
+    signal s3_value          : signed(C_W - 1 downto 0);
+    signal s4_pos_c          : signed(WW - 1 downto 0);
+    signal s5_zero, s5_zero_alt : unsigned(WW - 1 downto 0);
 
 begin
 
+    -- ---- valid (the only reset registers) and sideband, LATENCY stages -----------------------
+    p_valid : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                valid_sr <= (others => '0');
+            elsif ce = '1' then
+                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
+            end if;
+        end if;
+    end process p_valid;
+
+    p_user : process (clk)
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                user_sr <= in_user & user_sr(1 to LATENCY - 1);
+            end if;
+        end if;
+    end process p_user;
+
+    out_valid <= valid_sr(LATENCY);
+    out_user  <= user_sr(LATENCY);
+
+    -- ---- 2: table read ---------------------------------------------------------------------------
     rd_addr <= s1_bank & std_logic_vector(s1_entry);
 
     u_table : entity work.fringe_table_ram
@@ -124,12 +256,14 @@ begin
         port map (clk => clk, wr_en => wr_en, wr_addr => wr_addr, wr_data => wr_data,
                   rd_en => ce, rd_addr => rd_addr, rd_data => word);
 
-    datapath : process (clk)
+    p_data : process (clk)
         variable t        : unsigned(T_W - 1 downto 0);
-        variable prod_rnd : signed(PR_W - 1 downto 0);
+        variable ip       : signed(PX_W - 1 downto 0);
         variable corr     : signed(C_W - 1 downto 0);
-        variable step     : signed(C_W - 1 downto 0);
-        variable out_raw  : signed(WW - 1 downto 0);
+        variable c_up, c_down, c_wrap : signed(WW - 1 downto 0);
+        variable zero_x   : unsigned(WW - 1 downto 0);
+        variable pc_x, a, b : unsigned(WW - 1 downto 0);
+        variable use_b    : boolean;
     begin
         if rising_edge(clk) then
             if ce = '1' then
@@ -141,58 +275,68 @@ begin
                 s1_zero  <= unsigned(zero);
                 s1_bank  <= bank;
                 s1_dir   <= dir;
-                -- 2: table read (in fringe_table_ram)
+
+                -- 2: the table read is in fringe_table_ram (rd_en = ce)
                 s2_frac <= s1_frac;
                 s2_pos  <= s1_pos;
                 s2_zero <= s1_zero;
                 s2_dir  <= s1_dir;
-                -- 3: slope x fraction
-                s3_prod  <= resize(signed(word(2 * LP_W - 1 downto LP_W)) * signed('0' & s2_frac), PR_W);
-                s3_value <= signed(word(LP_W - 1 downto 0));
+
+                -- 3: slope x fraction + 2^(LP_IF-1); value + 2^(LP_FRAC-1)
+                s3_prod  <= resize(signed(word(2 * LP_W - 1 downto LP_W)) * signed('0' & s2_frac), PR_W)
+                            + round_term(PR_W, LP_IF);
+                s3_value <= resize(signed(word(LP_W - 1 downto 0)), C_W) + round_term(C_W, LP_FRAC);
                 s3_pos   <= s2_pos;
                 s3_zero  <= s2_zero;
                 s3_dir   <= s2_dir;
-                -- 4: correction rounded to whole counts, subtracted
-                prod_rnd := s3_prod + shift_left(to_signed(1, PR_W), LP_IF - 1);
-                corr := resize(s3_value, C_W) + resize(shift_right(prod_rnd, LP_IF), C_W);
-                if LP_FRAC > 0 then
-                    step := shift_right(corr + shift_left(to_signed(1, C_W), LP_FRAC - 1), LP_FRAC);
-                else
-                    step := corr;
-                end if;
-                s4_pos_c <= signed(resize(s3_pos, WW)) - resize(step, WW);
+
+                -- 4: step = corr >>> LP_FRAC; pos - step (|step| <= 2^(LP_W-LP_FRAC) <= REV)
+                ip   := shift_right(resize(s3_prod, PX_W), LP_IF);
+                corr := s3_value + ip(C_W - 1 downto 0);
+                s4_pos_c <= signed(resize(s3_pos, WW)) - resize(corr(C_W - 1 downto LP_FRAC), WW);
                 s4_zero  <= s3_zero;
                 s4_dir   <= s3_dir;
-                -- 5: wrap into [0, REV)
-                s5_pos_c <= resize(unsigned(wrap(s4_pos_c)), POS_W);   -- unsigned resize: keep the low bits
-                s5_zero  <= s4_zero;
-                s5_dir   <= s4_dir;
-                -- 6: direction and zero
-                if s5_dir = '1' then
-                    out_raw := signed(resize(s5_zero, WW)) - signed(resize(s5_pos_c, WW));
+
+                -- 5: wrap into [0, REV), the alternatives in parallel; zero -+ REV for stage 6
+                c_up   := s4_pos_c + signed(REV_W);
+                c_down := s4_pos_c - signed(REV_W);
+                if s4_pos_c(WW - 1) = '1' then
+                    c_wrap := c_up;
+                elsif c_down(WW - 1) = '0' then
+                    c_wrap := c_down;
                 else
-                    out_raw := signed(resize(s5_pos_c, WW)) + signed(resize(s5_zero, WW));
+                    c_wrap := s4_pos_c;
                 end if;
-                pos_out <= std_logic_vector(resize(unsigned(wrap(out_raw)), POS_W));
+                s5_pos_c <= unsigned(c_wrap(POS_W - 1 downto 0));
+                zero_x := resize(s4_zero, WW);
+                s5_zero <= zero_x;
+                if s4_dir = '1' then
+                    s5_zero_alt <= zero_x + REV_W;
+                else
+                    s5_zero_alt <= zero_x - REV_W;
+                end if;
+                s5_dir <= s4_dir;
+
+                -- 6: zero and direction, wrap
+                -- dir = 0: a = pos_c + zero in [0, 2 REV - 2], b = a - REV; take b when b >= 0.
+                -- dir = 1: a = zero - pos_c in (-REV, REV),    b = a + REV; take b when a < 0.
+                pc_x := resize(s5_pos_c, WW);
+                if s5_dir = '1' then
+                    a := s5_zero - pc_x;
+                    b := s5_zero_alt - pc_x;
+                    use_b := a(WW - 1) = '1';
+                else
+                    a := s5_zero + pc_x;
+                    b := s5_zero_alt + pc_x;
+                    use_b := b(WW - 1) = '0';
+                end if;
+                if use_b then
+                    pos_out <= std_logic_vector(b(POS_W - 1 downto 0));
+                else
+                    pos_out <= std_logic_vector(a(POS_W - 1 downto 0));
+                end if;
             end if;
         end if;
-    end process datapath;
-
-    pipe : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                valid_sr <= (others => '0');
-            elsif ce = '1' then
-                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
-            end if;
-            if ce = '1' then
-                user_sr <= in_user & user_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process pipe;
-
-    out_valid <= valid_sr(LATENCY);
-    out_user  <= user_sr(LATENCY);
+    end process p_data;
 
 end architecture rtl;

@@ -1,18 +1,37 @@
--- fringe_period_count: coarse/fine combination, or period counting without a coarse code.
+-- fringe_period_count: coarse/fine combination (absolute position from a coarse code), or period
+-- counting without one; overspeed and coarse-code checks.
 --
--- VHDL-2008 twin of rtl/verilog/fringe_period_count.v (same generics, ports, latency and
--- bit-exact behaviour). REV = LINES * 2^FINE_W, POS_W = FINE_W + clog2(LINES):
---   delta      s(FINE_W) = phase - phase of the previous valid sample (modulo 2^FINE_W)
---   overspeed  |delta| >= 2^(FINE_W-2); never on the first sample after reset
---   COARSE_W > 0: centre = (coarse * LINES << (FINE_W - COARSE_W)) + coarse_ofs; d = centre - phase;
---     n = (d + 2^(FINE_W-1)) >>> FINE_W; r = d - n * 2^FINE_W; coarse_err = |r| > COARSE_TOL;
---     pos = (n mod LINES) * 2^FINE_W + phase   (|coarse_ofs| <= 2^FINE_W)
---   COARSE_W = 0: pos = (pos_prev + delta) mod REV; the first valid sample after reset: pos = phase
+-- VHDL-2008 twin of rtl/verilog/fringe_period_count.v (same generics, ports, latency and bit-exact
+-- behaviour). Formats (docs/architecture.md, "fringe_period_count"); REV = LINES * 2^FINE_W fine
+-- counts per revolution, POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 48):
+--   phase       u(FINE_W)    fine phase, a fraction of a signal period
+--   coarse      u(COARSE_W)  coarse code, 2^COARSE_W codes per revolution (1 unused bit when COARSE_W = 0)
+--   coarse_ofs  s(POS_W+1)   calibrated middle of coarse code 0, fine counts; |coarse_ofs| <= 2^FINE_W;
+--                            a register the top holds stable, taken with each sample
+--   delta       s(FINE_W)    = phase - phase_prev modulo 2^FINE_W, phase_prev the previous valid sample's
+--   overspeed   |delta| >= 2^(FINE_W-2) (a quarter period); never on the first valid sample after reset
+--   COARSE_W > 0:
+--     centre    = ((coarse * LINES) << (FINE_W - COARSE_W)) + coarse_ofs
+--     d         = centre - phase;  n = (d + 2^(FINE_W-1)) >>> FINE_W;  r = d - n * 2^FINE_W
+--     coarse_err = |r| > COARSE_TOL = (LINES << (FINE_W-COARSE_W-2)) + 2^(FINE_W-2), the midpoint
+--                 between half a coarse code and half a period
+--     pos       = (n mod LINES) * 2^FINE_W + phase; |coarse_ofs| <= 2^FINE_W keeps n in [-2, LINES+1],
+--                 so one add or subtract of LINES wraps it (LINES = 1: n mod 1 = 0). Outside that
+--                 range pos is not defined (the model refuses it).
+--   COARSE_W = 0:
+--     pos       = (pos_prev + delta) mod REV, pos_prev the previous valid output; the first valid
+--                 sample after reset gives pos = phase. coarse_err = 0; coarse and coarse_ofs unused.
+--   pos u(POS_W) in [0, REV).
 -- Bit-exact model: model/fringe/fixed/period_count.py.
 --
--- LATENCY = 2 clock enables: 1 delta, overspeed, coarse centre; 2 period number and position.
--- rst (synchronous, active high, wins over ce) clears the valid pipeline and the
--- "have a previous sample" state.
+-- LATENCY = 2 clock enables (ce = 1 cycles) from in_valid to out_valid:
+--   1: delta, overspeed, coarse centre   2: period number, wrap, position (the counter)
+-- One sample per clock. ce = 0 freezes every register. rst (synchronous, active high, wins over ce)
+-- clears the valid pipeline and the "previous sample seen" state, so the next valid sample is the
+-- first again; the data registers (phase_prev, the position) are never reset. The outputs update
+-- on valid samples only.
+-- The port widths use ceil(log2(real(LINES))) (exact in GHDL for LINES <= 2^20); elaboration
+-- checks it against an integer clog2.
 
 library ieee;
 use ieee.std_logic_1164.all;
@@ -21,25 +40,26 @@ use ieee.math_real.all;
 
 entity fringe_period_count is
     generic (
-        FINE_W   : integer := 16;    -- fine phase bits per signal period, 8..30
-        LINES    : integer := 256;   -- signal periods per revolution, 1..2^20, any integer
-        COARSE_W : integer := 9;     -- coarse code bits, 0 = none; else FINE_W >= COARSE_W + 2, 2^COARSE_W >= LINES
-        USER_W   : integer := 1;     -- sideband width, >= 1
-        -- derived: do not override
-        POS_W    : integer := integer(ceil(log2(real(LINES)))) + FINE_W;
-        CW       : integer := maximum(COARSE_W, 1)
+        FINE_W   : integer := 16;   -- fine phase bits per signal period, 8..30
+        LINES    : integer := 256;  -- signal periods per revolution, 1..2^20, any integer; FINE_W + clog2(LINES) <= 48
+        COARSE_W : integer := 9;    -- coarse code bits: 0 = none (periods counted), else 1..24, <= FINE_W-2, 2^COARSE_W >= LINES
+        USER_W   : integer := 1     -- sideband width, >= 1
     );
     port (
         clk        : in  std_logic;
-        rst        : in  std_logic;                              -- synchronous, active high
-        ce         : in  std_logic;                              -- clock enable
+        rst        : in  std_logic;                               -- synchronous, active high
+        ce         : in  std_logic;                               -- clock enable
+        -- sample in
         in_valid   : in  std_logic;
-        phase      : in  std_logic_vector(FINE_W - 1 downto 0);  -- u(FINE_W)
-        coarse     : in  std_logic_vector(CW - 1 downto 0);      -- u(COARSE_W), ignored when COARSE_W = 0
-        coarse_ofs : in  std_logic_vector(POS_W downto 0);       -- s(POS_W+1), |value| <= 2^FINE_W
+        phase      : in  std_logic_vector(FINE_W - 1 downto 0);   -- u(FINE_W)
+        coarse     : in  std_logic_vector(maximum(COARSE_W, 1) - 1 downto 0);  -- u(COARSE_W); unused if 0
+        coarse_ofs : in  std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) downto 0);
+                                                                  -- s(POS_W+1), fine counts, |value| <= 2^FINE_W
         in_user    : in  std_logic_vector(USER_W - 1 downto 0);
+        -- position out
         out_valid  : out std_logic;
-        pos        : out std_logic_vector(POS_W - 1 downto 0);   -- u(POS_W), in [0, REV)
+        pos        : out std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+                                                                  -- u(POS_W), in [0, REV)
         overspeed  : out std_logic;
         coarse_err : out std_logic;
         out_user   : out std_logic_vector(USER_W - 1 downto 0)
@@ -48,6 +68,17 @@ end entity fringe_period_count;
 
 architecture rtl of fringe_period_count is
 
+    -- ceil(log2(v)) for v >= 1, on integers
+    function clog2(v : integer) return integer is
+        variable b : integer := 0;
+    begin
+        while b < 31 and 2**b < v loop
+            b := b + 1;
+        end loop;
+        return b;
+    end function clog2;
+
+    -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
         assert FINE_W >= 8 and FINE_W <= 30
@@ -56,130 +87,77 @@ architecture rtl of fringe_period_count is
         assert LINES >= 1 and LINES <= 2**20
             report "fringe_period_count: LINES = " & integer'image(LINES) & " out of range 1..2^20"
             severity failure;
-        assert COARSE_W = 0 or (COARSE_W >= 1 and COARSE_W <= 24 and FINE_W >= COARSE_W + 2)
+        assert FINE_W + clog2(LINES) <= 48
+            report "fringe_period_count: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
+                   & " exceeds 48"
+            severity failure;
+        assert COARSE_W = 0 or (COARSE_W >= 1 and COARSE_W <= 24 and COARSE_W <= FINE_W - 2)
             report "fringe_period_count: COARSE_W = " & integer'image(COARSE_W)
-                   & " must be 0 or 1..24 with FINE_W >= COARSE_W + 2"
+                   & " out of range: 0 (no coarse code) or 1..24 with COARSE_W <= FINE_W - 2"
             severity failure;
         assert COARSE_W = 0 or 2**COARSE_W >= LINES
-            report "fringe_period_count: 2^COARSE_W < LINES" severity failure;
+            report "fringe_period_count: 2^COARSE_W = " & integer'image(2**COARSE_W) & " is less than LINES = "
+                   & integer'image(LINES)
+            severity failure;
         assert USER_W >= 1
-            report "fringe_period_count: USER_W = " & integer'image(USER_W) & " must be >= 1" severity failure;
+            report "fringe_period_count: USER_W = " & integer'image(USER_W) & " must be >= 1"
+            severity failure;
+        assert integer(ceil(log2(real(maximum(LINES, 1))))) = clog2(LINES)
+            report "fringe_period_count: ceil(log2(real(LINES))) is not exact in this tool (port widths)"
+            severity failure;
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
     constant LATENCY : integer := 2;
-    constant W       : integer := POS_W + 3;
+    constant POS_W   : integer := FINE_W + clog2(LINES);   -- clog2(REV)
+    constant N_W     : integer := POS_W - FINE_W;          -- period number bits (0 when LINES = 1)
+    constant W       : integer := POS_W + 3;               -- signed: centre and d for any s(POS_W+1) offset
+    constant NR      : integer := W - FINE_W;              -- signed period number before the wrap
+    constant SW      : integer := POS_W + 2;               -- signed sum of the counter
     constant SH      : integer := maximum(FINE_W - COARSE_W, 0);
-    constant LINES_W : signed(W - 1 downto 0) := to_signed(LINES, W);
-    constant REV_W   : signed(W - 1 downto 0) := shift_left(LINES_W, FINE_W);
-    constant HALF    : signed(W - 1 downto 0) := shift_left(to_signed(1, W), FINE_W - 1);
+
+    -- |delta| >= 2^(FINE_W-2) for delta as s(FINE_W) is delta in [2^(FINE_W-2), 3 * 2^(FINE_W-2)]
+    -- read as unsigned (the most negative delta, -2^(FINE_W-1), is inside).
+    constant Q1 : unsigned(FINE_W - 1 downto 0) := shift_left(to_unsigned(1, FINE_W), FINE_W - 2);
+    constant Q3 : unsigned(FINE_W - 1 downto 0) := shift_left(to_unsigned(3, FINE_W), FINE_W - 2);
+
+    constant LINES_W : unsigned(W - 1 downto 0) := to_unsigned(LINES, W);
+    constant HALF    : unsigned(W - 1 downto 0) := shift_left(to_unsigned(1, W), FINE_W - 1);
+    constant HALF_R  : unsigned(FINE_W downto 0) := shift_left(to_unsigned(1, FINE_W + 1), FINE_W - 1);
+    constant REV_S   : unsigned(SW - 1 downto 0) := shift_left(to_unsigned(LINES, SW), FINE_W);
+
+    -- COARSE_TOL (< 2^(FINE_W-1) + 1) as s(FINE_W+1); 0 without a coarse code
     function tolerance return signed is
     begin
-        if COARSE_W > 0 then
-            return shift_left(LINES_W, FINE_W - COARSE_W - 2) + shift_left(to_signed(1, W), FINE_W - 2);
+        if COARSE_W > 0 and COARSE_W <= FINE_W - 2 then
+            return signed(shift_left(to_unsigned(LINES, FINE_W + 1), FINE_W - COARSE_W - 2)
+                          + shift_left(to_unsigned(1, FINE_W + 1), FINE_W - 2));
         end if;
-        return to_signed(0, W);
+        return to_signed(0, FINE_W + 1);
     end function tolerance;
-    constant TOL : signed(W - 1 downto 0) := tolerance;
+    constant TOL : signed(FINE_W downto 0) := tolerance;
 
-    signal prev_phase : unsigned(FINE_W - 1 downto 0);
-    signal have_prev  : std_logic;
-    signal s1_centre  : signed(W - 1 downto 0);
-    signal s1_phase   : unsigned(FINE_W - 1 downto 0);
-    signal s1_delta   : signed(FINE_W - 1 downto 0);
-    signal s1_fast    : std_logic;
-    signal s1_first   : std_logic;
-    signal pos_count  : unsigned(POS_W - 1 downto 0);
-
-    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
     signal valid_sr : std_logic_vector(1 to LATENCY);
+    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
     signal user_sr  : user_sr_t;
+
+    signal take, done : std_logic;
+
+    signal phase_prev : unsigned(FINE_W - 1 downto 0);  -- data: the previous valid sample's phase
+    signal have_prev  : std_logic;                      -- state: a valid sample was taken since reset
+    signal delta      : unsigned(FINE_W - 1 downto 0);
+    signal s1_phase   : unsigned(FINE_W - 1 downto 0);
+    signal s1_over    : std_logic;
+    signal s1_centre  : unsigned(W - 1 downto 0);
+    signal s1_delta   : unsigned(FINE_W - 1 downto 0);
+    signal s1_first   : std_logic;
+    signal pos_r      : unsigned(POS_W - 1 downto 0);   -- the output; pos_prev of the counter
 
 begin
 
-    -- stage 1: delta to the previous sample, overspeed, coarse centre
-    stage1 : process (clk)
-        variable delta : signed(FINE_W - 1 downto 0);
-        variable cw_v  : signed(W - 1 downto 0);
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                have_prev <= '0';
-            elsif ce = '1' and in_valid = '1' then
-                have_prev <= '1';
-            end if;
-            if ce = '1' then
-                delta := signed(unsigned(phase) - prev_phase);
-                if in_valid = '1' then
-                    prev_phase <= unsigned(phase);
-                end if;
-                cw_v := signed(resize(unsigned(coarse), W));
-                s1_centre <= resize(shift_left(resize(cw_v * LINES_W, W), SH), W) + resize(signed(coarse_ofs), W);
-                s1_phase <= unsigned(phase);
-                s1_delta <= delta;
-                if have_prev = '1' and abs(resize(delta, FINE_W + 1)) >= 2**(FINE_W - 2) then
-                    s1_fast <= '1';
-                else
-                    s1_fast <= '0';
-                end if;
-                s1_first <= not have_prev;
-            end if;
-        end if;
-    end process stage1;
-
-    -- stage 2: period number and position
-    stage2 : process (clk)
-        variable phase_w : signed(W - 1 downto 0);
-        variable d, d_half, n, r, n_wrap, sum, nxt : signed(W - 1 downto 0);
-    begin
-        if rising_edge(clk) then
-            phase_w := signed(resize(s1_phase, W));
-            d := s1_centre - phase_w;
-            d_half := d + HALF;
-            n := shift_right(d_half, FINE_W);
-            r := signed(resize(unsigned(d_half(FINE_W - 1 downto 0)), W)) - HALF;
-            if n < 0 then
-                n_wrap := n + LINES_W;
-            elsif n >= LINES_W then
-                n_wrap := n - LINES_W;
-            else
-                n_wrap := n;
-            end if;
-            sum := signed(resize(pos_count, W)) + resize(s1_delta, W);
-            if sum < 0 then
-                nxt := sum + REV_W;
-            elsif sum >= REV_W then
-                nxt := sum - REV_W;
-            else
-                nxt := sum;
-            end if;
-            if s1_first = '1' then
-                nxt := phase_w;
-            end if;
-            if ce = '1' and valid_sr(1) = '1' then
-                pos_count <= unsigned(nxt(POS_W - 1 downto 0));
-            end if;
-            if ce = '1' then
-                overspeed <= s1_fast;
-                if COARSE_W > 0 then
-                    pos <= std_logic_vector(unsigned(shift_left(n_wrap, FINE_W)(POS_W - 1 downto 0))
-                                            or resize(s1_phase, POS_W));
-                    if abs(r) > TOL then
-                        coarse_err <= '1';
-                    else
-                        coarse_err <= '0';
-                    end if;
-                else
-                    pos <= std_logic_vector(nxt(POS_W - 1 downto 0));
-                    coarse_err <= '0';
-                end if;
-            end if;
-        end if;
-    end process stage2;
-
-    -- valid (reset) and sideband
-    pipe : process (clk)
+    -- ---- valid (reset) and sideband, LATENCY stages ------------------------------------------
+    p_valid : process (clk)
     begin
         if rising_edge(clk) then
             if rst = '1' then
@@ -187,13 +165,117 @@ begin
             elsif ce = '1' then
                 valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
             end if;
+        end if;
+    end process p_valid;
+
+    p_user : process (clk)
+    begin
+        if rising_edge(clk) then
             if ce = '1' then
                 user_sr <= in_user & user_sr(1 to LATENCY - 1);
             end if;
         end if;
-    end process pipe;
+    end process p_user;
 
     out_valid <= valid_sr(LATENCY);
     out_user  <= user_sr(LATENCY);
+
+    take <= ce and in_valid;       -- stage 1 takes a sample
+    done <= ce and valid_sr(1);    -- stage 2 produces an output
+
+    -- ---- stage 1: delta to the previous valid sample, overspeed, coarse centre ---------------
+    delta <= unsigned(phase) - phase_prev;
+
+    p_state : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                have_prev <= '0';
+            elsif take = '1' then
+                have_prev <= '1';
+            end if;
+        end if;
+    end process p_state;
+
+    p_stage1 : process (clk)
+        variable cpos : unsigned(W - 1 downto 0);
+    begin
+        if rising_edge(clk) then
+            if take = '1' then
+                phase_prev <= unsigned(phase);
+            end if;
+            if ce = '1' then
+                s1_phase <= unsigned(phase);
+                if have_prev = '1' and delta >= Q1 and delta <= Q3 then
+                    s1_over <= '1';
+                else
+                    s1_over <= '0';
+                end if;
+                s1_delta <= delta;
+                s1_first <= not have_prev;
+                -- centre = (coarse * LINES << (FINE_W - COARSE_W)) + coarse_ofs (< REV + 2^POS_W)
+                cpos := shift_left(resize(resize(unsigned(coarse), W) * LINES_W, W), SH);
+                s1_centre <= cpos + unsigned(resize(signed(coarse_ofs), W));
+            end if;
+        end if;
+    end process p_stage1;
+
+    -- ---- stage 2: position and flags ----------------------------------------------------------
+    p_stage2 : process (clk)
+        variable d, dh     : unsigned(W - 1 downto 0);
+        variable n, n_up, n_down, n_wrap : unsigned(NR - 1 downto 0);
+        variable r         : signed(FINE_W downto 0);
+        variable sum, sum_up, sum_down, nxt : unsigned(SW - 1 downto 0);
+    begin
+        if rising_edge(clk) then
+            if done = '1' then
+                overspeed <= s1_over;
+                if COARSE_W > 0 then
+                    -- nearest period n, residual r, n mod LINES (n in [-2, LINES+1])
+                    d  := s1_centre - resize(s1_phase, W);
+                    dh := d + HALF;
+                    n  := dh(W - 1 downto FINE_W);
+                    r  := signed(resize(dh(FINE_W - 1 downto 0), FINE_W + 1) - HALF_R);
+                    if r > TOL or r < -TOL then
+                        coarse_err <= '1';
+                    else
+                        coarse_err <= '0';
+                    end if;
+                    n_up   := n + LINES_W(NR - 1 downto 0);
+                    n_down := n - LINES_W(NR - 1 downto 0);
+                    if LINES = 1 then
+                        n_wrap := (others => '0');      -- n mod 1 = 0
+                    elsif n(NR - 1) = '1' then
+                        n_wrap := n_up;
+                    elsif n_down(NR - 1) = '0' then
+                        n_wrap := n_down;
+                    else
+                        n_wrap := n;
+                    end if;
+                    pos_r <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s1_phase, POS_W);
+                else
+                    -- pos = (pos_prev + delta) mod REV; the two wrapped alternatives in parallel
+                    sum      := resize(pos_r, SW) + unsigned(resize(signed(s1_delta), SW));
+                    sum_up   := sum + REV_S;
+                    sum_down := sum - REV_S;
+                    if sum(SW - 1) = '1' then
+                        nxt := sum_up;
+                    elsif sum_down(SW - 1) = '0' then
+                        nxt := sum_down;
+                    else
+                        nxt := sum;
+                    end if;
+                    if s1_first = '1' then
+                        pos_r <= resize(s1_phase, POS_W);
+                    else
+                        pos_r <= nxt(POS_W - 1 downto 0);
+                    end if;
+                    coarse_err <= '0';
+                end if;
+            end if;
+        end if;
+    end process p_stage2;
+
+    pos <= std_logic_vector(pos_r);
 
 end architecture rtl;

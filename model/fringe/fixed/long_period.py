@@ -1,150 +1,414 @@
-"""Bit-exact model of ``fringe_long_period``: the seed 000 harmonic table, direction and zero.
+"""Bit-exact model of ``fringe_long_period``: the seed 000 harmonic table, then direction and zero.
 
-Contract: docs/architecture.md, section fringe_long_period. With REV = LINES * 2^FINE_W and
-2^LP_ADDR_W entries per revolution:
+Mirrors ``rtl/verilog/fringe_long_period.v`` and ``rtl/vhdl/fringe_long_period.vhd`` (contract in
+``docs/architecture.md``, section fringe_long_period). With ``REV = LINES * 2^FINE_W`` fine counts
+per revolution, ``POS_W = FINE_W + clog2(LINES)`` and ``N = 2^LP_ADDR_W`` table entries per
+revolution (entry k at position ``k * REV / N``)::
 
-    t = pos * LP_RECIP;  entry = t >> LP_SHIFT;  frac = (t >> (LP_SHIFT - LP_IF)) mod 2^LP_IF
+    t     = pos * LP_RECIP;  entry = t >> LP_SHIFT;  frac = (t >> (LP_SHIFT - LP_IF)) mod 2^LP_IF
     corr  = value[entry] + ((slope[entry] * frac + 2^(LP_IF-1)) >>> LP_IF)
-    pos_c = (pos - ((corr + 2^(LP_FRAC-1)) >>> LP_FRAC)) mod REV        (no rounding term if LP_FRAC = 0)
+    pos_c = (pos - ((corr + 2^(LP_FRAC-1)) >>> LP_FRAC)) mod REV      (LP_FRAC = 0: no rounding term)
     out   = DIR ? (ZERO - pos_c) mod REV : (pos_c + ZERO) mod REV
 
-`index_mapping` chooses LP_RECIP and LP_SHIFT so that `entry = floor(pos * 2^LP_ADDR_W / REV)`
-exactly for every pos < REV; a power-of-two REV gives a power-of-two LP_RECIP (no multiplier).
+``value`` and ``slope`` are s(LP_W) in fine counts with LP_FRAC fraction bits, one word
+``{slope, value}`` per entry of the two-bank ``fringe_table_ram``, ``slope[k] = value[k+1] -
+value[k]`` with ``value[N] = value[0]`` (the revolution wraps).
+
+`index_mapping` chooses ``LP_RECIP`` and ``LP_SHIFT``: the smallest shift for which the
+Granlund-Montgomery bound proves ``entry == floor(pos * N / REV)`` for every pos in [0, REV)
+(`check_index_mapping` tests the bound; a power-of-two REV gives a power-of-two LP_RECIP, a shift).
+
+Ranges: ``2^(LP_W - LP_FRAC) <= REV``, so whatever the table holds, ``|step| <= REV`` and one add
+or subtract of REV wraps each result into [0, REV) (with a table from `make_table` the step stays
+below half that).
+
+The RTL has ``LATENCY = 6`` enabled clocks: (1) index product, (2) table read, (3) slope x
+fraction, (4) correction rounded to fine counts and subtracted, (5) wrap, (6) zero and direction.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
-from .period_count import rev_and_pos_w
+from .period_count import check_lines_fine_w, rev_and_pos_w
 
-LATENCY = 6   # clock enables in the RTL: index, table read, product, correction, wrap, zero and direction
+__all__ = [
+    "LATENCY",
+    "LongPeriodParams",
+    "check_index_mapping",
+    "error_budget",
+    "error_terms",
+    "index_mapping",
+    "latency",
+    "long_period",
+    "long_period_words",
+    "make_table",
+    "pack_words",
+    "slopes",
+    "unpack_words",
+]
+
+#: Enabled clocks from ``in_valid`` to ``out_valid`` in the RTL.
+LATENCY = 6
+#: Largest LP_SHIFT the HDL accepts (its elaboration check computes with 256-bit constants).
+LP_SHIFT_MAX = 127
 NAME = "fringe_long_period"
+
+
+def _mapping_ok(rev: int, lp_addr_w: int, recip: int, shift: int) -> bool:
+    """The bound of `check_index_mapping` on Python integers (also what the HDL checks)."""
+    v2 = (rev & -rev).bit_length() - 1               # 2-adic valuation of REV
+    g_log = min(lp_addr_w, v2)                       # gcd(2^LP_ADDR_W, REV) = 2^g_log
+    e = recip * rev - (1 << (lp_addr_w + shift))     # g * (recip * b - a * 2^shift)
+    return recip >= 1 and e >= 0 and (rev - 1) * e < (1 << (g_log + shift))
+
+
+def check_index_mapping(lines: int, fine_w: int, lp_addr_w: int, lp_if: int, recip: int, shift: int) -> None:
+    """Raise ValueError unless ``(pos * recip) >> shift == floor(pos * 2^LP_ADDR_W / REV)`` is proven.
+
+    With ``g = gcd(2^LP_ADDR_W, REV)``, ``a = 2^LP_ADDR_W / g`` and ``b = REV / g`` coprime, the exact
+    quotient ``x = pos * a / b`` has a fractional part of at most ``1 - 1/b``. ``recip >= a 2^shift / b``
+    makes ``t / 2^shift = x + pos * e / (b 2^shift)`` with ``e = recip * b - a 2^shift >= 0``, and
+    ``(REV - 1) * e < 2^shift`` keeps that excess below ``1/b`` for every pos < REV: the floor
+    cannot reach the next integer (Granlund and Montgomery, 1994). The same bound is checked by
+    the HDL at elaboration (same message).
+    """
+    rev = rev_and_pos_w(lines, fine_w)[0]
+    if not lp_if <= shift <= LP_SHIFT_MAX:
+        raise ValueError(f"{NAME}: LP_SHIFT = {shift} out of range LP_IF = {lp_if} .. {LP_SHIFT_MAX}")
+    if not _mapping_ok(rev, lp_addr_w, recip, shift):
+        raise ValueError(f"{NAME}: LP_RECIP = {recip}, LP_SHIFT = {shift} do not map every position to "
+                         "floor(pos * 2^LP_ADDR_W / REV); take them from index_mapping()")
+
+
+@lru_cache(maxsize=256)
+def index_mapping(lines: int, fine_w: int, lp_addr_w: int, lp_if: int) -> tuple[int, int]:
+    """``(LP_RECIP, LP_SHIFT)``: the smallest shift >= LP_IF whose reciprocal passes the bound.
+
+    ``LP_RECIP = ceil(2^(LP_ADDR_W + LP_SHIFT) / REV)``; see `check_index_mapping` for the proof.
+    The bound always holds once ``2^LP_SHIFT >= REV * b``, so the search ends; in practice LP_RECIP
+    is about REV or less (below 2^31, the VHDL limit, for REV up to about 2^30). A power-of-two REV
+    gives ``e = 0`` at the first shift where the reciprocal is an integer: a power of two.
+    """
+    rev = rev_and_pos_w(lines, fine_w)[0]
+    for shift in range(lp_if, LP_SHIFT_MAX + 1):
+        recip = -(-(1 << (lp_addr_w + shift)) // rev)
+        if _mapping_ok(rev, lp_addr_w, recip, shift):
+            return recip, shift
+    raise ValueError(f"{NAME}: no index mapping with LP_SHIFT <= {LP_SHIFT_MAX} for REV = {rev}")
 
 
 @dataclass(frozen=True)
 class LongPeriodParams:
-    lines: int       # LINES: periods per revolution, >= 1
-    fine_w: int      # FINE_W: fine phase bits per period
-    lp_addr_w: int   # LP_ADDR_W: 2^LP_ADDR_W table entries per revolution, 2..16, <= clog2(REV)
-    lp_w: int        # LP_W: value and slope width, 8..32
+    """Parameters of ``fringe_long_period`` (same names, limits and messages as the HDL).
+
+    ``lp_recip`` / ``lp_shift`` default to `index_mapping`; given, they are checked.
+    """
+
+    lines: int       # LINES: signal periods per revolution, 1..2^20; FINE_W + clog2(LINES) <= 48
+    fine_w: int      # FINE_W: fine phase bits per period, 8..30
+    lp_addr_w: int   # LP_ADDR_W: 2^LP_ADDR_W table entries per revolution, 2..16, 2^LP_ADDR_W <= REV
+    lp_w: int        # LP_W: width of value and slope, 8..32; 2^(LP_W - LP_FRAC) <= REV
     lp_frac: int     # LP_FRAC: fraction bits of the correction (fine counts), 0..16
     lp_if: int       # LP_IF: interpolation fraction bits, 1..16
+    lp_recip: int | None = None   # LP_RECIP: index multiplier (default: index_mapping)
+    lp_shift: int | None = None   # LP_SHIFT: index shift, LP_IF..127 (default: index_mapping)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
+        check_lines_fine_w(self.lines, self.fine_w, NAME)
+        for name in ("lp_addr_w", "lp_w", "lp_frac", "lp_if"):
+            v = getattr(self, name)
+            if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
+                raise ValueError(f"{NAME}: {name.upper()} must be an integer, got {v!r}")
         if not 2 <= self.lp_addr_w <= 16:
             raise ValueError(f"{NAME}: LP_ADDR_W = {self.lp_addr_w} out of range 2..16")
         if (1 << self.lp_addr_w) > self.rev:
-            raise ValueError(f"{NAME}: 2^LP_ADDR_W = {1 << self.lp_addr_w} exceeds REV = {self.rev}")
+            raise ValueError(f"{NAME}: 2^LP_ADDR_W = {1 << self.lp_addr_w} entries exceed REV = LINES * 2^FINE_W")
         if not 8 <= self.lp_w <= 32:
             raise ValueError(f"{NAME}: LP_W = {self.lp_w} out of range 8..32")
         if not 0 <= self.lp_frac <= 16:
             raise ValueError(f"{NAME}: LP_FRAC = {self.lp_frac} out of range 0..16")
         if not 1 <= self.lp_if <= 16:
             raise ValueError(f"{NAME}: LP_IF = {self.lp_if} out of range 1..16")
-        if (1 << (self.lp_w - 1 - self.lp_frac)) >= self.rev // 2:
-            raise ValueError(f"{NAME}: LP_W - LP_FRAC = {self.lp_w - self.lp_frac} allows corrections of half a "
-                             "revolution or more")
+        if self.lp_w - self.lp_frac >= 0 and (1 << (self.lp_w - self.lp_frac)) > self.rev:
+            raise ValueError(f"{NAME}: LP_W - LP_FRAC = {self.lp_w - self.lp_frac}: corrections up to "
+                             f"2^{self.lp_w - self.lp_frac} fine counts exceed REV = LINES * 2^FINE_W")
+        if (self.lp_recip is None) != (self.lp_shift is None):
+            raise ValueError(f"{NAME}: give both LP_RECIP and LP_SHIFT, or neither")
+        if self.lp_recip is not None:
+            check_index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if, self.lp_recip, self.lp_shift)
 
+    # ---- derived constants (names as in the HDL)
     @property
     def rev(self) -> int:
-        """Fine counts per revolution."""
+        """REV: fine counts per revolution, LINES * 2^FINE_W."""
         return rev_and_pos_w(self.lines, self.fine_w)[0]
 
     @property
     def pos_w(self) -> int:
+        """POS_W: bits of a position, FINE_W + clog2(LINES)."""
         return rev_and_pos_w(self.lines, self.fine_w)[1]
 
     @property
+    def entries(self) -> int:
+        """Table entries per revolution (per bank), 2^LP_ADDR_W."""
+        return 1 << self.lp_addr_w
+
+    @property
+    def word_w(self) -> int:
+        """Width of a table word {slope, value}: 2 * LP_W."""
+        return 2 * self.lp_w
+
+    @property
     def recip(self) -> int:
+        """LP_RECIP."""
+        if self.lp_recip is not None:
+            return self.lp_recip
         return index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if)[0]
 
     @property
     def shift(self) -> int:
+        """LP_SHIFT."""
+        if self.lp_shift is not None:
+            return self.lp_shift
         return index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if)[1]
 
+    @property
+    def latency(self) -> int:
+        """LATENCY: enabled clocks from in_valid to out_valid, 6."""
+        return LATENCY
+
     def hdl_parameters(self) -> dict[str, int]:
-        recip, shift = index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if)
+        """The HDL parameter/generic map (LP_RECIP as an integer: Verilog takes it as 64'd..., VHDL < 2^31)."""
         return {"LINES": self.lines, "FINE_W": self.fine_w, "LP_ADDR_W": self.lp_addr_w, "LP_W": self.lp_w,
-                "LP_FRAC": self.lp_frac, "LP_IF": self.lp_if, "LP_RECIP": recip, "LP_SHIFT": shift}
+                "LP_FRAC": self.lp_frac, "LP_IF": self.lp_if, "LP_RECIP": self.recip, "LP_SHIFT": self.shift}
 
 
-def index_mapping(lines: int, fine_w: int, lp_addr_w: int, lp_if: int) -> tuple[int, int]:
-    """(LP_RECIP, LP_SHIFT) with (pos * LP_RECIP) >> LP_SHIFT == floor(pos * 2^LP_ADDR_W / REV), pos < REV.
+def latency(params: LongPeriodParams) -> int:
+    """Clock enables from ``in_valid`` to ``out_valid`` in the RTL: 6."""
+    return LATENCY
 
-    q = pos * den / num (num = REV, den = 2^LP_ADDR_W) is never closer than 1/num below the next
-    integer, so with recip = ceil(2^s * den / num) the error pos * (recip * num - 2^s * den) / (num 2^s)
-    stays below that gap when REV * (recip * num - 2^s * den) < 2^s (Granlund and Montgomery).
-    Asking that 2^LP_IF times over keeps the interpolation fraction within one LSB too. The smallest
-    such s >= LP_IF is taken; a power-of-two REV gives an exact power-of-two LP_RECIP.
-    """
-    num, den = lines << fine_w, 1 << lp_addr_w
-    for s in range(lp_if, 63):
-        recip = -((-(den << s)) // num)
-        err = recip * num - (den << s)
-        if err == 0 or (num * err) << lp_if < (1 << s):
-            return recip, s
-    raise ValueError(f"{NAME}: no index mapping for REV = {num}")
+
+# ---------------------------------------------------------------------------- tables
+
+
+def _limits(w: int) -> tuple[int, int]:
+    return -(1 << (w - 1)), (1 << (w - 1)) - 1
+
+
+def slopes(values) -> np.ndarray:
+    """``slope[k] = value[k+1] - value[k]``, the revolution wrapping to value[0] (last axis)."""
+    v = np.asarray(values, dtype=np.int64)
+    return np.roll(v, -1, axis=-1) - v
 
 
 def make_table(err_fn, params: LongPeriodParams) -> np.ndarray:
-    """Values s(LP_W), LP_FRAC fraction bits, of a correction (fine counts) at the entry points."""
-    n = 1 << params.lp_addr_w
-    pos = np.arange(n) * (params.rev / n)
-    v = np.floor(np.asarray(err_fn(pos), dtype=float) * (1 << params.lp_frac) + 0.5)
-    lo, hi = -(1 << (params.lp_w - 1)), (1 << (params.lp_w - 1)) - 1
+    """Table values: ``round(err_fn(pos) * 2^LP_FRAC)`` at the entry points ``pos = k * REV / 2^LP_ADDR_W``.
+
+    ``err_fn`` maps positions in fine counts (a float array, or one float if it is a scalar
+    function) to the correction in fine counts (the encoder's error, subtracted from the
+    position). Every value and every slope must fit s(LP_W).
+
+    Raises:
+        ValueError: a value or a slope outside s(LP_W), or a non-finite value.
+    """
+    p = params
+    pos = np.arange(p.entries) * (p.rev / p.entries)
+    try:
+        raw = np.asarray(err_fn(pos), dtype=np.float64)
+    except TypeError:            # a scalar function
+        raw = None
+    if raw is None or raw.shape != pos.shape:
+        raw = np.array([float(err_fn(float(x))) for x in pos])
+    if not np.all(np.isfinite(raw)):
+        raise ValueError(f"{NAME}: the correction is not finite at entry {int(np.flatnonzero(~np.isfinite(raw))[0])}")
+    v = np.floor(raw * (1 << p.lp_frac) + 0.5)
+    lo, hi = _limits(p.lp_w)
     bad = np.flatnonzero((v < lo) | (v > hi))
     if bad.size:
         k = int(bad[0])
-        raise ValueError(f"long-period table entry {k}: {v[k] / (1 << params.lp_frac):g} fine counts does not fit "
-                         f"s({params.lp_w}) with {params.lp_frac} fraction bits")
-    return v.astype(np.int64)
+        raise ValueError(f"{NAME}: table entry {k}: {raw[k]:g} fine counts does not fit s({p.lp_w}) with "
+                         f"{p.lp_frac} fraction bits")
+    values = v.astype(np.int64)
+    _check_slopes(values, p)
+    return values
 
 
-def slopes(values: np.ndarray) -> np.ndarray:
-    """slope[k] = value[k+1] - value[k], the revolution wrapping to value[0]."""
-    return np.roll(values, -1, axis=-1) - values
+def _check_slopes(values: np.ndarray, p: LongPeriodParams) -> np.ndarray:
+    sl = slopes(values)
+    lo, hi = _limits(p.lp_w)
+    bad = np.flatnonzero((sl.ravel() < lo) | (sl.ravel() > hi))
+    if bad.size:
+        k = int(bad[0]) % p.entries
+        raise ValueError(f"{NAME}: table slope {k}: {int(sl.ravel()[bad[0]])} does not fit s({p.lp_w})")
+    return sl
+
+
+def _check_values(values, p: LongPeriodParams) -> np.ndarray:
+    v = np.asarray(values)
+    if v.size and not np.issubdtype(v.dtype, np.integer):
+        raise ValueError(f"{NAME}: table values must be integers, got dtype {v.dtype}")
+    v = v.astype(np.int64, copy=False)
+    if v.ndim not in (1, 2) or v.shape[-1] != p.entries:
+        raise ValueError(f"{NAME}: table values must have shape ({p.entries},) or (banks, {p.entries}), "
+                         f"got {v.shape}")
+    lo, hi = _limits(p.lp_w)
+    if v.size and (v.min() < lo or v.max() > hi):
+        raise ValueError(f"{NAME}: a table value is outside s({p.lp_w})")
+    return v
 
 
 def pack_words(values, params: LongPeriodParams) -> np.ndarray:
-    v = np.asarray(values, dtype=np.int64)
-    sl = slopes(v)
-    lo, hi = -(1 << (params.lp_w - 1)), (1 << (params.lp_w - 1)) - 1
-    bad = np.flatnonzero((sl < lo) | (sl > hi))
-    if bad.size:
-        raise ValueError(f"long-period table slope {int(bad[0])}: {int(sl[bad[0]])} does not fit s({params.lp_w})")
-    mask = (1 << params.lp_w) - 1
-    return ((sl & mask) << params.lp_w) | (v & mask)
-
-
-def long_period(pos, values, zero: int, direction: int, params: LongPeriodParams, bank=None) -> np.ndarray:
-    """Output position for each input position; `values` (entries,) or (banks, entries) with `bank`."""
+    """RAM words ``{slope, value}`` of one bank's values: 2*LP_W-bit unsigned integers, value in the
+    low half, both fields two's complement. int64 when 2*LP_W <= 62, else uint64 (LP_W = 32)."""
     p = params
-    recip, shift = index_mapping(p.lines, p.fine_w, p.lp_addr_w, p.lp_if)
-    pos = np.asarray(pos, dtype=np.int64)
-    v = np.asarray(values, dtype=np.int64)
-    sl = slopes(v)
-    t = pos * recip
-    entry = t >> shift
-    frac = (t >> (shift - p.lp_if)) & ((1 << p.lp_if) - 1)
-    if v.ndim == 2:
-        b = np.asarray(bank, dtype=np.int64)
-        val, slope = v[b, entry], sl[b, entry]
-    else:
-        val, slope = v[entry], sl[entry]
-    corr = val + ((slope * frac + (1 << (p.lp_if - 1))) >> p.lp_if)
-    step = (corr + (1 << (p.lp_frac - 1))) >> p.lp_frac if p.lp_frac else corr
-    pos_c = np.mod(pos - step, p.rev)
-    zero = int(zero)
-    return np.mod(zero - pos_c, p.rev) if direction else np.mod(pos_c + zero, p.rev)
+    v = _check_values(values, p)
+    sl = _check_slopes(v, p)
+    mask = (1 << p.lp_w) - 1
+    words = ((sl & mask).astype(np.uint64) << np.uint64(p.lp_w)) | (v & mask).astype(np.uint64)
+    return words.astype(np.int64) if 2 * p.lp_w <= 62 else words
+
+
+def unpack_words(words, params: LongPeriodParams) -> tuple[np.ndarray, np.ndarray]:
+    """``(slope, value)`` as signed int64 from RAM words (any shape; any word is legal)."""
+    w = np.asarray(words, dtype=np.uint64)
+    lw = params.lp_w
+    mask = np.uint64((1 << lw) - 1)
+    half = 1 << (lw - 1)
+    value = (w & mask).astype(np.int64)
+    slope = ((w >> np.uint64(lw)) & mask).astype(np.int64)
+    return ((slope + half) & int(mask)) - half, ((value + half) & int(mask)) - half
+
+
+# ---------------------------------------------------------------------------- the datapath
+
+
+def _index(pos: np.ndarray, p: LongPeriodParams) -> tuple[np.ndarray, np.ndarray]:
+    """(entry, frac) of ``t = pos * LP_RECIP`` exactly (Python integers when int64 could overflow)."""
+    recip, shift = p.recip, p.shift
+    if (p.rev - 1) * recip < 1 << 63:
+        t = pos * recip
+        return t >> shift, (t >> (shift - p.lp_if)) & ((1 << p.lp_if) - 1)
+    # wide products (Verilog-only configurations): exact, slower
+    q = (pos.astype(object) * recip) >> (shift - p.lp_if)
+    q = q.astype(np.int64)
+    return q >> p.lp_if, q & ((1 << p.lp_if) - 1)
+
+
+def _apply(pos, val_of, zero, direction, p: LongPeriodParams) -> np.ndarray:
+    pos_a = np.asarray(pos)
+    if pos_a.size and not np.issubdtype(pos_a.dtype, np.integer):
+        raise ValueError(f"{NAME}: pos must be integers, got dtype {pos_a.dtype}")
+    pos_a = pos_a.astype(np.int64, copy=False)
+    if pos_a.size and (pos_a.min() < 0 or pos_a.max() >= p.rev):
+        raise ValueError(f"{NAME}: pos outside [0, REV = {p.rev})")
+    z = np.asarray(zero).astype(np.int64)
+    if z.size and (z.min() < 0 or z.max() >= p.rev):
+        raise ValueError(f"{NAME}: zero outside [0, REV = {p.rev})")
+    d = np.asarray(direction).astype(np.int64)
+    if d.size and (d.min() < 0 or d.max() > 1):
+        raise ValueError(f"{NAME}: direction must be 0 or 1")
+    entry, frac = _index(pos_a, p)
+    slope, value = val_of(entry)
+    corr = slope * frac
+    corr += 1 << (p.lp_if - 1)
+    corr >>= p.lp_if
+    corr += value
+    if p.lp_frac:
+        corr += 1 << (p.lp_frac - 1)
+        corr >>= p.lp_frac
+    pos_c = pos_a - corr
+    pos_c += np.where(pos_c < 0, p.rev, np.where(pos_c >= p.rev, -p.rev, 0))   # |step| <= REV
+    out = np.where(d == 1, z - pos_c, pos_c + z)
+    out += np.where(out < 0, p.rev, np.where(out >= p.rev, -p.rev, 0))
+    return out
+
+
+def _banked(table: np.ndarray, entry: np.ndarray, bank, what: str) -> np.ndarray:
+    if table.ndim == 1:
+        return table[entry]
+    if bank is None:
+        raise ValueError(f"{NAME}: {what} of {table.shape[0]} banks need a bank per sample")
+    b = np.asarray(bank).astype(np.int64)
+    if b.size and (b.min() < 0 or b.max() >= table.shape[0]):
+        raise ValueError(f"{NAME}: bank outside 0..{table.shape[0] - 1}")
+    return table[b, entry]
+
+
+def long_period(pos, values, zero, direction, params: LongPeriodParams, bank=None) -> np.ndarray:
+    """Output positions, bit-exact with the RTL, from table values (slopes derived, wrapping).
+
+    Args:
+        pos: u(POS_W) positions in [0, REV) (any shape).
+        values: the table, shape (2^LP_ADDR_W,), or (banks, 2^LP_ADDR_W) with ``bank``.
+        zero: u(POS_W) output zero in [0, REV), scalar or per sample.
+        direction: 0 or 1 (1: the output runs the other way), scalar or per sample.
+        params: the block parameters.
+        bank: the table bank of each sample (when ``values`` has banks).
+
+    Returns:
+        int64 positions in [0, REV), the shape of ``pos`` (broadcast with zero/direction/bank).
+    """
+    p = params
+    v = _check_values(values, p)
+    sl = _check_slopes(v, p)
+    return _apply(pos, lambda e: (_banked(sl, e, bank, "values"), _banked(v, e, bank, "values")),
+                  zero, direction, p)
+
+
+def long_period_words(pos, words, zero, direction, params: LongPeriodParams, bank=None) -> np.ndarray:
+    """As `long_period`, from raw RAM words ``{slope, value}`` (any contents, as written to the RAM)."""
+    p = params
+    w = np.asarray(words)
+    if w.ndim not in (1, 2) or w.shape[-1] != p.entries:
+        raise ValueError(f"{NAME}: words must have shape ({p.entries},) or (banks, {p.entries}), got {w.shape}")
+    sl, v = unpack_words(w, p)
+    return _apply(pos, lambda e: (_banked(sl, e, bank, "words"), _banked(v, e, bank, "words")),
+                  zero, direction, p)
+
+
+# ---------------------------------------------------------------------------- error budget
+
+
+def error_terms(params: LongPeriodParams, values) -> dict[str, float]:
+    """The terms of `error_budget`, in fine counts (values: one bank, from `make_table`).
+
+    - ``interpolation``: linear interpolation between entries h apart misses a smooth c(x) by at
+      most h^2 max|c''| / 8; the table's largest second difference estimates h^2 max|c''| (exact
+      for a parabola, within a few percent for harmonics well below N/8), taken with a margin of
+      5/4;
+    - ``quantisation``: each value is c(k h) rounded to LP_FRAC bits, 1/2 LSB (interpolation is a
+      convex combination of two values);
+    - ``interp_rounding``: the product slope * frac rounded to LP_FRAC bits, 1/2 LSB;
+    - ``fraction``: frac is the position within the entry truncated to LP_IF bits, and the index
+      product exceeds the exact quotient by less than 1/b (``b = REV / gcd(2^LP_ADDR_W, REV)``):
+      max|slope| * (2^-LP_IF + 1/b) LSB;
+    - ``output_rounding``: the correction rounded to whole fine counts, 1/2 count (0 when LP_FRAC = 0:
+      it is then already whole, the terms above are whole LSBs).
+    """
+    p = params
+    v = np.asarray(values, dtype=np.float64)
+    if v.ndim != 1 or v.size != p.entries:
+        raise ValueError(f"{NAME}: error_terms takes one bank of {p.entries} values, got shape {v.shape}")
+    lsb = 2.0 ** -p.lp_frac
+    second = float(np.abs(np.roll(v, -1) - 2 * v + np.roll(v, 1)).max())
+    max_slope = float(np.abs(slopes(v.astype(np.int64))).max())
+    b = p.rev // math.gcd(p.entries, p.rev)
+    return {
+        "interpolation": 1.25 * second / 8 * lsb,
+        "quantisation": 0.5 * lsb,
+        "interp_rounding": 0.5 * lsb,
+        "fraction": max_slope * (2.0 ** -p.lp_if + 1.0 / b) * lsb,
+        "output_rounding": 0.5 if p.lp_frac else 0.0,
+    }
 
 
 def error_budget(params: LongPeriodParams, values) -> float:
-    """Bound on |applied - ideal correction| in fine counts: linear interpolation between entries
-    (1/8 of the largest second difference), quantisation of the values (1/2 LSB), rounding of the
-    interpolated step (1/2 LSB), all in 2^-LP_FRAC units, plus the final rounding (1/2 count)."""
-    v = np.asarray(values, dtype=float)
-    second = np.abs(np.roll(v, -1) - 2 * v + np.roll(v, 1)).max() if len(v) > 2 else 0.0
-    return float((second / 8 + 1.0) / (1 << params.lp_frac) + 0.5)
+    """Bound on |applied - ideal correction| in fine counts for a table made by `make_table` from a
+    smooth correction (sum of `error_terms`): the output position differs from
+    ``(pos - c(pos))`` (then zero and direction) by at most this, modulo REV."""
+    return float(sum(error_terms(params, values).values()))

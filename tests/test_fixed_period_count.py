@@ -1,0 +1,341 @@
+"""Bit-exact period-count model (fringe.fixed.period_count): the contract, the float reference, limits."""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fringe.fixed.period_count import (
+    LATENCY,
+    PeriodCountParams,
+    clog2,
+    period_count,
+    rev_and_pos_w,
+)
+from fringe.position import coarse_fine_combine, count_periods
+
+REPO = Path(__file__).resolve().parent.parent
+
+PARAMS = [
+    PeriodCountParams(16, 256, 9),
+    PeriodCountParams(12, 100, 8),       # LINES not a power of two, span < a period
+    PeriodCountParams(16, 1, 0),
+    PeriodCountParams(14, 3, 0),
+    PeriodCountParams(10, 1, 1),         # one line with a coarse code: n mod 1 = 0
+    PeriodCountParams(10, 4, 2),         # LINES = 2^COARSE_W: span = one period
+    PeriodCountParams(8, 5, 6),          # COARSE_W = FINE_W - 2
+    PeriodCountParams(30, 200_000, 18),  # widest: POS_W = 48
+    PeriodCountParams(20, 3600, 0),
+]
+
+
+def _pid(p: PeriodCountParams) -> str:
+    return f"F{p.fine_w}-L{p.lines}-C{p.coarse_w}"
+
+
+# ---------------------------------------------------------------------------- the contract, literally
+
+
+class Contract:
+    """docs/architecture.md on Python integers, one valid sample at a time (as the RTL's state)."""
+
+    def __init__(self, p: PeriodCountParams):
+        self.p = p
+        self.prev: int | None = None
+        self.pos: int | None = None
+
+    def step(self, phase: int, coarse: int, ofs: int) -> tuple[int, bool, bool]:
+        p = self.p
+        m = 1 << p.fine_w
+        delta = 0 if self.prev is None else (phase - self.prev) % m
+        if delta >= m // 2:
+            delta -= m                                             # signed FINE_W bits
+        over = self.prev is not None and abs(delta) >= m // 4
+        if p.coarse_w:
+            centre = ((coarse * p.lines) << (p.fine_w - p.coarse_w)) + ofs
+            d = centre - phase
+            n = (d + m // 2) >> p.fine_w                          # floor
+            r = d - n * m
+            err = abs(r) > p.coarse_tol
+            pos = (n % p.lines) * m + phase
+        else:
+            pos = phase if self.pos is None else (self.pos + delta) % p.rev
+            err = False
+        self.prev, self.pos = phase, pos
+        return pos, over, err
+
+
+def stream(p: PeriodCountParams, rng: np.random.Generator, n: int, ofs: int | None = None):
+    """A wandering position (reversals, jumps up to half a period), its phases and coarse codes
+    (a few wrong), and a calibrated-like or given offset."""
+    period = 1 << p.fine_w
+    steps = np.round((np.clip(np.cumsum(rng.normal(0, 0.02, n)), -0.3, 0.3) + rng.normal(0, 0.05, n))
+                     * period).astype(np.int64)
+    jumps = rng.random(n) < 0.05
+    steps[jumps] = rng.integers(-period // 2, period // 2, jumps.sum())
+    true = np.mod(int(rng.integers(0, p.rev)) + np.cumsum(steps), p.rev)
+    phase = true & (period - 1)
+    if not p.coarse_w:
+        return phase, None, 0
+    span = p.coarse_span
+    if ofs is None:
+        ofs = span // 2 - int(rng.integers(-period // 2 + 1, period // 2))
+    m = span // 2 - ofs
+    coarse = (np.mod(true + m, p.rev) // span) % (1 << p.coarse_w)
+    bad = rng.random(n) < 0.03
+    coarse[bad] = rng.integers(0, 1 << p.coarse_w, bad.sum())
+    return phase, coarse, ofs
+
+
+@pytest.mark.parametrize("p", PARAMS, ids=_pid)
+def test_vectorised_model_matches_the_contract(p):
+    rng = np.random.default_rng(5)
+    ofs_cases = [None, 1 << p.fine_w, -(1 << p.fine_w), 0] if p.coarse_w else [None]
+    for ofs in ofs_cases:
+        phase, coarse, ofs_v = stream(p, rng, 3000, ofs)
+        pos, over, err = period_count(phase, coarse, ofs_v, p)
+        ref = Contract(p)
+        want = [ref.step(int(a), int(coarse[i]) if p.coarse_w else 0, ofs_v) for i, a in enumerate(phase)]
+        assert pos.dtype == np.int64 and over.dtype == bool and err.dtype == bool
+        np.testing.assert_array_equal(pos, [w[0] for w in want])
+        np.testing.assert_array_equal(over, [w[1] for w in want])
+        np.testing.assert_array_equal(err, [w[2] for w in want])
+        assert pos.min() >= 0 and pos.max() < p.rev
+
+
+@pytest.mark.parametrize("lines,fine_w,coarse_w", [(1, 8, 1), (2, 8, 1), (3, 8, 2), (5, 8, 3), (64, 8, 6),
+                                                   (7, 9, 3)])
+def test_period_number_range_and_wrap_exhaustive(lines, fine_w, coarse_w):
+    """Every phase and code, offsets over the whole supported range: n in [-2, LINES+1] before the
+    wrap (so one add or subtract of LINES suffices, as in the RTL), and pos = (n mod LINES) 2^F + phase."""
+    p = PeriodCountParams(fine_w, lines, coarse_w)
+    m = 1 << fine_w
+    ph, co = np.meshgrid(np.arange(m), np.arange(1 << coarse_w))
+    ph, co = ph.ravel(), co.ravel()
+    n_min, n_max = 0, 0
+    for ofs in range(-m, m + 1, 7 if m > 256 else 3):
+        for o in (ofs, -m, m):
+            d = ((co * lines) << (fine_w - coarse_w)) + o - ph
+            n = (d + m // 2) >> fine_w
+            n_min, n_max = min(n_min, int(n.min())), max(n_max, int(n.max()))
+            pos, _, err = period_count(ph, co, o, p)
+            np.testing.assert_array_equal(pos, np.mod(n, lines) * m + ph)
+            np.testing.assert_array_equal(err, np.abs(d - n * m) > p.coarse_tol)
+    assert -2 <= n_min and n_max <= lines + 1
+    assert n_min == -2                                       # the range is reached
+    with pytest.raises(ValueError, match="coarse_ofs"):
+        period_count(ph, co, m + 1, p)
+
+
+# ---------------------------------------------------------------------------- against the float engine
+
+
+@pytest.mark.parametrize("p", [q for q in PARAMS if q.coarse_w and q.pos_w <= 40], ids=_pid)
+def test_coarse_combination_equals_float_reference(p):
+    """The float engine (fringe.position) gives the same position and flag: the budget is 0
+    (only exact half-period ties differ: float rounds them to even, the hardware up)."""
+    rng = np.random.default_rng(11)
+    phase, coarse, ofs = stream(p, rng, 50_000)
+    m = 1 << p.fine_w
+    pos, _, err = period_count(phase, coarse, ofs, p)
+    fpos, fflag = coarse_fine_combine(phase / m, coarse, p.lines, p.coarse_w, ofs / m)
+    d = ((coarse * p.lines) << (p.fine_w - p.coarse_w)) + ofs - phase
+    tie = (d % m) == m // 2
+    assert not np.all(tie)
+    np.testing.assert_array_equal(pos[~tie] / m, fpos[~tie])
+    np.testing.assert_array_equal(err[~tie], fflag[~tie])
+
+
+@pytest.mark.parametrize("p", [q for q in PARAMS if not q.coarse_w], ids=_pid)
+def test_counting_equals_float_reference(p):
+    rng = np.random.default_rng(12)
+    phase, _, _ = stream(p, rng, 50_000)
+    m = 1 << p.fine_w
+    pos, over, err = period_count(phase, None, 0, p)
+    fpos, fover = count_periods(phase / m, p.lines)
+    np.testing.assert_array_equal(pos / m, fpos)
+    np.testing.assert_array_equal(over, fover)
+    assert not err.any()
+
+
+# ---------------------------------------------------------------------------- edge cases
+
+
+@pytest.mark.parametrize("p", [PeriodCountParams(16, 256, 9), PeriodCountParams(14, 3, 0)], ids=_pid)
+def test_overspeed_at_the_quarter_period(p):
+    m = 1 << p.fine_w
+    q = m // 4
+    jumps = [q - 1, q, -(q - 1), -q, q + 1, m // 2 - 1, -(m // 2), m // 2, 0, 1, -1]
+    want = [False, True, False, True, True, True, True, True, False, False, False]
+    phase = [12345 % m]
+    for j in jumps:
+        phase.append((phase[-1] + j) % m)
+    coarse = np.zeros(len(phase), dtype=np.int64)
+    _, over, _ = period_count(np.array(phase), coarse, 0, p)
+    assert not over[0]                                   # the first sample after reset never flags
+    np.testing.assert_array_equal(over[1:], want)
+
+
+def test_counting_starts_at_the_phase_and_wraps_both_ways():
+    p = PeriodCountParams(8, 3, 0)
+    phase = np.array([250, 10, 70, 130, 190, 250, 60, 0, 200, 150, 100, 50, 0, 255])
+    pos, over, err = period_count(phase, None, 0, p)
+    np.testing.assert_array_equal(pos, [250, 266, 326, 386, 446, 506, 572, 512, 456, 406, 356, 306, 256, 255])
+    np.testing.assert_array_equal(over, [0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0])
+    assert not err.any()
+    # across the revolution: 767 -> 0 and back
+    pos, _, _ = period_count(np.array([250, 255, 0, 5, 0, 255]), None, 0, p)
+    np.testing.assert_array_equal(pos, [250, 255, 256, 261, 256, 255])
+    pos, _, _ = period_count(np.array([0, 255, 0]), None, 0, PeriodCountParams(8, 1, 0))
+    np.testing.assert_array_equal(pos, [0, 255, 0])
+
+
+def test_coarse_code_wrap_and_period_edges():
+    p = PeriodCountParams(12, 100, 8)
+    span, m = p.coarse_span, 1 << p.fine_w
+    true = np.array([0, 1, m - 1, m, p.rev - 1, p.rev - m, p.rev - m - 1, 50 * m + 7, span - 1, span])
+    coarse = (true + span // 2 - span // 2) // span        # ofs = span/2: no misalignment
+    pos, _, err = period_count(true % m, coarse, span // 2, p)
+    np.testing.assert_array_equal(pos, true)
+    assert not err.any()
+    # misaligned by half a code: code 2^COARSE_W-1 spans the revolution wrap, then code 0
+    ofs = span
+    true = np.array([p.rev - 3, p.rev - 1, 0, 5, span // 2 - 1, span // 2, span // 2 + 1])
+    coarse = (np.mod(true + span // 2 - ofs, p.rev) // span) % 256
+    np.testing.assert_array_equal(coarse, [255, 255, 255, 255, 255, 0, 0])
+    pos, _, err = period_count(true % m, coarse, ofs, p)
+    np.testing.assert_array_equal(pos, true)
+    assert not err.any()
+
+
+def test_wrong_codes_are_flagged_beyond_the_tolerance():
+    p = PeriodCountParams(16, 256, 9)
+    m, tol, span = 1 << p.fine_w, p.coarse_tol, p.coarse_span
+    assert tol == (256 << 5) + (1 << 14) == span // 2 + (m // 2 - span // 2) // 2
+    codes = np.array([3, 3, 3, 3, 511, 511])
+    r = np.array([tol, tol + 1, -tol, -tol - 1, tol + 1, -tol])
+    phase = np.mod(codes * span + span // 2 - r, m)
+    _, _, err = period_count(phase, codes, span // 2, p)
+    np.testing.assert_array_equal(err, [0, 1, 0, 1, 1, 0])
+
+
+def test_scalar_and_per_sample_offsets_agree():
+    p = PeriodCountParams(12, 100, 8)
+    phase, coarse, ofs = stream(p, np.random.default_rng(3), 1000)
+    a = period_count(phase, coarse, ofs, p)
+    b = period_count(phase, coarse, np.full(phase.size, ofs), p)
+    for x, y in zip(a, b, strict=True):
+        np.testing.assert_array_equal(x, y)
+    ofs2 = np.where(np.arange(phase.size) < 500, ofs, -ofs)
+    pos, _, _ = period_count(phase, coarse, ofs2, p)
+    np.testing.assert_array_equal(pos[500:], period_count(phase, coarse, -ofs, p)[0][500:])
+
+
+def test_empty_stream():
+    for p in (PeriodCountParams(12, 100, 8), PeriodCountParams(12, 100, 0)):
+        pos, over, err = period_count(np.array([], dtype=np.int64), np.array([], dtype=np.int64), 0, p)
+        assert pos.size == over.size == err.size == 0
+
+
+# ---------------------------------------------------------------------------- parameters
+
+
+def test_derived_constants():
+    p = PeriodCountParams(16, 256, 9)
+    assert (p.rev, p.pos_w, p.coarse_span, p.coarse_tol, p.latency) == (1 << 24, 24, 1 << 15, (1 << 13) + (1 << 14), 2)
+    p = PeriodCountParams(12, 100, 8)
+    assert (p.rev, p.pos_w, p.coarse_span, p.coarse_tol) == (409600, 19, 1600, 400 + 1024)
+    p = PeriodCountParams(16, 1, 0)
+    assert (p.rev, p.pos_w, p.coarse_span, p.coarse_tol) == (1 << 16, 16, 0, 0)
+    assert PeriodCountParams(30, 200_000, 18).pos_w == 48
+    assert rev_and_pos_w(3, 14) == (3 << 14, 16) and rev_and_pos_w(1, 8) == (256, 8)
+    assert [clog2(v) for v in (1, 2, 3, 4, 5, 1 << 20)] == [0, 1, 2, 2, 3, 20]
+    for lines in list(range(1, 70)) + [1000, 3600, (1 << 20) - 1, 1 << 20]:
+        assert rev_and_pos_w(lines, 8)[1] == math.ceil(math.log2(lines << 8) - 1e-12)
+    assert PeriodCountParams(16, 256, 9).hdl_parameters() == {"FINE_W": 16, "LINES": 256, "COARSE_W": 9}
+    assert LATENCY == 2
+
+
+@pytest.mark.parametrize(
+    "args, msg",
+    [
+        ((7, 256, 0), "fringe_period_count: FINE_W = 7 out of range 8..30"),
+        ((31, 256, 0), "fringe_period_count: FINE_W = 31 out of range 8..30"),
+        ((16, 0, 0), "fringe_period_count: LINES = 0 out of range 1..2^20"),
+        ((16, (1 << 20) + 1, 0), "fringe_period_count: LINES = 1048577 out of range 1..2^20"),
+        ((30, (1 << 18) + 1, 0), "fringe_period_count: POS_W = FINE_W + clog2(LINES) = 49 exceeds 48"),
+        ((16, 256, 15), "fringe_period_count: COARSE_W = 15 out of range: 0 (no coarse code) or 1..24 with "
+                        "COARSE_W <= FINE_W - 2"),
+        ((16, 256, -1), "fringe_period_count: COARSE_W = -1 out of range"),
+        ((30, 256, 25), "fringe_period_count: COARSE_W = 25 out of range"),
+        ((16, 257, 8), "fringe_period_count: 2^COARSE_W = 256 is less than LINES = 257"),
+        ((16.0, 256, 9), "fringe_period_count: FINE_W must be an integer"),
+        ((16, 256, True), "fringe_period_count: COARSE_W must be an integer"),
+    ],
+)
+def test_parameter_validation(args, msg):
+    with pytest.raises(ValueError, match=re.escape(msg)):
+        PeriodCountParams(*args)
+
+
+def test_hdl_messages_match_model():
+    """The HDL checks carry the model's messages (plus the instance path in Verilog)."""
+    v = (REPO / "rtl/verilog/fringe_period_count.v").read_text()
+    h = (REPO / "rtl/vhdl/fringe_period_count.vhd").read_text()
+    for name, rng in (("FINE_W", "8..30"), ("LINES", "1..2^20")):
+        assert f'"fringe_period_count: {name} = %0d out of range {rng} (instance %m)"' in v
+        assert f'"fringe_period_count: {name} = " & integer\'image({name}) & " out of range {rng}"' in h
+    assert "POS_W = FINE_W + clog2(LINES) = %0d exceeds 48 (instance %m)" in v
+    assert '" exceeds 48"' in h
+    tail = "out of range: 0 (no coarse code) or 1..24 with COARSE_W <= FINE_W - 2"
+    assert f"COARSE_W = %0d {tail} (instance %m)" in v and f'" {tail}"' in h
+    assert "2^COARSE_W = %0d is less than LINES = %0d (instance %m)" in v and '" is less than LINES = "' in h
+
+
+def test_input_validation():
+    p = PeriodCountParams(12, 100, 8)
+    ok = np.array([0, 1])
+    with pytest.raises(ValueError, match="phase = 4096 outside 0..4095"):
+        period_count(np.array([0, 4096]), ok, 0, p)
+    with pytest.raises(ValueError, match="coarse = 256 outside 0..255"):
+        period_count(ok, np.array([0, 256]), 0, p)
+    with pytest.raises(ValueError, match="coarse_ofs = 4097 outside -4096..4096"):
+        period_count(ok, ok, 4097, p)
+    with pytest.raises(ValueError, match="coarse codes are required"):
+        period_count(ok, None, 0, p)
+    with pytest.raises(ValueError, match="differs from phase shape"):
+        period_count(ok, np.array([1]), 0, p)
+    with pytest.raises(ValueError, match="must be integers"):
+        period_count(np.array([0.5]), np.array([0]), 0, p)
+    with pytest.raises(ValueError, match="one-dimensional"):
+        period_count(np.zeros((2, 2), dtype=np.int64), np.zeros((2, 2), dtype=np.int64), 0, p)
+    with pytest.raises(ValueError, match="one value per sample"):
+        period_count(ok, ok, np.array([0, 0, 0]), p)
+    # without a coarse code the coarse inputs are ignored
+    pos, _, _ = period_count(ok, None, 10**9, PeriodCountParams(12, 100, 0))
+    np.testing.assert_array_equal(pos, [0, 1])
+
+
+# ---------------------------------------------------------------------------- speed
+
+
+@pytest.mark.parametrize("p", [PeriodCountParams(16, 256, 9), PeriodCountParams(16, 1, 0)], ids=_pid)
+def test_model_speed(p):
+    """At least 5 M samples/s (vectorised; the counter is a cumulative sum)."""
+    rng = np.random.default_rng(0)
+    n = 2_000_000
+    phase = rng.integers(0, 1 << p.fine_w, n)
+    coarse = rng.integers(0, 1 << max(p.coarse_w, 1), n)
+    best = math.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        period_count(phase, coarse, 100, p)
+        best = min(best, time.perf_counter() - t0)
+    rate = n / best
+    print(f"fringe.fixed.period_count: {rate / 1e6:.1f} M samples/s ({_pid(p)})")
+    assert rate > 5e6
