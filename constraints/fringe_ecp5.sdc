@@ -1,2 +1,3 @@
-# fringe on ECP5-25k: one clock, 150 MHz (6.667 ns)
+# fringe on an ECP5-25k (Lattice Diamond / Radiant): one clock, 150 MHz (6.667 ns).
+# `make synth` (nextpnr-ecp5) uses --freq 150 instead.
 create_clock -name clk -period 6.667 [get_ports clk]

