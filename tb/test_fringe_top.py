@@ -612,11 +612,11 @@ def test_latency_documented():
 
     cfg = CoreConfig()
     lat = core_latency(cfg)
-    assert lat == cfg.cordic_stages + 20
+    assert lat == cfg.cordic_stages + 21
     for f in ("rtl/verilog/fringe_core.v", "rtl/verilog/fringe_top.v", "rtl/vhdl/fringe_core.vhd",
               "rtl/vhdl/fringe_top.vhd"):
         text = (REPO / f).read_text()
-        assert re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*20\s*;", text), f
+        assert re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*21\s*;", text), f
     for block, n in (("fringe_wave_lut", wave_lut.LATENCY), ("fringe_quadrature", quadrature.LATENCY),
                      ("fringe_period_count", period_count.LATENCY), ("fringe_long_period", long_period.LATENCY)):
         for f in (f"rtl/verilog/{block}.v", f"rtl/vhdl/{block}.vhd"):

@@ -23,9 +23,9 @@
 // the register file, the tables and the active bank are configuration and keep their values
 // (power-up: bank 0, the init files).
 //
-// LATENCY = CORDIC_STAGES + 20 clock enables from in_valid to out_valid:
+// LATENCY = CORDIC_STAGES + 21 clock enables from in_valid to out_valid:
 //   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 4 fringe_quadrature
-//   + CORDIC_STAGES+2 fringe_cordic + 2 fringe_period_count + 6 fringe_long_period.
+//   + CORDIC_STAGES+2 fringe_cordic + 2 fringe_period_count + 7 fringe_long_period.
 // ce = 0 freezes the pipeline (the tables keep their write port).
 
 `default_nettype none
@@ -72,7 +72,7 @@ module fringe_core #(
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 20;
+    localparam integer LATENCY = CORDIC_STAGES + 21;
     /* verilator lint_on UNUSEDPARAM */
     localparam integer POS_W   = $clog2(LINES) + FINE_W;        // clog2(LINES * 2^FINE_W)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width

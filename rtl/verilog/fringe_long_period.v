@@ -22,8 +22,8 @@
 // The table is written through wr_en / wr_addr ({bank, entry}) / wr_data, passed to
 // fringe_table_ram whatever ce is; write only the bank no sample in flight reads.
 //
-// LATENCY = 6 clock enables (ce = 1 cycles) from in_valid to out_valid:
-//   1 index product   2 table read   3 slope x fraction (+ rounding constants)
+// LATENCY = 7 clock enables (ce = 1 cycles) from in_valid to out_valid:
+//   1 index product   2 table read   2b the RAM's output register   3 slope x fraction (+ rounding constants)
 //   4 correction rounded to fine counts, subtracted from pos   5 wrap into [0, REV)
 //   6 zero and direction, wrap
 // One sample per clock. ce = 0 freezes every register (and the table read); rst (synchronous,
@@ -63,7 +63,7 @@ module fringe_long_period #(
     output wire [USER_W-1:0]                 out_user
 );
 
-    localparam integer LATENCY = 6;
+    localparam integer LATENCY = 7;
     localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
     localparam [63:0]  LINES64 = {32'd0, LINES};
     localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^48 when legal
@@ -189,26 +189,32 @@ module fringe_long_period #(
     end
 
     // ---- 2: table read ---------------------------------------------------------------------------------
-    wire [2*LP_W-1:0] word;
+    wire [2*LP_W-1:0] word_ram;
+    reg  [2*LP_W-1:0] word;         // the RAM's output register (its clock-to-out then feeds no logic)
 
     fringe_table_ram #(
         .ADDR_W(LP_ADDR_W), .DATA_W(2 * LP_W), .INIT_FILE(INIT_FILE)
     ) u_table (
         .clk(clk),
         .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),
-        .rd_en(ce), .rd_addr({s1_bank, s1_entry}), .rd_data(word)
+        .rd_en(ce), .rd_addr({s1_bank, s1_entry}), .rd_data(word_ram)
     );
 
-    reg [LP_IF-1:0] s2_frac;
-    reg [POS_W-1:0] s2_pos, s2_zero;
-    reg             s2_dir;
+    reg [LP_IF-1:0] s1b_frac, s2_frac;
+    reg [POS_W-1:0] s1b_pos, s1b_zero, s2_pos, s2_zero;
+    reg             s1b_dir, s2_dir;
 
     always @(posedge clk) begin
         if (ce) begin
-            s2_frac <= s1_frac;
-            s2_pos  <= s1_pos;
-            s2_zero <= s1_zero;
-            s2_dir  <= s1_dir;
+            s1b_frac <= s1_frac;
+            s1b_pos  <= s1_pos;
+            s1b_zero <= s1_zero;
+            s1b_dir  <= s1_dir;
+            word     <= word_ram;
+            s2_frac  <= s1b_frac;
+            s2_pos   <= s1b_pos;
+            s2_zero  <= s1b_zero;
+            s2_dir   <= s1b_dir;
         end
     end
 

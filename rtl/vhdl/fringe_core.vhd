@@ -26,9 +26,9 @@
 -- the register file, the tables and the active bank are configuration and keep their values
 -- (power-up: bank 0, the init files).
 --
--- LATENCY = CORDIC_STAGES + 20 clock enables from in_valid to out_valid:
+-- LATENCY = CORDIC_STAGES + 21 clock enables from in_valid to out_valid:
 --   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 4 fringe_quadrature
---   + CORDIC_STAGES+2 fringe_cordic + 2 fringe_period_count + 6 fringe_long_period.
+--   + CORDIC_STAGES+2 fringe_cordic + 2 fringe_period_count + 7 fringe_long_period.
 -- ce = 0 freezes the pipeline (the tables keep their write port).
 
 library ieee;
@@ -122,7 +122,7 @@ architecture rtl of fringe_core is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := CORDIC_STAGES + 20;
+    constant LATENCY : integer := CORDIC_STAGES + 21;
     constant REG_W   : integer := 32;
     constant AMP_W   : integer := WAVE_W + 1;   -- CORDIC magnitude u(WAVE_W+1)
     constant BR_W    : integer := ADC_W + 1;    -- branch thresholds s(ADC_W+1)

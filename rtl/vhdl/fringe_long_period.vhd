@@ -25,7 +25,7 @@
 -- The table is written through wr_en / wr_addr ({bank, entry}) / wr_data, passed to
 -- fringe_table_ram whatever ce is; write only the bank no sample in flight reads.
 --
--- LATENCY = 6 clock enables (ce = 1 cycles) from in_valid to out_valid:
+-- LATENCY = 7 clock enables (ce = 1 cycles) from in_valid to out_valid (2b: the RAM's output register):
 --   1 index product   2 table read   3 slope x fraction (+ rounding constants)
 --   4 correction rounded to fine counts, subtracted from pos   5 wrap into [0, REV)
 --   6 zero and direction, wrap
@@ -186,7 +186,7 @@ architecture rtl of fringe_long_period is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := 6;
+    constant LATENCY : integer := 7;
     constant POS_W   : integer := FINE_W + clog2(LINES);            -- clog2(REV)
     constant RECIP_W : integer := bits(LP_RECIP);
     constant T_W     : integer := maximum(POS_W + RECIP_W, LP_SHIFT + LP_ADDR_W);  -- index product
@@ -216,7 +216,10 @@ architecture rtl of fringe_long_period is
     signal s1_bank           : std_logic;
     signal s1_dir, s2_dir, s3_dir, s4_dir, s5_dir : std_logic;
     signal rd_addr           : std_logic_vector(LP_ADDR_W downto 0);
-    signal word              : std_logic_vector(2 * LP_W - 1 downto 0);
+    signal word_ram, word    : std_logic_vector(2 * LP_W - 1 downto 0);   -- word: the RAM's output register
+    signal s1b_frac          : unsigned(LP_IF - 1 downto 0);
+    signal s1b_pos, s1b_zero : unsigned(POS_W - 1 downto 0);
+    signal s1b_dir           : std_logic;
     signal s3_prod           : signed(PR_W - 1 downto 0);
     signal s3_value          : signed(C_W - 1 downto 0);
     signal s4_pos_c          : signed(WW - 1 downto 0);
@@ -254,7 +257,7 @@ begin
     u_table : entity work.fringe_table_ram
         generic map (ADDR_W => LP_ADDR_W, DATA_W => 2 * LP_W, INIT_FILE => INIT_FILE)
         port map (clk => clk, wr_en => wr_en, wr_addr => wr_addr, wr_data => wr_data,
-                  rd_en => ce, rd_addr => rd_addr, rd_data => word);
+                  rd_en => ce, rd_addr => rd_addr, rd_data => word_ram);
 
     p_data : process (clk)
         variable t        : unsigned(T_W - 1 downto 0);
@@ -276,11 +279,16 @@ begin
                 s1_bank  <= bank;
                 s1_dir   <= dir;
 
-                -- 2: the table read is in fringe_table_ram (rd_en = ce)
-                s2_frac <= s1_frac;
-                s2_pos  <= s1_pos;
-                s2_zero <= s1_zero;
-                s2_dir  <= s1_dir;
+                -- 2: the table read is in fringe_table_ram (rd_en = ce); 2b: its output register
+                s1b_frac <= s1_frac;
+                s1b_pos  <= s1_pos;
+                s1b_zero <= s1_zero;
+                s1b_dir  <= s1_dir;
+                word     <= word_ram;
+                s2_frac  <= s1b_frac;
+                s2_pos   <= s1b_pos;
+                s2_zero  <= s1b_zero;
+                s2_dir   <= s1b_dir;
 
                 -- 3: slope x fraction + 2^(LP_IF-1); value + 2^(LP_FRAC-1)
                 s3_prod  <= resize(signed(word(2 * LP_W - 1 downto LP_W)) * signed('0' & s2_frac), PR_W)

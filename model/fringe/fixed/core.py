@@ -137,7 +137,7 @@ def core_latency(cfg: CoreConfig) -> int:
     """LATENCY of rtl/*/fringe_core (and fringe_top): clock enables from in_valid to out_valid.
 
     The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 4, CORDIC
-    CORDIC_STAGES + 2, period count 2, long-period table 6; CORDIC_STAGES + 20 in all.
+    CORDIC_STAGES + 2, period count 2, long-period table 7; CORDIC_STAGES + 21 in all.
     """
     return (INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + cfg.cordic().latency
             + pc_mod.LATENCY + lp_mod.LATENCY)

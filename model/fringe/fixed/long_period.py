@@ -22,7 +22,7 @@ Ranges: ``2^(LP_W - LP_FRAC) <= REV``, so whatever the table holds, ``|step| <= 
 or subtract of REV wraps each result into [0, REV) (with a table from `make_table` the step stays
 below half that).
 
-The RTL has ``LATENCY = 6`` enabled clocks: (1) index product, (2) table read, (3) slope x
+The RTL has ``LATENCY = 7`` enabled clocks: (1) index product, (2) table read and its output register, (3) slope x
 fraction, (4) correction rounded to fine counts and subtracted, (5) wrap, (6) zero and direction.
 """
 
@@ -53,7 +53,7 @@ __all__ = [
 ]
 
 #: Enabled clocks from ``in_valid`` to ``out_valid`` in the RTL.
-LATENCY = 6
+LATENCY = 7
 #: Largest LP_SHIFT the HDL accepts (its elaboration check computes with 256-bit constants).
 LP_SHIFT_MAX = 127
 NAME = "fringe_long_period"
