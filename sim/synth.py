@@ -57,7 +57,7 @@ from fringe.rom import write_roms  # noqa: E402
 from fringe.rtlsim import INIT_FILES  # noqa: E402
 from fringe.simulate import SimulationConfig, seed_encoder, simulate  # noqa: E402
 
-RTL = REPO / "rtl" / "verilog"   # --rtl DIR points it elsewhere (to try an RTL change without editing rtl/)
+RTL = REPO / "rtl" / "verilog"   # --rtl DIR points it elsewhere; main() then measures a snapshot of it
 WRAP = REPO / "sim" / "synth_wrap.v"
 CONSTRAINTS = REPO / "constraints"
 TOOL_TIMEOUT_S = 3600
@@ -486,6 +486,7 @@ def main(argv=None) -> int:
             ap.error(f"unknown device {d!r} (known: {', '.join(DEVICES)})")
     t_start = time.time()
     out.mkdir(parents=True, exist_ok=True)
+    snapshot_rtl(out / "synth" / "rtl")
     print(f"synth: calibrating {', '.join(configs)} and writing ROM images ...", flush=True)
     preps = {c: prepare(c, out) for c in configs}
     if a.blocks:
@@ -515,6 +516,7 @@ def main(argv=None) -> int:
         "wrapper": "sim/synth_wrap.v" if not a.blocks else "generated per block (sim/synth.py block_wrapper)",
         "constraints": {d: " ".join(DEVICES[d].pnr[1:]) + f" --freq {DEVICES[d].target_mhz:g}" for d in devices},
         "rtl_sha256": rtl_digest(),
+        "rtl_snapshot": str(RTL),
         "run_s": round(time.time() - t_start, 1),
         "runs": rows,
     }
@@ -539,6 +541,18 @@ def main(argv=None) -> int:
                   "as registers, so the delay through these DSPs is missing from Fmax (an optimistic figure)")
     print(f"synth: wrote {out / name} ({time.time() - t_start:.0f} s)")
     return 0
+
+
+def snapshot_rtl(dest: Path) -> None:
+    """Measure a copy of the Verilog taken now: every run of this invocation sees the same sources
+    even while rtl/ is being edited (the critical-path RTL lines then refer to this copy)."""
+    global RTL
+    if dest.exists():
+        shutil.rmtree(dest)
+    dest.mkdir(parents=True)
+    for p in sorted(RTL.glob("*.v")):
+        shutil.copy2(p, dest / p.name)
+    RTL = dest
 
 
 def rtl_digest() -> str:
