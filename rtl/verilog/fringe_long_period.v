@@ -65,7 +65,7 @@ module fringe_long_period #(
 
     localparam integer LATENCY = 7;
     localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
-    localparam [63:0]  LINES64 = {32'd0, LINES};
+    localparam [63:0]  LINES64 = LINES * 64'd1;
     localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^48 when legal
 
     // ---- parameter checks -------------------------------------------------------------------------

@@ -148,7 +148,7 @@ module fringe_period_count #(
             localparam integer W  = POS_W + 3;      // signed: centre and d for any s(POS_W+1) offset
             localparam integer SH = FINE_W - COARSE_W;
             localparam integer NR = W - FINE_W;     // signed period number before the wrap
-            localparam [63:0]   LINES64 = {32'd0, LINES};
+            localparam [63:0]   LINES64 = LINES * 64'd1;
             localparam [W-1:0]  LINES_W = LINES64[W-1:0];
             localparam [W-1:0]  HALF    = {{(W-FINE_W){1'b0}}, 1'b1, {(FINE_W-1){1'b0}}};
             localparam [NR-1:0] LINES_N = LINES64[NR-1:0];
@@ -212,7 +212,7 @@ module fringe_period_count #(
         end else begin : g_count
             // ---- incremental: pos = (pos_prev + delta) mod REV ----------------------------------
             localparam integer SW = POS_W + 2;      // signed sum: [-2^(FINE_W-1), REV + 2^(FINE_W-1))
-            localparam [63:0]   LINES64 = {32'd0, LINES};
+            localparam [63:0]   LINES64 = LINES * 64'd1;
             localparam [SW-1:0] REV_S   = LINES64[SW-1:0] << FINE_W;
 
             reg  [FINE_W-1:0] s1_delta;
