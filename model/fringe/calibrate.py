@@ -227,7 +227,9 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
         fit_long_period(cal, meas, use, opts)
         refine_with_reference(cal, meas, use, opts)
     cal.amp_low, cal.amp_high = amplitude_thresholds(cal, meas, use)
+    dt = np.diff(meas.t_s) if meas.t_s is not None and len(meas) > 1 else np.ones(1)   # no t_s: time = index
     cal.provenance = {"data": meas.path, "samples": len(meas), "samples_used": int(use.sum()),
+                      "sample_interval_s": float(np.median(dt)),
                       "encoder": enc.to_dict(), "method": "fringe calibrate"}
     return cal
 

@@ -25,7 +25,8 @@ import numpy as np
 
 from .position import wrap
 
-SPEED_ALPHA = 1.0 / 32        # EMA of the speed estimate, per sample (the core's speed filter)
+SPEED_LOG2 = 5                # speed = position change over the last 2^SPEED_LOG2 samples (fringe_trim's window)
+MAG_REF = 1.0                 # amplitude terms work on magnitude - MAG_REF (a fixed point, as in the hardware)
 REV_ORDERS = 4                # revolution orders for modulated terms
 TIME_ORDERS = 3               # Legendre degree for slow changes in time
 
@@ -44,14 +45,15 @@ class Context:
     lines: int = 1          # signal periods per revolution
 
 
-def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, alpha: float = SPEED_ALPHA) -> np.ndarray:
-    """Causal first-order filter of the sample-to-sample speed (what a hardware tracker gives)."""
-    from scipy.signal import lfilter
-
-    dt = np.diff(t, prepend=t[0] - (t[1] - t[0] if len(t) > 1 else 1.0))
-    raw = np.diff(rev_unwrapped, prepend=rev_unwrapped[0]) / np.where(dt > 0, dt, 1.0)
-    raw[0] = raw[1] if len(raw) > 1 else 0.0
-    return lfilter([alpha], [1, alpha - 1], raw, zi=[raw[0] * (1 - alpha)])[0]
+def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int = SPEED_LOG2) -> np.ndarray:
+    """Causal speed (rev/s): the position change over the last 2^log2_window samples, 0 until the
+    window is full. Exactly what fringe_trim computes in fine counts (model/fringe/fixed/trim.py)."""
+    n = 1 << log2_window
+    v = np.zeros(len(rev_unwrapped))
+    if len(v) > n:
+        dt = t[n:] - t[:-n]
+        v[n:] = (rev_unwrapped[n:] - rev_unwrapped[:-n]) / np.where(dt > 0, dt, 1.0)
+    return v
 
 
 def make_context(frac: np.ndarray, position_periods: np.ndarray, lines: int, t: np.ndarray,
@@ -60,8 +62,7 @@ def make_context(frac: np.ndarray, position_periods: np.ndarray, lines: int, t: 
     unwrapped = rev[0] + np.concatenate([[0.0], np.cumsum(wrap(np.diff(rev)))])
     v = speed_estimate(unwrapped, t)
     acc = np.gradient(v, t) if len(t) > 2 else np.zeros_like(v)
-    d = np.sign(v)
-    d[d == 0] = 1
+    d = np.where(v >= 0, 1, -1)     # standstill counts as forward (fringe_trim: dir = speed < 0)
     return Context(2 * np.pi * frac, 2 * np.pi * (rev % 1.0), t, v, acc, d, magnitude, lines)
 
 
@@ -125,7 +126,7 @@ def _accel_cols(ctx):
 
 
 def _amplitude_cols(ctx):
-    a = ctx.magnitude - np.mean(ctx.magnitude)
+    a = ctx.magnitude - MAG_REF
     return [a, a * np.cos(2 * ctx.phi), a * np.sin(2 * ctx.phi)]
 
 

@@ -21,7 +21,7 @@ from scipy import stats
 
 from .calibrate import calibrate
 from .dataio import Measurement, atomic_dir
-from .effects import LIBRARY, Context, FittedEffect, make_context, tone_columns
+from .effects import LIBRARY, SPEED_LOG2, Context, FittedEffect, make_context, tone_columns
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
 from .metrics import error_arcsec, error_figures
@@ -63,9 +63,12 @@ def shift_reference(meas: Measurement, lag_s: float) -> Measurement:
     return dataclasses.replace(meas, ref_deg=np.mod(np.interp(t + lag_s, t, unwrapped), 360.0))
 
 
-def evaluate(state: LoopState, meas: Measurement) -> Evaluation:
+def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
+    """The residual of `meas` through state.cal (or `res`, another engine's result for `meas`), with
+    the measurement artefacts compensated."""
     meas = shift_reference(meas, state.ref_lag_s)
-    res = run_float(state.cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
+    if res is None:
+        res = run_float(state.cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
     r = error_arcsec(res.angle_deg, meas.ref_deg)
     ctx = make_context(res.frac, res.position, state.cal.encoder.lines_per_rev, sample_times(len(r), meas.t_s),
                        res.magnitude)
@@ -108,10 +111,16 @@ def test_terms(r: np.ndarray, x: np.ndarray, sigma: float, name: str, tone_hz: f
                 x.shape[1], tone_hz)
 
 
+def settled_speed(ctx: Context) -> np.ndarray:
+    """The speed estimate once its window is full (it reads 0 before, as in the hardware)."""
+    n = 1 << SPEED_LOG2
+    return ctx.speed[n:] if len(ctx.speed) > 2 * n else ctx.speed
+
+
 def testable(name: str, ctx: Context) -> str | None:
     """Why a domain cannot be tested on this recording (None if it can)."""
     needs = LIBRARY[name].needs if name in LIBRARY else ("time",)
-    v = ctx.speed
+    v = settled_speed(ctx)
     if "speed" in needs and np.std(v) < 0.05 * max(np.mean(np.abs(v)), 1e-12):
         return "the speed hardly changes in this recording, so speed effects cannot be told from a constant"
     if "direction" in needs and (np.all(ctx.direction > 0) or np.all(ctx.direction < 0)):
@@ -136,7 +145,7 @@ def find_tone(r: np.ndarray, ctx: Context) -> tuple[float, int] | None:
     spec = np.abs(np.fft.rfft((r - r.mean()) * np.hanning(len(r)))) ** 2
     freqs = np.fft.rfftfreq(len(r), np.mean(dt))
     spec[:4] = 0                       # slow trends belong to the drift test
-    v = np.abs(ctx.speed)
+    v = np.abs(settled_speed(ctx))
     if np.std(v) < 0.05 * np.mean(v):  # steady speed: drop the revolution harmonics (+- one bin)
         rate = np.mean(v)
         m = np.round(freqs / rate)

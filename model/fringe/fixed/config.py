@@ -15,6 +15,8 @@ from .period_count import rev_and_pos_w
 from .quadrature import QuadratureParams
 from .wave_lut import WaveLutParams
 
+TRIM_FIELDS = ("trim", "speed_log2", "map_psi_w", "map_phi_w", "trim_w", "trim_frac", "g_shift")
+
 
 @dataclass(frozen=True)
 class CoreConfig:
@@ -31,6 +33,14 @@ class CoreConfig:
     lp_w: int = 18             # LP_W: long-period table value/slope width
     lp_frac: int = 4           # LP_FRAC: fraction bits of the long-period correction (fine counts)
     lp_if: int = 8             # LP_IF: interpolation fraction bits of the long-period table
+    # fringe_trim (closed-loop corrections, docs/trim.md); TRIM = 0: not built, no latency
+    trim: int = 0              # TRIM: 1 = fringe_trim between the period count and the long-period table
+    speed_log2: int = 5        # SPEED_LOG2: speed = position change over 2^SPEED_LOG2 samples (effects.SPEED_LOG2)
+    map_psi_w: int = 6         # MAP_PSI_W: 2^MAP_PSI_W error-map sectors per revolution
+    map_phi_w: int = 5         # MAP_PHI_W: 2^MAP_PHI_W error-map bins per signal period
+    trim_w: int = 18           # TRIM_W: trim table value/slope width
+    trim_frac: int = 4         # TRIM_FRAC: fraction bits of the trim (fine counts)
+    g_shift: int = 24          # G_SHIFT: right shift of the speed and magnitude products
 
     @classmethod
     def for_encoder(cls, enc: Encoder, **overrides) -> CoreConfig:
@@ -68,12 +78,23 @@ class CoreConfig:
         return CordicParams(in_w=self.wave_w, fine_w=self.fine_w, stages=self.cordic_stages,
                             guard=self.cordic_guard)
 
+    def trim_params(self):
+        from .trim import TrimParams
+
+        return TrimParams(lines=self.lines, fine_w=self.fine_w, amp_w=self.wave_w + 1, speed_log2=self.speed_log2,
+                          map_psi_w=self.map_psi_w, map_phi_w=self.map_phi_w, trim_w=self.trim_w,
+                          trim_frac=self.trim_frac, g_shift=self.g_shift)
+
     def hdl_parameters(self) -> dict[str, int]:
         """Parameters/generics of fringe_core and fringe_top (with the long-period index mapping)."""
         from .long_period import index_mapping
 
-        p = {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self)}
+        p = {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in TRIM_FIELDS}
         p["LP_RECIP"], p["LP_SHIFT"] = index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if)
+        if self.trim:     # without fringe_trim its parameters are not passed (the HDL defaults stand)
+            p.update({name.upper(): getattr(self, name) for name in TRIM_FIELDS})
+            tp = self.trim_params()
+            p["SECT_RECIP"], p["SECT_SHIFT"] = tp.recip, tp.shift
         return p
 
     def to_dict(self) -> dict:

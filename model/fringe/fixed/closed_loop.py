@@ -1,0 +1,175 @@
+"""The closed loop's hardware corrections as the contents of fringe_trim's tables.
+
+`fringe loop` adds corrections in the float pipeline's terms (pipeline.run_float):
+- `rev_norm`: per-channel offsets and gains over the revolution, undone on the raw readings;
+- `angle_terms`: fitted effects (effects.LIBRARY) subtracted from the output angle.
+fringe_trim subtracts, after the period count, `map[dir][sector][phase] + speed * gs[phase] +
+mag * ga[phase]` (fine counts, docs/trim.md). This module evaluates those three functions from
+a calibration, in float, at the tables' points:
+- the map holds the angle image of `rev_norm` (the fine-phase error the revolution-dependent
+  offsets and gains cause at each sector, obtained by running the calibrated waveform model
+  through the correction with and without them), the hysteresis term (direction x revolution)
+  and the constant part of the amplitude term;
+- gs holds the speed terms (sampling skew): the speed in fine counts per 2^SPEED_LOG2 samples
+  becomes rev/s through the recording's sample interval;
+- ga holds the magnitude terms, per unit of the CORDIC's magnitude.
+Terms that fringe_trim cannot carry (the drift tracker) are named by `unsupported`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..effects import LIBRARY, MAG_REF, REV_ORDERS
+from ..encoder import ARCSEC_PER_REV
+from ..pipeline import Calibration, fine_phase
+
+#: effects whose terms fringe_trim carries (speed terms, magnitude terms, direction x revolution)
+TRIM_EFFECTS = ("sampling_skew", "amplitude", "hysteresis")
+THETA_POINTS = 4096      # waveform samples per period when the rev_norm map is evaluated
+
+
+def needs_trim(cal: Calibration) -> bool:
+    return cal.rev_norm is not None or bool(cal.angle_terms)
+
+
+def unsupported(cal: Calibration) -> list[str]:
+    """Closed-loop corrections of this calibration that the bit-exact core does not carry."""
+    out = ["drift (online offset/gain tracker)"] if cal.adaptive else []
+    out += [t.name for t in cal.angle_terms if t.name not in TRIM_EFFECTS]
+    return out
+
+
+@dataclass(frozen=True)
+class TrimGrids:
+    """Float table contents, fine counts (the encoder's frame: fringe_trim subtracts them)."""
+
+    map: np.ndarray     # (2, 2^MAP_PSI_W, 2^MAP_PHI_W): [dir (0 forward, 1 backward), sector, bin]
+    speed: np.ndarray   # (2^MAP_PHI_W,) counts per speed count (fine counts per 2^SPEED_LOG2 samples)
+    amp: np.ndarray     # (2^MAP_PHI_W,) counts per CORDIC magnitude unit
+
+
+def rev_norm_error(cal: Calibration, psi: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Fine-phase error (fraction of a period) that cal.rev_norm removes, at measured phase phi (rad).
+
+    For each revolution angle psi[j]: the calibrated waveforms W(theta) on a dense theta grid,
+    de-normalised (W * (1 + gain(psi)) + offset(psi)) as the encoder would give them, run through
+    the correction without the normalisation (measured phase) and with it (true phase); the
+    difference is resampled at the measured phases `phi`. Shape (len(psi), len(phi)).
+    """
+    plain = dataclasses.replace(cal, rev_norm=None, adaptive=False)
+    theta = np.linspace(0.0, 2 * np.pi, THETA_POINTS, endpoint=False)
+    ws, wc = cal.waves["sin"](theta), cal.waves["cos"](theta)
+    true_frac, _ = fine_phase(plain, ws, wc)
+    b = cal.rev_norm.basis(np.asarray(psi, float))
+    out = np.empty((len(psi), len(phi)))
+    for j in range(len(psi)):
+        raw = {}
+        for kind, w in (("sin", ws), ("cos", wc)):
+            off, gain = cal.rev_norm.weights[kind]
+            raw[kind] = w * (1.0 + b[j] @ gain) + b[j] @ off
+        meas_frac, _ = fine_phase(plain, raw["sin"], raw["cos"])
+        err = (meas_frac - true_frac + 0.5) % 1.0 - 0.5
+        order = np.argsort(meas_frac)
+        out[j] = np.interp(np.asarray(phi) / (2 * np.pi), meas_frac[order], err[order], period=1.0)
+    return out
+
+
+def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_w: int, speed_log2: int,
+               mag_scale: float, sample_interval_s: float) -> TrimGrids:
+    """The three tables of fringe_trim in float at their points.
+
+    rev: fine counts per revolution; map rows hold the value at each bin's start (phase k / 2^MAP_PHI_W,
+    interpolated in between by the hardware) for the sector's centre; mag_scale: CORDIC magnitude units
+    per unit of the float pipeline's magnitude; sample_interval_s: seconds per sample of the recordings
+    the speed terms were fitted on.
+    """
+    phi = 2 * np.pi * np.arange(1 << map_phi_w) / (1 << map_phi_w)
+    psi = 2 * np.pi * (np.arange(1 << map_psi_w) + 0.5) / (1 << map_psi_w)
+    counts = cal.direction * rev / ARCSEC_PER_REV       # output-frame arcsec -> encoder-frame fine counts
+    grid = np.zeros((2, len(psi), len(phi)))
+    gs = np.zeros(len(phi))
+    ga = np.zeros(len(phi))
+    if cal.rev_norm is not None:
+        grid += rev_norm_error(cal, psi, phi)[None] * (1 << fine_w)
+    for term in cal.angle_terms:
+        w = np.asarray(term.weights, float)
+        if term.name == "hysteresis":
+            for d, sign in ((0, 1.0), (1, -1.0)):
+                cols = [np.full_like(psi, sign)]
+                for m in range(1, REV_ORDERS + 1):
+                    cols += [sign * np.cos(m * psi), sign * np.sin(m * psi)]
+                grid[d] += (np.column_stack(cols) @ w)[:, None] * counts
+        elif term.name == "sampling_skew":
+            # speed (rev/s) = speed counts / rev / (2^SPEED_LOG2 * sample interval)
+            per_count = 1.0 / (rev * (1 << speed_log2) * sample_interval_s)
+            gs += w[0] * (1 - np.cos(2 * phi)) * counts * per_count
+        elif term.name == "amplitude":
+            h = w[0] + w[1] * np.cos(2 * phi) + w[2] * np.sin(2 * phi)    # effects._amplitude_cols
+            ga += h * counts / mag_scale
+            grid -= (h * counts * MAG_REF)[None, None, :]
+        elif term.name in LIBRARY:
+            raise ValueError(f"fringe_trim cannot carry the closed-loop term '{term.name}'")
+    return TrimGrids(grid, gs, ga)
+
+
+def mag_scale(cfg) -> float:
+    """CORDIC magnitude units per unit of the float magnitude: 2^WAVE_FRAC times the CORDIC gain."""
+    from .cordic import cordic_gain
+
+    return float((1 << (cfg.wave_w - 2)) * cordic_gain(cfg.cordic_stages))
+
+
+def grids_for(cal: Calibration, cfg) -> TrimGrids:
+    dt = cal.provenance.get("sample_interval_s") or 1.0
+    return trim_grids(cal, cfg.rev, cfg.fine_w, cfg.map_psi_w, cfg.map_phi_w, cfg.speed_log2, mag_scale(cfg), dt)
+
+
+def choose_g_shift(grids: TrimGrids, trim_w: int, trim_frac: int) -> int:
+    """The largest G_SHIFT (1..48) that keeps every gain value within a quarter of s(TRIM_W),
+    leaving room for the slopes (a slope is at most twice the largest value)."""
+    peak = float(max(np.max(np.abs(grids.speed)), np.max(np.abs(grids.amp))))
+    if peak == 0.0:
+        return 1
+    g = int(np.floor(np.log2((1 << (trim_w - 3)) / peak))) - trim_frac
+    return int(min(48, max(1, g)))
+
+
+def trim_config(cal: Calibration, cfg):
+    """cfg with fringe_trim switched on and G_SHIFT chosen for this calibration (cfg unchanged if the
+    calibration has no closed-loop correction)."""
+    if not needs_trim(cal):
+        return cfg
+    on = dataclasses.replace(cfg, trim=1)
+    return dataclasses.replace(on, g_shift=choose_g_shift(grids_for(cal, on), on.trim_w, on.trim_frac))
+
+
+@dataclass(frozen=True)
+class TrimTables:
+    """The quantised tables of one bank (values; trim.pack_words makes the RAM words)."""
+
+    map: np.ndarray
+    speed: np.ndarray
+    amp: np.ndarray
+
+
+def build_trim_tables(cal: Calibration, cfg) -> TrimTables:
+    """Quantise; ValueError (with what to change) if a table does not fit its width."""
+    from . import trim as trim_mod
+
+    if unsupported(cal):
+        raise ValueError("the bit-exact core does not carry these closed-loop corrections: "
+                         + ", ".join(unsupported(cal)) + " (use --engine float)")
+    p = cfg.trim_params()
+    grids = grids_for(cal, cfg)
+    try:
+        m = trim_mod.make_map_table(lambda d, s, ph: grids.map[d, s], p)
+        gs = trim_mod.make_gain_table(lambda ph: grids.speed, p)
+        ga = trim_mod.make_gain_table(lambda ph: grids.amp, p)
+    except ValueError as e:
+        raise ValueError(f"{e}: the closed-loop corrections do not fit fringe_trim's tables "
+                         f"(TRIM_W = {p.trim_w}, TRIM_FRAC = {p.trim_frac}, G_SHIFT = {p.g_shift})") from None
+    return TrimTables(m, gs, ga)

@@ -1,0 +1,591 @@
+"""Bit-exact model of ``fringe_trim``: the closed-loop angle trim (error map, speed and magnitude gains).
+
+Mirrors ``rtl/verilog/fringe_trim.v`` and ``rtl/vhdl/fringe_trim.vhd`` (contract in ``docs/trim.md``).
+With ``REV = LINES * 2^FINE_W`` fine counts per revolution, ``POS_W = FINE_W + clog2(LINES)`` (<= 31),
+``N = 2^SPEED_LOG2`` samples of speed window, ``FB = FINE_W - MAP_PHI_W``::
+
+    phase  = pos mod 2^FINE_W;  bin = phase >> FB;  frac = phase mod 2^FB
+    sector = (pos * SECT_RECIP) >> SECT_SHIFT        (= floor(pos * 2^MAP_PSI_W / REV); 0 when MAP_PSI_W = 0)
+    speed  = wrap(pos[n] - pos[n - N]) once N samples came since reset, else 0;   dir = speed < 0
+             wrap: d in (-REV, REV); 2d >= REV: d - REV; 2d < -REV: d + REV  -> speed in [-REV/2, REV/2)
+    m      = value + ((slope * frac + 2^(FB-1)) >>> FB)   map word at {bank, dir, sector, bin}
+    gs, ga = the same interpolation of the speed table and of the amp table at {bank, bin}
+    total  = m + ((speed * gs + mag * ga + 2^(G_SHIFT-1)) >>> G_SHIFT)
+    corr   = (total + 2^(TRIM_FRAC-1)) >>> TRIM_FRAC   (TRIM_FRAC = 0: corr = total)
+    corr   clipped to [-2^(FINE_W-1), 2^(FINE_W-1) - 1]; sat = it was clipped
+    pos_out = (pos - corr) mod REV
+
+Table words are ``{slope, value}``, both s(TRIM_W), value in the low half. ``slope[k] = value[k+1] -
+value[k]`` along the bin axis, periodic in the phase: the last bin of a row takes ``value[0]`` of the
+same row (the same (dir, sector) for the map). Any word is legal in the RTL (the widths never
+overflow): `trim_words` computes with raw words, `trim` with values (slopes derived).
+
+Everything is vectorised numpy int64: the widest product is s(POS_W) x s(TRIM_W + 1) or
+u(AMP_W) x s(TRIM_W + 1), below 2^57, and their sum with the rounding constant below 2^59.
+
+The RTL has ``LATENCY = 11`` enabled clocks (stage list in ``docs/trim.md`` and the HDL headers).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from .period_count import clog2
+
+__all__ = [
+    "LATENCY",
+    "NAME",
+    "TrimParams",
+    "check_sector_mapping",
+    "error_budget",
+    "error_terms",
+    "make_gain_table",
+    "make_map_table",
+    "pack_words",
+    "sector_mapping",
+    "slopes",
+    "speeds",
+    "trim",
+    "trim_detail",
+    "trim_words",
+    "unpack_words",
+]
+
+#: Enabled clocks from ``in_valid`` to ``out_valid`` in the RTL.
+LATENCY = 11
+#: Largest SECT_SHIFT the HDL accepts (its elaboration check computes with 256-bit constants).
+SECT_SHIFT_MAX = 127
+NAME = "fringe_trim"
+POS_W_MAX = 31
+
+
+# ---------------------------------------------------------------------------- sector mapping
+
+
+def _mapping_ok(rev: int, psi_w: int, recip: int, shift: int) -> bool:
+    """Granlund-Montgomery bound (as ``long_period.check_index_mapping``), also checked by the HDL."""
+    v2 = (rev & -rev).bit_length() - 1               # 2-adic valuation of REV
+    g_log = min(psi_w, v2)                           # gcd(2^MAP_PSI_W, REV) = 2^g_log
+    e = recip * rev - (1 << (psi_w + shift))
+    return recip >= 1 and e >= 0 and (rev - 1) * e < (1 << (g_log + shift))
+
+
+def check_sector_mapping(lines: int, fine_w: int, map_psi_w: int, recip: int, shift: int) -> None:
+    """Raise ValueError unless ``(pos * recip) >> shift == floor(pos * 2^MAP_PSI_W / REV)`` is proven
+    for every pos in [0, REV) (nothing to check when MAP_PSI_W = 0: the sector is 0).
+
+    With ``g = gcd(2^MAP_PSI_W, REV)``, ``e = recip * REV - 2^(MAP_PSI_W + shift) >= 0`` and
+    ``(REV - 1) * e < 2^(log2(g) + shift)`` the product exceeds the exact quotient by less than
+    ``g / REV``, which the floor cannot see (Granlund and Montgomery, 1994; the same bound as
+    ``long_period.check_index_mapping``). The HDL checks the same bound with the same message.
+    """
+    if map_psi_w == 0:
+        return
+    rev = int(lines) << int(fine_w)
+    if not 0 <= shift <= SECT_SHIFT_MAX:
+        raise ValueError(f"{NAME}: SECT_SHIFT = {shift} out of range 0..{SECT_SHIFT_MAX}")
+    if not _mapping_ok(rev, map_psi_w, recip, shift):
+        raise ValueError(f"{NAME}: SECT_RECIP = {recip}, SECT_SHIFT = {shift} do not map every position to "
+                         "floor(pos * 2^MAP_PSI_W / REV); take them from sector_mapping()")
+
+
+@lru_cache(maxsize=256)
+def sector_mapping(lines: int, fine_w: int, map_psi_w: int) -> tuple[int, int]:
+    """``(SECT_RECIP, SECT_SHIFT)``: the smallest shift whose reciprocal
+    ``ceil(2^(MAP_PSI_W + shift) / REV)`` passes `check_sector_mapping`'s bound; ``(0, 0)`` when
+    MAP_PSI_W = 0 (no sectors, the parameters are not used). A power-of-two REV gives a power-of-two
+    SECT_RECIP (a shift)."""
+    if map_psi_w == 0:
+        return 0, 0
+    rev = int(lines) << int(fine_w)
+    for shift in range(0, SECT_SHIFT_MAX + 1):
+        recip = -(-(1 << (map_psi_w + shift)) // rev)
+        if _mapping_ok(rev, map_psi_w, recip, shift):
+            return recip, shift
+    raise ValueError(f"{NAME}: no sector mapping with SECT_SHIFT <= {SECT_SHIFT_MAX} for REV = {rev}")
+
+
+# ---------------------------------------------------------------------------- parameters
+
+
+def _check_int(name: str, v) -> None:
+    if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
+        raise ValueError(f"{NAME}: {name} must be an integer, got {v!r}")
+
+
+@dataclass(frozen=True)
+class TrimParams:
+    """Parameters of ``fringe_trim`` (same names, limits and messages as the HDL).
+
+    ``sect_recip`` / ``sect_shift`` default to `sector_mapping`; given, they are checked.
+    """
+
+    lines: int          # LINES: signal periods per revolution, 1..2^20; POS_W = FINE_W + clog2(LINES) <= 31
+    fine_w: int         # FINE_W: fine phase bits per period, 8..30
+    amp_w: int          # AMP_W: magnitude width, 4..32
+    speed_log2: int     # SPEED_LOG2: speed window 2^SPEED_LOG2 samples, 0..8
+    map_psi_w: int      # MAP_PSI_W: 2^MAP_PSI_W map sectors per revolution, 0..8
+    map_phi_w: int      # MAP_PHI_W: 2^MAP_PHI_W bins per signal period, 2..min(10, FINE_W-1)
+    trim_w: int         # TRIM_W: width of table values and slopes, 8..24
+    trim_frac: int      # TRIM_FRAC: fraction bits of map values and of the sum (fine counts), 0..16
+    g_shift: int        # G_SHIFT: right shift of the gain products, 1..48
+    sect_recip: int | None = None   # SECT_RECIP (default: sector_mapping)
+    sect_shift: int | None = None   # SECT_SHIFT, 0..127 (default: sector_mapping)
+
+    def __post_init__(self) -> None:
+        for name in ("fine_w", "lines", "amp_w", "speed_log2", "map_psi_w", "map_phi_w", "trim_w", "trim_frac",
+                     "g_shift"):
+            _check_int(name.upper(), getattr(self, name))
+        if not 8 <= self.fine_w <= 30:
+            raise ValueError(f"{NAME}: FINE_W = {self.fine_w} out of range 8..30")
+        if not 1 <= self.lines <= 1 << 20:
+            raise ValueError(f"{NAME}: LINES = {self.lines} out of range 1..2^20")
+        if self.fine_w + clog2(self.lines) > POS_W_MAX:
+            raise ValueError(f"{NAME}: POS_W = FINE_W + clog2(LINES) = {self.fine_w + clog2(self.lines)} "
+                             f"exceeds {POS_W_MAX}")
+        if not 4 <= self.amp_w <= 32:
+            raise ValueError(f"{NAME}: AMP_W = {self.amp_w} out of range 4..32")
+        if not 0 <= self.speed_log2 <= 8:
+            raise ValueError(f"{NAME}: SPEED_LOG2 = {self.speed_log2} out of range 0..8")
+        if not 0 <= self.map_psi_w <= 8:
+            raise ValueError(f"{NAME}: MAP_PSI_W = {self.map_psi_w} out of range 0..8")
+        phi_max = min(10, self.fine_w - 1)
+        if not 2 <= self.map_phi_w <= phi_max:
+            raise ValueError(f"{NAME}: MAP_PHI_W = {self.map_phi_w} out of range 2..min(10, FINE_W-1) = {phi_max}")
+        if not 8 <= self.trim_w <= 24:
+            raise ValueError(f"{NAME}: TRIM_W = {self.trim_w} out of range 8..24")
+        if not 0 <= self.trim_frac <= 16:
+            raise ValueError(f"{NAME}: TRIM_FRAC = {self.trim_frac} out of range 0..16")
+        if not 1 <= self.g_shift <= 48:
+            raise ValueError(f"{NAME}: G_SHIFT = {self.g_shift} out of range 1..48")
+        if (self.sect_recip is None) != (self.sect_shift is None):
+            raise ValueError(f"{NAME}: give both SECT_RECIP and SECT_SHIFT, or neither")
+        if self.sect_recip is not None:
+            _check_int("SECT_RECIP", self.sect_recip)
+            _check_int("SECT_SHIFT", self.sect_shift)
+            check_sector_mapping(self.lines, self.fine_w, self.map_psi_w, self.sect_recip, self.sect_shift)
+
+    # ---- derived constants (names as in the HDL)
+    @property
+    def rev(self) -> int:
+        """REV: fine counts per revolution, LINES * 2^FINE_W."""
+        return self.lines << self.fine_w
+
+    @property
+    def pos_w(self) -> int:
+        """POS_W: bits of a position, FINE_W + clog2(LINES)."""
+        return self.fine_w + clog2(self.lines)
+
+    @property
+    def fb(self) -> int:
+        """FB: fraction bits of the phase within a bin, FINE_W - MAP_PHI_W (>= 1)."""
+        return self.fine_w - self.map_phi_w
+
+    @property
+    def window(self) -> int:
+        """N: the speed window in samples, 2^SPEED_LOG2."""
+        return 1 << self.speed_log2
+
+    @property
+    def sectors(self) -> int:
+        """Map sectors per revolution, 2^MAP_PSI_W."""
+        return 1 << self.map_psi_w
+
+    @property
+    def bins(self) -> int:
+        """Bins per signal period, 2^MAP_PHI_W (entries of the speed and amp tables per bank)."""
+        return 1 << self.map_phi_w
+
+    @property
+    def map_words(self) -> int:
+        """Map words per bank: 2 directions x 2^MAP_PSI_W sectors x 2^MAP_PHI_W bins."""
+        return 2 * self.sectors * self.bins
+
+    @property
+    def gain_words(self) -> int:
+        """Words per bank of the speed table and of the amp table, 2^MAP_PHI_W."""
+        return self.bins
+
+    @property
+    def word_w(self) -> int:
+        """Width of a table word {slope, value}: 2 * TRIM_W."""
+        return 2 * self.trim_w
+
+    @property
+    def wr_addr_w(self) -> int:
+        """Width of wr_addr: {bank, dir, sector, bin}, 2 + MAP_PSI_W + MAP_PHI_W."""
+        return 2 + self.map_psi_w + self.map_phi_w
+
+    @property
+    def corr_max(self) -> int:
+        """Largest |corr| before clipping: corr is clipped to [-2^(FINE_W-1), 2^(FINE_W-1) - 1]."""
+        return 1 << (self.fine_w - 1)
+
+    @property
+    def recip(self) -> int:
+        """SECT_RECIP."""
+        if self.sect_recip is not None:
+            return self.sect_recip
+        return sector_mapping(self.lines, self.fine_w, self.map_psi_w)[0]
+
+    @property
+    def shift(self) -> int:
+        """SECT_SHIFT."""
+        if self.sect_shift is not None:
+            return self.sect_shift
+        return sector_mapping(self.lines, self.fine_w, self.map_psi_w)[1]
+
+    @property
+    def latency(self) -> int:
+        """LATENCY: enabled clocks from in_valid to out_valid, 11."""
+        return LATENCY
+
+    def hdl_parameters(self) -> dict[str, int]:
+        """The HDL parameter/generic map (SECT_RECIP as an integer: Verilog takes 64 bits, VHDL < 2^31)."""
+        return {"LINES": self.lines, "FINE_W": self.fine_w, "AMP_W": self.amp_w, "SPEED_LOG2": self.speed_log2,
+                "MAP_PSI_W": self.map_psi_w, "MAP_PHI_W": self.map_phi_w, "TRIM_W": self.trim_w,
+                "TRIM_FRAC": self.trim_frac, "G_SHIFT": self.g_shift, "SECT_RECIP": self.recip,
+                "SECT_SHIFT": self.shift}
+
+
+# ---------------------------------------------------------------------------- tables
+
+
+def _limits(w: int) -> tuple[int, int]:
+    return -(1 << (w - 1)), (1 << (w - 1)) - 1
+
+
+def slopes(values) -> np.ndarray:
+    """``slope[k] = value[k+1] - value[k]`` along the last (bin) axis, periodic: the last bin takes value[0]."""
+    v = np.asarray(values, dtype=np.int64)
+    return np.roll(v, -1, axis=-1) - v
+
+
+def _round_check(raw: np.ndarray, scale: float, p: TrimParams, what: str) -> np.ndarray:
+    if not np.all(np.isfinite(raw)):
+        k = tuple(int(i) for i in np.argwhere(~np.isfinite(raw))[0])
+        raise ValueError(f"{NAME}: {what} value at {k} is not finite")
+    v = np.floor(raw * scale + 0.5)
+    lo, hi = _limits(p.trim_w)
+    bad = np.argwhere((v < lo) | (v > hi))
+    if bad.size:
+        k = tuple(int(i) for i in bad[0])
+        raise ValueError(f"{NAME}: {what} value at {k}: {raw[k]:g} x {scale:g} = {v[k]:.0f} does not fit "
+                         f"s({p.trim_w}) = {lo}..{hi}")
+    values = v.astype(np.int64)
+    _check_slopes(values, p, what)
+    return values
+
+
+def _check_slopes(values: np.ndarray, p: TrimParams, what: str) -> np.ndarray:
+    sl = slopes(values)
+    lo, hi = _limits(p.trim_w)
+    bad = np.argwhere((sl < lo) | (sl > hi))
+    if bad.size:
+        k = tuple(int(i) for i in bad[0])
+        raise ValueError(f"{NAME}: {what} slope at {k}: {int(sl[k])} does not fit s({p.trim_w})")
+    return sl
+
+
+def _call(fn, *args, n: int) -> np.ndarray:
+    """``fn(*args)`` as a float array of n values; point by point when fn is not vectorised."""
+    try:
+        raw = np.asarray(fn(*args), dtype=np.float64)
+    except TypeError:
+        raw = None
+    if raw is None or raw.shape != (n,):
+        *head, ph = args
+        raw = np.array([float(fn(*head, float(x))) for x in ph])
+    return raw
+
+
+def make_map_table(fn: Callable[[int, int, np.ndarray], np.ndarray], params: TrimParams) -> np.ndarray:
+    """Map values of one bank, shape ``(2, 2^MAP_PSI_W, 2^MAP_PHI_W)`` = (dir, sector, bin), int64.
+
+    ``fn(direction, sector, phase)`` is called once per row with ``direction`` 0 (forwards) or 1
+    (backwards: the speed is negative), ``sector`` the sector index 0..2^MAP_PSI_W-1 (sector s covers
+    the positions ``[s * REV / 2^MAP_PSI_W, (s + 1) * REV / 2^MAP_PSI_W)``; its centre is at the
+    revolution fraction ``(s + 0.5) / 2^MAP_PSI_W``) and ``phase`` the float array of the bin starts
+    as fractions of a signal period, ``k / 2^MAP_PHI_W``; it returns the correction in fine counts
+    (subtracted from the position). Values are ``round(fn * 2^TRIM_FRAC)`` (half up); scalar
+    functions are called point by point.
+
+    Raises:
+        ValueError: a value or a slope (periodic along the bins) outside s(TRIM_W), or not finite.
+    """
+    p = params
+    ph = np.arange(p.bins) / p.bins
+    raw = np.empty((2, p.sectors, p.bins))
+    for d in (0, 1):
+        for s in range(p.sectors):
+            raw[d, s] = _call(fn, d, s, ph, n=p.bins)
+    return _round_check(raw, float(1 << p.trim_frac), p, "map")
+
+
+def make_gain_table(fn: Callable[[np.ndarray], np.ndarray], params: TrimParams, *, raw: bool = False) -> np.ndarray:
+    """Speed or amp table values of one bank, shape ``(2^MAP_PHI_W,)``, int64.
+
+    ``fn(phase)`` gets the bin starts as fractions of a signal period (``k / 2^MAP_PHI_W``). By default
+    it returns the gain in fine counts of correction per unit of the input (per fine count per
+    sample of speed, or per magnitude LSB), and the table holds ``round(fn * 2^(G_SHIFT + TRIM_FRAC))``
+    (the product is shifted by G_SHIFT into the sum, which has TRIM_FRAC fraction bits). With
+    ``raw=True`` ``fn`` returns table values in TRIM units (LSBs of the table) directly, rounded half up.
+
+    Raises:
+        ValueError: a value or a slope (periodic) outside s(TRIM_W), or not finite.
+    """
+    p = params
+    ph = np.arange(p.bins) / p.bins
+    vals = _call(fn, ph, n=p.bins)
+    scale = 1.0 if raw else float(2 ** (p.g_shift + p.trim_frac))
+    return _round_check(vals, scale, p, "gain")
+
+
+def pack_words(values, params: TrimParams) -> np.ndarray:
+    """RAM words ``{slope, value}`` of one bank's values, flattened in address order (the map:
+    {dir, sector, bin}; a gain table: bin), int64 of 2*TRIM_W bits, value in the low half, both fields
+    two's complement. Values shaped ``(2, 2^MAP_PSI_W, 2^MAP_PHI_W)`` (map) or ``(2^MAP_PHI_W,)`` (gain)."""
+    p = params
+    v = np.asarray(values)
+    if v.size and not np.issubdtype(v.dtype, np.integer):
+        raise ValueError(f"{NAME}: table values must be integers, got dtype {v.dtype}")
+    v = v.astype(np.int64)
+    if v.shape not in ((2, p.sectors, p.bins), (p.bins,)):
+        raise ValueError(f"{NAME}: table values must have shape (2, {p.sectors}, {p.bins}) (map) or "
+                         f"({p.bins},) (gain), got {v.shape}")
+    lo, hi = _limits(p.trim_w)
+    if v.size and (v.min() < lo or v.max() > hi):
+        raise ValueError(f"{NAME}: a table value is outside s({p.trim_w})")
+    sl = _check_slopes(v, p, "table")
+    mask = (1 << p.trim_w) - 1
+    return (((sl & mask) << p.trim_w) | (v & mask)).reshape(-1)
+
+
+def unpack_words(words, params: TrimParams) -> tuple[np.ndarray, np.ndarray]:
+    """``(slope, value)`` as signed int64 from RAM words (any shape; any word is legal)."""
+    w = np.asarray(words).astype(np.int64)
+    tw = params.trim_w
+    mask = (1 << tw) - 1
+    sign = 1 << (tw - 1)
+    value = ((w & mask) ^ sign) - sign
+    slope = (((w >> tw) & mask) ^ sign) - sign
+    return slope, value
+
+
+# ---------------------------------------------------------------------------- the datapath
+
+
+def _as_pos(pos, p: TrimParams) -> np.ndarray:
+    a = np.asarray(pos)
+    if a.size and not np.issubdtype(a.dtype, np.integer):
+        raise ValueError(f"{NAME}: pos must be integers, got dtype {a.dtype}")
+    a = a.astype(np.int64).reshape(-1)
+    if a.size and (a.min() < 0 or a.max() >= p.rev):
+        raise ValueError(f"{NAME}: pos outside [0, REV = {p.rev})")
+    return a
+
+
+def _wrap(d: np.ndarray, rev: int) -> np.ndarray:
+    """d in (-REV, REV) into [-REV/2, REV/2): 2d >= REV: d - REV; 2d < -REV: d + REV."""
+    return d - np.where(2 * d >= rev, rev, 0) + np.where(2 * d < -rev, rev, 0)
+
+
+def speeds(pos, params: TrimParams) -> np.ndarray:
+    """The speed of every sample of a stream that starts after a reset: ``wrap(pos[n] - pos[n-N])``
+    for n >= N = 2^SPEED_LOG2, else 0; int64 in [-REV/2, REV/2) (dir = speed < 0)."""
+    p = params
+    a = _as_pos(pos, p)
+    sp = np.zeros(a.size, dtype=np.int64)
+    n = p.window
+    if a.size > n:
+        sp[n:] = _wrap(a[n:] - a[:-n], p.rev)
+    return sp
+
+
+def sectors_of(pos, params: TrimParams) -> np.ndarray:
+    """``(pos * SECT_RECIP) >> SECT_SHIFT`` (0 when MAP_PSI_W = 0), exact in int64 (POS_W <= 31)."""
+    p = params
+    a = np.asarray(pos).astype(np.int64)
+    if p.map_psi_w == 0:
+        return np.zeros(a.shape, dtype=np.int64)
+    if (p.rev - 1) * p.recip < 1 << 63:
+        return (a * p.recip) >> p.shift
+    q = (a.astype(object) * p.recip) >> p.shift            # wide reciprocals (Verilog only): exact, slow
+    return q.astype(np.int64)
+
+
+def _banked(words: np.ndarray, addr: np.ndarray, bank, size: int, what: str) -> np.ndarray:
+    w = np.asarray(words)
+    if w.ndim not in (1, 2) or w.shape[-1] != size:
+        raise ValueError(f"{NAME}: {what} words must have shape ({size},) or (banks, {size}), got {w.shape}")
+    w = w.astype(np.int64)
+    if w.ndim == 1:
+        return w[addr]
+    if bank is None:
+        raise ValueError(f"{NAME}: {what} words of {w.shape[0]} banks need a bank per sample")
+    b = np.broadcast_to(np.asarray(bank).astype(np.int64), addr.shape)
+    if b.size and (b.min() < 0 or b.max() >= w.shape[0]):
+        raise ValueError(f"{NAME}: bank outside 0..{w.shape[0] - 1}")
+    return w.reshape(-1)[b * size + addr]
+
+
+def _interp(word: np.ndarray, frac: np.ndarray, p: TrimParams) -> np.ndarray:
+    """value + ((slope * frac + 2^(FB-1)) >>> FB) from raw words."""
+    slope, value = unpack_words(word, p)
+    slope *= frac
+    slope += 1 << (p.fb - 1)
+    slope >>= p.fb
+    slope += value
+    return slope
+
+
+def trim_detail(pos, mag, map_words, speed_words, amp_words, params: TrimParams, bank=None,
+                speed=None) -> dict[str, np.ndarray]:
+    """Every intermediate of `trim_words` (int64 arrays): speed, dir, sector, bin, frac, m, gs, ga,
+    total, corr (clipped), sat, pos_out."""
+    p = params
+    a = _as_pos(pos, p)
+    mg = np.broadcast_to(np.asarray(mag), a.shape)
+    if mg.size and not np.issubdtype(mg.dtype, np.integer):
+        raise ValueError(f"{NAME}: mag must be integers, got dtype {mg.dtype}")
+    mg = mg.astype(np.int64)
+    if mg.size and (mg.min() < 0 or mg.max() >= 1 << p.amp_w):
+        raise ValueError(f"{NAME}: mag outside u(AMP_W = {p.amp_w})")
+    if speed is None:
+        sp = speeds(a, p)
+    else:
+        sp = np.asarray(speed).astype(np.int64).reshape(-1)
+        if sp.shape != a.shape:
+            raise ValueError(f"{NAME}: speed must have one value per sample, got {sp.shape} for {a.shape}")
+    d = (sp < 0).astype(np.int64)
+    phase = a & ((1 << p.fine_w) - 1)
+    b = phase >> p.fb
+    frac = phase & ((1 << p.fb) - 1)
+    sector = sectors_of(a, p)
+    maddr = (d << (p.map_psi_w + p.map_phi_w)) | (sector << p.map_phi_w) | b
+    m = _interp(_banked(map_words, maddr, bank, p.map_words, "map"), frac, p)
+    gs = _interp(_banked(speed_words, b, bank, p.gain_words, "speed table"), frac, p)
+    ga = _interp(_banked(amp_words, b, bank, p.gain_words, "amp table"), frac, p)
+    s = sp * gs
+    s += mg * ga
+    s += 1 << (p.g_shift - 1)
+    s >>= p.g_shift
+    total = m + s
+    corr = total
+    if p.trim_frac:
+        corr = (total + (1 << (p.trim_frac - 1))) >> p.trim_frac
+    lo, hi = -p.corr_max, p.corr_max - 1
+    sat = (corr < lo) | (corr > hi)
+    corr = np.clip(corr, lo, hi)
+    out = a - corr
+    out += np.where(out < 0, p.rev, 0) - np.where(out >= p.rev, p.rev, 0)
+    return {"speed": sp, "dir": d, "sector": sector, "bin": b, "frac": frac, "m": m, "gs": gs, "ga": ga,
+            "total": total, "corr": corr, "sat": sat.astype(np.int64), "pos_out": out}
+
+
+def trim_words(pos, mag, map_words, speed_words, amp_words, params: TrimParams, bank=None,
+               speed=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bit-exact ``(pos_out, dir, sat)`` of ``fringe_trim`` for a stream of samples taken after a reset.
+
+    Args:
+        pos: u(POS_W) positions in [0, REV), one per accepted sample, in order.
+        mag: u(AMP_W) magnitudes (scalar or per sample).
+        map_words, speed_words, amp_words: raw RAM words ``{slope, value}`` (any contents), shape
+            (words per bank,) or (banks, words per bank) with ``bank``.
+        params: the block parameters.
+        bank: the table bank of each sample (with banked words).
+        speed: the speeds, when the stream does not start at a reset (from `speeds` over the whole
+            stream since the reset); default `speeds(pos)`.
+
+    Returns:
+        int64 arrays: pos_out in [0, REV), dir (0/1), sat (0/1).
+    """
+    r = trim_detail(pos, mag, map_words, speed_words, amp_words, params, bank, speed)
+    return r["pos_out"], r["dir"], r["sat"]
+
+
+def trim(pos, mag, map_values, speed_values, amp_values, params: TrimParams, bank=None,
+         speed=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """As `trim_words`, from table values (slopes derived, periodic): the map ``(2, 2^MAP_PSI_W,
+    2^MAP_PHI_W)`` or with a leading bank axis, the gain tables ``(2^MAP_PHI_W,)`` or ``(banks, ...)``."""
+    p = params
+
+    def words(v, shape):
+        v = np.asarray(v)
+        if v.shape == shape:
+            return pack_words(v, p)
+        if v.ndim == len(shape) + 1 and v.shape[1:] == shape:
+            return np.stack([pack_words(x, p) for x in v])
+        raise ValueError(f"{NAME}: table values must have shape {shape} or (banks, *{shape}), got {v.shape}")
+
+    return trim_words(pos, mag, words(map_values, (2, p.sectors, p.bins)), words(speed_values, (p.bins,)),
+                      words(amp_values, (p.bins,)), p, bank, speed)
+
+
+# ---------------------------------------------------------------------------- error budget
+
+
+def _second(values) -> float:
+    v = np.asarray(values, dtype=np.float64)
+    if v.size == 0:
+        return 0.0
+    return float(np.abs(np.roll(v, -1, axis=-1) - 2 * v + np.roll(v, 1, axis=-1)).max())
+
+
+def error_terms(params: TrimParams, *, speed_max: float | None = None, mag_max: float | None = None,
+                map_values=None, speed_values=None, amp_values=None) -> dict[str, float]:
+    """The terms of `error_budget`, in fine counts.
+
+    Analytic worst cases (any table, any sample; ``speed_max`` defaults to REV/2, ``mag_max`` to
+    2^AMP_W - 1; ``k = 2^-TRIM_FRAC`` is the LSB of the sum in fine counts):
+
+    - ``map_interp_rounding``: ``(slope * frac + 2^(FB-1)) >>> FB`` is within 1/2 LSB: ``k/2``;
+    - ``gain_interp_rounding``: the same in gs and ga, amplified by the inputs:
+      ``(speed_max + mag_max) / 2 * k / 2^G_SHIFT``;
+    - ``gain_rounding``: the sum of the products rounded by G_SHIFT bits: ``k/2``;
+    - ``output_rounding``: corr rounded to whole fine counts: 1/2 (0 when TRIM_FRAC = 0).
+
+    For tables made by `make_map_table` / `make_gain_table` from smooth functions (a bound only if
+    the functions are smooth: the second differences sample their curvature):
+
+    - ``map_quantisation`` / ``gain_quantisation``: values rounded to the table LSB: ``k/2`` and
+      ``(speed_max + mag_max) / 2 * k / 2^G_SHIFT``;
+    - ``map_interpolation`` / ``gain_interpolation`` (only with the values given): linear
+      interpolation misses by at most h^2 max|f''| / 8, estimated by the largest periodic second
+      difference along the bins with a margin of 5/4 (the gains weighted by speed_max and mag_max).
+    """
+    p = params
+    k = 2.0 ** -p.trim_frac
+    sm = p.rev / 2 if speed_max is None else float(speed_max)
+    mm = (1 << p.amp_w) - 1 if mag_max is None else float(mag_max)
+    gk = k / 2.0 ** p.g_shift
+    terms = {
+        "map_interp_rounding": 0.5 * k,
+        "gain_interp_rounding": 0.5 * (sm + mm) * gk,
+        "gain_rounding": 0.5 * k,
+        "output_rounding": 0.5 if p.trim_frac else 0.0,
+        "map_quantisation": 0.5 * k,
+        "gain_quantisation": 0.5 * (sm + mm) * gk,
+        "map_interpolation": 0.0,
+        "gain_interpolation": 0.0,
+    }
+    if map_values is not None:
+        terms["map_interpolation"] = 1.25 * _second(map_values) / 8 * k
+    gi = 0.0
+    if speed_values is not None:
+        gi += sm * 1.25 * _second(speed_values) / 8 * gk
+    if amp_values is not None:
+        gi += mm * 1.25 * _second(amp_values) / 8 * gk
+    terms["gain_interpolation"] = gi
+    return terms
+
+
+def error_budget(params: TrimParams, **kw) -> float:
+    """Bound on ``|(pos - pos_out) - c|`` (modulo REV, fine counts) where ``c = f_map(dir, sector, phase)
+    + speed * f_speed(phase) + mag * f_amp(phase)`` is the ideal correction of the float functions the
+    tables were made from (no clipping); the sum of `error_terms` (same keyword arguments)."""
+    return float(sum(error_terms(params, **kw).values()))

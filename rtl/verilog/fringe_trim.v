@@ -1,0 +1,538 @@
+// fringe_trim: closed-loop angle trim. An error map over (direction, sector of the revolution,
+// fine phase) and two fine-phase-dependent gains, on the speed and on the signal magnitude,
+// give a correction that is subtracted from the position.
+//
+// Formats (docs/trim.md); REV = LINES * 2^FINE_W fine counts per revolution, POS_W = clog2(REV) =
+// FINE_W + clog2(LINES) (at most 31), N = 2^SPEED_LOG2, FB = FINE_W - MAP_PHI_W (>= 1):
+//   pos     u(POS_W) in [0, REV);  mag u(AMP_W)
+//   phase   = pos mod 2^FINE_W;  bin = phase >> FB;  frac = phase mod 2^FB
+//   sector  = (pos * SECT_RECIP) >> SECT_SHIFT = floor(pos * 2^MAP_PSI_W / REV) (0 when MAP_PSI_W = 0;
+//             SECT_RECIP, SECT_SHIFT from model/fringe/fixed/trim.py sector_mapping(), checked here)
+//   speed   = wrap(pos - the pos of the sample N accepted samples earlier), 0 until N samples came
+//             since reset; wrap: d in (-REV, REV), 2d >= REV: d - REV, 2d < -REV: d + REV, so speed
+//             is in [-REV/2, REV/2), s(POS_W);  dir = speed < 0 (1 = moving backwards)
+//   words   {slope, value}, both s(TRIM_W), value in the low half; slope[k] = value[k+1] - value[k]
+//             along the bins, periodic (the last bin of a row takes value[0] of the same row)
+//   m       = value + ((slope * frac + 2^(FB-1)) >>> FB), map word at {bank, dir, sector, bin}
+//   gs, ga  = the same interpolation of the speed table and the amp table at {bank, bin}, s(TRIM_W+1)
+//   total   = m + ((speed * gs + mag * ga + 2^(G_SHIFT-1)) >>> G_SHIFT)    (TRIM_FRAC fraction bits)
+//   corr    = (total + 2^(TRIM_FRAC-1)) >>> TRIM_FRAC (TRIM_FRAC = 0: total), clipped to
+//             [-2^(FINE_W-1), 2^(FINE_W-1) - 1]; sat = it was clipped
+//   pos_out = (pos - corr) mod REV  (|corr| <= REV/2: one compare and correct, chosen by corr's sign)
+// Any table word is legal: every width below holds the extremes. Bit-exact model:
+// model/fringe/fixed/trim.py.
+//
+// The speed history is a 2N-word RAM written at wp and read at wp ^ N (the sample N earlier) on
+// every accepted sample (ce & in_valid & !rst); rst clears only the fill counter (and valid).
+// Tables: three two-bank fringe_table_ram (map 2 x 2^(1+MAP_PSI_W+MAP_PHI_W) words, speed and amp
+// 2 x 2^MAP_PHI_W words), written through wr_en / wr_sel (0 map, 1 speed, 2 amp, 3 none) /
+// wr_addr ({bank, word}; the small tables use the low MAP_PHI_W bits and ignore words beyond) /
+// wr_data whatever ce is; write only the bank no sample in flight reads.
+//
+// LATENCY = 11 clock enables (ce = 1 cycles) from in_valid to out_valid:
+//   1 input registers; history RAM read (and write)     2 history RAM output register; sector product
+//   3 pos - old; gain table reads                        4 speed wrapped, dir; gain RAM output registers
+//   5 map read at {bank, dir, sector, bin}; gain slope x frac   6 map RAM output register; gs, ga
+//   7 map slope x frac; speed x gs, mag x ga (+ rounding)    8 m (+ 2^(TRIM_FRAC-1)); product sum
+//   9 total                                              10 clip to corr, sat; pos -+ REV
+//   11 pos - corr, wrapped: pos_out, dir, sat
+// One carry chain or one multiply (with its rounding constant) per stage. One sample per clock.
+// ce = 0 freezes every register (and the RAM reads); rst (synchronous, active high, wins over ce)
+// clears only the valid pipeline and the history fill counter, never the data registers.
+
+`default_nettype none
+
+module fringe_trim #(
+    parameter integer LINES      = 256,    // signal periods per revolution, 1..2^20; POS_W = FINE_W + clog2(LINES) <= 31
+    parameter integer FINE_W     = 16,     // fine phase bits per period, 8..30
+    parameter integer AMP_W      = 12,     // magnitude width, 4..32
+    parameter integer SPEED_LOG2 = 5,      // speed window 2^SPEED_LOG2 samples, 0..8
+    parameter integer MAP_PSI_W  = 4,      // 2^MAP_PSI_W map sectors per revolution, 0..8
+    parameter integer MAP_PHI_W  = 6,      // 2^MAP_PHI_W bins per signal period, 2..min(10, FINE_W-1)
+    parameter integer TRIM_W     = 18,     // width of table values and slopes, 8..24
+    parameter integer TRIM_FRAC  = 4,      // fraction bits of map values and of the sum (fine counts), 0..16
+    parameter integer G_SHIFT    = 20,     // right shift of the gain products into the sum, 1..48
+    parameter [63:0]  SECT_RECIP = 64'd1,  // sector multiplier, from sector_mapping() (checked; unused if MAP_PSI_W = 0)
+    parameter integer SECT_SHIFT = 20,     // sector shift, 0..127, from sector_mapping() (checked; unused if MAP_PSI_W = 0)
+    parameter         MAP_INIT   = "",     // $readmemh image of the map, 2 banks x 2^(1+MAP_PSI_W+MAP_PHI_W) words; "" = zeros
+    parameter         SPEED_INIT = "",     // $readmemh image of the speed table, 2 banks x 2^MAP_PHI_W words; "" = zeros
+    parameter         AMP_INIT   = "",     // $readmemh image of the amp table, 2 banks x 2^MAP_PHI_W words; "" = zeros
+    parameter integer USER_W     = 1       // sideband width, >= 1
+) (
+    input  wire                                  clk,
+    input  wire                                  rst,       // synchronous, active high: clears valid and the fill counter
+    input  wire                                  ce,        // clock enable: the pipeline advances when 1
+    // sample in
+    input  wire                                  in_valid,
+    input  wire [FINE_W+$clog2(LINES)-1:0]       pos,       // u(POS_W), in [0, REV)
+    input  wire [AMP_W-1:0]                      mag,       // u(AMP_W)
+    input  wire                                  bank,      // table bank of this sample
+    input  wire [USER_W-1:0]                     in_user,
+    // table write port (software side), independent of ce
+    input  wire                                  wr_en,
+    input  wire [1:0]                            wr_sel,    // 0 map, 1 speed table, 2 amp table, 3 ignored
+    input  wire [MAP_PSI_W+MAP_PHI_W+1:0]        wr_addr,   // {bank, dir, sector, bin} (small tables: {bank, .., bin})
+    input  wire [2*TRIM_W-1:0]                   wr_data,   // {slope, value}
+    // position out
+    output wire                                  out_valid,
+    output reg  [FINE_W+$clog2(LINES)-1:0]       pos_out,   // u(POS_W), in [0, REV)
+    output reg                                   dir,       // 1: moving backwards (speed < 0)
+    output reg                                   sat,       // the trim was clipped
+    output wire [USER_W-1:0]                     out_user
+);
+
+    localparam integer LATENCY = 11;
+    localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
+    localparam [63:0]  LINES64 = LINES * 64'd1;
+    localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^31 when legal
+
+    // ---- parameter checks -------------------------------------------------------------------------
+    // 2-adic valuation of LINES (trailing zero bits), LINES in 1..2^20
+    function integer tz;
+        input integer v;
+        integer k;
+        begin
+            tz = 0;
+            for (k = 1; k <= 20; k = k + 1) begin
+                if (v % (1 << k) == 0) begin
+                    tz = k;
+                end
+            end
+        end
+    endfunction
+
+    // Granlund-Montgomery bound (check_sector_mapping in the model), on 256-bit constants:
+    // E = SECT_RECIP * REV - 2^(MAP_PSI_W + SECT_SHIFT) >= 0 and (REV - 1) * E < 2^(G + SECT_SHIFT),
+    // 2^G = gcd(2^MAP_PSI_W, REV).
+    localparam integer   V2      = FINE_W + tz(LINES);
+    localparam integer   G_LOG   = (MAP_PSI_W < V2) ? MAP_PSI_W : V2;
+    localparam [255:0]   REV_X   = {192'd0, REV64};
+    localparam [255:0]   PROD_X  = {192'd0, SECT_RECIP} * REV_X;
+    localparam [255:0]   POW_X   = 256'd1 << (MAP_PSI_W + SECT_SHIFT);
+    localparam [255:0]   E_X     = PROD_X - POW_X;
+    localparam [255:0]   LHS_X   = (REV_X - 256'd1) * E_X;
+    localparam [255:0]   RHS_X   = 256'd1 << (G_LOG + SECT_SHIFT);
+    localparam           MAP_OK  = (SECT_RECIP != 64'd0) && (PROD_X >= POW_X) && (LHS_X < RHS_X);
+    localparam integer   PHI_MAX = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
+
+    generate
+        if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
+            $error("fringe_trim: FINE_W = %0d out of range 8..30 (instance %m)", FINE_W);
+        end
+        if (LINES < 1 || LINES > (1 << 20)) begin : g_bad_lines
+            $error("fringe_trim: LINES = %0d out of range 1..2^20 (instance %m)", LINES);
+        end
+        if (POS_W > 31) begin : g_bad_pos_w
+            $error("fringe_trim: POS_W = FINE_W + clog2(LINES) = %0d exceeds 31 (instance %m)", POS_W);
+        end
+        if (AMP_W < 4 || AMP_W > 32) begin : g_bad_amp_w
+            $error("fringe_trim: AMP_W = %0d out of range 4..32 (instance %m)", AMP_W);
+        end
+        if (SPEED_LOG2 < 0 || SPEED_LOG2 > 8) begin : g_bad_speed_log2
+            $error("fringe_trim: SPEED_LOG2 = %0d out of range 0..8 (instance %m)", SPEED_LOG2);
+        end
+        if (MAP_PSI_W < 0 || MAP_PSI_W > 8) begin : g_bad_psi_w
+            $error("fringe_trim: MAP_PSI_W = %0d out of range 0..8 (instance %m)", MAP_PSI_W);
+        end
+        if (MAP_PHI_W < 2 || MAP_PHI_W > PHI_MAX) begin : g_bad_phi_w
+            $error("fringe_trim: MAP_PHI_W = %0d out of range 2..min(10, FINE_W-1) = %0d (instance %m)",
+                   MAP_PHI_W, PHI_MAX);
+        end
+        if (TRIM_W < 8 || TRIM_W > 24) begin : g_bad_trim_w
+            $error("fringe_trim: TRIM_W = %0d out of range 8..24 (instance %m)", TRIM_W);
+        end
+        if (TRIM_FRAC < 0 || TRIM_FRAC > 16) begin : g_bad_trim_frac
+            $error("fringe_trim: TRIM_FRAC = %0d out of range 0..16 (instance %m)", TRIM_FRAC);
+        end
+        if (G_SHIFT < 1 || G_SHIFT > 48) begin : g_bad_g_shift
+            $error("fringe_trim: G_SHIFT = %0d out of range 1..48 (instance %m)", G_SHIFT);
+        end
+        if (MAP_PSI_W > 0) begin : g_check_map
+            if (SECT_SHIFT < 0 || SECT_SHIFT > 127) begin : g_bad_shift
+                $error("fringe_trim: SECT_SHIFT = %0d out of range 0..127 (instance %m)", SECT_SHIFT);
+            end else if (!MAP_OK) begin : g_bad_map
+                $error("fringe_trim: SECT_RECIP = %0d, SECT_SHIFT = %0d do not map every position to floor(pos * 2^MAP_PSI_W / REV); take them from sector_mapping() (instance %m)",
+                       SECT_RECIP, SECT_SHIFT);
+            end
+        end
+        if (USER_W < 1) begin : g_bad_user_w
+            $error("fringe_trim: USER_W = %0d must be >= 1 (instance %m)", USER_W);
+        end
+    endgenerate
+
+    // ---- widths ------------------------------------------------------------------------------------
+    localparam integer N       = 1 << SPEED_LOG2;              // speed window
+    localparam integer FB      = FINE_W - MAP_PHI_W;           // fraction bits within a bin, >= 1
+    localparam integer MA_W    = 1 + MAP_PSI_W + MAP_PHI_W;    // map word address in a bank: {dir, sector, bin}
+    localparam integer PSI_R   = (MAP_PSI_W > 0) ? MAP_PSI_W : 1;   // sector register width
+    localparam integer TW      = TRIM_W;
+    localparam integer GW      = TW + 1;                       // gs, ga: value + interpolated step, s(TW+1)
+    localparam integer IP_W    = TW + FB + 1;                  // slope x frac + 2^(FB-1)
+    localparam integer P1_W    = POS_W + GW;                   // speed x gs, s(POS_W) x s(TW+1)
+    localparam integer P2_W0   = AMP_W + GW;                   // mag x ga, u(AMP_W) x s(TW+1)
+    localparam integer P2_W    = ((P2_W0 > G_SHIFT) ? P2_W0 : G_SHIFT) + 1;   // + 2^(G_SHIFT-1)
+    localparam integer S_W     = ((P1_W > P2_W) ? P1_W : P2_W) + 1;           // their sum
+    localparam integer SS_W    = S_W - G_SHIFT;                // the sum >>> G_SHIFT
+    localparam integer VR_W    = ((TW > TRIM_FRAC) ? TW : TRIM_FRAC) + 2;     // value + 2^(TRIM_FRAC-1)
+    localparam integer MR_W    = VR_W + 1;                     // + the interpolated step
+    localparam integer TT_W    = ((MR_W > SS_W) ? MR_W : SS_W) + 1;           // total (+ 2^(TRIM_FRAC-1))
+    localparam integer C_W     = TT_W - TRIM_FRAC;             // corr before clipping
+    localparam integer CX_W    = ((C_W > FINE_W) ? C_W : FINE_W) + 1;         // corr, sign-extended
+    localparam integer WW      = POS_W + 2;                    // signed positions
+    localparam integer RECIP_W = (SECT_RECIP > 64'd1) ? $clog2(SECT_RECIP + 64'd1) : 1;
+    localparam integer T_W0    = POS_W + RECIP_W;
+    localparam integer T_W     = (T_W0 > SECT_SHIFT + PSI_R) ? T_W0 : SECT_SHIFT + PSI_R;   // sector product
+    localparam [255:0]   RECIP_X = {192'd0, SECT_RECIP};
+    localparam [T_W-1:0] RECIP_T = RECIP_X[T_W-1:0];
+    localparam [WW-1:0]  REV_W   = REV64[WW-1:0];
+    localparam [SPEED_LOG2:0] N_HA = N[SPEED_LOG2:0];         // N as a history address (bit SPEED_LOG2)
+
+    // ---- valid (reset) and sideband, LATENCY stages ----------------------------------------------
+    reg [LATENCY-1:0]        valid_sr;
+    reg [LATENCY*USER_W-1:0] user_sr;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            valid_sr <= {LATENCY{1'b0}};
+        end else if (ce) begin
+            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
+        end
+    end
+
+    assign out_valid = valid_sr[LATENCY-1];
+    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+
+    // ---- speed history: 2N words, written at wp, read at wp ^ N (N accepted samples earlier) ------
+    wire accept = ce & in_valid & ~rst;
+    reg  [SPEED_LOG2:0] wp;            // write pointer: any start value works (no reset)
+    reg  [SPEED_LOG2:0] fill;          // accepted samples since reset, saturating at N (bit SPEED_LOG2)
+    (* no_rw_check *)
+    reg  [POS_W-1:0]    hist [0:2*N-1];
+    reg  [POS_W-1:0]    hist_q;        // the RAM's read register
+    integer i;
+
+    initial begin
+        for (i = 0; i < 2 * N; i = i + 1) begin
+            hist[i] = {POS_W{1'b0}};
+        end
+    end
+
+    always @(posedge clk) begin
+        if (accept) begin
+            hist[wp] <= pos;
+            wp       <= wp + 1'b1;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            hist_q <= hist[wp ^ N_HA];
+        end
+    end
+
+    always @(posedge clk) begin
+        if (rst) begin
+            fill <= {(SPEED_LOG2+1){1'b0}};
+        end else if (accept && !fill[SPEED_LOG2]) begin
+            fill <= fill + 1'b1;
+        end
+    end
+
+    // ---- 1: input registers ---------------------------------------------------------------------------
+    reg  [POS_W-1:0] s1_pos;
+    reg  [AMP_W-1:0] s1_mag;
+    reg              s1_bank, s1_full;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s1_pos  <= pos;
+            s1_mag  <= mag;
+            s1_bank <= bank;
+            s1_full <= fill[SPEED_LOG2];
+        end
+    end
+
+    // ---- 2: history output register; sector product -----------------------------------------------
+    reg  [POS_W-1:0] s2_pos, s2_old;
+    reg  [AMP_W-1:0] s2_mag;
+    reg              s2_bank, s2_full;
+    reg  [PSI_R-1:0] s2_sector;
+
+    generate
+        if (MAP_PSI_W > 0) begin : g_sector
+            wire [T_W-1:0] t = {{(T_W-POS_W){1'b0}}, s1_pos} * RECIP_T;
+            always @(posedge clk) begin
+                if (ce) begin
+                    s2_sector <= t[SECT_SHIFT +: PSI_R];
+                end
+            end
+            wire unused_t = &{1'b0, t};
+        end else begin : g_no_sector
+            always @(posedge clk) begin
+                if (ce) begin
+                    s2_sector <= 1'b0;
+                end
+            end
+        end
+    endgenerate
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s2_pos  <= s1_pos;
+            s2_old  <= hist_q;
+            s2_mag  <= s1_mag;
+            s2_bank <= s1_bank;
+            s2_full <= s1_full;
+        end
+    end
+
+    // ---- 3: pos - old; gain table reads ---------------------------------------------------------------
+    wire [MAP_PHI_W-1:0] s2_bin = s2_pos[FINE_W-1:FB];
+    wire [2*TW-1:0] spd_q, amp_q;      // the RAMs' read registers
+    wire wr_small = (wr_addr[MA_W-1:MAP_PHI_W] == {(MA_W-MAP_PHI_W){1'b0}});
+    wire [MAP_PHI_W:0] wr_addr_small = {wr_addr[MA_W], wr_addr[MAP_PHI_W-1:0]};
+
+    fringe_table_ram #(
+        .ADDR_W(MAP_PHI_W), .DATA_W(2 * TW), .INIT_FILE(SPEED_INIT)
+    ) u_speed (
+        .clk(clk),
+        .wr_en(wr_en && wr_sel == 2'd1 && wr_small), .wr_addr(wr_addr_small), .wr_data(wr_data),
+        .rd_en(ce), .rd_addr({s2_bank, s2_bin}), .rd_data(spd_q)
+    );
+
+    fringe_table_ram #(
+        .ADDR_W(MAP_PHI_W), .DATA_W(2 * TW), .INIT_FILE(AMP_INIT)
+    ) u_amp (
+        .clk(clk),
+        .wr_en(wr_en && wr_sel == 2'd2 && wr_small), .wr_addr(wr_addr_small), .wr_data(wr_data),
+        .rd_en(ce), .rd_addr({s2_bank, s2_bin}), .rd_data(amp_q)
+    );
+
+    reg  signed [POS_W:0] s3_d;        // pos - old, in (-REV, REV)
+    reg  [POS_W-1:0]      s3_pos;
+    reg  [AMP_W-1:0]      s3_mag;
+    reg                   s3_bank, s3_full;
+    reg  [PSI_R-1:0]      s3_sector;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s3_d      <= $signed({1'b0, s2_pos}) - $signed({1'b0, s2_old});
+            s3_pos    <= s2_pos;
+            s3_mag    <= s2_mag;
+            s3_bank   <= s2_bank;
+            s3_full   <= s2_full;
+            s3_sector <= s2_sector;
+        end
+    end
+
+    // ---- 4: speed wrapped into [-REV/2, REV/2) (0 until the history is full), dir -------------------
+    // 2d >= REV <=> d - REV/2 >= 0;  2d < -REV <=> d + REV/2 < 0 (REV is even); the candidates in parallel.
+    wire signed [WW-1:0] d_x    = {s3_d[POS_W], s3_d};
+    wire signed [WW-1:0] d_hi   = d_x - $signed(REV_W >> 1);
+    wire signed [WW-1:0] d_lo   = d_x + $signed(REV_W >> 1);
+    wire signed [WW-1:0] d_dn   = d_x - $signed(REV_W);
+    wire signed [WW-1:0] d_up   = d_x + $signed(REV_W);
+    wire signed [WW-1:0] d_wrap = !d_hi[WW-1] ? d_dn : (d_lo[WW-1] ? d_up : d_x);
+    wire signed [POS_W-1:0] speed4 = s3_full ? d_wrap[POS_W-1:0] : {POS_W{1'b0}};
+    reg  signed [POS_W-1:0] s4_speed;
+    reg                   s4_dir;
+    reg  [2*TW-1:0]       spd_word, amp_word;  // the gain RAMs' output registers
+    reg  [POS_W-1:0]      s4_pos;
+    reg  [AMP_W-1:0]      s4_mag;
+    reg                   s4_bank;
+    reg  [PSI_R-1:0]      s4_sector;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s4_speed  <= speed4;
+            s4_dir    <= speed4[POS_W-1];
+            spd_word     <= spd_q;
+            amp_word     <= amp_q;
+            s4_pos    <= s3_pos;
+            s4_mag    <= s3_mag;
+            s4_bank   <= s3_bank;
+            s4_sector <= s3_sector;
+        end
+    end
+
+    // ---- 5: map read at {bank, dir, sector, bin}; gain slope x frac + 2^(FB-1) -------------------
+    wire [MAP_PHI_W-1:0] s4_bin  = s4_pos[FINE_W-1:FB];
+    wire [FB-1:0]        s4_frac = s4_pos[FB-1:0];
+    wire [MA_W:0]        map_rd_addr;
+    wire [2*TW-1:0]      map_q;        // the map RAM's read register
+
+    generate
+        if (MAP_PSI_W > 0) begin : g_addr_sector
+            assign map_rd_addr = {s4_bank, s4_dir, s4_sector, s4_bin};
+        end else begin : g_addr_no_sector
+            assign map_rd_addr = {s4_bank, s4_dir, s4_bin};
+            wire unused_sector = &{1'b0, s4_sector};
+        end
+    endgenerate
+
+    fringe_table_ram #(
+        .ADDR_W(MA_W), .DATA_W(2 * TW), .INIT_FILE(MAP_INIT)
+    ) u_map (
+        .clk(clk),
+        .wr_en(wr_en && wr_sel == 2'd0), .wr_addr(wr_addr), .wr_data(wr_data),
+        .rd_en(ce), .rd_addr(map_rd_addr), .rd_data(map_q)
+    );
+
+    localparam [IP_W-1:0] RND_FB = {{(IP_W-1){1'b0}}, 1'b1} << (FB - 1);
+    wire signed [TW-1:0]   spd_slope = spd_word[2*TW-1:TW];
+    wire signed [TW-1:0]   spd_value = spd_word[TW-1:0];
+    wire signed [TW-1:0]   amp_slope = amp_word[2*TW-1:TW];
+    wire signed [TW-1:0]   amp_value = amp_word[TW-1:0];
+    wire signed [FB:0]     s4_frac_s = {1'b0, s4_frac};
+    reg  signed [IP_W-1:0] s5_sprod, s5_aprod;
+    reg  signed [TW-1:0]   s5_svalue, s5_avalue;
+    reg  signed [POS_W-1:0] s5_speed;
+    reg                    s5_dir;
+    reg  [POS_W-1:0]       s5_pos;
+    reg  [AMP_W-1:0]       s5_mag;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s5_sprod  <= spd_slope * s4_frac_s + $signed(RND_FB);
+            s5_aprod  <= amp_slope * s4_frac_s + $signed(RND_FB);
+            s5_svalue <= spd_value;
+            s5_avalue <= amp_value;
+            s5_speed  <= s4_speed;
+            s5_dir    <= s4_dir;
+            s5_pos    <= s4_pos;
+            s5_mag    <= s4_mag;
+        end
+    end
+
+    // ---- 6: map RAM output register; gs, ga = value + (product >>> FB) ----------------------------
+    wire signed [GW-1:0]   s_ip = s5_sprod[FB +: GW];           // (slope * frac + 2^(FB-1)) >>> FB
+    wire signed [GW-1:0]   a_ip = s5_aprod[FB +: GW];
+    reg  [2*TW-1:0]        map_word;
+    reg  signed [GW-1:0]   s6_gs, s6_ga;
+    reg  signed [POS_W-1:0] s6_speed;
+    reg                    s6_dir;
+    reg  [POS_W-1:0]       s6_pos;
+    reg  [AMP_W-1:0]       s6_mag;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            map_word    <= map_q;
+            s6_gs    <= $signed({s5_svalue[TW-1], s5_svalue}) + s_ip;
+            s6_ga    <= $signed({s5_avalue[TW-1], s5_avalue}) + a_ip;
+            s6_speed <= s5_speed;
+            s6_dir   <= s5_dir;
+            s6_pos   <= s5_pos;
+            s6_mag   <= s5_mag;
+        end
+    end
+
+    // ---- 7: map slope x frac + 2^(FB-1), value + 2^(TRIM_FRAC-1); speed x gs; mag x ga + 2^(G_SHIFT-1)
+    localparam [VR_W-1:0] RND_TF = (TRIM_FRAC > 0) ? ({{(VR_W-1){1'b0}}, 1'b1} << (TRIM_FRAC - 1)) : {VR_W{1'b0}};
+    localparam [P2_W-1:0] RND_G  = {{(P2_W-1){1'b0}}, 1'b1} << (G_SHIFT - 1);
+    wire signed [TW-1:0]   map_slope = map_word[2*TW-1:TW];
+    wire signed [TW-1:0]   map_value = map_word[TW-1:0];
+    wire [FB-1:0]          s6_frac   = s6_pos[FB-1:0];
+    wire signed [FB:0]     s6_frac_s = {1'b0, s6_frac};
+    wire signed [AMP_W:0]  s6_mag_s  = {1'b0, s6_mag};
+    reg  signed [IP_W-1:0] s7_mprod;
+    reg  signed [VR_W-1:0] s7_mvalue;
+    reg  signed [P1_W-1:0] s7_p1;
+    reg  signed [P2_W-1:0] s7_p2;
+    reg                    s7_dir;
+    reg  [POS_W-1:0]       s7_pos;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s7_mprod  <= map_slope * s6_frac_s + $signed(RND_FB);
+            s7_mvalue <= $signed({{(VR_W-TW){map_value[TW-1]}}, map_value}) + $signed(RND_TF);
+            s7_p1     <= s6_speed * s6_gs;
+            s7_p2     <= s6_mag_s * s6_ga + $signed(RND_G);
+            s7_dir    <= s6_dir;
+            s7_pos    <= s6_pos;
+        end
+    end
+
+    // ---- 8: m + 2^(TRIM_FRAC-1) = value + 2^(TRIM_FRAC-1) + (product >>> FB); the products' sum ----
+    wire signed [GW-1:0]   m_ip  = s7_mprod[FB +: GW];
+    reg  signed [MR_W-1:0] s8_m;
+    reg  signed [S_W-1:0]  s8_s;
+    reg                    s8_dir;
+    reg  [POS_W-1:0]       s8_pos;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s8_m   <= $signed({s7_mvalue[VR_W-1], s7_mvalue}) + $signed({{(MR_W-GW){m_ip[GW-1]}}, m_ip});
+            s8_s   <= $signed({{(S_W-P1_W){s7_p1[P1_W-1]}}, s7_p1}) + $signed({{(S_W-P2_W){s7_p2[P2_W-1]}}, s7_p2});
+            s8_dir <= s7_dir;
+            s8_pos <= s7_pos;
+        end
+    end
+
+    // ---- 9: total + 2^(TRIM_FRAC-1) = m + 2^(TRIM_FRAC-1) + (sum >>> G_SHIFT) -----------------------
+    wire signed [SS_W-1:0] s_sh = s8_s[S_W-1:G_SHIFT];
+    reg  signed [TT_W-1:0] s9_total;
+    reg                    s9_dir;
+    reg  [POS_W-1:0]       s9_pos;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s9_total <= $signed({{(TT_W-MR_W){s8_m[MR_W-1]}}, s8_m}) + $signed({{(TT_W-SS_W){s_sh[SS_W-1]}}, s_sh});
+            s9_dir   <= s8_dir;
+            s9_pos   <= s8_pos;
+        end
+    end
+
+    // ---- 10: corr = total >>> TRIM_FRAC, clipped to s(FINE_W); pos -+ REV for stage 11 -------------
+    wire signed [C_W-1:0]  corr  = s9_total[TT_W-1:TRIM_FRAC];
+    wire signed [CX_W-1:0] corr_x = {{(CX_W-C_W){corr[C_W-1]}}, corr};
+    wire                   neg   = corr_x[CX_W-1];
+    // in range <=> bits CX_W-1 .. FINE_W-1 all equal the sign
+    wire                   over  = neg ? ~&corr_x[CX_W-1:FINE_W-1] : |corr_x[CX_W-1:FINE_W-1];
+    wire [FINE_W-1:0]      clip  = neg ? {1'b1, {(FINE_W-1){1'b0}}} : {1'b0, {(FINE_W-1){1'b1}}};
+    wire [WW-1:0]          pos_x = {2'b00, s9_pos};
+    reg  [FINE_W-1:0]      s10_corr;
+    reg                    s10_sat, s10_dir, s10_neg;
+    reg  [WW-1:0]          s10_pos, s10_alt;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s10_corr <= over ? clip : corr_x[FINE_W-1:0];
+            s10_sat  <= over;
+            s10_neg  <= neg;
+            s10_dir  <= s9_dir;
+            s10_pos  <= pos_x;
+            // corr < 0: pos - corr may reach REV, alternative pos - REV - corr;
+            // corr >= 0: pos - corr may fall below 0, alternative pos + REV - corr
+            s10_alt  <= neg ? pos_x - REV_W : pos_x + REV_W;
+        end
+    end
+
+    // ---- 11: pos - corr, wrapped into [0, REV) ------------------------------------------------------
+    wire [WW-1:0] corr_w = {{(WW-FINE_W){s10_corr[FINE_W-1]}}, s10_corr};
+    wire [WW-1:0] a      = s10_pos - corr_w;
+    wire [WW-1:0] b      = s10_alt - corr_w;
+    wire          use_b  = s10_neg ? ~b[WW-1] : a[WW-1];
+    wire [WW-1:0] o      = use_b ? b : a;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            pos_out <= o[POS_W-1:0];
+            dir     <= s10_dir;
+            sat     <= s10_sat;
+        end
+    end
+
+    // Bits that carry nothing: the products' rounded-off bits and sign extension, the fraction bits
+    // of total, the sign bits of the wrapped speed and of positions in [0, REV).
+    wire unused = &{1'b0, s5_sprod, s5_aprod, s7_mprod, s8_s[G_SHIFT-1:0], s9_total[TRIM_FRAC:0],
+                    d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x};
+
+endmodule
+
+`default_nettype wire

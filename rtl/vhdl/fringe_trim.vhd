@@ -1,0 +1,517 @@
+-- fringe_trim: closed-loop angle trim. An error map over (direction, sector of the revolution,
+-- fine phase) and two fine-phase-dependent gains, on the speed and on the signal magnitude,
+-- give a correction that is subtracted from the position.
+--
+-- VHDL-2008 twin of rtl/verilog/fringe_trim.v (same generics, ports, latency and bit-exact
+-- behaviour). Formats (docs/trim.md); REV = LINES * 2^FINE_W fine counts per revolution,
+-- POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 31), N = 2^SPEED_LOG2, FB = FINE_W - MAP_PHI_W:
+--   pos     u(POS_W) in [0, REV);  mag u(AMP_W)
+--   phase   = pos mod 2^FINE_W;  bin = phase >> FB;  frac = phase mod 2^FB
+--   sector  = (pos * SECT_RECIP) >> SECT_SHIFT = floor(pos * 2^MAP_PSI_W / REV) (0 when MAP_PSI_W = 0;
+--             SECT_RECIP, SECT_SHIFT from model/fringe/fixed/trim.py sector_mapping(), checked here)
+--   speed   = wrap(pos - the pos of the sample N accepted samples earlier), 0 until N samples came
+--             since reset; wrap: d in (-REV, REV), 2d >= REV: d - REV, 2d < -REV: d + REV, so speed
+--             is in [-REV/2, REV/2), s(POS_W);  dir = speed < 0 (1 = moving backwards)
+--   words   {slope, value}, both s(TRIM_W), value in the low half; slope[k] = value[k+1] - value[k]
+--             along the bins, periodic (the last bin of a row takes value[0] of the same row)
+--   m       = value + ((slope * frac + 2^(FB-1)) >>> FB), map word at {bank, dir, sector, bin}
+--   gs, ga  = the same interpolation of the speed table and the amp table at {bank, bin}, s(TRIM_W+1)
+--   total   = m + ((speed * gs + mag * ga + 2^(G_SHIFT-1)) >>> G_SHIFT)    (TRIM_FRAC fraction bits)
+--   corr    = (total + 2^(TRIM_FRAC-1)) >>> TRIM_FRAC (TRIM_FRAC = 0: total), clipped to
+--             [-2^(FINE_W-1), 2^(FINE_W-1) - 1]; sat = it was clipped
+--   pos_out = (pos - corr) mod REV  (|corr| <= REV/2: one compare and correct, chosen by corr's sign)
+-- Any table word is legal: every width below holds the extremes. Bit-exact model:
+-- model/fringe/fixed/trim.py. VHDL integers are 32 bits: SECT_RECIP is a natural here (< 2^31;
+-- sector_mapping gives about REV or less), the Verilog takes 64 bits.
+--
+-- The speed history is a 2N-word RAM written at wp and read at wp xor N (the sample N earlier) on
+-- every accepted sample (ce and in_valid and not rst); rst clears only the fill counter (and valid).
+-- Tables: three two-bank fringe_table_ram (map 2 x 2^(1+MAP_PSI_W+MAP_PHI_W) words, speed and amp
+-- 2 x 2^MAP_PHI_W words), written through wr_en / wr_sel (0 map, 1 speed, 2 amp, 3 none) /
+-- wr_addr ({bank, word}; the small tables use the low MAP_PHI_W bits and ignore words beyond) /
+-- wr_data whatever ce is; write only the bank no sample in flight reads.
+--
+-- LATENCY = 11 clock enables (ce = 1 cycles) from in_valid to out_valid:
+--   1 input registers; history RAM read (and write)     2 history RAM output register; sector product
+--   3 pos - old; gain table reads                        4 speed wrapped, dir; gain RAM output registers
+--   5 map read at {bank, dir, sector, bin}; gain slope x frac   6 map RAM output register; gs, ga
+--   7 map slope x frac; speed x gs, mag x ga (+ rounding)    8 m (+ 2^(TRIM_FRAC-1)); product sum
+--   9 total                                              10 clip to corr, sat; pos -+ REV
+--   11 pos - corr, wrapped: pos_out, dir, sat
+-- One carry chain or one multiply (with its rounding constant) per stage. One sample per clock.
+-- ce = 0 freezes every register (and the RAM reads); rst (synchronous, active high, wins over ce)
+-- clears only the valid pipeline and the history fill counter, never the data registers.
+-- The port widths use ceil(log2(real(LINES))) (exact in GHDL for LINES <= 2^20); elaboration
+-- checks it against an integer clog2.
+
+library ieee;
+use ieee.std_logic_1164.all;
+use ieee.numeric_std.all;
+use ieee.math_real.all;
+
+entity fringe_trim is
+    generic (
+        LINES      : integer := 256;  -- signal periods per revolution, 1..2^20; POS_W = FINE_W + clog2(LINES) <= 31
+        FINE_W     : integer := 16;   -- fine phase bits per period, 8..30
+        AMP_W      : integer := 12;   -- magnitude width, 4..32
+        SPEED_LOG2 : integer := 5;    -- speed window 2^SPEED_LOG2 samples, 0..8
+        MAP_PSI_W  : integer := 4;    -- 2^MAP_PSI_W map sectors per revolution, 0..8
+        MAP_PHI_W  : integer := 6;    -- 2^MAP_PHI_W bins per signal period, 2..min(10, FINE_W-1)
+        TRIM_W     : integer := 18;   -- width of table values and slopes, 8..24
+        TRIM_FRAC  : integer := 4;    -- fraction bits of map values and of the sum (fine counts), 0..16
+        G_SHIFT    : integer := 20;   -- right shift of the gain products into the sum, 1..48
+        SECT_RECIP : natural := 1;    -- sector multiplier, from sector_mapping() (checked; < 2^31 in VHDL; unused if MAP_PSI_W = 0)
+        SECT_SHIFT : integer := 20;   -- sector shift, 0..127, from sector_mapping() (checked; unused if MAP_PSI_W = 0)
+        MAP_INIT   : string  := "";   -- hex image of the map, 2 banks x 2^(1+MAP_PSI_W+MAP_PHI_W) words; "" = zeros
+        SPEED_INIT : string  := "";   -- hex image of the speed table, 2 banks x 2^MAP_PHI_W words; "" = zeros
+        AMP_INIT   : string  := "";   -- hex image of the amp table, 2 banks x 2^MAP_PHI_W words; "" = zeros
+        USER_W     : integer := 1     -- sideband width, >= 1
+    );
+    port (
+        clk       : in  std_logic;
+        rst       : in  std_logic;                              -- synchronous: clears valid and the fill counter
+        ce        : in  std_logic;                              -- clock enable
+        -- sample in
+        in_valid  : in  std_logic;
+        pos       : in  std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+                                                                -- u(POS_W), in [0, REV)
+        mag       : in  std_logic_vector(AMP_W - 1 downto 0);   -- u(AMP_W)
+        bank      : in  std_logic;                              -- table bank of this sample
+        in_user   : in  std_logic_vector(USER_W - 1 downto 0);
+        -- table write port (software side), independent of ce
+        wr_en     : in  std_logic;
+        wr_sel    : in  std_logic_vector(1 downto 0);           -- 0 map, 1 speed table, 2 amp table, 3 ignored
+        wr_addr   : in  std_logic_vector(MAP_PSI_W + MAP_PHI_W + 1 downto 0);  -- {bank, dir, sector, bin}
+        wr_data   : in  std_logic_vector(2 * TRIM_W - 1 downto 0);            -- {slope, value}
+        -- position out
+        out_valid : out std_logic;
+        pos_out   : out std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+                                                                -- u(POS_W), in [0, REV)
+        dir       : out std_logic;                              -- 1: moving backwards (speed < 0)
+        sat       : out std_logic;                              -- the trim was clipped
+        out_user  : out std_logic_vector(USER_W - 1 downto 0)
+    );
+end entity fringe_trim;
+
+architecture rtl of fringe_trim is
+
+    -- ceil(log2(v)) for v >= 1, on integers
+    function clog2(v : integer) return integer is
+        variable b : integer := 0;
+    begin
+        while b < 31 and 2**b < v loop
+            b := b + 1;
+        end loop;
+        return b;
+    end function clog2;
+
+    -- bits of a natural (at least 1)
+    function bits(v : natural) return integer is
+        variable b : integer := 1;
+    begin
+        while b < 31 and 2**b <= v loop
+            b := b + 1;
+        end loop;
+        return b;
+    end function bits;
+
+    -- 2-adic valuation of LINES (trailing zero bits), LINES in 1..2^20
+    function tz(v : integer) return integer is
+        variable k : integer := 0;
+    begin
+        for i in 1 to 20 loop
+            if v mod 2**i = 0 then
+                k := i;
+            end if;
+        end loop;
+        return k;
+    end function tz;
+
+    -- Granlund-Montgomery bound (check_sector_mapping in the model), on 256-bit numbers:
+    -- E = SECT_RECIP * REV - 2^(MAP_PSI_W + SECT_SHIFT) >= 0 and (REV - 1) * E < 2^(G + SECT_SHIFT),
+    -- 2^G = gcd(2^MAP_PSI_W, REV).
+    function map_ok return boolean is
+        variable rev_x, prod, pw, e, lhs, rhs : unsigned(255 downto 0);
+        variable g_log : integer;
+    begin
+        g_log := minimum(MAP_PSI_W, FINE_W + tz(LINES));
+        rev_x := shift_left(to_unsigned(LINES, 256), FINE_W);
+        prod  := resize(to_unsigned(SECT_RECIP, 256) * rev_x, 256);
+        pw    := shift_left(to_unsigned(1, 256), MAP_PSI_W + SECT_SHIFT);
+        if SECT_RECIP = 0 or prod < pw then
+            return false;
+        end if;
+        e   := prod - pw;
+        lhs := resize((rev_x - 1) * e, 256);
+        rhs := shift_left(to_unsigned(1, 256), g_log + SECT_SHIFT);
+        return lhs < rhs;
+    end function map_ok;
+
+    -- Stops elaboration with a clear message on illegal generics (before anything is sized).
+    function generics_ok return boolean is
+        constant PHI_MAX : integer := minimum(10, FINE_W - 1);
+    begin
+        assert FINE_W >= 8 and FINE_W <= 30
+            report "fringe_trim: FINE_W = " & integer'image(FINE_W) & " out of range 8..30"
+            severity failure;
+        assert LINES >= 1 and LINES <= 2**20
+            report "fringe_trim: LINES = " & integer'image(LINES) & " out of range 1..2^20"
+            severity failure;
+        assert FINE_W + clog2(LINES) <= 31
+            report "fringe_trim: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
+                   & " exceeds 31"
+            severity failure;
+        assert AMP_W >= 4 and AMP_W <= 32
+            report "fringe_trim: AMP_W = " & integer'image(AMP_W) & " out of range 4..32"
+            severity failure;
+        assert SPEED_LOG2 >= 0 and SPEED_LOG2 <= 8
+            report "fringe_trim: SPEED_LOG2 = " & integer'image(SPEED_LOG2) & " out of range 0..8"
+            severity failure;
+        assert MAP_PSI_W >= 0 and MAP_PSI_W <= 8
+            report "fringe_trim: MAP_PSI_W = " & integer'image(MAP_PSI_W) & " out of range 0..8"
+            severity failure;
+        assert MAP_PHI_W >= 2 and MAP_PHI_W <= PHI_MAX
+            report "fringe_trim: MAP_PHI_W = " & integer'image(MAP_PHI_W) & " out of range 2..min(10, FINE_W-1) = "
+                   & integer'image(PHI_MAX)
+            severity failure;
+        assert TRIM_W >= 8 and TRIM_W <= 24
+            report "fringe_trim: TRIM_W = " & integer'image(TRIM_W) & " out of range 8..24"
+            severity failure;
+        assert TRIM_FRAC >= 0 and TRIM_FRAC <= 16
+            report "fringe_trim: TRIM_FRAC = " & integer'image(TRIM_FRAC) & " out of range 0..16"
+            severity failure;
+        assert G_SHIFT >= 1 and G_SHIFT <= 48
+            report "fringe_trim: G_SHIFT = " & integer'image(G_SHIFT) & " out of range 1..48"
+            severity failure;
+        if MAP_PSI_W > 0 then
+            assert SECT_SHIFT >= 0 and SECT_SHIFT <= 127
+                report "fringe_trim: SECT_SHIFT = " & integer'image(SECT_SHIFT) & " out of range 0..127"
+                severity failure;
+            assert map_ok
+                report "fringe_trim: SECT_RECIP = " & integer'image(SECT_RECIP) & ", SECT_SHIFT = "
+                       & integer'image(SECT_SHIFT) & " do not map every position to floor(pos * 2^MAP_PSI_W / REV);"
+                       & " take them from sector_mapping()"
+                severity failure;
+        end if;
+        assert USER_W >= 1
+            report "fringe_trim: USER_W = " & integer'image(USER_W) & " must be >= 1"
+            severity failure;
+        assert integer(ceil(log2(real(maximum(LINES, 1))))) = clog2(LINES)
+            report "fringe_trim: ceil(log2(real(LINES))) is not exact in this tool (port widths)"
+            severity failure;
+        return true;
+    end function generics_ok;
+    constant GENERICS_CHECKED : boolean := generics_ok;
+
+    constant LATENCY : integer := 11;
+    constant POS_W   : integer := FINE_W + clog2(LINES);            -- clog2(REV)
+    constant N       : integer := 2**SPEED_LOG2;                    -- speed window
+    constant FB      : integer := FINE_W - MAP_PHI_W;               -- fraction bits within a bin, >= 1
+    constant MA_W    : integer := 1 + MAP_PSI_W + MAP_PHI_W;        -- map word address in a bank
+    constant PSI_R   : integer := maximum(MAP_PSI_W, 1);            -- sector register width
+    constant TW      : integer := TRIM_W;
+    constant GW      : integer := TW + 1;                           -- gs, ga, s(TW+1)
+    constant IP_W    : integer := TW + FB + 1;                      -- slope x frac + 2^(FB-1)
+    constant P1_W    : integer := POS_W + GW;                       -- speed x gs
+    constant P2_W    : integer := maximum(AMP_W + GW, G_SHIFT) + 1; -- mag x ga + 2^(G_SHIFT-1)
+    constant S_W     : integer := maximum(P1_W, P2_W) + 1;          -- their sum
+    constant SS_W    : integer := S_W - G_SHIFT;                    -- the sum >>> G_SHIFT
+    constant VR_W    : integer := maximum(TW, TRIM_FRAC) + 2;       -- value + 2^(TRIM_FRAC-1)
+    constant MR_W    : integer := VR_W + 1;                         -- + the interpolated step
+    constant TT_W    : integer := maximum(MR_W, SS_W) + 1;          -- total (+ 2^(TRIM_FRAC-1))
+    constant C_W     : integer := TT_W - TRIM_FRAC;                 -- corr before clipping
+    constant CX_W    : integer := maximum(C_W, FINE_W) + 1;         -- corr, sign-extended
+    constant WW      : integer := POS_W + 2;                        -- signed positions
+    constant RECIP_W : integer := bits(SECT_RECIP);
+    constant T_W     : integer := maximum(POS_W + RECIP_W, SECT_SHIFT + PSI_R);   -- sector product
+    constant REV_W   : signed(WW - 1 downto 0) := signed(shift_left(to_unsigned(LINES, WW), FINE_W));
+    constant HALF_W  : signed(WW - 1 downto 0) := signed(shift_left(to_unsigned(LINES, WW), FINE_W - 1));
+    constant CLIP_LO : signed(FINE_W - 1 downto 0) := shift_left(to_signed(-1, FINE_W), FINE_W - 1);  -- -2^(FINE_W-1)
+    constant CLIP_HI : signed(FINE_W - 1 downto 0) := not CLIP_LO;                                    -- 2^(FINE_W-1) - 1
+
+    -- 2^(k-1) in a w-bit signed word, 0 when k = 0 (no rounding)
+    function round_term(w, k : integer) return signed is
+    begin
+        if k = 0 then
+            return to_signed(0, w);
+        end if;
+        return shift_left(to_signed(1, w), k - 1);
+    end function round_term;
+
+    signal valid_sr : std_logic_vector(1 to LATENCY);
+    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
+    signal user_sr  : user_sr_t;
+
+    -- speed history: 2N words (initialised so that GHDL computes on defined values before it fills)
+    type hist_t is array (0 to 2 * N - 1) of unsigned(POS_W - 1 downto 0);
+    signal hist     : hist_t := (others => (others => '0'));
+    signal hist_q   : unsigned(POS_W - 1 downto 0);
+    signal wp       : unsigned(SPEED_LOG2 downto 0) := (others => '0');   -- any start value works
+    signal fill     : unsigned(SPEED_LOG2 downto 0);   -- accepted samples since reset, saturating at N
+    signal accept   : std_logic;
+
+    signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s5_pos, s6_pos, s7_pos, s8_pos, s9_pos
+                    : unsigned(POS_W - 1 downto 0);
+    signal s1_mag, s2_mag, s3_mag, s4_mag, s5_mag, s6_mag : unsigned(AMP_W - 1 downto 0);
+    signal s1_bank, s2_bank, s3_bank, s4_bank : std_logic;
+    signal s1_full, s2_full, s3_full : std_logic;
+    signal s2_sector, s3_sector, s4_sector : unsigned(PSI_R - 1 downto 0);
+    signal s3_d     : signed(POS_W downto 0);
+    signal s4_speed, s5_speed, s6_speed : signed(POS_W - 1 downto 0);
+    signal s4_dir, s5_dir, s6_dir, s7_dir, s8_dir, s9_dir, s10_dir : std_logic;
+    signal spd_q, amp_q, map_q, spd_word, amp_word, map_word : std_logic_vector(2 * TW - 1 downto 0);
+    signal s5_sprod, s5_aprod, s7_mprod : signed(IP_W - 1 downto 0);
+    signal s5_svalue, s5_avalue : signed(TW - 1 downto 0);
+    signal s6_gs, s6_ga : signed(GW - 1 downto 0);
+    signal s7_mvalue : signed(VR_W - 1 downto 0);
+    signal s7_p1    : signed(P1_W - 1 downto 0);
+    signal s7_p2    : signed(P2_W - 1 downto 0);
+    signal s8_m     : signed(MR_W - 1 downto 0);
+    signal s8_s     : signed(S_W - 1 downto 0);
+    signal s9_total : signed(TT_W - 1 downto 0);
+    signal s10_corr : signed(FINE_W - 1 downto 0);
+    signal s10_sat, s10_neg : std_logic;
+    signal s10_pos, s10_alt : signed(WW - 1 downto 0);
+
+    signal gain_rd_addr : std_logic_vector(MAP_PHI_W downto 0);
+    signal map_rd_addr  : std_logic_vector(MA_W downto 0);
+    signal wr_small     : boolean;
+    signal wr_addr_small : std_logic_vector(MAP_PHI_W downto 0);
+    signal wr_en_map, wr_en_speed, wr_en_amp : std_logic;
+
+begin
+
+    -- ---- valid (reset) and sideband, LATENCY stages ------------------------------------------------
+    p_valid : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                valid_sr <= (others => '0');
+            elsif ce = '1' then
+                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
+            end if;
+        end if;
+    end process p_valid;
+
+    p_user : process (clk)
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                user_sr <= in_user & user_sr(1 to LATENCY - 1);
+            end if;
+        end if;
+    end process p_user;
+
+    out_valid <= valid_sr(LATENCY);
+    out_user  <= user_sr(LATENCY);
+
+    -- ---- speed history: written at wp, read at wp xor N (N accepted samples earlier) ----------------
+    accept <= ce and in_valid and not rst;
+
+    p_hist : process (clk)
+        variable rd : unsigned(SPEED_LOG2 downto 0);
+    begin
+        if rising_edge(clk) then
+            if accept = '1' then
+                hist(to_integer(wp)) <= unsigned(pos);
+                wp <= wp + 1;
+            end if;
+            if ce = '1' then
+                rd := wp;
+                rd(SPEED_LOG2) := not wp(SPEED_LOG2);
+                hist_q <= hist(to_integer(rd));
+            end if;
+            if rst = '1' then
+                fill <= (others => '0');
+            elsif accept = '1' and fill(SPEED_LOG2) = '0' then
+                fill <= fill + 1;
+            end if;
+        end if;
+    end process p_hist;
+
+    -- ---- tables -------------------------------------------------------------------------------------
+    wr_small      <= unsigned(wr_addr(MA_W - 1 downto MAP_PHI_W)) = 0;
+    wr_addr_small <= wr_addr(MA_W) & wr_addr(MAP_PHI_W - 1 downto 0);
+    wr_en_map     <= '1' when wr_en = '1' and wr_sel = "00" else '0';
+    wr_en_speed   <= '1' when wr_en = '1' and wr_sel = "01" and wr_small else '0';
+    wr_en_amp     <= '1' when wr_en = '1' and wr_sel = "10" and wr_small else '0';
+    gain_rd_addr  <= s2_bank & std_logic_vector(s2_pos(FINE_W - 1 downto FB));
+
+    g_addr_sector : if MAP_PSI_W > 0 generate
+        map_rd_addr <= s4_bank & s4_dir & std_logic_vector(s4_sector) & std_logic_vector(s4_pos(FINE_W - 1 downto FB));
+    else generate
+        map_rd_addr <= s4_bank & s4_dir & std_logic_vector(s4_pos(FINE_W - 1 downto FB));
+    end generate g_addr_sector;
+
+    u_speed : entity work.fringe_table_ram
+        generic map (ADDR_W => MAP_PHI_W, DATA_W => 2 * TW, INIT_FILE => SPEED_INIT)
+        port map (clk => clk, wr_en => wr_en_speed, wr_addr => wr_addr_small, wr_data => wr_data,
+                  rd_en => ce, rd_addr => gain_rd_addr, rd_data => spd_q);
+
+    u_amp : entity work.fringe_table_ram
+        generic map (ADDR_W => MAP_PHI_W, DATA_W => 2 * TW, INIT_FILE => AMP_INIT)
+        port map (clk => clk, wr_en => wr_en_amp, wr_addr => wr_addr_small, wr_data => wr_data,
+                  rd_en => ce, rd_addr => gain_rd_addr, rd_data => amp_q);
+
+    u_map : entity work.fringe_table_ram
+        generic map (ADDR_W => MA_W, DATA_W => 2 * TW, INIT_FILE => MAP_INIT)
+        port map (clk => clk, wr_en => wr_en_map, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_en => ce, rd_addr => map_rd_addr, rd_data => map_q);
+
+    -- ---- the data pipeline --------------------------------------------------------------------------
+    p_data : process (clk)
+        variable t       : unsigned(T_W - 1 downto 0);
+        variable d_x, d_hi, d_lo, d_wrap : signed(WW - 1 downto 0);
+        variable speed4  : signed(POS_W - 1 downto 0);
+        variable frac4, frac6 : signed(FB downto 0);
+        variable ip      : signed(IP_W - 1 downto 0);
+        variable corr_x  : signed(CX_W - 1 downto 0);
+        variable over    : boolean;
+        variable pos_x, corr_w, a, b : signed(WW - 1 downto 0);
+        variable use_b   : boolean;
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                -- 1: input registers (the history read is in p_hist)
+                s1_pos  <= unsigned(pos);
+                s1_mag  <= unsigned(mag);
+                s1_bank <= bank;
+                s1_full <= fill(SPEED_LOG2);
+
+                -- 2: history output register; sector product
+                s2_pos  <= s1_pos;
+                s2_old  <= hist_q;
+                s2_mag  <= s1_mag;
+                s2_bank <= s1_bank;
+                s2_full <= s1_full;
+                if MAP_PSI_W > 0 then
+                    t := resize(s1_pos * to_unsigned(SECT_RECIP, RECIP_W), T_W);
+                    s2_sector <= t(SECT_SHIFT + PSI_R - 1 downto SECT_SHIFT);
+                else
+                    s2_sector <= (others => '0');
+                end if;
+
+                -- 3: pos - old in (-REV, REV); the gain tables read at {bank, bin}
+                s3_d      <= signed('0' & s2_pos) - signed('0' & s2_old);
+                s3_pos    <= s2_pos;
+                s3_mag    <= s2_mag;
+                s3_bank   <= s2_bank;
+                s3_full   <= s2_full;
+                s3_sector <= s2_sector;
+
+                -- 4: speed wrapped into [-REV/2, REV/2), 0 until the history is full; dir
+                -- 2d >= REV <=> d - REV/2 >= 0;  2d < -REV <=> d + REV/2 < 0 (REV is even)
+                d_x  := resize(s3_d, WW);
+                d_hi := d_x - HALF_W;
+                d_lo := d_x + HALF_W;
+                if d_hi(WW - 1) = '0' then
+                    d_wrap := d_x - REV_W;
+                elsif d_lo(WW - 1) = '1' then
+                    d_wrap := d_x + REV_W;
+                else
+                    d_wrap := d_x;
+                end if;
+                if s3_full = '1' then
+                    speed4 := d_wrap(POS_W - 1 downto 0);
+                else
+                    speed4 := (others => '0');
+                end if;
+                s4_speed  <= speed4;
+                s4_dir    <= speed4(POS_W - 1);
+                spd_word     <= spd_q;
+                amp_word     <= amp_q;
+                s4_pos    <= s3_pos;
+                s4_mag    <= s3_mag;
+                s4_bank   <= s3_bank;
+                s4_sector <= s3_sector;
+
+                -- 5: the map read at {bank, dir, sector, bin}; gain slope x frac + 2^(FB-1)
+                frac4 := signed('0' & s4_pos(FB - 1 downto 0));
+                s5_sprod  <= resize(signed(spd_word(2 * TW - 1 downto TW)) * frac4, IP_W) + round_term(IP_W, FB);
+                s5_aprod  <= resize(signed(amp_word(2 * TW - 1 downto TW)) * frac4, IP_W) + round_term(IP_W, FB);
+                s5_svalue <= signed(spd_word(TW - 1 downto 0));
+                s5_avalue <= signed(amp_word(TW - 1 downto 0));
+                s5_speed  <= s4_speed;
+                s5_dir    <= s4_dir;
+                s5_pos    <= s4_pos;
+                s5_mag    <= s4_mag;
+
+                -- 6: the map RAM output register; gs, ga = value + (product >>> FB)
+                map_word    <= map_q;
+                s6_gs    <= resize(s5_svalue, GW) + s5_sprod(FB + GW - 1 downto FB);
+                s6_ga    <= resize(s5_avalue, GW) + s5_aprod(FB + GW - 1 downto FB);
+                s6_speed <= s5_speed;
+                s6_dir   <= s5_dir;
+                s6_pos   <= s5_pos;
+                s6_mag   <= s5_mag;
+
+                -- 7: map slope x frac + 2^(FB-1), value + 2^(TRIM_FRAC-1); speed x gs; mag x ga + 2^(G_SHIFT-1)
+                frac6 := signed('0' & s6_pos(FB - 1 downto 0));
+                s7_mprod  <= resize(signed(map_word(2 * TW - 1 downto TW)) * frac6, IP_W) + round_term(IP_W, FB);
+                s7_mvalue <= resize(signed(map_word(TW - 1 downto 0)), VR_W) + round_term(VR_W, TRIM_FRAC);
+                s7_p1     <= resize(s6_speed * s6_gs, P1_W);
+                s7_p2     <= resize(signed('0' & s6_mag) * s6_ga, P2_W) + round_term(P2_W, G_SHIFT);
+                s7_dir    <= s6_dir;
+                s7_pos    <= s6_pos;
+
+                -- 8: m + 2^(TRIM_FRAC-1); the products' sum
+                ip     := s7_mprod;
+                s8_m   <= resize(s7_mvalue, MR_W) + resize(ip(FB + GW - 1 downto FB), MR_W);
+                s8_s   <= resize(s7_p1, S_W) + resize(s7_p2, S_W);
+                s8_dir <= s7_dir;
+                s8_pos <= s7_pos;
+
+                -- 9: total + 2^(TRIM_FRAC-1) = m + 2^(TRIM_FRAC-1) + (sum >>> G_SHIFT)
+                s9_total <= resize(s8_m, TT_W) + resize(s8_s(S_W - 1 downto G_SHIFT), TT_W);
+                s9_dir   <= s8_dir;
+                s9_pos   <= s8_pos;
+
+                -- 10: corr = total >>> TRIM_FRAC clipped to s(FINE_W); pos -+ REV for stage 11
+                corr_x := resize(s9_total(TT_W - 1 downto TRIM_FRAC), CX_W);
+                -- in range <=> bits CX_W-1 .. FINE_W-1 all equal the sign
+                if corr_x(CX_W - 1) = '1' then
+                    over := not (corr_x(CX_W - 1 downto FINE_W - 1) = (CX_W - FINE_W downto 0 => '1'));
+                else
+                    over := corr_x(CX_W - 1 downto FINE_W - 1) /= (CX_W - FINE_W downto 0 => '0');
+                end if;
+                if not over then
+                    s10_corr <= corr_x(FINE_W - 1 downto 0);
+                elsif corr_x(CX_W - 1) = '1' then
+                    s10_corr <= CLIP_LO;
+                else
+                    s10_corr <= CLIP_HI;
+                end if;
+                s10_sat <= '1' when over else '0';
+                s10_neg <= corr_x(CX_W - 1);
+                s10_dir <= s9_dir;
+                pos_x   := signed(resize(s9_pos, WW));
+                s10_pos <= pos_x;
+                -- corr < 0: pos - corr may reach REV, alternative pos - REV - corr;
+                -- corr >= 0: pos - corr may fall below 0, alternative pos + REV - corr
+                if corr_x(CX_W - 1) = '1' then
+                    s10_alt <= pos_x - REV_W;
+                else
+                    s10_alt <= pos_x + REV_W;
+                end if;
+
+                -- 11: pos - corr, wrapped into [0, REV)
+                corr_w := resize(s10_corr, WW);
+                a := s10_pos - corr_w;
+                b := s10_alt - corr_w;
+                if s10_neg = '1' then
+                    use_b := b(WW - 1) = '0';
+                else
+                    use_b := a(WW - 1) = '1';
+                end if;
+                if use_b then
+                    pos_out <= std_logic_vector(b(POS_W - 1 downto 0));
+                else
+                    pos_out <= std_logic_vector(a(POS_W - 1 downto 0));
+                end if;
+                dir <= s10_dir;
+                sat <= s10_sat;
+            end if;
+        end if;
+    end process p_data;
+
+end architecture rtl;
