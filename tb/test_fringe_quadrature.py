@@ -22,10 +22,13 @@ from fringe.fixed.quadrature import LATENCY, QuadratureCoefs, QuadratureParams, 
 REPO = Path(__file__).resolve().parent.parent
 TOPLEVEL = "fringe_quadrature"
 
-# (WAVE_W, COEF_W, USER_W, seed)
+# (WAVE_W, COEF_W, USER_W, seed): differences of 19 and 21 bits are split into partial products
+# (the rounding constant below the high one, or added for COEF_W = 20); 16 bits are not (the seed)
 PARAM_SETS = [
     (18, 18, 3, 101),
     (20, 16, 1, 202),
+    (15, 16, 2, 303),
+    (19, 20, 1, 404),
 ]
 
 

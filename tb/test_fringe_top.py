@@ -612,11 +612,19 @@ def test_latency_documented():
 
     cfg = CoreConfig()
     lat = core_latency(cfg)
-    assert lat == cfg.cordic_stages + 21
+    assert lat == cfg.cordic_stages + 24
     for f in ("rtl/verilog/fringe_core.v", "rtl/verilog/fringe_top.v", "rtl/vhdl/fringe_core.vhd",
               "rtl/vhdl/fringe_top.vhd"):
         text = (REPO / f).read_text()
-        assert re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*21\s*;", text), f
+        assert re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*24\s*;", text), f
+    # the core's bank pipeline taps (registers read one clock enable ahead) use the blocks' latencies
+    for f in ("rtl/verilog/fringe_core.v", "rtl/vhdl/fringe_core.vhd"):
+        text = (REPO / f).read_text()
+        for name, n in (("LAT_WL", wave_lut.LATENCY), ("LAT_Q", quadrature.LATENCY),
+                        ("LAT_P", period_count.LATENCY)):
+            m = re.search(rf"{name}\s*(:\s*integer\s*:)?=\s*(\d+)\s*;", text)
+            assert m and int(m.group(2)) == n, (f, name, m and m.group(0), n)
+        assert re.search(r"LAT_C\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*2\s*;", text), f
     for block, n in (("fringe_wave_lut", wave_lut.LATENCY), ("fringe_quadrature", quadrature.LATENCY),
                      ("fringe_period_count", period_count.LATENCY), ("fringe_long_period", long_period.LATENCY)):
         for f in (f"rtl/verilog/{block}.v", f"rtl/vhdl/{block}.vhd"):

@@ -312,12 +312,12 @@ def test_pack_and_unpack():
 
 def test_derived_constants():
     p = LongPeriodParams(256, 16, 8, 18, 4, 8)
-    assert (p.rev, p.pos_w, p.entries, p.word_w, p.latency, p.recip, p.shift) == (1 << 24, 24, 256, 36, 7, 1, 16)
+    assert (p.rev, p.pos_w, p.entries, p.word_w, p.latency, p.recip, p.shift) == (1 << 24, 24, 256, 36, 8, 1, 16)
     assert p.hdl_parameters() == {"LINES": 256, "FINE_W": 16, "LP_ADDR_W": 8, "LP_W": 18, "LP_FRAC": 4, "LP_IF": 8,
                                   "LP_RECIP": 1, "LP_SHIFT": 16}
     q = LongPeriodParams(256, 16, 8, 18, 4, 8, 2, 17)            # explicit (checked) mapping
     assert (q.recip, q.shift) == (2, 17)
-    assert LATENCY == 7
+    assert LATENCY == 8
 
 
 @pytest.mark.parametrize(

@@ -15,17 +15,23 @@
 // Configuration write port (independent of ce): cfg_wr_addr[17:16] selects 0 registers and
 // control, 1 sine table, 2 cosine table, 3 long-period table; cfg_wr_addr[15:0] is the word within
 // one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
-// Writes always go to the inactive bank. Register word 0x80 is CTRL: writing bit 0 = 1 swaps the
-// banks at that clock edge; a sample accepted at the same edge still takes the old bank, every
-// later sample the new one. Software rule: after a swap, wait until the samples accepted before
-// it have come out (LATENCY clock enables) before writing the now inactive bank.
+// Writes always go to the inactive bank (the one inactive when the write is issued); they are
+// registered (decoded enables, address, data) and land one clock later. Register word 0x80 is
+// CTRL: writing bit 0 = 1 swaps the banks at that clock edge; a sample accepted at the same edge
+// still takes the old bank, every later sample the new one. A write issued before the swap lands
+// at the swap's edge at the latest, in the bank it was issued for, so every sample of the new
+// bank sees it. Software rule: after a swap, wait until the samples accepted before it have come
+// out (LATENCY clock enables) before writing the now inactive bank.
 // rst (synchronous, active high) clears the sample pipeline (valid bits, the period counter);
 // the register file, the tables and the active bank are configuration and keep their values
 // (power-up: bank 0, the init files).
 //
-// LATENCY = CORDIC_STAGES + 21 clock enables from in_valid to out_valid:
-//   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 4 fringe_quadrature
-//   + CORDIC_STAGES+2 fringe_cordic + 2 fringe_period_count + 7 fringe_long_period.
+// LATENCY = CORDIC_STAGES + 24 clock enables from in_valid to out_valid:
+//   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
+//   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count + 8 fringe_long_period.
+// The registers a block takes with the sample (quadrature coefficients, magnitude thresholds,
+// COARSE_OFS, ZERO/DIR) are read one clock enable ahead, with the sample's bank from a copy of
+// the bank pipeline (taps at the blocks' latencies), so no register-file mux feeds block logic.
 // ce = 0 freezes the pipeline (the tables keep their write port).
 
 `default_nettype none
@@ -72,7 +78,7 @@ module fringe_core #(
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 21;
+    localparam integer LATENCY = CORDIC_STAGES + 24;
     /* verilator lint_on UNUSEDPARAM */
     localparam integer POS_W   = $clog2(LINES) + FINE_W;        // clog2(LINES * 2^FINE_W)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width
@@ -136,12 +142,51 @@ module fringe_core #(
     wire [15:0] cfg_word = cfg_wr_addr[15:0];
     wire        wr_bank  = ~bank_r;   // writes go to the inactive bank
 
-    always @(posedge clk) begin
-        if (cfg_wr_en && cfg_sel == 2'd0 && cfg_word < 16'd16) begin
-            regs[{wr_bank, cfg_word[3:0]}] <= cfg_wr_data[REG_W-1:0];
-        end
+    // Writes are registered: one-hot register enables {bank, index}, table enables, addresses and
+    // data; they land one clock later (the decode and the 32-way fan-out sit in separate clocks).
+    reg  [31:0]       reg_we;
+    reg               wr_sin, wr_cos, wr_lp;
+    reg  [15:0]       wr_word;
+    reg               wr_bank_r;
+    reg  [63:0]       wr_data;
+
+    // power-up values: no write lands before the first one issued (as bank_r, not reset)
+    initial begin
+        reg_we = 32'd0;
+        wr_sin = 1'b0;
+        wr_cos = 1'b0;
+        wr_lp  = 1'b0;
     end
 
+    // table write enables: the word must lie inside one bank
+    wire wave_word_ok = (cfg_word >> (WAVE_ADDR_W + 1)) == 16'd0;
+    wire lp_word_ok   = (cfg_word >> LP_ADDR_W) == 16'd0;
+
+    integer wi;
+    always @(posedge clk) begin
+        for (wi = 0; wi < 32; wi = wi + 1) begin
+            reg_we[wi] <= cfg_wr_en && cfg_sel == 2'd0 && cfg_word == {12'd0, wi[3:0]} && wr_bank == wi[4];
+        end
+        wr_sin    <= cfg_wr_en && cfg_sel == 2'd1 && wave_word_ok;
+        wr_cos    <= cfg_wr_en && cfg_sel == 2'd2 && wave_word_ok;
+        wr_lp     <= cfg_wr_en && cfg_sel == 2'd3 && lp_word_ok;
+        wr_word   <= cfg_word;
+        wr_bank_r <= wr_bank;
+        wr_data   <= cfg_wr_data;
+    end
+
+    genvar ri;
+    generate
+        for (ri = 0; ri < 32; ri = ri + 1) begin : g_reg_wr
+            always @(posedge clk) begin
+                if (reg_we[ri]) begin
+                    regs[ri] <= wr_data[REG_W-1:0];
+                end
+            end
+        end
+    endgenerate
+
+    // CTRL swaps at once: a write issued before it carries its bank in wr_bank_r
     always @(posedge clk) begin
         if (cfg_wr_en && cfg_sel == 2'd0 && cfg_word == CTRL_WORD && cfg_wr_data[0]) begin
             bank_r <= ~bank_r;
@@ -150,14 +195,8 @@ module fringe_core #(
 
     assign active_bank = bank_r;
 
-    // table write enables: the word must lie inside one bank
-    wire wave_word_ok = (cfg_word >> (WAVE_ADDR_W + 1)) == 16'd0;
-    wire lp_word_ok   = (cfg_word >> LP_ADDR_W) == 16'd0;
-    wire wr_sin       = cfg_wr_en && cfg_sel == 2'd1 && wave_word_ok;
-    wire wr_cos       = cfg_wr_en && cfg_sel == 2'd2 && wave_word_ok;
-    wire wr_lp        = cfg_wr_en && cfg_sel == 2'd3 && lp_word_ok;
-    wire [WAVE_ADDR_W+1:0] wave_wr_addr = {wr_bank, cfg_word[WAVE_ADDR_W:0]};
-    wire [LP_ADDR_W:0]     lp_wr_addr   = {wr_bank, cfg_word[LP_ADDR_W-1:0]};
+    wire [WAVE_ADDR_W+1:0] wave_wr_addr = {wr_bank_r, wr_word[WAVE_ADDR_W:0]};
+    wire [LP_ADDR_W:0]     lp_wr_addr   = {wr_bank_r, wr_word[LP_ADDR_W-1:0]};
 
     // ---- stage 1 (registered): the sample takes the active bank and that bank's branch thresholds --
     // (the register file read and the compares sit in separate stages: one long path otherwise)
@@ -221,7 +260,52 @@ module fringe_core #(
         end
     end
 
-    // ---- stages 2..4: waveform tables ------------------------------------------------------------
+    // ---- the bank pipeline: registers read one clock enable ahead -------------------------------
+    // bank_d[k] is bank1 after k+1 clock enables. A block taking its sample after N clock enables
+    // (the sum of the latencies before it) sees the sample's bank in bank_d[N-1]; one clock enable
+    // ahead it is in bank_d[N-2], which selects the registers it takes with the sample. The
+    // latencies must equal the blocks' LATENCY constants.
+    localparam integer LAT_WL = 4;                      // fringe_wave_lut
+    localparam integer LAT_Q  = 5;                      // fringe_quadrature
+    localparam integer LAT_C  = CORDIC_STAGES + 2;      // fringe_cordic
+    localparam integer LAT_P  = 3;                      // fringe_period_count
+    localparam integer TAP_Q  = LAT_WL - 2;             // quadrature coefficients
+    localparam integer TAP_C  = LAT_WL + LAT_Q + LAT_C - 2;          // magnitude thresholds, COARSE_OFS
+    localparam integer TAP_P  = LAT_WL + LAT_Q + LAT_C + LAT_P - 2;  // ZERO, DIR
+    reg [TAP_P:0] bank_d;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            bank_d <= {bank_d[TAP_P-1:0], bank1};
+        end
+    end
+
+    wire bank_q = bank_d[TAP_Q];
+    wire bank_c = bank_d[TAP_C];
+    wire bank_p = bank_d[TAP_P];
+    reg  [WAVE_W-1:0] ofs_s_r, ofs_c_r;
+    reg  [COEF_W-1:0] k_ss_r, k_sc_r, k_cc_r;
+    reg  [AMP_W-1:0]  amp_low, amp_high;
+    reg  [POS_W:0]    coarse_ofs_r;
+    reg  [POS_W-1:0]  zero_r;
+    reg               dir_r;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            ofs_s_r      <= regs[{bank_q, R_OFS_S}][WAVE_W-1:0];
+            ofs_c_r      <= regs[{bank_q, R_OFS_C}][WAVE_W-1:0];
+            k_ss_r       <= regs[{bank_q, R_K_SS}][COEF_W-1:0];
+            k_sc_r       <= regs[{bank_q, R_K_SC}][COEF_W-1:0];
+            k_cc_r       <= regs[{bank_q, R_K_CC}][COEF_W-1:0];
+            amp_low      <= regs[{bank_c, R_AMP_LOW}][AMP_W-1:0];
+            amp_high     <= regs[{bank_c, R_AMP_HIGH}][AMP_W-1:0];
+            coarse_ofs_r <= regs[{bank_c, R_COARSE_OFS}][POS_W:0];
+            zero_r       <= regs[{bank_p, R_ZERO}][POS_W-1:0];
+            dir_r        <= regs[{bank_p, R_DIR}][0];
+        end
+    end
+
+    // ---- stages 3..6: waveform tables ------------------------------------------------------------
     localparam integer U_WL = CW + 1;   // {coarse, bank}
     wire              wl_valid;
     wire [WAVE_W-1:0] xs, xc;
@@ -235,7 +319,7 @@ module fringe_core #(
     ) u_wave_sin (
         .clk(clk), .rst(rst), .ce(ce),
         .in_valid(valid1), .adc(sin1), .branch(br_s1), .bank(bank1), .in_user({coarse1, bank1}),
-        .wr_en(wr_sin), .wr_addr(wave_wr_addr), .wr_data(cfg_wr_data[2*WAVE_W-1:0]),
+        .wr_en(wr_sin), .wr_addr(wave_wr_addr), .wr_data(wr_data[2*WAVE_W-1:0]),
         .out_valid(wl_valid), .x(xs), .clip(clip_s), .out_user(wl_user)
     );
 
@@ -245,14 +329,14 @@ module fringe_core #(
     ) u_wave_cos (
         .clk(clk), .rst(rst), .ce(ce),
         .in_valid(valid1), .adc(cos1), .branch(br_c1), .bank(bank1), .in_user(1'b0),
-        .wr_en(wr_cos), .wr_addr(wave_wr_addr), .wr_data(cfg_wr_data[2*WAVE_W-1:0]),
+        .wr_en(wr_cos), .wr_addr(wave_wr_addr), .wr_data(wr_data[2*WAVE_W-1:0]),
         .out_valid(wl_valid_c), .x(xc), .clip(clip_c), .out_user(wl_user_c)
     );
 
     wire          wl_bank   = wl_user[0];
     wire [CW-1:0] wl_coarse = wl_user[U_WL-1:1];
 
-    // ---- stages 5..8: quadrature, coefficients of the sample's bank ------------------------------
+    // ---- stages 7..11: quadrature, coefficients of the sample's bank ----------------------------
     localparam integer U_Q = CW + 3;    // {coarse, clip_c, clip_s, bank}
     wire              q_valid;
     wire [WAVE_W-1:0] qs, qc;
@@ -262,15 +346,11 @@ module fringe_core #(
     fringe_quadrature #(.WAVE_W(WAVE_W), .COEF_W(COEF_W), .USER_W(U_Q)) u_quad (
         .clk(clk), .rst(rst), .ce(ce),
         .in_valid(wl_valid), .xs(xs), .xc(xc), .in_user({wl_coarse, clip_c, clip_s, wl_bank}),
-        .ofs_s(regs[{wl_bank, R_OFS_S}][WAVE_W-1:0]),
-        .ofs_c(regs[{wl_bank, R_OFS_C}][WAVE_W-1:0]),
-        .k_ss(regs[{wl_bank, R_K_SS}][COEF_W-1:0]),
-        .k_sc(regs[{wl_bank, R_K_SC}][COEF_W-1:0]),
-        .k_cc(regs[{wl_bank, R_K_CC}][COEF_W-1:0]),
+        .ofs_s(ofs_s_r), .ofs_c(ofs_c_r), .k_ss(k_ss_r), .k_sc(k_sc_r), .k_cc(k_cc_r),
         .out_valid(q_valid), .s(qs), .c(qc), .sat(q_sat), .out_user(q_user)
     );
 
-    // ---- stages 9..CORDIC_STAGES+10: CORDIC (x = c, y = s) ---------------------------------------
+    // ---- stages 12..CORDIC_STAGES+13: CORDIC (x = c, y = s) -------------------------------------
     localparam integer U_C = CW + 4;    // {coarse, sat, clip_c, clip_s, bank}
     wire              c_valid;
     wire [FINE_W-1:0] phase;
@@ -287,9 +367,7 @@ module fringe_core #(
 
     wire          c_bank   = c_user[0];
     wire [CW-1:0] c_coarse = c_user[U_C-1:4];
-    // magnitude flags with the thresholds of the sample's bank
-    wire [AMP_W-1:0] amp_low  = regs[{c_bank, R_AMP_LOW}][AMP_W-1:0];
-    wire [AMP_W-1:0] amp_high = regs[{c_bank, R_AMP_HIGH}][AMP_W-1:0];
+    // magnitude flags with the thresholds of the sample's bank (registered above)
     wire             f_low    = mag < amp_low;
     wire             f_high   = mag > amp_high;
 
@@ -305,7 +383,7 @@ module fringe_core #(
     ) u_count (
         .clk(clk), .rst(rst), .ce(ce),
         .in_valid(c_valid), .phase(phase), .coarse(c_coarse),
-        .coarse_ofs(regs[{c_bank, R_COARSE_OFS}][POS_W:0]),
+        .coarse_ofs(coarse_ofs_r),
         .in_user({f_high, f_low, c_user[3:0]}),
         .out_valid(p_valid), .pos(p_pos), .overspeed(p_overspeed), .coarse_err(p_coarse_err),
         .out_user(p_user)
@@ -322,16 +400,15 @@ module fringe_core #(
     ) u_long (
         .clk(clk), .rst(rst), .ce(ce),
         .in_valid(p_valid), .pos(p_pos), .bank(p_bank),
-        .zero(regs[{p_bank, R_ZERO}][POS_W-1:0]),
-        .dir(regs[{p_bank, R_DIR}][0]),
+        .zero(zero_r), .dir(dir_r),
         .in_user({p_bank, p_user[3], p_coarse_err, p_overspeed, p_user[5:4], p_user[2:1]}),
-        .wr_en(wr_lp), .wr_addr(lp_wr_addr), .wr_data(cfg_wr_data[2*LP_W-1:0]),
+        .wr_en(wr_lp), .wr_addr(lp_wr_addr), .wr_data(wr_data[2*LP_W-1:0]),
         .out_valid(out_valid), .pos_out(pos), .out_user(l_user)
     );
 
     // The cosine table runs in step with the sine table (same latency): its valid and sideband
     // are duplicates. cfg_wr_data above the widest table word is not used.
-    wire unused_ok = &{1'b0, wl_valid_c, wl_user_c, cfg_wr_data};
+    wire unused_ok = &{1'b0, wl_valid_c, wl_user_c, wr_data, wr_word, c_bank};
 
     // status word: bit 0 CLIP_SIN .. 6 SATURATED, 7 BANK (the blocks' sideband, registered)
     assign status = l_user;

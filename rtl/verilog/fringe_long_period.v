@@ -22,9 +22,14 @@
 // The table is written through wr_en / wr_addr ({bank, entry}) / wr_data, passed to
 // fringe_table_ram whatever ce is; write only the bank no sample in flight reads.
 //
-// LATENCY = 7 clock enables (ce = 1 cycles) from in_valid to out_valid:
-//   1 index product   2 table read   2b the RAM's output register   3 slope x fraction (+ rounding constants)
-//   4 correction rounded to fine counts, subtracted from pos   5 wrap into [0, REV)
+// LATENCY = 8 clock enables (ce = 1 cycles) from in_valid to out_valid, one carry chain per stage:
+//   1 index product   2 table read   2b the RAM's output register
+//   3 slope x fraction, bare (a DSP registered on both sides); a slope wider than 16 bits is split,
+//     slope * frac = slope_hi * frac * 2^15 + slope_lo * frac (slope_lo unsigned), so each partial
+//     product fits a 16x16 DSP (iCE40); value + 2^(LP_FRAC-1)
+//   3b the partial products summed (else the product registered again)
+//   4 step = ({value, 2^(LP_IF-1)} + product) >>> (LP_IF + LP_FRAC) (one add); pos, pos + REV, pos - REV
+//   5 pos - step and its wrapped alternatives in parallel, chosen by sign bits; zero -+ REV
 //   6 zero and direction, wrap
 // One sample per clock. ce = 0 freezes every register (and the table read); rst (synchronous,
 // active high, wins over ce) clears only the valid pipeline, never the data registers.
@@ -63,7 +68,7 @@ module fringe_long_period #(
     output wire [USER_W-1:0]                 out_user
 );
 
-    localparam integer LATENCY = 7;
+    localparam integer LATENCY = 8;
     localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
     localparam [63:0]  LINES64 = LINES * 64'd1;
     localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^48 when legal
@@ -141,9 +146,11 @@ module fringe_long_period #(
     localparam integer RECIP_W = (LP_RECIP > 64'd1) ? $clog2(LP_RECIP + 64'd1) : 1;
     localparam integer T_W0    = POS_W + RECIP_W;
     localparam integer T_W     = (T_W0 > LP_SHIFT + LP_ADDR_W) ? T_W0 : LP_SHIFT + LP_ADDR_W;  // index product
-    localparam integer PR_W    = LP_W + LP_IF + 1;    // slope x frac (+ 2^(LP_IF-1)): |.| < 2^(LP_W-1+LP_IF)
+    localparam integer PR_W    = LP_W + LP_IF + 1;    // slope x frac: |.| < 2^(LP_W-1+LP_IF)
     localparam integer C_W     = ((LP_W > LP_FRAC) ? LP_W : LP_FRAC) + 2;  // value + 2^(LP_FRAC-1) + ip
-    localparam integer PX_W    = (PR_W > C_W) ? PR_W : C_W;                 // the product, sign-extended
+    localparam integer SX_W    = C_W + LP_IF;         // {value, 2^(LP_IF-1)} + product
+    localparam [LP_IF:0]   RND_X  = {1'b1, {LP_IF{1'b0}}} >> 1;
+    localparam [LP_IF-1:0] RND_IF = RND_X[LP_IF-1:0];  // 2^(LP_IF-1), concatenated below value
     localparam integer WW      = POS_W + 2;           // signed positions: pos - step, zero +- REV
     localparam [255:0]   RECIP_X = {192'd0, LP_RECIP};
     localparam [T_W-1:0] RECIP_T = RECIP_X[T_W-1:0];   // T_W >= RECIP_W: no bit lost
@@ -218,17 +225,16 @@ module fringe_long_period #(
         end
     end
 
-    // ---- 3: slope x fraction, with the rounding constants added here ------------------------------
+    // ---- 3: slope x fraction (registered bare), value + 2^(LP_FRAC-1) ------------------------------
     wire signed [LP_W-1:0]  value = word[LP_W-1:0];
     wire signed [LP_W-1:0]  slope = word[2*LP_W-1:LP_W];
-    wire signed [PR_W-1:0]  prod  = slope * $signed({1'b0, s2_frac});   // s(LP_W) x u(LP_IF)
-    wire signed [PR_W-1:0]  prod_rnd = prod + $signed({{(PR_W-LP_IF){1'b0}}, 1'b1, {(LP_IF-1){1'b0}}});
     wire signed [C_W-1:0]   value_x = {{(C_W-LP_W){value[LP_W-1]}}, value};
     wire signed [C_W-1:0]   value_rnd;
-    reg  signed [PR_W-1:0]  s3_prod;
-    reg  signed [C_W-1:0]   s3_value;
-    reg  [POS_W-1:0]        s3_pos, s3_zero;
-    reg                     s3_dir;
+    wire signed [LP_IF:0]   frac_s = {1'b0, s2_frac};   // u(LP_IF) as a signed operand
+    reg  signed [PR_W-1:0]  s3_prod;                    // after stage 3b: slope * frac
+    reg  signed [C_W-1:0]   s3a_value, s3_value;
+    reg  [POS_W-1:0]        s3a_pos, s3a_zero, s3_pos, s3_zero;
+    reg                     s3a_dir, s3_dir;
 
     generate
         if (LP_FRAC > 0) begin : g_round
@@ -238,38 +244,78 @@ module fringe_long_period #(
         end
     endgenerate
 
+    generate
+        if (LP_W <= 16) begin : g_prod
+            reg signed [PR_W-1:0] s3a_prod;
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    s3a_prod <= slope * frac_s;   // s(LP_W) x u(LP_IF)
+                    s3_prod  <= s3a_prod;
+                end
+            end
+        end else begin : g_split
+            localparam integer L    = 15;                      // slope_lo bits, unsigned
+            localparam integer LO_W = L + LP_IF + 2;           // s(L+1) x s(LP_IF+1)
+            localparam integer HI_W = LP_W - L + LP_IF + 1;    // s(LP_W-L) x s(LP_IF+1)
+            wire signed [L:0]        slope_lo = {1'b0, slope[L-1:0]};
+            wire signed [LP_W-L-1:0] slope_hi = slope[LP_W-1:L];
+            reg  signed [LO_W-1:0]   s3a_lo;
+            reg  signed [HI_W-1:0]   s3a_hi;
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    s3a_lo  <= slope_lo * frac_s;
+                    s3a_hi  <= slope_hi * frac_s;
+                    // 3b: hi * 2^L + lo (|slope * frac| < 2^(PR_W-2): no wrap)
+                    s3_prod <= $signed({s3a_hi, {L{1'b0}}}) + $signed({{(PR_W-LO_W){s3a_lo[LO_W-1]}}, s3a_lo});
+                end
+            end
+        end
+    endgenerate
+
     always @(posedge clk) begin
         if (ce) begin
-            s3_prod  <= prod_rnd;          // slope * frac + 2^(LP_IF-1)
-            s3_value <= value_rnd;         // value + 2^(LP_FRAC-1)
-            s3_pos   <= s2_pos;
-            s3_zero  <= s2_zero;
-            s3_dir   <= s2_dir;
+            s3a_value <= value_rnd;                         // value + 2^(LP_FRAC-1)
+            s3a_pos   <= s2_pos;
+            s3a_zero  <= s2_zero;
+            s3a_dir   <= s2_dir;
+            s3_value  <= s3a_value;
+            s3_pos    <= s3a_pos;
+            s3_zero   <= s3a_zero;
+            s3_dir    <= s3a_dir;
         end
     end
 
-    // ---- 4: step = (value + round(slope * frac / 2^LP_IF) + 2^(LP_FRAC-1)) >>> LP_FRAC; pos - step ---
-    wire signed [PX_W-1:0] prod_x = {{(PX_W-PR_W){s3_prod[PR_W-1]}}, s3_prod};
-    wire signed [PX_W-1:0] ip     = prod_x >>> LP_IF;                // round(slope * frac / 2^LP_IF), s(LP_W)
-    wire signed [C_W-1:0]  corr   = s3_value + ip[C_W-1:0];          // |corr| <= 2^LP_W + 2^(LP_FRAC-1)
-    wire signed [C_W-LP_FRAC-1:0] step = corr[C_W-1:LP_FRAC];       // >>> LP_FRAC
-    reg  signed [WW-1:0]   s4_pos_c;
+    // ---- 4: step = (value + round(slope * frac / 2^LP_IF) + 2^(LP_FRAC-1)) >>> LP_FRAC ----------------
+    // ({value + 2^(LP_FRAC-1), 2^(LP_IF-1)} + product) >>> LP_IF = corr + 2^(LP_FRAC-1): one add.
+    // In parallel pos + REV and pos - REV, the wrapped alternatives' starting points for stage 5.
+    wire signed [SX_W-1:0] prod_x = {{(SX_W-PR_W){s3_prod[PR_W-1]}}, s3_prod};
+    wire signed [SX_W-1:0] sum4   = $signed({s3_value, RND_IF}) + prod_x;   // |corr| <= 2^LP_W + 2^(LP_FRAC-1)
+    wire [WW-1:0]          pos_x  = {2'b00, s3_pos};
+    reg  signed [C_W-LP_FRAC-1:0] s4_step;
+    reg  signed [WW-1:0]   s4_pos, s4_pos_up, s4_pos_dn;
     reg  [POS_W-1:0]       s4_zero;
     reg                    s4_dir;
 
     always @(posedge clk) begin
         if (ce) begin
-            // |step| <= 2^(LP_W-LP_FRAC) <= REV <= 2^POS_W: pos - step fits s(POS_W+2)
-            s4_pos_c <= $signed({2'b00, s3_pos}) - $signed({{(WW-C_W+LP_FRAC){step[C_W-LP_FRAC-1]}}, step});
-            s4_zero  <= s3_zero;
-            s4_dir   <= s3_dir;
+            s4_step   <= sum4[SX_W-1:LP_IF+LP_FRAC];     // >>> (LP_IF + LP_FRAC)
+            s4_pos    <= pos_x;
+            s4_pos_up <= pos_x + REV_W;
+            s4_pos_dn <= pos_x - REV_W;
+            s4_zero   <= s3_zero;
+            s4_dir    <= s3_dir;
         end
     end
 
-    // ---- 5: wrap into [0, REV): the two alternatives in parallel; zero -+ REV for stage 6 ---------
-    wire signed [WW-1:0] c_up   = s4_pos_c + $signed(REV_W);
-    wire signed [WW-1:0] c_down = s4_pos_c - $signed(REV_W);
-    wire signed [WW-1:0] c_wrap = s4_pos_c[WW-1] ? c_up : (c_down[WW-1] ? s4_pos_c : c_down);
+    // ---- 5: pos_c = (pos - step) mod REV: the three differences in parallel, chosen by sign bits -----
+    // |step| <= 2^(LP_W-LP_FRAC) <= REV <= 2^POS_W: pos -+ REV - step fits s(POS_W+2)
+    wire signed [WW-1:0] step_x = {{(WW-C_W+LP_FRAC){s4_step[C_W-LP_FRAC-1]}}, s4_step};
+    wire signed [WW-1:0] c_mid  = s4_pos - step_x;
+    wire signed [WW-1:0] c_up   = s4_pos_up - step_x;
+    wire signed [WW-1:0] c_down = s4_pos_dn - step_x;
+    wire signed [WW-1:0] c_wrap = c_mid[WW-1] ? c_up : (c_down[WW-1] ? c_mid : c_down);
     wire        [WW-1:0] zero_x = {2'b00, s4_zero};
     reg  [POS_W-1:0]     s5_pos_c;
     reg  [WW-1:0]        s5_zero, s5_zero_alt;
@@ -301,9 +347,8 @@ module fringe_long_period #(
     end
 
     // Bits that carry nothing: the index product above the entry and below the fraction, the
-    // product's rounded-off bits and sign extension, the step's fraction bits, the sign bits of
-    // wrapped positions (in [0, REV)).
-    wire unused = &{1'b0, t, ip, corr, c_wrap[WW-1:POS_W], o[WW-1:POS_W]};
+    // sum's rounded-off bits, the sign bits of wrapped positions (in [0, REV)).
+    wire unused = &{1'b0, t, sum4[LP_IF+LP_FRAC-1:0], c_wrap[WW-1:POS_W], o[WW-1:POS_W]};
 
 endmodule
 

@@ -23,8 +23,10 @@
 //   pos u(POS_W) in [0, REV).
 // Bit-exact model: model/fringe/fixed/period_count.py.
 //
-// LATENCY = 2 clock enables (ce = 1 cycles) from in_valid to out_valid:
-//   1: delta, overspeed, coarse centre   2: period number, wrap, position (the counter)
+// LATENCY = 3 clock enables (ce = 1 cycles) from in_valid to out_valid, one carry chain per stage:
+//   1: delta, coarse centre   2: overspeed test; d + half (period number n and residual r), or the
+//   counter's delta with its two wrapped alternatives   3: |r| > tol, the wrap of n and the position,
+//   or the counter (three sums in parallel, chosen by sign bits)
 // One sample per clock. ce = 0 freezes every register. rst (synchronous, active high, wins over ce)
 // clears the valid pipeline and the "previous sample seen" state, so the next valid sample is the
 // first again; the data registers (phase_prev, the position) are never reset. The outputs update
@@ -55,7 +57,7 @@ module fringe_period_count #(
     output wire [USER_W-1:0]                  out_user
 );
 
-    localparam integer LATENCY = 2;
+    localparam integer LATENCY = 3;
     localparam integer POS_W   = FINE_W + $clog2(LINES);   // clog2(REV)
     localparam integer N_W     = POS_W - FINE_W;           // period number bits (0 when LINES = 1)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;
@@ -104,19 +106,17 @@ module fringe_period_count #(
     assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
 
     wire take = ce & in_valid;       // stage 1 takes a sample
-    wire done = ce & valid_sr[0];    // stage 2 produces an output
+    wire done = ce & valid_sr[1];    // stage 3 produces an output
 
-    // ---- stage 1: delta to the previous valid sample, overspeed --------------------------------
-    // |delta| >= 2^(FINE_W-2) for delta as s(FINE_W) is delta in [2^(FINE_W-2), 3 * 2^(FINE_W-2)]
-    // read as unsigned (the most negative delta, -2^(FINE_W-1), is inside).
-    localparam [FINE_W-1:0] Q1 = {2'b01, {(FINE_W-2){1'b0}}};
-    localparam [FINE_W-1:0] Q3 = {2'b11, {(FINE_W-2){1'b0}}};
-
+    // ---- stage 1: delta to the previous valid sample -------------------------------------------
     reg  [FINE_W-1:0] phase_prev;    // data: the previous valid sample's phase
     reg               have_prev;     // state: a valid sample was taken since reset
-    wire [FINE_W-1:0] delta = phase - phase_prev;
     reg  [FINE_W-1:0] s1_phase;
-    reg               s1_over;
+    reg  [FINE_W-1:0] s1_delta;      // phase - phase_prev mod 2^FINE_W
+    reg               s1_first;      // no previous sample: no overspeed, the counter starts at phase
+    reg  [FINE_W-1:0] s2_phase;
+    reg               s2_first;
+    reg               s2_over;
 
     always @(posedge clk) begin
         if (rst) begin
@@ -132,13 +132,29 @@ module fringe_period_count #(
         end
         if (ce) begin
             s1_phase <= phase;
-            s1_over  <= have_prev & (delta >= Q1) & (delta <= Q3);
+            s1_delta <= phase - phase_prev;
+            s1_first <= ~have_prev;
         end
     end
 
+    // ---- stage 2: overspeed ---------------------------------------------------------------------
+    // |delta| >= 2^(FINE_W-2) for delta as s(FINE_W) is delta in [2^(FINE_W-2), 3 * 2^(FINE_W-2)]
+    // read as unsigned (the most negative delta, -2^(FINE_W-1), is inside).
+    localparam [FINE_W-1:0] Q1 = {2'b01, {(FINE_W-2){1'b0}}};
+    localparam [FINE_W-1:0] Q3 = {2'b11, {(FINE_W-2){1'b0}}};
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s2_phase <= s1_phase;
+            s2_first <= s1_first;
+            s2_over  <= ~s1_first & (s1_delta >= Q1) & (s1_delta <= Q3);
+        end
+    end
+
+    // ---- stage 3: the flag out ------------------------------------------------------------------
     always @(posedge clk) begin
         if (done) begin
-            overspeed <= s1_over;
+            overspeed <= s2_over;
         end
     end
 
@@ -150,12 +166,10 @@ module fringe_period_count #(
             localparam integer NR = W - FINE_W;     // signed period number before the wrap
             localparam [63:0]   LINES64 = LINES * 64'd1;
             localparam [W-1:0]  LINES_W = LINES64[W-1:0];
-            localparam [W-1:0]  HALF    = {{(W-FINE_W){1'b0}}, 1'b1, {(FINE_W-1){1'b0}}};
             localparam [NR-1:0] LINES_N = LINES64[NR-1:0];
             // COARSE_TOL < 2^(FINE_W-1) + 1, as s(FINE_W+1)
             localparam [FINE_W:0] TOL = (LINES_W[FINE_W:0] << (FINE_W - COARSE_W - 2))
                                       + {3'b001, {(FINE_W-2){1'b0}}};
-            localparam [FINE_W:0] HALF_R = {2'b01, {(FINE_W-1){1'b0}}};
 
             // stage 1: centre = (coarse * LINES << (FINE_W - COARSE_W)) + coarse_ofs (< REV + 2^POS_W)
             wire [W-1:0] cpos   = ({{(W-CW){1'b0}}, coarse} * LINES_W) << SH;
@@ -168,11 +182,23 @@ module fringe_period_count #(
                 end
             end
 
-            // stage 2: nearest period n, residual r, n mod LINES
-            wire [W-1:0]  d  = s1_centre - {{(W-FINE_W){1'b0}}, s1_phase};
-            wire [W-1:0]  dh = d + HALF;
-            wire [NR-1:0] n  = dh[W-1:FINE_W];                          // floor((d + half) / 2^FINE_W)
-            wire signed [FINE_W:0] r = $signed({1'b0, dh[FINE_W-1:0]} - HALF_R);   // in [-2^(FINE_W-1), 2^(FINE_W-1))
+            // stage 2: dh = d + 2^(FINE_W-1) = centre - (phase - 2^(FINE_W-1)), one subtract: phase -
+            // 2^(FINE_W-1) is phase with its top bit inverted, read as s(FINE_W). n = dh >>> FINE_W,
+            // r = (dh mod 2^FINE_W) - 2^(FINE_W-1) is dh's low bits with the top one inverted, as s(FINE_W).
+            wire [W-1:0] ph_h = {{(W-FINE_W+1){~s1_phase[FINE_W-1]}}, s1_phase[FINE_W-2:0]};
+            wire [W-1:0] dh   = s1_centre - ph_h;
+            reg  [NR-1:0]     s2_n;          // floor((d + half) / 2^FINE_W), in [-2, LINES+1]
+            reg  [FINE_W-1:0] s2_r;          // s(FINE_W), in [-2^(FINE_W-1), 2^(FINE_W-1))
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    s2_n <= dh[W-1:FINE_W];
+                    s2_r <= {~dh[FINE_W-1], dh[FINE_W-2:0]};
+                end
+            end
+
+            // stage 3: coarse_err = |r| > tol (two compares in parallel), n mod LINES
+            wire signed [FINE_W:0] r   = $signed({s2_r[FINE_W-1], s2_r});
             wire signed [FINE_W:0] tol = $signed(TOL);
             wire err = (r > tol) | (r < -tol);
 
@@ -183,14 +209,15 @@ module fringe_period_count #(
             end
 
             if (N_W > 0) begin : g_lines
-                // n in [-2, LINES+1]: n + LINES if n < 0, n - LINES if that is >= 0, else n
-                wire [NR-1:0] n_up   = n + LINES_N;
-                wire [NR-1:0] n_down = n - LINES_N;
-                wire [NR-1:0] n_wrap = n[NR-1] ? n_up : (n_down[NR-1] ? n : n_down);
+                // n in [-2, LINES+1]: n + LINES if n < 0, n - LINES if that is >= 0, else n; both
+                // candidates in parallel, chosen by sign bits
+                wire [NR-1:0] n_up   = s2_n + LINES_N;
+                wire [NR-1:0] n_down = s2_n - LINES_N;
+                wire [NR-1:0] n_wrap = s2_n[NR-1] ? n_up : (n_down[NR-1] ? s2_n : n_down);
 
                 always @(posedge clk) begin
                     if (done) begin
-                        pos <= {n_wrap[N_W-1:0], s1_phase};
+                        pos <= {n_wrap[N_W-1:0], s2_phase};
                     end
                 end
 
@@ -200,41 +227,43 @@ module fringe_period_count #(
                 // LINES = 1: n mod 1 = 0, the position is the phase
                 always @(posedge clk) begin
                     if (done) begin
-                        pos <= s1_phase;
+                        pos <= s2_phase;
                     end
                 end
 
-                wire unused_n = &{1'b0, n};
+                wire unused_n = &{1'b0, s2_n};
             end
 
-            // d's low bits only matter through r; the top bits of cpos are zero (cpos < REV)
-            wire unused_c = &{1'b0, dh[FINE_W-1:0], cpos[W-1:POS_W]};
+            // the top bits of cpos are zero (cpos < REV); the counter's first-sample flag is unused
+            wire unused_c = &{1'b0, cpos[W-1:POS_W], s2_first};
         end else begin : g_count
             // ---- incremental: pos = (pos_prev + delta) mod REV ----------------------------------
             localparam integer SW = POS_W + 2;      // signed sum: [-2^(FINE_W-1), REV + 2^(FINE_W-1))
             localparam [63:0]   LINES64 = LINES * 64'd1;
             localparam [SW-1:0] REV_S   = LINES64[SW-1:0] << FINE_W;
 
-            reg  [FINE_W-1:0] s1_delta;
-            reg               s1_first;
+            // stage 2: delta and its two wrapped alternatives, delta + REV and delta - REV, so the
+            // counter adds once (pos holds pos_prev: a loop of one clock)
+            wire [SW-1:0] dx = {{(SW-FINE_W){s1_delta[FINE_W-1]}}, s1_delta};
+            reg  [SW-1:0] s2_d, s2_d_up, s2_d_down;
 
             always @(posedge clk) begin
                 if (ce) begin
-                    s1_delta <= delta;
-                    s1_first <= ~have_prev;
+                    s2_d      <= dx;
+                    s2_d_up   <= dx + REV_S;
+                    s2_d_down <= dx - REV_S;
                 end
             end
 
-            // pos holds pos_prev (it only changes on valid samples): one adder, and the two
-            // wrapped alternatives in parallel
-            wire [SW-1:0] sum  = {2'b00, pos} + {{(SW-FINE_W){s1_delta[FINE_W-1]}}, s1_delta};
-            wire [SW-1:0] sum_up   = sum + REV_S;
-            wire [SW-1:0] sum_down = sum - REV_S;
+            // stage 3: the three sums in parallel, chosen by sign bits
+            wire [SW-1:0] sum      = {2'b00, pos} + s2_d;
+            wire [SW-1:0] sum_up   = {2'b00, pos} + s2_d_up;
+            wire [SW-1:0] sum_down = {2'b00, pos} + s2_d_down;
             wire [SW-1:0] nxt  = sum[SW-1] ? sum_up : (sum_down[SW-1] ? sum : sum_down);
 
             always @(posedge clk) begin
                 if (done) begin
-                    pos        <= s1_first ? {{N_W{1'b0}}, s1_phase} : nxt[POS_W-1:0];
+                    pos        <= s2_first ? {{N_W{1'b0}}, s2_phase} : nxt[POS_W-1:0];
                     coarse_err <= 1'b0;
                 end
             end

@@ -12,9 +12,12 @@
 // The coefficient inputs are sampled in the same clock as xs/xc (they travel with the sample),
 // so the top may switch the coefficient bank between any two samples.
 //
-// LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
-//   1: differences, coefficients registered   2: products   3: sums + rounding constant
-//   4: shift and saturate
+// LATENCY = 5 clock enables (ce = 1 cycles) from in_valid to out_valid:
+//   1: differences, coefficients registered   2: products, bare (a DSP registered on both sides);
+//   a difference wider than 18 bits is split, k * d = k * d_hi * 2^17 + k * d_lo (d_lo unsigned),
+//   and the two partial products are registered   3: products assembled, the rounding constant
+//   2^(COEF_FRAC-1) added to k_ss and k_cc's (concatenated below the high partial product when it
+//   fits there)   4: the sine sum   5: shift and saturate
 // ce = 0 freezes every register; rst (synchronous, active high, wins over ce) clears only the
 // valid pipeline, never the data registers.
 
@@ -47,11 +50,14 @@ module fringe_quadrature #(
     output wire [USER_W-1:0] out_user
 );
 
-    localparam integer LATENCY   = 4;
+    localparam integer LATENCY   = 5;
     localparam integer COEF_FRAC = COEF_W - 2;
     localparam integer D_W       = WAVE_W + 1;       // x - ofs, exact
     localparam integer P_W       = COEF_W + D_W;     // k * (x - ofs), exact
     localparam integer S_W       = P_W + 1;          // sum of two products + rounding, exact
+    localparam integer L         = 17;               // low part of a split difference, unsigned
+    localparam         WIDE      = D_W > 18;         // split: each partial product fits an 18x18 DSP
+    localparam integer DH_W      = WIDE ? D_W - L : 1;  // high part of a split difference, signed
     localparam integer Q_W       = S_W - COEF_FRAC;  // after the shift: WAVE_W + 4
     localparam [S_W-1:0] RND     = {{(S_W-1){1'b0}}, 1'b1} << (COEF_FRAC - 1);
 
@@ -81,28 +87,84 @@ module fringe_quadrature #(
         end
     end
 
-    // ---- stage 2: products ------------------------------------------------------------------
-    reg signed [P_W-1:0] pss2, psc2, pcc2;
+    // ---- stages 2, 3: products, assembled with the rounding constant --------------------------
+    reg signed [S_W-1:0] pss3, psc3, pcc3;   // k_ss*ds + RND, k_sc*dc, k_cc*dc + RND
 
-    always @(posedge clk) begin
-        if (ce) begin
-            pss2 <= k_ss1 * ds1;
-            psc2 <= k_sc1 * dc1;
-            pcc2 <= k_cc1 * dc1;
+    generate
+        if (!WIDE) begin : g_narrow
+            reg signed [P_W-1:0] pss2, psc2, pcc2;
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    pss2 <= k_ss1 * ds1;
+                    psc2 <= k_sc1 * dc1;
+                    pcc2 <= k_cc1 * dc1;
+                    pss3 <= pss2 + $signed(RND);
+                    psc3 <= {{(S_W-P_W){psc2[P_W-1]}}, psc2};
+                    pcc3 <= pcc2 + $signed(RND);
+                end
+            end
+        end else begin : g_wide
+            localparam integer LO_W = COEF_W + L + 1;    // k * d_lo
+            localparam integer HI_W = COEF_W + DH_W;     // k * d_hi
+            wire signed [L:0]      ds_lo = {1'b0, ds1[L-1:0]};
+            wire signed [L:0]      dc_lo = {1'b0, dc1[L-1:0]};
+            wire signed [DH_W-1:0] ds_hi = ds1[D_W-1:L];
+            wire signed [DH_W-1:0] dc_hi = dc1[D_W-1:L];
+            reg  signed [LO_W-1:0] pss_lo2, psc_lo2, pcc_lo2;
+            reg  signed [HI_W-1:0] pss_hi2, psc_hi2, pcc_hi2;
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    pss_lo2 <= k_ss1 * ds_lo;
+                    psc_lo2 <= k_sc1 * dc_lo;
+                    pcc_lo2 <= k_cc1 * dc_lo;
+                    pss_hi2 <= k_ss1 * ds_hi;
+                    psc_hi2 <= k_sc1 * dc_hi;
+                    pcc_hi2 <= k_cc1 * dc_hi;
+                end
+            end
+
+            // hi * 2^L + lo (+ RND): the low L bits of hi * 2^L are zero
+            wire signed [S_W-1:0] hss = {{(S_W-HI_W-L){pss_hi2[HI_W-1]}}, pss_hi2, {L{1'b0}}};
+            wire signed [S_W-1:0] hsc = {{(S_W-HI_W-L){psc_hi2[HI_W-1]}}, psc_hi2, {L{1'b0}}};
+            wire signed [S_W-1:0] hcc = {{(S_W-HI_W-L){pcc_hi2[HI_W-1]}}, pcc_hi2, {L{1'b0}}};
+            wire signed [S_W-1:0] lss = {{(S_W-LO_W){pss_lo2[LO_W-1]}}, pss_lo2};
+            wire signed [S_W-1:0] lsc = {{(S_W-LO_W){psc_lo2[LO_W-1]}}, psc_lo2};
+            wire signed [S_W-1:0] lcc = {{(S_W-LO_W){pcc_lo2[LO_W-1]}}, pcc_lo2};
+
+            if (COEF_FRAC - 1 < L) begin : g_rnd_in
+                // RND lies in those zero bits: no third operand
+                always @(posedge clk) begin
+                    if (ce) begin
+                        pss3 <= (hss | $signed(RND)) + lss;
+                        psc3 <= hsc + lsc;
+                        pcc3 <= (hcc | $signed(RND)) + lcc;
+                    end
+                end
+            end else begin : g_rnd_add
+                always @(posedge clk) begin
+                    if (ce) begin
+                        pss3 <= hss + lss + $signed(RND);
+                        psc3 <= hsc + lsc;
+                        pcc3 <= hcc + lcc + $signed(RND);
+                    end
+                end
+            end
         end
-    end
+    endgenerate
 
-    // ---- stage 3: sums + rounding constant --------------------------------------------------
+    // ---- stage 4: the sine sum ---------------------------------------------------------------
     reg signed [S_W-1:0] sum_s3, sum_c3;
 
     always @(posedge clk) begin
         if (ce) begin
-            sum_s3 <= pss2 + psc2 + $signed(RND);
-            sum_c3 <= pcc2 + $signed(RND);
+            sum_s3 <= pss3 + psc3;
+            sum_c3 <= pcc3;
         end
     end
 
-    // ---- stage 4: shift (floor) and saturate ------------------------------------------------
+    // ---- stage 5: shift (floor) and saturate ------------------------------------------------
     wire [Q_W-1:0] qs3 = sum_s3[S_W-1:COEF_FRAC];
     wire [Q_W-1:0] qc3 = sum_c3[S_W-1:COEF_FRAC];
     // in range of s(WAVE_W) when the bits above the sign bit repeat it

@@ -14,7 +14,7 @@
 // rst (synchronous, active high) empties the pipeline: m_axis_tvalid is 0 after it, samples in
 // flight and a sample taken in the same clock are dropped.
 //
-// LATENCY = fringe_core LATENCY = CORDIC_STAGES + 21 clocks from the s_axis handshake to
+// LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 clocks from the s_axis handshake to
 // m_axis_tvalid when the sink does not stall (every stall adds its cycles).
 
 `default_nettype none
@@ -61,7 +61,7 @@ module fringe_top #(
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 21;
+    localparam integer LATENCY = CORDIC_STAGES + 24;
     /* verilator lint_on UNUSEDPARAM */
     localparam integer CW          = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width of the core
     localparam integer POS_W       = $clog2(LINES) + FINE_W;         // position bits

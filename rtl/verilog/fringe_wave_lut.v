@@ -13,7 +13,8 @@
 //
 // LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
 //   1: table RAM read (fringe_table_ram, registered)   2: the RAM's output register
-//   3: slope * frac + 2^(FB-1)   4: value + (product >>> FB)
+//   3: slope * frac (the bare product: a DSP registered on both sides)
+//   4: ({value, 2^(FB-1)} + product) >>> FB, the rounding constant concatenated below value (one add)
 // ce = 0 freezes every register (including the RAM read); rst (synchronous, active high,
 // wins over ce) clears only the valid pipeline, never the data registers. The table write port
 // is independent of ce: write the bank that no sample in flight carries, then switch `bank`;
@@ -50,8 +51,9 @@ module fringe_wave_lut #(
 
     localparam integer LATENCY = 4;
     localparam integer FB      = ADC_W - WAVE_ADDR_W;  // fraction bits of the index, >= 1
-    localparam integer PROD_W  = WAVE_W + FB + 1;       // s(WAVE_W) * u(FB), plus rounding
-    localparam [PROD_W-1:0] RND = {{(PROD_W-1){1'b0}}, 1'b1} << (FB - 1);
+    localparam integer PROD_W  = WAVE_W + FB + 1;       // s(WAVE_W) * u(FB+1)
+    localparam [FB:0]   RND_X = {1'b1, {FB{1'b0}}} >> 1;
+    localparam [FB-1:0] RND   = RND_X[FB-1:0];            // 2^(FB-1), the rounding constant
 
     generate
         if (ADC_W < 4 || ADC_W > 24) begin : g_bad_adc_w
@@ -110,7 +112,7 @@ module fringe_wave_lut #(
     wire signed [WAVE_W-1:0] slope1 = word1r[2*WAVE_W-1:WAVE_W];
     wire signed [WAVE_W-1:0] value1 = word1r[WAVE_W-1:0];
 
-    // ---- stage 2: slope * frac + 2^(FB-1) ---------------------------------------------------
+    // ---- stage 2: slope * frac ----------------------------------------------------------------
     reg signed [PROD_W-1:0] prod2;
     reg signed [WAVE_W-1:0] value2;
     reg                     clip2;
@@ -119,20 +121,20 @@ module fringe_wave_lut #(
 
     always @(posedge clk) begin
         if (ce) begin
-            prod2  <= slope1 * frac1_s + $signed(RND);
+            prod2  <= slope1 * frac1_s;
             value2 <= value1;
             clip2  <= clip1;
         end
     end
 
-    // ---- stage 3: value + (product >>> FB) --------------------------------------------------
-    // The interpolated step lies between 0 and slope, and x between value[k] and value[k+1]:
-    // the sum is exact modulo 2^WAVE_W.
-    wire [WAVE_W-1:0] step2 = prod2[FB+WAVE_W-1:FB];
+    // ---- stage 3: x = ({value, 2^(FB-1)} + product) >>> FB ------------------------------------
+    // = value + ((product + 2^(FB-1)) >>> FB), one add. The interpolated step lies between 0 and
+    // slope, and x between value[k] and value[k+1]: the sum is exact modulo 2^WAVE_W.
+    wire [WAVE_W+FB-1:0] sum2 = {value2, RND} + prod2[WAVE_W+FB-1:0];
 
     always @(posedge clk) begin
         if (ce) begin
-            x    <= value2 + step2;
+            x    <= sum2[WAVE_W+FB-1:FB];
             clip <= clip2;
         end
     end
@@ -158,8 +160,9 @@ module fringe_wave_lut #(
     assign out_valid = valid_sr[LATENCY-1];
     assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
 
-    // prod2[PROD_W-1:FB+WAVE_W] only carries the sign of the step, already implied by step2.
-    wire unused_ok = &{1'b0, prod2[PROD_W-1:FB+WAVE_W], prod2[FB-1:0]};
+    // prod2[PROD_W-1:FB+WAVE_W] only carries the sign of the step, already implied by the sum;
+    // the sum's low bits are rounded off.
+    wire unused_ok = &{1'b0, prod2[PROD_W-1:FB+WAVE_W], sum2[FB-1:0]};
 
 endmodule
 

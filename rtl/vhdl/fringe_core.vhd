@@ -18,17 +18,23 @@
 -- Configuration write port (independent of ce): cfg_wr_addr[17:16] selects 0 registers and
 -- control, 1 sine table, 2 cosine table, 3 long-period table; cfg_wr_addr[15:0] is the word within
 -- one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
--- Writes always go to the inactive bank. Register word 0x80 is CTRL: writing bit 0 = 1 swaps the
--- banks at that clock edge; a sample accepted at the same edge still takes the old bank, every
--- later sample the new one. Software rule: after a swap, wait until the samples accepted before
--- it have come out (LATENCY clock enables) before writing the now inactive bank.
+-- Writes always go to the inactive bank (the one inactive when the write is issued); they are
+-- registered (decoded enables, address, data) and land one clock later. Register word 0x80 is
+-- CTRL: writing bit 0 = 1 swaps the banks at that clock edge; a sample accepted at the same edge
+-- still takes the old bank, every later sample the new one. A write issued before the swap lands
+-- at the swap's edge at the latest, in the bank it was issued for, so every sample of the new
+-- bank sees it. Software rule: after a swap, wait until the samples accepted before it have come
+-- out (LATENCY clock enables) before writing the now inactive bank.
 -- rst (synchronous, active high) clears the sample pipeline (valid bits, the period counter);
 -- the register file, the tables and the active bank are configuration and keep their values
 -- (power-up: bank 0, the init files).
 --
--- LATENCY = CORDIC_STAGES + 21 clock enables from in_valid to out_valid:
---   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 4 fringe_quadrature
---   + CORDIC_STAGES+2 fringe_cordic + 2 fringe_period_count + 7 fringe_long_period.
+-- LATENCY = CORDIC_STAGES + 24 clock enables from in_valid to out_valid:
+--   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
+--   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count + 8 fringe_long_period.
+-- The registers a block takes with the sample (quadrature coefficients, magnitude thresholds,
+-- COARSE_OFS, ZERO/DIR) are read one clock enable ahead, with the sample's bank from a copy of
+-- the bank pipeline (taps at the blocks' latencies), so no register-file mux feeds block logic.
 -- ce = 0 freezes the pipeline (the tables keep their write port).
 
 library ieee;
@@ -122,7 +128,7 @@ architecture rtl of fringe_core is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := CORDIC_STAGES + 21;
+    constant LATENCY : integer := CORDIC_STAGES + 24;
     constant REG_W   : integer := 32;
     constant AMP_W   : integer := WAVE_W + 1;   -- CORDIC magnitude u(WAVE_W+1)
     constant BR_W    : integer := ADC_W + 1;    -- branch thresholds s(ADC_W+1)
@@ -203,13 +209,18 @@ architecture rtl of fringe_core is
         return r(idx)(w - 1 downto 0);
     end function reg_field;
 
-    -- configuration decode
+    -- configuration decode; the writes registered (one-hot register enables {bank, index})
     signal cfg_sel      : std_logic_vector(1 downto 0);
     signal cfg_word     : unsigned(15 downto 0);
     signal wr_bank      : std_logic;
-    signal wr_sin       : std_logic;
-    signal wr_cos       : std_logic;
-    signal wr_lp        : std_logic;
+    -- power-up values: no write lands before the first one issued (as bank_r, not reset)
+    signal reg_we       : std_logic_vector(31 downto 0) := (others => '0');
+    signal wr_sin       : std_logic := '0';
+    signal wr_cos       : std_logic := '0';
+    signal wr_lp        : std_logic := '0';
+    signal wr_word      : unsigned(15 downto 0);
+    signal wr_bank_r    : std_logic;
+    signal wr_data      : std_logic_vector(63 downto 0);
     signal wave_wr_addr : std_logic_vector(WAVE_ADDR_W + 1 downto 0);
     signal lp_wr_addr   : std_logic_vector(LP_ADDR_W downto 0);
 
@@ -225,6 +236,23 @@ architecture rtl of fringe_core is
     signal coarse1      : std_logic_vector(CW - 1 downto 0);
     signal bank1        : std_logic;
     signal br_s1, br_c1 : std_logic;
+
+    -- the bank pipeline: bank_d(k) is bank1 after k+1 clock enables. A block taking its sample
+    -- after N clock enables sees the sample's bank in bank_d(N-1); one clock enable ahead it is in
+    -- bank_d(N-2), which selects the registers it takes with the sample. The latencies must equal
+    -- the blocks' LATENCY constants.
+    constant LAT_WL : integer := 4;                      -- fringe_wave_lut
+    constant LAT_Q  : integer := 5;                      -- fringe_quadrature
+    constant LAT_C  : integer := CORDIC_STAGES + 2;      -- fringe_cordic
+    constant LAT_P  : integer := 3;                      -- fringe_period_count
+    constant TAP_Q  : integer := LAT_WL - 2;             -- quadrature coefficients
+    constant TAP_C  : integer := LAT_WL + LAT_Q + LAT_C - 2;          -- magnitude thresholds, COARSE_OFS
+    constant TAP_P  : integer := LAT_WL + LAT_Q + LAT_C + LAT_P - 2;  -- ZERO, DIR
+    signal bank_d       : std_logic_vector(TAP_P downto 0);
+    signal ofs_s_r, ofs_c_r : std_logic_vector(WAVE_W - 1 downto 0);
+    signal k_ss_r, k_sc_r, k_cc_r : std_logic_vector(COEF_W - 1 downto 0);
+    signal amp_low, amp_high : std_logic_vector(AMP_W - 1 downto 0);
+    signal coarse_ofs_r : std_logic_vector(POS_W downto 0);
 
     -- waveform tables: user {coarse, bank}
     constant U_WL : integer := CW + 1;
@@ -253,7 +281,6 @@ architecture rtl of fringe_core is
     signal phase        : std_logic_vector(FINE_W - 1 downto 0);
     signal mag          : std_logic_vector(AMP_W - 1 downto 0);
     signal c_user       : std_logic_vector(U_C - 1 downto 0);
-    signal c_bank       : std_logic;
     signal f_low        : std_logic;
     signal f_high       : std_logic;
 
@@ -281,29 +308,54 @@ begin
     cfg_word <= unsigned(cfg_wr_addr(15 downto 0));
     wr_bank  <= not bank_r;                 -- writes go to the inactive bank
 
-    p_cfg : process (clk)
+    -- Writes are registered: one-hot register enables {bank, index}, table enables, addresses and
+    -- data; they land one clock later (the decode and the 32-way fan-out sit in separate clocks).
+    p_cfg_dec : process (clk)
     begin
         if rising_edge(clk) then
-            if cfg_wr_en = '1' and cfg_sel = "00" then
-                if cfg_word < 16 then
-                    regs(to_integer(unsigned(wr_bank & std_logic_vector(cfg_word(3 downto 0)))))
-                        <= cfg_wr_data(REG_W - 1 downto 0);
+            for i in 0 to 31 loop
+                if cfg_wr_en = '1' and cfg_sel = "00" and cfg_word = to_unsigned(i mod 16, 16)
+                   and (wr_bank = '1') = (i >= 16) then
+                    reg_we(i) <= '1';
+                else
+                    reg_we(i) <= '0';
                 end if;
-                if cfg_word = CTRL_WORD and cfg_wr_data(0) = '1' then
-                    bank_r <= not bank_r;
+            end loop;
+            -- table write enables: the word must lie inside one bank
+            wr_sin <= '1' when cfg_wr_en = '1' and cfg_sel = "01" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
+            wr_cos <= '1' when cfg_wr_en = '1' and cfg_sel = "10" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
+            wr_lp  <= '1' when cfg_wr_en = '1' and cfg_sel = "11" and shift_right(cfg_word, LP_ADDR_W) = 0 else '0';
+            wr_word   <= cfg_word;
+            wr_bank_r <= wr_bank;
+            wr_data   <= cfg_wr_data;
+        end if;
+    end process p_cfg_dec;
+
+    p_regs : process (clk)
+    begin
+        if rising_edge(clk) then
+            for i in 0 to 31 loop
+                if reg_we(i) = '1' then
+                    regs(i) <= wr_data(REG_W - 1 downto 0);
                 end if;
+            end loop;
+        end if;
+    end process p_regs;
+
+    -- CTRL swaps at once: a write issued before it carries its bank in wr_bank_r
+    p_ctrl : process (clk)
+    begin
+        if rising_edge(clk) then
+            if cfg_wr_en = '1' and cfg_sel = "00" and cfg_word = CTRL_WORD and cfg_wr_data(0) = '1' then
+                bank_r <= not bank_r;
             end if;
         end if;
-    end process p_cfg;
+    end process p_ctrl;
 
     active_bank <= bank_r;
 
-    -- table write enables: the word must lie inside one bank
-    wr_sin <= '1' when cfg_wr_en = '1' and cfg_sel = "01" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
-    wr_cos <= '1' when cfg_wr_en = '1' and cfg_sel = "10" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
-    wr_lp  <= '1' when cfg_wr_en = '1' and cfg_sel = "11" and shift_right(cfg_word, LP_ADDR_W) = 0 else '0';
-    wave_wr_addr <= wr_bank & std_logic_vector(cfg_word(WAVE_ADDR_W downto 0));
-    lp_wr_addr   <= wr_bank & std_logic_vector(cfg_word(LP_ADDR_W - 1 downto 0));
+    wave_wr_addr <= wr_bank_r & std_logic_vector(wr_word(WAVE_ADDR_W downto 0));
+    lp_wr_addr   <= wr_bank_r & std_logic_vector(wr_word(LP_ADDR_W - 1 downto 0));
 
     -- ---- stage 1 (registered): the sample takes the active bank and that bank's branch thresholds --
     -- (the register file read and the compares sit in separate stages: one long path otherwise)
@@ -374,7 +426,27 @@ begin
         end if;
     end process p_stage2;
 
-    -- ---- stages 2..4: waveform tables ------------------------------------------------------------
+    -- ---- the bank pipeline: registers read one clock enable ahead -------------------------------
+    p_bank_d : process (clk)
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                bank_d <= bank_d(TAP_P - 1 downto 0) & bank1;
+                ofs_s_r      <= reg_field(regs, bank_d(TAP_Q), R_OFS_S, WAVE_W);
+                ofs_c_r      <= reg_field(regs, bank_d(TAP_Q), R_OFS_C, WAVE_W);
+                k_ss_r       <= reg_field(regs, bank_d(TAP_Q), R_K_SS, COEF_W);
+                k_sc_r       <= reg_field(regs, bank_d(TAP_Q), R_K_SC, COEF_W);
+                k_cc_r       <= reg_field(regs, bank_d(TAP_Q), R_K_CC, COEF_W);
+                amp_low      <= reg_field(regs, bank_d(TAP_C), R_AMP_LOW, AMP_W);
+                amp_high     <= reg_field(regs, bank_d(TAP_C), R_AMP_HIGH, AMP_W);
+                coarse_ofs_r <= reg_field(regs, bank_d(TAP_C), R_COARSE_OFS, POS_W + 1);
+                p_zero       <= reg_field(regs, bank_d(TAP_P), R_ZERO, POS_W);
+                p_dir        <= reg_field(regs, bank_d(TAP_P), R_DIR, 1);
+            end if;
+        end if;
+    end process p_bank_d;
+
+    -- ---- stages 3..6: waveform tables ------------------------------------------------------------
     wl_in_user <= coarse1 & bank1;
 
     u_wave_sin : entity work.fringe_wave_lut
@@ -383,7 +455,7 @@ begin
         port map (
             clk => clk, rst => rst, ce => ce,
             in_valid => valid1, adc => sin1, branch => br_s1, bank => bank1, in_user => wl_in_user,
-            wr_en => wr_sin, wr_addr => wave_wr_addr, wr_data => cfg_wr_data(2 * WAVE_W - 1 downto 0),
+            wr_en => wr_sin, wr_addr => wave_wr_addr, wr_data => wr_data(2 * WAVE_W - 1 downto 0),
             out_valid => wl_valid, x => xs, clip => clip_s, out_user => wl_user
         );
 
@@ -394,13 +466,13 @@ begin
         port map (
             clk => clk, rst => rst, ce => ce,
             in_valid => valid1, adc => cos1, branch => br_c1, bank => bank1, in_user => "0",
-            wr_en => wr_cos, wr_addr => wave_wr_addr, wr_data => cfg_wr_data(2 * WAVE_W - 1 downto 0),
+            wr_en => wr_cos, wr_addr => wave_wr_addr, wr_data => wr_data(2 * WAVE_W - 1 downto 0),
             out_valid => wl_valid_c, x => xc, clip => clip_c, out_user => wl_user_c
         );
 
     wl_bank <= wl_user(0);
 
-    -- ---- stages 5..8: quadrature, coefficients of the sample's bank ------------------------------
+    -- ---- stages 7..11: quadrature, coefficients of the sample's bank ----------------------------
     q_in_user <= wl_user(U_WL - 1 downto 1) & clip_c & clip_s & wl_bank;
 
     u_quad : entity work.fringe_quadrature
@@ -408,15 +480,11 @@ begin
         port map (
             clk => clk, rst => rst, ce => ce,
             in_valid => wl_valid, xs => xs, xc => xc, in_user => q_in_user,
-            ofs_s => reg_field(regs, wl_bank, R_OFS_S, WAVE_W),
-            ofs_c => reg_field(regs, wl_bank, R_OFS_C, WAVE_W),
-            k_ss  => reg_field(regs, wl_bank, R_K_SS, COEF_W),
-            k_sc  => reg_field(regs, wl_bank, R_K_SC, COEF_W),
-            k_cc  => reg_field(regs, wl_bank, R_K_CC, COEF_W),
+            ofs_s => ofs_s_r, ofs_c => ofs_c_r, k_ss => k_ss_r, k_sc => k_sc_r, k_cc => k_cc_r,
             out_valid => q_valid, s => qs, c => qc, sat => q_sat, out_user => q_user
         );
 
-    -- ---- stages 9..CORDIC_STAGES+10: CORDIC (x = c, y = s) ---------------------------------------
+    -- ---- stages 12..CORDIC_STAGES+13: CORDIC (x = c, y = s) -------------------------------------
     c_in_user <= q_user(U_Q - 1 downto 3) & q_sat & q_user(2 downto 0);
 
     u_cordic : entity work.fringe_cordic
@@ -428,13 +496,10 @@ begin
             out_valid => c_valid, phase => phase, mag => mag, out_user => c_user
         );
 
-    c_bank <= c_user(0);
-    -- magnitude flags with the thresholds of the sample's bank (only on a defined magnitude: no
-    -- numeric_std warnings while the pipeline fills)
-    f_low  <= '1' when not is_x(mag)
-                       and unsigned(mag) < unsigned(reg_field(regs, c_bank, R_AMP_LOW, AMP_W)) else '0';
-    f_high <= '1' when not is_x(mag)
-                       and unsigned(mag) > unsigned(reg_field(regs, c_bank, R_AMP_HIGH, AMP_W)) else '0';
+    -- magnitude flags with the thresholds of the sample's bank, registered above (only on a defined
+    -- magnitude: no numeric_std warnings while the pipeline fills)
+    f_low  <= '1' when not is_x(mag) and not is_x(amp_low) and unsigned(mag) < unsigned(amp_low) else '0';
+    f_high <= '1' when not is_x(mag) and not is_x(amp_high) and unsigned(mag) > unsigned(amp_high) else '0';
 
     -- ---- period count ----------------------------------------------------------------------------
     p_in_user <= f_high & f_low & c_user(3 downto 0);
@@ -444,7 +509,7 @@ begin
         port map (
             clk => clk, rst => rst, ce => ce,
             in_valid => c_valid, phase => phase, coarse => c_user(U_C - 1 downto 4),
-            coarse_ofs => reg_field(regs, c_bank, R_COARSE_OFS, POS_W + 1),
+            coarse_ofs => coarse_ofs_r,
             in_user => p_in_user,
             out_valid => p_valid, pos => p_pos, overspeed => p_overspeed, coarse_err => p_coarse_err,
             out_user => p_user
@@ -452,8 +517,6 @@ begin
 
     -- ---- long-period table, zero and direction -------------------------------------------------
     p_bank    <= p_user(0);
-    p_zero    <= reg_field(regs, p_bank, R_ZERO, POS_W);
-    p_dir     <= reg_field(regs, p_bank, R_DIR, 1);
     l_in_user <= p_bank & p_user(3) & p_coarse_err & p_overspeed & p_user(5 downto 4) & p_user(2 downto 1);
 
     u_long : entity work.fringe_long_period
@@ -465,7 +528,7 @@ begin
             in_valid => p_valid, pos => p_pos, bank => p_bank,
             zero => p_zero, dir => p_dir(0),
             in_user => l_in_user,
-            wr_en => wr_lp, wr_addr => lp_wr_addr, wr_data => cfg_wr_data(2 * LP_W - 1 downto 0),
+            wr_en => wr_lp, wr_addr => lp_wr_addr, wr_data => wr_data(2 * LP_W - 1 downto 0),
             out_valid => out_valid, pos_out => pos, out_user => l_user
         );
 

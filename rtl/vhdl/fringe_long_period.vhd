@@ -25,9 +25,14 @@
 -- The table is written through wr_en / wr_addr ({bank, entry}) / wr_data, passed to
 -- fringe_table_ram whatever ce is; write only the bank no sample in flight reads.
 --
--- LATENCY = 7 clock enables (ce = 1 cycles) from in_valid to out_valid (2b: the RAM's output register):
---   1 index product   2 table read   3 slope x fraction (+ rounding constants)
---   4 correction rounded to fine counts, subtracted from pos   5 wrap into [0, REV)
+-- LATENCY = 8 clock enables (ce = 1 cycles) from in_valid to out_valid, one carry chain per stage:
+--   1 index product   2 table read   2b the RAM's output register
+--   3 slope x fraction, bare (a DSP registered on both sides); a slope wider than 16 bits is split,
+--     slope * frac = slope_hi * frac * 2^15 + slope_lo * frac (slope_lo unsigned), so each partial
+--     product fits a 16x16 DSP (iCE40); value + 2^(LP_FRAC-1)
+--   3b the partial products summed (else the product registered again)
+--   4 step = ({value, 2^(LP_IF-1)} + product) >>> (LP_IF + LP_FRAC) (one add); pos, pos + REV, pos - REV
+--   5 pos - step and its wrapped alternatives in parallel, chosen by sign bits; zero -+ REV
 --   6 zero and direction, wrap
 -- One sample per clock. ce = 0 freezes every register (and the table read); rst (synchronous,
 -- active high, wins over ce) clears only the valid pipeline, never the data registers.
@@ -186,13 +191,15 @@ architecture rtl of fringe_long_period is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := 7;
+    constant LATENCY : integer := 8;
     constant POS_W   : integer := FINE_W + clog2(LINES);            -- clog2(REV)
     constant RECIP_W : integer := bits(LP_RECIP);
     constant T_W     : integer := maximum(POS_W + RECIP_W, LP_SHIFT + LP_ADDR_W);  -- index product
-    constant PR_W    : integer := LP_W + LP_IF + 1;                 -- slope x frac (+ 2^(LP_IF-1))
+    constant PR_W    : integer := LP_W + LP_IF + 1;                 -- slope x frac
     constant C_W     : integer := maximum(LP_W, LP_FRAC) + 2;       -- value + 2^(LP_FRAC-1) + ip
-    constant PX_W    : integer := maximum(PR_W, C_W);               -- the product, sign-extended
+    constant SX_W    : integer := C_W + LP_IF;                      -- {value, 2^(LP_IF-1)} + product
+    -- 2^(LP_IF-1) in LP_IF + 1 bits; its low LP_IF bits are concatenated below value
+    constant RND_X   : signed(LP_IF downto 0) := shift_left(to_signed(1, LP_IF + 1), LP_IF - 1);
     constant WW      : integer := POS_W + 2;                        -- signed positions
     constant REV_W   : unsigned(WW - 1 downto 0) := shift_left(to_unsigned(LINES, WW), FINE_W);
 
@@ -220,9 +227,12 @@ architecture rtl of fringe_long_period is
     signal s1b_frac          : unsigned(LP_IF - 1 downto 0);
     signal s1b_pos, s1b_zero : unsigned(POS_W - 1 downto 0);
     signal s1b_dir           : std_logic;
-    signal s3_prod           : signed(PR_W - 1 downto 0);
-    signal s3_value          : signed(C_W - 1 downto 0);
-    signal s4_pos_c          : signed(WW - 1 downto 0);
+    signal s3_prod           : signed(PR_W - 1 downto 0);    -- after stage 3b: slope * frac
+    signal s3a_value, s3_value : signed(C_W - 1 downto 0);
+    signal s3a_pos, s3a_zero : unsigned(POS_W - 1 downto 0);
+    signal s3a_dir           : std_logic;
+    signal s4_step           : signed(C_W - LP_FRAC - 1 downto 0);
+    signal s4_pos, s4_pos_up, s4_pos_dn : signed(WW - 1 downto 0);
     signal s5_zero, s5_zero_alt : unsigned(WW - 1 downto 0);
 
 begin
@@ -259,11 +269,44 @@ begin
         port map (clk => clk, wr_en => wr_en, wr_addr => wr_addr, wr_data => wr_data,
                   rd_en => ce, rd_addr => rd_addr, rd_data => word_ram);
 
+    -- ---- 3, 3b: slope x fraction ------------------------------------------------------------------
+    g_prod : if LP_W <= 16 generate
+        signal s3a_prod : signed(PR_W - 1 downto 0);
+    begin
+        p_prod : process (clk)
+        begin
+            if rising_edge(clk) then
+                if ce = '1' then
+                    s3a_prod <= signed(word(2 * LP_W - 1 downto LP_W)) * signed('0' & s2_frac);
+                    s3_prod  <= s3a_prod;
+                end if;
+            end if;
+        end process p_prod;
+    else generate
+        constant L    : integer := 15;                      -- slope_lo bits, unsigned
+        constant LO_W : integer := L + LP_IF + 2;           -- s(L+1) x s(LP_IF+1)
+        constant HI_W : integer := LP_W - L + LP_IF + 1;    -- s(LP_W-L) x s(LP_IF+1)
+        signal s3a_lo : signed(LO_W - 1 downto 0);
+        signal s3a_hi : signed(HI_W - 1 downto 0);
+    begin
+        p_prod : process (clk)
+        begin
+            if rising_edge(clk) then
+                if ce = '1' then
+                    s3a_lo  <= signed('0' & word(LP_W + L - 1 downto LP_W)) * signed('0' & s2_frac);
+                    s3a_hi  <= signed(word(2 * LP_W - 1 downto LP_W + L)) * signed('0' & s2_frac);
+                    -- 3b: hi * 2^L + lo (|slope * frac| < 2^(PR_W-2): no wrap)
+                    s3_prod <= shift_left(resize(s3a_hi, PR_W), L) + resize(s3a_lo, PR_W);
+                end if;
+            end if;
+        end process p_prod;
+    end generate g_prod;
+
     p_data : process (clk)
         variable t        : unsigned(T_W - 1 downto 0);
-        variable ip       : signed(PX_W - 1 downto 0);
-        variable corr     : signed(C_W - 1 downto 0);
-        variable c_up, c_down, c_wrap : signed(WW - 1 downto 0);
+        variable sum4     : signed(SX_W - 1 downto 0);
+        variable pos_x    : signed(WW - 1 downto 0);
+        variable step_x, c_mid, c_up, c_down, c_wrap : signed(WW - 1 downto 0);
         variable zero_x   : unsigned(WW - 1 downto 0);
         variable pc_x, a, b : unsigned(WW - 1 downto 0);
         variable use_b    : boolean;
@@ -290,30 +333,40 @@ begin
                 s2_zero  <= s1b_zero;
                 s2_dir   <= s1b_dir;
 
-                -- 3: slope x fraction + 2^(LP_IF-1); value + 2^(LP_FRAC-1)
-                s3_prod  <= resize(signed(word(2 * LP_W - 1 downto LP_W)) * signed('0' & s2_frac), PR_W)
-                            + round_term(PR_W, LP_IF);
-                s3_value <= resize(signed(word(LP_W - 1 downto 0)), C_W) + round_term(C_W, LP_FRAC);
-                s3_pos   <= s2_pos;
-                s3_zero  <= s2_zero;
-                s3_dir   <= s2_dir;
+                -- 3: slope x fraction (registered bare, in g_prod / g_split); value + 2^(LP_FRAC-1)
+                s3a_value <= resize(signed(word(LP_W - 1 downto 0)), C_W) + round_term(C_W, LP_FRAC);
+                s3a_pos   <= s2_pos;
+                s3a_zero  <= s2_zero;
+                s3a_dir   <= s2_dir;
+                -- 3b: the partial products summed (g_prod / g_split)
+                s3_value  <= s3a_value;
+                s3_pos    <= s3a_pos;
+                s3_zero   <= s3a_zero;
+                s3_dir    <= s3a_dir;
 
-                -- 4: step = corr >>> LP_FRAC; pos - step (|step| <= 2^(LP_W-LP_FRAC) <= REV)
-                ip   := shift_right(resize(s3_prod, PX_W), LP_IF);
-                corr := s3_value + ip(C_W - 1 downto 0);
-                s4_pos_c <= signed(resize(s3_pos, WW)) - resize(corr(C_W - 1 downto LP_FRAC), WW);
-                s4_zero  <= s3_zero;
-                s4_dir   <= s3_dir;
+                -- 4: step = corr + 2^(LP_FRAC-1) >>> LP_FRAC, one add: ({value + 2^(LP_FRAC-1),
+                -- 2^(LP_IF-1)} + product) >>> (LP_IF + LP_FRAC); pos -+ REV in parallel for stage 5
+                sum4 := (s3_value & RND_X(LP_IF - 1 downto 0)) + resize(s3_prod, SX_W);
+                s4_step   <= sum4(SX_W - 1 downto LP_IF + LP_FRAC);
+                pos_x     := signed(resize(s3_pos, WW));
+                s4_pos    <= pos_x;
+                s4_pos_up <= pos_x + signed(REV_W);
+                s4_pos_dn <= pos_x - signed(REV_W);
+                s4_zero   <= s3_zero;
+                s4_dir    <= s3_dir;
 
-                -- 5: wrap into [0, REV), the alternatives in parallel; zero -+ REV for stage 6
-                c_up   := s4_pos_c + signed(REV_W);
-                c_down := s4_pos_c - signed(REV_W);
-                if s4_pos_c(WW - 1) = '1' then
+                -- 5: pos_c = (pos - step) mod REV, the three differences in parallel, chosen by sign
+                -- bits (|step| <= 2^(LP_W-LP_FRAC) <= REV); zero -+ REV for stage 6
+                step_x := resize(s4_step, WW);
+                c_mid  := s4_pos - step_x;
+                c_up   := s4_pos_up - step_x;
+                c_down := s4_pos_dn - step_x;
+                if c_mid(WW - 1) = '1' then
                     c_wrap := c_up;
                 elsif c_down(WW - 1) = '0' then
                     c_wrap := c_down;
                 else
-                    c_wrap := s4_pos_c;
+                    c_wrap := c_mid;
                 end if;
                 s5_pos_c <= unsigned(c_wrap(POS_W - 1 downto 0));
                 zero_x := resize(s4_zero, WW);

@@ -24,8 +24,10 @@
 --   pos u(POS_W) in [0, REV).
 -- Bit-exact model: model/fringe/fixed/period_count.py.
 --
--- LATENCY = 2 clock enables (ce = 1 cycles) from in_valid to out_valid:
---   1: delta, overspeed, coarse centre   2: period number, wrap, position (the counter)
+-- LATENCY = 3 clock enables (ce = 1 cycles) from in_valid to out_valid, one carry chain per stage:
+--   1: delta, coarse centre   2: overspeed test; d + half (period number n and residual r), or the
+--   counter's delta with its two wrapped alternatives   3: |r| > tol, the wrap of n and the position,
+--   or the counter (three sums in parallel, chosen by sign bits)
 -- One sample per clock. ce = 0 freezes every register. rst (synchronous, active high, wins over ce)
 -- clears the valid pipeline and the "previous sample seen" state, so the next valid sample is the
 -- first again; the data registers (phase_prev, the position) are never reset. The outputs update
@@ -109,7 +111,7 @@ architecture rtl of fringe_period_count is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := 2;
+    constant LATENCY : integer := 3;
     constant POS_W   : integer := FINE_W + clog2(LINES);   -- clog2(REV)
     constant N_W     : integer := POS_W - FINE_W;          -- period number bits (0 when LINES = 1)
     constant W       : integer := POS_W + 3;               -- signed: centre and d for any s(POS_W+1) offset
@@ -123,8 +125,6 @@ architecture rtl of fringe_period_count is
     constant Q3 : unsigned(FINE_W - 1 downto 0) := shift_left(to_unsigned(3, FINE_W), FINE_W - 2);
 
     constant LINES_W : unsigned(W - 1 downto 0) := to_unsigned(LINES, W);
-    constant HALF    : unsigned(W - 1 downto 0) := shift_left(to_unsigned(1, W), FINE_W - 1);
-    constant HALF_R  : unsigned(FINE_W downto 0) := shift_left(to_unsigned(1, FINE_W + 1), FINE_W - 1);
     constant REV_S   : unsigned(SW - 1 downto 0) := shift_left(to_unsigned(LINES, SW), FINE_W);
 
     -- COARSE_TOL (< 2^(FINE_W-1) + 1) as s(FINE_W+1); 0 without a coarse code
@@ -146,12 +146,16 @@ architecture rtl of fringe_period_count is
 
     signal phase_prev : unsigned(FINE_W - 1 downto 0);  -- data: the previous valid sample's phase
     signal have_prev  : std_logic;                      -- state: a valid sample was taken since reset
-    signal delta      : unsigned(FINE_W - 1 downto 0);
     signal s1_phase   : unsigned(FINE_W - 1 downto 0);
-    signal s1_over    : std_logic;
+    signal s1_delta   : unsigned(FINE_W - 1 downto 0);  -- phase - phase_prev mod 2^FINE_W
+    signal s1_first   : std_logic;                      -- no previous sample
     signal s1_centre  : unsigned(W - 1 downto 0);
-    signal s1_delta   : unsigned(FINE_W - 1 downto 0);
-    signal s1_first   : std_logic;
+    signal s2_phase   : unsigned(FINE_W - 1 downto 0);
+    signal s2_first   : std_logic;
+    signal s2_over    : std_logic;
+    signal s2_n       : unsigned(NR - 1 downto 0);      -- floor((d + half) / 2^FINE_W), in [-2, LINES+1]
+    signal s2_r       : signed(FINE_W - 1 downto 0);    -- residual, in [-2^(FINE_W-1), 2^(FINE_W-1))
+    signal s2_d, s2_d_up, s2_d_down : unsigned(SW - 1 downto 0);  -- counter: delta, delta + REV, delta - REV
     signal pos_r      : unsigned(POS_W - 1 downto 0);   -- the output; pos_prev of the counter
 
 begin
@@ -181,10 +185,7 @@ begin
     out_user  <= user_sr(LATENCY);
 
     take <= ce and in_valid;       -- stage 1 takes a sample
-    done <= ce and valid_sr(1);    -- stage 2 produces an output
-
-    -- ---- stage 1: delta to the previous valid sample, overspeed, coarse centre ---------------
-    delta <= unsigned(phase) - phase_prev;
+    done <= ce and valid_sr(2);    -- stage 3 produces an output
 
     p_state : process (clk)
     begin
@@ -197,6 +198,7 @@ begin
         end if;
     end process p_state;
 
+    -- ---- stage 1: delta to the previous valid sample, coarse centre --------------------------
     p_stage1 : process (clk)
         variable cpos : unsigned(W - 1 downto 0);
     begin
@@ -206,12 +208,7 @@ begin
             end if;
             if ce = '1' then
                 s1_phase <= unsigned(phase);
-                if have_prev = '1' and delta >= Q1 and delta <= Q3 then
-                    s1_over <= '1';
-                else
-                    s1_over <= '0';
-                end if;
-                s1_delta <= delta;
+                s1_delta <= unsigned(phase) - phase_prev;
                 s1_first <= not have_prev;
                 -- centre = (coarse * LINES << (FINE_W - COARSE_W)) + coarse_ofs (< REV + 2^POS_W)
                 cpos := shift_left(resize(resize(unsigned(coarse), W) * LINES_W, W), SH);
@@ -220,44 +217,71 @@ begin
         end if;
     end process p_stage1;
 
-    -- ---- stage 2: position and flags ----------------------------------------------------------
+    -- ---- stage 2: overspeed; d + half, or the counter's delta and its wrapped alternatives ----
     p_stage2 : process (clk)
-        variable d, dh     : unsigned(W - 1 downto 0);
-        variable n, n_up, n_down, n_wrap : unsigned(NR - 1 downto 0);
+        variable ph_h, dh : unsigned(W - 1 downto 0);
+        variable dx       : unsigned(SW - 1 downto 0);
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                s2_phase <= s1_phase;
+                s2_first <= s1_first;
+                if s1_first = '0' and s1_delta >= Q1 and s1_delta <= Q3 then
+                    s2_over <= '1';
+                else
+                    s2_over <= '0';
+                end if;
+                -- dh = d + 2^(FINE_W-1) = centre - (phase - 2^(FINE_W-1)), one subtract: phase -
+                -- 2^(FINE_W-1) is phase with its top bit inverted, read as s(FINE_W); r is dh's low
+                -- bits with the top one inverted, as s(FINE_W)
+                ph_h := unsigned(resize(signed(not s1_phase(FINE_W - 1) & s1_phase(FINE_W - 2 downto 0)), W));
+                dh   := s1_centre - ph_h;
+                s2_n <= dh(W - 1 downto FINE_W);
+                s2_r <= signed(not dh(FINE_W - 1) & dh(FINE_W - 2 downto 0));
+                -- counter: delta + REV and delta - REV, so stage 3 adds once
+                dx := unsigned(resize(signed(s1_delta), SW));
+                s2_d      <= dx;
+                s2_d_up   <= dx + REV_S;
+                s2_d_down <= dx - REV_S;
+            end if;
+        end if;
+    end process p_stage2;
+
+    -- ---- stage 3: position and flags ----------------------------------------------------------
+    p_stage3 : process (clk)
+        variable n_up, n_down, n_wrap : unsigned(NR - 1 downto 0);
         variable r         : signed(FINE_W downto 0);
         variable sum, sum_up, sum_down, nxt : unsigned(SW - 1 downto 0);
     begin
         if rising_edge(clk) then
             if done = '1' then
-                overspeed <= s1_over;
+                overspeed <= s2_over;
                 if COARSE_W > 0 then
-                    -- nearest period n, residual r, n mod LINES (n in [-2, LINES+1])
-                    d  := s1_centre - resize(s1_phase, W);
-                    dh := d + HALF;
-                    n  := dh(W - 1 downto FINE_W);
-                    r  := signed(resize(dh(FINE_W - 1 downto 0), FINE_W + 1) - HALF_R);
+                    -- |r| > tol (two compares in parallel); n mod LINES (n in [-2, LINES+1]), both
+                    -- candidates in parallel, chosen by sign bits
+                    r := resize(s2_r, FINE_W + 1);
                     if r > TOL or r < -TOL then
                         coarse_err <= '1';
                     else
                         coarse_err <= '0';
                     end if;
-                    n_up   := n + LINES_W(NR - 1 downto 0);
-                    n_down := n - LINES_W(NR - 1 downto 0);
+                    n_up   := s2_n + LINES_W(NR - 1 downto 0);
+                    n_down := s2_n - LINES_W(NR - 1 downto 0);
                     if LINES = 1 then
                         n_wrap := (others => '0');      -- n mod 1 = 0
-                    elsif n(NR - 1) = '1' then
+                    elsif s2_n(NR - 1) = '1' then
                         n_wrap := n_up;
                     elsif n_down(NR - 1) = '0' then
                         n_wrap := n_down;
                     else
-                        n_wrap := n;
+                        n_wrap := s2_n;
                     end if;
-                    pos_r <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s1_phase, POS_W);
+                    pos_r <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s2_phase, POS_W);
                 else
-                    -- pos = (pos_prev + delta) mod REV; the two wrapped alternatives in parallel
-                    sum      := resize(pos_r, SW) + unsigned(resize(signed(s1_delta), SW));
-                    sum_up   := sum + REV_S;
-                    sum_down := sum - REV_S;
+                    -- pos = (pos_prev + delta) mod REV: the three sums in parallel, chosen by sign bits
+                    sum      := resize(pos_r, SW) + s2_d;
+                    sum_up   := resize(pos_r, SW) + s2_d_up;
+                    sum_down := resize(pos_r, SW) + s2_d_down;
                     if sum(SW - 1) = '1' then
                         nxt := sum_up;
                     elsif sum_down(SW - 1) = '0' then
@@ -265,8 +289,8 @@ begin
                     else
                         nxt := sum;
                     end if;
-                    if s1_first = '1' then
-                        pos_r <= resize(s1_phase, POS_W);
+                    if s2_first = '1' then
+                        pos_r <= resize(s2_phase, POS_W);
                     else
                         pos_r <= nxt(POS_W - 1 downto 0);
                     end if;
@@ -274,7 +298,7 @@ begin
                 end if;
             end if;
         end if;
-    end process p_stage2;
+    end process p_stage3;
 
     pos <= std_logic_vector(pos_r);
 

@@ -15,9 +15,12 @@
 -- The coefficient inputs are sampled in the same clock as xs/xc (they travel with the sample),
 -- so the top may switch the coefficient bank between any two samples.
 --
--- LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
---   1: differences, coefficients registered   2: products   3: sums + rounding constant
---   4: shift and saturate
+-- LATENCY = 5 clock enables (ce = 1 cycles) from in_valid to out_valid:
+--   1: differences, coefficients registered   2: products, bare (a DSP registered on both sides);
+--   a difference wider than 18 bits is split, k * d = k * d_hi * 2^17 + k * d_lo (d_lo unsigned),
+--   and the two partial products are registered   3: products assembled, the rounding constant
+--   2^(COEF_FRAC-1) added to k_ss and k_cc's (concatenated below the high partial product when it
+--   fits there)   4: the sine sum   5: shift and saturate
 -- ce = 0 freezes every register; rst (synchronous, active high, wins over ce) clears only the
 -- valid pipeline, never the data registers.
 
@@ -73,12 +76,15 @@ architecture rtl of fringe_quadrature is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY   : integer := 4;
+    constant LATENCY   : integer := 5;
     constant COEF_FRAC : integer := COEF_W - 2;
     constant D_W       : integer := WAVE_W + 1;        -- x - ofs, exact
     constant P_W       : integer := COEF_W + D_W;      -- k * (x - ofs), exact
     constant S_W       : integer := P_W + 1;           -- sum of two products + rounding, exact
     constant Q_W       : integer := S_W - COEF_FRAC;   -- after the shift: WAVE_W + 4
+    constant L         : integer := 17;                -- low part of a split difference, unsigned
+    constant WIDE      : boolean := D_W > 18;          -- split: each partial product fits an 18x18 DSP
+    constant DH_W      : integer := maximum(D_W - L, 1);  -- high part of a split difference, signed
     constant RND       : signed(S_W - 1 downto 0) := shift_left(to_signed(1, S_W), COEF_FRAC - 1);
     constant MAX_W     : signed(WAVE_W - 1 downto 0) := '0' & (WAVE_W - 2 downto 0 => '1');
     constant MIN_W     : signed(WAVE_W - 1 downto 0) := '1' & (WAVE_W - 2 downto 0 => '0');
@@ -100,7 +106,7 @@ architecture rtl of fringe_quadrature is
 
     signal ds1, dc1           : signed(D_W - 1 downto 0);
     signal k_ss1, k_sc1, k_cc1 : signed(COEF_W - 1 downto 0);
-    signal pss2, psc2, pcc2   : signed(P_W - 1 downto 0);
+    signal pss3, psc3, pcc3   : signed(S_W - 1 downto 0);   -- k_ss*ds + RND, k_sc*dc, k_cc*dc + RND
     signal sum_s3, sum_c3     : signed(S_W - 1 downto 0);
 
     type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
@@ -120,20 +126,69 @@ begin
                 k_ss1 <= signed(k_ss);
                 k_sc1 <= signed(k_sc);
                 k_cc1 <= signed(k_cc);
-                -- stage 2: products
-                pss2  <= k_ss1 * ds1;
-                psc2  <= k_sc1 * dc1;
-                pcc2  <= k_cc1 * dc1;
-                -- stage 3: sums + rounding constant
-                sum_s3 <= resize(pss2, S_W) + resize(psc2, S_W) + RND;
-                sum_c3 <= resize(pcc2, S_W) + RND;
-                -- stage 4: shift (floor) and saturate
+                -- stage 4: the sine sum
+                sum_s3 <= pss3 + psc3;
+                sum_c3 <= pcc3;
+                -- stage 5: shift (floor) and saturate
                 saturate(sum_s3(S_W - 1 downto COEF_FRAC), s, ovf_s);
                 saturate(sum_c3(S_W - 1 downto COEF_FRAC), c, ovf_c);
                 sat <= '1' when ovf_s or ovf_c else '0';
             end if;
         end if;
     end process p_data;
+
+    -- ---- stages 2, 3: products, assembled with the rounding constant ------------------------
+    g_narrow : if not WIDE generate
+        signal pss2, psc2, pcc2 : signed(P_W - 1 downto 0);
+    begin
+        p_prod : process (clk)
+        begin
+            if rising_edge(clk) then
+                if ce = '1' then
+                    pss2 <= k_ss1 * ds1;
+                    psc2 <= k_sc1 * dc1;
+                    pcc2 <= k_cc1 * dc1;
+                    pss3 <= resize(pss2, S_W) + RND;
+                    psc3 <= resize(psc2, S_W);
+                    pcc3 <= resize(pcc2, S_W) + RND;
+                end if;
+            end if;
+        end process p_prod;
+    else generate
+        constant LO_W : integer := COEF_W + L + 1;   -- k * d_lo
+        constant HI_W : integer := COEF_W + DH_W;    -- k * d_hi
+        signal pss_lo2, psc_lo2, pcc_lo2 : signed(LO_W - 1 downto 0);
+        signal pss_hi2, psc_hi2, pcc_hi2 : signed(HI_W - 1 downto 0);
+
+        -- hi * 2^L: its low L bits are zero
+        function shifted(hi : signed) return signed is
+        begin
+            return shift_left(resize(hi, S_W), L);
+        end function shifted;
+    begin
+        p_prod : process (clk)
+        begin
+            if rising_edge(clk) then
+                if ce = '1' then
+                    pss_lo2 <= k_ss1 * signed('0' & ds1(L - 1 downto 0));
+                    psc_lo2 <= k_sc1 * signed('0' & dc1(L - 1 downto 0));
+                    pcc_lo2 <= k_cc1 * signed('0' & dc1(L - 1 downto 0));
+                    pss_hi2 <= k_ss1 * ds1(D_W - 1 downto L);
+                    psc_hi2 <= k_sc1 * dc1(D_W - 1 downto L);
+                    pcc_hi2 <= k_cc1 * dc1(D_W - 1 downto L);
+                    psc3 <= shifted(psc_hi2) + resize(psc_lo2, S_W);
+                    if COEF_FRAC - 1 < L then
+                        -- RND lies in the zero bits of hi * 2^L: no third operand
+                        pss3 <= (shifted(pss_hi2) or RND) + resize(pss_lo2, S_W);
+                        pcc3 <= (shifted(pcc_hi2) or RND) + resize(pcc_lo2, S_W);
+                    else
+                        pss3 <= shifted(pss_hi2) + resize(pss_lo2, S_W) + RND;
+                        pcc3 <= shifted(pcc_hi2) + resize(pcc_lo2, S_W) + RND;
+                    end if;
+                end if;
+            end if;
+        end process p_prod;
+    end generate g_narrow;
 
     -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
     p_valid : process (clk)

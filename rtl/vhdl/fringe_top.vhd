@@ -16,7 +16,7 @@
 -- rst (synchronous, active high) empties the pipeline: m_axis_tvalid is 0 after it, samples in
 -- flight and a sample taken in the same clock are dropped.
 --
--- LATENCY = fringe_core LATENCY = CORDIC_STAGES + 21 clocks from the s_axis handshake to
+-- LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 clocks from the s_axis handshake to
 -- m_axis_tvalid when the sink does not stall (every stall adds its cycles).
 
 library ieee;
@@ -79,7 +79,7 @@ architecture rtl of fringe_top is
         return r;
     end function clog2;
 
-    constant LATENCY  : integer := CORDIC_STAGES + 21;
+    constant LATENCY  : integer := CORDIC_STAGES + 24;
     constant CW       : integer := maximum(COARSE_W, 1);      -- coarse port width of the core
     constant POS_W    : integer := clog2(LINES) + FINE_W;     -- position bits
     constant ADC_LANE : integer := 8 * ((ADC_W + 7) / 8);     -- bits of the sin and cos lanes

@@ -16,7 +16,8 @@
 --
 -- LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
 --   1: table RAM read (fringe_table_ram, registered)   2: the RAM's output register
---   3: slope * frac + 2^(FB-1)   4: value + (product >>> FB)
+--   3: slope * frac (the bare product: a DSP registered on both sides)
+--   4: ({value, 2^(FB-1)} + product) >>> FB, the rounding constant concatenated below value (one add)
 -- ce = 0 freezes every register (including the RAM read); rst (synchronous, active high,
 -- wins over ce) clears only the valid pipeline, never the data registers. The table write port
 -- is independent of ce: write the bank that no sample in flight carries, then switch `bank`;
@@ -80,7 +81,8 @@ architecture rtl of fringe_wave_lut is
 
     constant LATENCY : integer := 4;
     constant FB      : integer := ADC_W - WAVE_ADDR_W;   -- fraction bits of the index, >= 1
-    constant PROD_W  : integer := WAVE_W + FB + 1;        -- s(WAVE_W) * u(FB), plus rounding
+    constant PROD_W  : integer := WAVE_W + FB + 1;        -- s(WAVE_W) * u(FB+1)
+    constant RND_X   : signed(FB downto 0) := shift_left(to_signed(1, FB + 1), FB - 1);  -- 2^(FB-1)
 
     -- stage 0 (combinational)
     signal u0      : std_logic_vector(ADC_W - 1 downto 0);
@@ -127,7 +129,7 @@ begin
         );
 
     p_data : process (clk)
-        variable rnd : signed(PROD_W - 1 downto 0);
+        variable sum2 : signed(WAVE_W + FB - 1 downto 0);
     begin
         if rising_edge(clk) then
             if ce = '1' then
@@ -137,15 +139,14 @@ begin
                 word1r <= word1;
                 frac1  <= frac0r;
                 clip1  <= clip0r;
-                -- stage 2: slope * frac + 2^(FB-1)
-                rnd    := shift_left(to_signed(1, PROD_W), FB - 1);
-                prod2  <= resize(signed(word1r(2 * WAVE_W - 1 downto WAVE_W)) * signed('0' & frac1),
-                                 PROD_W) + rnd;
+                -- stage 2: slope * frac
+                prod2  <= signed(word1r(2 * WAVE_W - 1 downto WAVE_W)) * signed('0' & frac1);
                 value2 <= signed(word1r(WAVE_W - 1 downto 0));
                 clip2  <= clip1;
-                -- stage 3: value + (product >>> FB), exact modulo 2^WAVE_W (x lies between two
-                -- table values)
-                x      <= std_logic_vector(value2 + prod2(FB + WAVE_W - 1 downto FB));
+                -- stage 3: ({value, 2^(FB-1)} + product) >>> FB = value + ((product + 2^(FB-1))
+                -- >>> FB), one add, exact modulo 2^WAVE_W (x lies between two table values)
+                sum2   := (value2 & RND_X(FB - 1 downto 0)) + prod2(FB + WAVE_W - 1 downto 0);
+                x      <= std_logic_vector(sum2(WAVE_W + FB - 1 downto FB));
                 clip   <= clip2;
             end if;
         end if;

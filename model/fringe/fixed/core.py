@@ -136,8 +136,8 @@ INPUT_LATENCY = 2
 def core_latency(cfg: CoreConfig) -> int:
     """LATENCY of rtl/*/fringe_core (and fringe_top): clock enables from in_valid to out_valid.
 
-    The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 4, CORDIC
-    CORDIC_STAGES + 2, period count 2, long-period table 7; CORDIC_STAGES + 21 in all.
+    The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 5, CORDIC
+    CORDIC_STAGES + 2, period count 3, long-period table 8; CORDIC_STAGES + 24 in all.
     """
     return (INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + cfg.cordic().latency
             + pc_mod.LATENCY + lp_mod.LATENCY)

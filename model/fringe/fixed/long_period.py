@@ -22,8 +22,11 @@ Ranges: ``2^(LP_W - LP_FRAC) <= REV``, so whatever the table holds, ``|step| <= 
 or subtract of REV wraps each result into [0, REV) (with a table from `make_table` the step stays
 below half that).
 
-The RTL has ``LATENCY = 7`` enabled clocks: (1) index product, (2) table read and its output register, (3) slope x
-fraction, (4) correction rounded to fine counts and subtracted, (5) wrap, (6) zero and direction.
+The RTL has ``LATENCY = 8`` enabled clocks, one carry chain per stage: (1) index product, (2) table read and
+its output register, (3) slope x fraction (bare; split into two registered partial products when LP_W > 16) and
+``value + 2^(LP_FRAC-1)``, (3b) the partial products summed, (4) the correction rounded to fine counts,
+``({value + 2^(LP_FRAC-1), 2^(LP_IF-1)} + product) >>> (LP_IF + LP_FRAC)`` (one add), (5) ``pos - step`` and its
+wrapped alternatives in parallel, chosen by sign bits, (6) zero and direction.
 """
 
 from __future__ import annotations
@@ -53,7 +56,7 @@ __all__ = [
 ]
 
 #: Enabled clocks from ``in_valid`` to ``out_valid`` in the RTL.
-LATENCY = 7
+LATENCY = 8
 #: Largest LP_SHIFT the HDL accepts (its elaboration check computes with 256-bit constants).
 LP_SHIFT_MAX = 127
 NAME = "fringe_long_period"
@@ -179,7 +182,7 @@ class LongPeriodParams:
 
     @property
     def latency(self) -> int:
-        """LATENCY: enabled clocks from in_valid to out_valid, 6."""
+        """LATENCY: enabled clocks from in_valid to out_valid, 8."""
         return LATENCY
 
     def hdl_parameters(self) -> dict[str, int]:
@@ -189,7 +192,7 @@ class LongPeriodParams:
 
 
 def latency(params: LongPeriodParams) -> int:
-    """Clock enables from ``in_valid`` to ``out_valid`` in the RTL: 6."""
+    """Clock enables from ``in_valid`` to ``out_valid`` in the RTL: 8."""
     return LATENCY
 
 

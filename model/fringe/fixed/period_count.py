@@ -25,8 +25,10 @@ the range and raises ``ValueError`` outside it).
 `period_count` takes a stream of valid samples that starts right after a reset (the RTL's state
 restarts there); it is vectorised (cumulative sums for the incremental counter).
 
-The RTL has ``LATENCY = 2`` enabled clocks: (1) delta, overspeed and the coarse centre;
-(2) period number, wrap and position (the counter).
+The RTL has ``LATENCY = 3`` enabled clocks, one carry chain per stage: (1) delta and the coarse
+centre; (2) the overspeed test, ``d + 2^(FINE_W-1)`` (period number and residual), or the counter's
+delta with its two wrapped alternatives; (3) ``|r| > COARSE_TOL``, the wrap of the period number and
+the position, or the counter (three sums in parallel, chosen by sign bits).
 """
 
 from __future__ import annotations
@@ -46,7 +48,7 @@ __all__ = [
 ]
 
 #: Enabled clocks from ``in_valid`` to ``out_valid`` in the RTL.
-LATENCY = 2
+LATENCY = 3
 #: Widest position the blocks support: ``FINE_W + clog2(LINES) <= 48`` (REV < 2^48 fits int64 with room).
 POS_W_MAX = 48
 NAME = "fringe_period_count"
@@ -131,7 +133,7 @@ class PeriodCountParams:
 
     @property
     def latency(self) -> int:
-        """LATENCY: enabled clocks from in_valid to out_valid, 2."""
+        """LATENCY: enabled clocks from in_valid to out_valid, 3."""
         return LATENCY
 
     def hdl_parameters(self) -> dict[str, int]:
@@ -140,7 +142,7 @@ class PeriodCountParams:
 
 
 def latency(params: PeriodCountParams) -> int:
-    """Clock enables from ``in_valid`` to ``out_valid`` in the RTL: 2."""
+    """Clock enables from ``in_valid`` to ``out_valid`` in the RTL: 3."""
     return LATENCY
 
 

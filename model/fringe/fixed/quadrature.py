@@ -29,9 +29,10 @@ __all__ = [
     "quantise_coefs",
 ]
 
-#: Clock enables from ``in_valid`` to ``out_valid`` in the RTL (differences, products, sums,
+#: Clock enables from ``in_valid`` to ``out_valid`` in the RTL (differences, products, products
+#: assembled with the rounding constant (partial products of a split multiply summed), sine sum,
 #: shift/saturate).
-LATENCY = 4
+LATENCY = 5
 
 _COEF_NAMES = ("k_ss", "k_sc", "k_cc")
 _OFS_NAMES = ("ofs_s", "ofs_c")

@@ -32,7 +32,8 @@ __all__ = [
     "wave_lut",
 ]
 
-#: Clock enables from ``in_valid`` to ``out_valid`` in the RTL (RAM read, multiply, add).
+#: Clock enables from ``in_valid`` to ``out_valid`` in the RTL (RAM read, its output register, the bare
+#: multiply, ``({value, 2^(FB-1)} + product) >>> FB`` in one add).
 LATENCY = 4
 
 
