@@ -7,6 +7,7 @@ calibrated on its even samples; all samples (even and odd) go through the RTL an
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from pathlib import Path
 
@@ -83,3 +84,39 @@ def test_cli_correct_verilog_rows_equal_model(tmp_path, capsys):
     rows = {e: [ln for ln in (d / f"{e}.csv").read_text().splitlines() if not ln.startswith("#")]
             for e in ("model", "verilog")}
     assert len(rows["model"]) == 3001 and rows["model"] == rows["verilog"]
+
+
+def _write_recording(cfg, seed: int, path) -> None:
+    from fringe import simulate
+    from fringe.dataio import write_csv
+
+    rec = simulate.simulate(cfg, seed=seed)
+    cols = {k: rec.columns[k] for k in ("t_s", "sin", "cos", "coarse", "ref_deg") if k in rec.columns}
+    write_csv(str(path), cols, simulate.describe(cfg, seed), simulate.csv_formats())
+
+
+@pytest.mark.parametrize("case", ["eccentricity+hysteresis", "ref_lag+skew"])
+def test_cli_loop_calibration_rtl_rows_equal_model(sim, tmp_path, case):
+    """A calibration from `fringe loop` (its added effects carried by fringe_trim) through
+    `fringe correct`: the RTL engine writes the same rows as the bit-exact model."""
+    import json
+
+    from fringe.cli import main
+    from fringe.scenarios import scenario
+
+    cfg, expected = scenario(case, samples=60_000)
+    d = tmp_path
+    _write_recording(cfg, 1, d / "a.csv")
+    _write_recording(dataclasses.replace(cfg, samples=4000), 2, d / "b.csv")
+    (d / "e.json").write_text(json.dumps(cfg.encoder().to_dict()))
+    assert main(["loop", str(d / "a.csv"), "--encoder", str(d / "e.json"), "--out", str(d / "loop")]) == 0
+    added = {e["name"] for e in json.loads((d / "loop" / "report.json").read_text())["effects_added"]}
+    assert added & {"rev_offset_gain", "hysteresis", "sampling_skew"}, added
+    assert json.loads((d / "loop" / "cal" / "core.json").read_text())["config"]["trim"] == 1
+    engine = {"verilator": "verilog", "ghdl": "vhdl"}[sim]
+    for e in ("model", engine):
+        assert main(["correct", str(d / "b.csv"), "--cal", str(d / "loop" / "cal"), "--out", str(d / f"{e}.csv"),
+                     "--engine", e]) == 0
+    rows = {e: [ln for ln in (d / f"{e}.csv").read_text().splitlines() if not ln.startswith("#")]
+            for e in ("model", engine)}
+    assert len(rows["model"]) == 4001 and rows["model"] == rows[engine]

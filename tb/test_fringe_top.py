@@ -19,7 +19,8 @@ and the configuration port at every clock):
   bit-exact, including the samples in flight at each swap; active_bank follows;
 - ``top_saturation``: extreme quadrature registers into the inactive bank, swap, random codes
   (SATURATED, AMP_HIGH).
-Configurations: the seed preset (12-bit ADC, 256 lines, 9-bit coarse code) and a 16-bit ADC,
+Configurations: the seed preset (12-bit ADC, 256 lines, 9-bit coarse code), the same with fringe_trim
+(TRIM = 1, random trim tables in both banks and through the configuration port) and a 16-bit ADC,
 1 line, no coarse code. Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_top.py``.
 """
 
@@ -534,6 +535,7 @@ def other_channels(sc):
 CONFIGS = {
     "adc12-L256-c9": (lambda: CoreConfig(), seed_sim, 1),
     "adc16-L1-c0": (lambda: CoreConfig.for_encoder(Encoder(1, 16, 0)), one_line_sim, 8),
+    "adc12-L256-c9-trim": (lambda: CoreConfig(trim=1, map_psi_w=4, map_phi_w=5, g_shift=20), seed_sim, 1),
 }
 N_STREAM = 2500
 
@@ -542,12 +544,23 @@ def cfg_words(t: CoreTables, cfg: CoreConfig) -> list[tuple[int, int]]:
     """(cfg_wr_addr, cfg_wr_data) of one bank of every image: registers, sine, cosine, long period."""
     from fringe.rom import images
 
-    sel = {"regs": 0, "wave_sin": 1, "wave_cos": 2, "long_period": 3}
+    sel = {"regs": 0, "wave_sin": 1, "wave_cos": 2, "long_period": 3, "trim_map": 4, "trim_speed": 5, "trim_amp": 6}
     out = []
     for im in images(t, cfg):
         half = len(im.words) // 2
         out += [((sel[im.name] << 16) | i, int(w)) for i, w in enumerate(im.words[:half])]
     return out
+
+
+def random_trim(cfg: CoreConfig, rng: np.random.Generator):
+    """Random fringe_trim tables (any contents are legal: RTL and model must agree on every word).
+    Values within a quarter of s(TRIM_W), so the periodic slopes fit."""
+    from fringe.fixed.closed_loop import TrimTables
+
+    tp = cfg.trim_params()
+    lim = 1 << (tp.trim_w - 3)
+    return TrimTables(rng.integers(-lim, lim, (2, tp.sectors, tp.bins)), rng.integers(-lim, lim, tp.bins),
+                      rng.integers(-lim, lim, tp.bins))
 
 
 _PREPARED: dict[str, Path] = {}
@@ -575,6 +588,10 @@ def prepare(name: str) -> Path:
     tab_b = dataclasses.replace(
         tab_b, quad=QuadratureCoefs(q.k_ss, q.k_sc, q.k_cc - 37, q.ofs_s + wf // 150, q.ofs_c - wf // 230),
         amp_low=int(tab_b.amp_low * 1.5), amp_high=int(tab_b.amp_high * 0.6), direction=1 - tab_a.direction)
+    if cfg.trim:
+        rng = np.random.default_rng(DEFAULT_SEED)
+        tab_a = dataclasses.replace(tab_a, trim=random_trim(cfg, rng))
+        tab_b = dataclasses.replace(tab_b, trim=random_trim(cfg, rng))
     rec = simulate(make_sim(samples=N_STREAM * dec), seed=13)   # samples the DUT sees
     cols = rec.columns
     stream = {"sin": cols["sin"][::dec].astype(np.int64), "cos": cols["cos"][::dec].astype(np.int64),
@@ -608,15 +625,18 @@ def test_latency_documented():
     """The LATENCY in the HDL (core, top, and the blocks' constants) is the model's core_latency."""
     import re
 
-    from fringe.fixed import long_period, period_count, quadrature, wave_lut
+    from fringe.fixed import long_period, period_count, quadrature, trim, wave_lut
 
     cfg = CoreConfig()
     lat = core_latency(cfg)
     assert lat == cfg.cordic_stages + 24
+    assert core_latency(dataclasses.replace(cfg, trim=1)) == lat + trim.LATENCY == lat + 11
     for f in ("rtl/verilog/fringe_core.v", "rtl/verilog/fringe_top.v", "rtl/vhdl/fringe_core.vhd",
               "rtl/vhdl/fringe_top.vhd"):
         text = (REPO / f).read_text()
-        assert re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*24\s*;", text), f
+        # CORDIC_STAGES + 24, plus fringe_trim's 11 when TRIM = 1
+        assert re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*24\s*\+", text), f
+        assert re.search(r"\?\s*11\s*:\s*0|return 11;", text), f
     # the core's bank pipeline taps (registers read one clock enable ahead) use the blocks' latencies
     for f in ("rtl/verilog/fringe_core.v", "rtl/vhdl/fringe_core.vhd"):
         text = (REPO / f).read_text()
@@ -626,7 +646,8 @@ def test_latency_documented():
             assert m and int(m.group(2)) == n, (f, name, m and m.group(0), n)
         assert re.search(r"LAT_C\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*2\s*;", text), f
     for block, n in (("fringe_wave_lut", wave_lut.LATENCY), ("fringe_quadrature", quadrature.LATENCY),
-                     ("fringe_period_count", period_count.LATENCY), ("fringe_long_period", long_period.LATENCY)):
+                     ("fringe_period_count", period_count.LATENCY), ("fringe_long_period", long_period.LATENCY),
+                     ("fringe_trim", trim.LATENCY)):
         for f in (f"rtl/verilog/{block}.v", f"rtl/vhdl/{block}.vhd"):
             text = (REPO / f).read_text()
             m = re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*(\d+)\s*;", text)

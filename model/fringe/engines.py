@@ -25,7 +25,11 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
             raise FringeInputError(f"core configuration damaged ({e})", path) from None
     base.update(overrides)
     try:
-        return CoreConfig.for_encoder(cal.encoder, **base)
+        cfg = CoreConfig.for_encoder(cal.encoder, **base)
+        if "trim" not in base:     # closed-loop corrections switch fringe_trim on, with gains sized for them
+            from .fixed.closed_loop import trim_config
+            cfg = trim_config(cal, cfg)
+        return cfg
     except (TypeError, ValueError) as e:
         raise FringeInputError(f"core configuration not possible: {e}", path or "core configuration") from None
 
@@ -49,17 +53,23 @@ def core_files(cal: Calibration, command: str) -> dict:
             json.dump({"config": cfg.to_dict(), "hdl_parameters": cfg.hdl_parameters()}, f, indent=2, sort_keys=True)
             f.write("\n")
 
-    return {CORE_JSON: write_json, ROM_DIR: lambda path: write_core_roms(cal, cfg, path, ("mem",), command)}
+    from .fixed.closed_loop import unsupported
+
+    files = {CORE_JSON: write_json}
+    if not unsupported(cal):      # a correction the core does not carry: no ROM images (float engine only)
+        files[ROM_DIR] = lambda path: write_core_roms(cal, cfg, path, ("mem",), command)
+    return files
 
 
 def run_engine(name: str, cal: Calibration, meas: Measurement, cal_dir: str) -> Result:
     if name == "float":
         return run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
+    from .fixed.closed_loop import unsupported
     from .fixed.core import run_model
 
-    if cal.angle_terms or cal.adaptive or cal.rev_norm is not None:
-        raise FringeInputError("this calibration carries closed-loop stages (fringe loop) that the bit-exact "
-                               "core does not implement yet: use --engine float", cal_dir)
+    if unsupported(cal):
+        raise FringeInputError("this calibration carries closed-loop corrections that the bit-exact core does not "
+                               f"implement ({', '.join(unsupported(cal))}): use --engine float", cal_dir)
     cfg = core_config(cal, cal_dir)
     try:
         if name == "model":

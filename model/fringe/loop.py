@@ -384,10 +384,11 @@ def write_outputs(base: LoopState, state: LoopState, report: dict, train: Measur
                   validate: Measurement | None, out_dir: str):
     """DIR/report.json, DIR/report.md with plots, DIR/cal/; all or nothing."""
     from .calstore import save_calibration
+    from .engines import core_files
     from .loopreport import write_markdown, write_plots
 
     with atomic_dir(out_dir, ".tmp-loop-") as tmp:
-        save_calibration(state.cal, os.path.join(tmp, "cal"))
+        save_calibration(state.cal, os.path.join(tmp, "cal"), core_files(state.cal, "fringe loop"))
         plots = write_plots(base, state, train if validate is None else validate, tmp)
         with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
             json.dump(report, f, indent=2, default=float)

@@ -16,6 +16,7 @@ import numpy as np
 from . import __version__
 from .dataio import atomic_dir
 from .fixed import long_period as lp_mod
+from .fixed import trim as trim_mod
 from .fixed import wave_lut as wave_mod
 from .fixed.config import CoreConfig
 from .fixed.core import CoreTables, long_period_params
@@ -47,7 +48,7 @@ def images(t: CoreTables, cfg: CoreConfig) -> list[Image]:
     wl = cfg.wave_lut()
     two_banks = lambda w: np.concatenate([w, w]).astype(np.int64)  # noqa: E731
     lpp = long_period_params(cfg)
-    return [
+    out = [
         Image("wave_sin", two_banks(wave_mod.pack_words(t.wave_sin, wl)), wl.word_w,
               "sine waveform inverse {slope, value}, branch 0 then 1"),
         Image("wave_cos", two_banks(wave_mod.pack_words(t.wave_cos, wl)), wl.word_w,
@@ -57,6 +58,17 @@ def images(t: CoreTables, cfg: CoreConfig) -> list[Image]:
         Image("regs", two_banks(register_words(register_values(t), cfg)), REG_W,
               "registers (docs/architecture.md register map)"),
     ]
+    if cfg.trim:
+        if t.trim is None:
+            raise ValueError("TRIM = 1: the core tables hold no fringe_trim tables")
+        tp = cfg.trim_params()
+        out += [Image("trim_map", two_banks(trim_mod.pack_words(t.trim.map, tp)), tp.word_w,
+                      "fringe_trim error map {slope, value} at {dir, sector, bin} (docs/trim.md)"),
+                Image("trim_speed", two_banks(trim_mod.pack_words(t.trim.speed, tp)), tp.word_w,
+                      "fringe_trim speed gain {slope, value} per fine-phase bin"),
+                Image("trim_amp", two_banks(trim_mod.pack_words(t.trim.amp, tp)), tp.word_w,
+                      "fringe_trim magnitude gain {slope, value} per fine-phase bin")]
+    return out
 
 
 def _header(command: str, cfg: CoreConfig, fmt: str, image: Image) -> list[str]:

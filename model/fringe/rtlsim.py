@@ -44,6 +44,13 @@ ENGINE_SIMS = {"verilog": "verilator", "vhdl": "ghdl"}
 #: init-file generics of fringe_top and the ROM image behind each
 INIT_FILES = {"REGS_INIT": "regs", "WAVE_SIN_INIT": "wave_sin", "WAVE_COS_INIT": "wave_cos",
               "LP_INIT": "long_period"}
+#: ... and those of fringe_trim, with TRIM = 1
+TRIM_INIT_FILES = {"MAP_INIT": "trim_map", "SPEED_INIT": "trim_speed", "AMP_INIT": "trim_amp"}
+
+
+def init_files(cfg: CoreConfig) -> dict[str, str]:
+    """{generic: ROM image stem} of a configuration."""
+    return INIT_FILES | (TRIM_INIT_FILES if cfg.trim else {})
 
 
 # --------------------------------------------------------------------------- top-level formats
@@ -73,8 +80,10 @@ def top_parameters(cfg: CoreConfig, init_dir: str | os.PathLike | None = None,
     # LP_RECIP is a 64-bit parameter in Verilog (a natural, < 2^31, in VHDL)
     p["LP_RECIP"] = f"64'd{int(lpp.recip)}" if sim == "verilator" else int(lpp.recip)
     p["LP_SHIFT"] = int(lpp.shift)
+    if cfg.trim:      # SECT_RECIP likewise
+        p["SECT_RECIP"] = f"64'd{int(cfg.trim_params().recip)}" if sim == "verilator" else int(cfg.trim_params().recip)
     if init_dir is not None:
-        for generic, stem in INIT_FILES.items():
+        for generic, stem in init_files(cfg).items():
             path = str(Path(init_dir).resolve() / f"{stem}.mem")
             p[generic] = f'"{path}"' if sim == "verilator" else path
     return p
@@ -87,7 +96,7 @@ def write_init_files(t: CoreTables, cfg: CoreConfig, init_dir: str | os.PathLike
     d.mkdir(parents=True, exist_ok=True)
     by_name = {im.name: im for im in images(t, cfg)}
     out = {}
-    for generic, stem in INIT_FILES.items():
+    for generic, stem in init_files(cfg).items():
         path = d / f"{stem}.mem"
         text = render(by_name[stem], "mem", cfg, command)
         if not path.is_file() or path.read_text() != text:

@@ -2,6 +2,7 @@
 //
 //   sin, cos s(ADC_W) -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
 //   -> fringe_cordic -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W))
+//   [-> fringe_trim, TRIM = 1: the closed loop's corrections, docs/trim.md]
 //   -> fringe_long_period -> pos u(POS_W), status (8 bits)
 // Formats, register map and status word: docs/architecture.md. Bit-exact model:
 // model/fringe/fixed/core.py (run_core; run_core_banks for a bank swap in mid-stream).
@@ -12,8 +13,9 @@
 // user sideband, so each stage reads the tables and registers of the sample's own bank:
 //   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, AMP_LOW/AMP_HIGH
 //   at the CORDIC output, COARSE_OFS at the period-count input, ZERO/DIR at the long-period input.
-// Configuration write port (independent of ce): cfg_wr_addr[17:16] selects 0 registers and
-// control, 1 sine table, 2 cosine table, 3 long-period table; cfg_wr_addr[15:0] is the word within
+// Configuration write port (independent of ce): cfg_wr_addr[19:16] selects 0 registers and
+// control, 1 sine table, 2 cosine table, 3 long-period table, and with TRIM = 1: 4 trim map,
+// 5 trim speed table, 6 trim magnitude table (others ignored); cfg_wr_addr[15:0] is the word within
 // one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
 // Writes always go to the inactive bank (the one inactive when the write is issued); they are
 // registered (decoded enables, address, data) and land one clock later. Register word 0x80 is
@@ -26,9 +28,9 @@
 // the register file, the tables and the active bank are configuration and keep their values
 // (power-up: bank 0, the init files).
 //
-// LATENCY = CORDIC_STAGES + 24 clock enables from in_valid to out_valid:
+// LATENCY = CORDIC_STAGES + 24 (+ 11 with TRIM = 1) clock enables from in_valid to out_valid:
 //   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
-//   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count + 8 fringe_long_period.
+//   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count [+ 11 fringe_trim] + 8 fringe_long_period.
 // The registers a block takes with the sample (quadrature coefficients, magnitude thresholds,
 // COARSE_OFS, ZERO/DIR) are read one clock enable ahead, with the sample's bank from a copy of
 // the bank pipeline (taps at the blocks' latencies), so no register-file mux feeds block logic.
@@ -52,10 +54,23 @@ module fringe_core #(
     parameter integer LP_IF         = 8,   // interpolation fraction bits of the long-period table
     parameter [63:0]  LP_RECIP      = 64'd1, // long-period index multiplier (fringe.fixed.long_period.index_mapping)
     parameter integer LP_SHIFT      = 16,  // long-period index shift (fringe.fixed.long_period.index_mapping)
+    // fringe_trim (closed-loop corrections, docs/trim.md): built only with TRIM = 1
+    parameter integer TRIM          = 0,   // 1 = fringe_trim between the period count and the long-period table
+    parameter integer SPEED_LOG2    = 5,   // speed window 2^SPEED_LOG2 samples, 0..8
+    parameter integer MAP_PSI_W     = 6,   // 2^MAP_PSI_W error-map sectors per revolution, 0..8
+    parameter integer MAP_PHI_W     = 5,   // 2^MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); MAP_PSI_W + MAP_PHI_W <= 15
+    parameter integer TRIM_W        = 18,  // trim table value/slope width, 8..24
+    parameter integer TRIM_FRAC     = 4,   // fraction bits of the trim (fine counts), 0..16
+    parameter integer G_SHIFT       = 24,  // right shift of the speed and magnitude products, 1..48
+    parameter [63:0]  SECT_RECIP    = 64'd1, // sector multiplier (fringe.fixed.trim.sector_mapping)
+    parameter integer SECT_SHIFT    = 18,  // sector shift (fringe.fixed.trim.sector_mapping)
     parameter         REGS_INIT     = "",  // $readmemh image of the registers, 2 x 16 words of 32 bits
     parameter         WAVE_SIN_INIT = "",  // $readmemh image of the sine table, both banks
     parameter         WAVE_COS_INIT = "",  // $readmemh image of the cosine table, both banks
-    parameter         LP_INIT       = ""   // $readmemh image of the long-period table, both banks
+    parameter         LP_INIT       = "",  // $readmemh image of the long-period table, both banks
+    parameter         MAP_INIT      = "",  // $readmemh image of the trim map, both banks (TRIM = 1)
+    parameter         SPEED_INIT    = "",  // $readmemh image of the trim speed table, both banks (TRIM = 1)
+    parameter         AMP_INIT      = ""   // $readmemh image of the trim magnitude table, both banks (TRIM = 1)
 ) (
     input  wire             clk,
     input  wire             rst,          // synchronous, active high: clears the sample pipeline
@@ -71,14 +86,14 @@ module fringe_core #(
     output wire [7:0]       status,       // status word (docs/architecture.md), bit 7 = BANK
     // configuration write port
     input  wire             cfg_wr_en,
-    input  wire [17:0]      cfg_wr_addr,
+    input  wire [19:0]      cfg_wr_addr,
     input  wire [63:0]      cfg_wr_data,
     output wire             active_bank
 );
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 24;
+    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 11 : 0);
     /* verilator lint_on UNUSEDPARAM */
     localparam integer POS_W   = $clog2(LINES) + FINE_W;        // clog2(LINES * 2^FINE_W)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width
@@ -105,6 +120,13 @@ module fringe_core #(
         if (WAVE_W > 31 || ADC_W > 31) begin : g_bad_reg_fields
             $error("fringe_core: WAVE_W = %0d, ADC_W = %0d: register fields must fit 32 bits (instance %m)",
                    WAVE_W, ADC_W);
+        end
+        if (TRIM != 0 && TRIM != 1) begin : g_bad_trim
+            $error("fringe_core: TRIM = %0d must be 0 or 1 (instance %m)", TRIM);
+        end
+        if (TRIM != 0 && MAP_PSI_W + MAP_PHI_W > 15) begin : g_bad_map_w
+            $error("fringe_core: MAP_PSI_W + MAP_PHI_W = %0d > 15: a trim map bank must fit the 16-bit word address (instance %m)",
+                   MAP_PSI_W + MAP_PHI_W);
         end
         if (LP_W > 32) begin : g_bad_lp_w
             $error("fringe_core: LP_W = %0d > 32: a table word {slope, value} must fit cfg_wr_data (instance %m)",
@@ -138,14 +160,15 @@ module fringe_core #(
         end
     endgenerate
 
-    wire [1:0]  cfg_sel  = cfg_wr_addr[17:16];
+    wire [3:0]  cfg_sel  = cfg_wr_addr[19:16];
     wire [15:0] cfg_word = cfg_wr_addr[15:0];
     wire        wr_bank  = ~bank_r;   // writes go to the inactive bank
 
     // Writes are registered: one-hot register enables {bank, index}, table enables, addresses and
     // data; they land one clock later (the decode and the 32-way fan-out sit in separate clocks).
     reg  [31:0]       reg_we;
-    reg               wr_sin, wr_cos, wr_lp;
+    reg               wr_sin, wr_cos, wr_lp, wr_trim;
+    reg  [1:0]        wr_trim_sel;
     reg  [15:0]       wr_word;
     reg               wr_bank_r;
     reg  [63:0]       wr_data;
@@ -156,20 +179,24 @@ module fringe_core #(
         wr_sin = 1'b0;
         wr_cos = 1'b0;
         wr_lp  = 1'b0;
+        wr_trim = 1'b0;
     end
 
     // table write enables: the word must lie inside one bank
     wire wave_word_ok = (cfg_word >> (WAVE_ADDR_W + 1)) == 16'd0;
     wire lp_word_ok   = (cfg_word >> LP_ADDR_W) == 16'd0;
+    wire trim_word_ok = (cfg_word >> (MAP_PSI_W + MAP_PHI_W + 1)) == 16'd0;
 
     integer wi;
     always @(posedge clk) begin
         for (wi = 0; wi < 32; wi = wi + 1) begin
-            reg_we[wi] <= cfg_wr_en && cfg_sel == 2'd0 && cfg_word == {12'd0, wi[3:0]} && wr_bank == wi[4];
+            reg_we[wi] <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word == {12'd0, wi[3:0]} && wr_bank == wi[4];
         end
-        wr_sin    <= cfg_wr_en && cfg_sel == 2'd1 && wave_word_ok;
-        wr_cos    <= cfg_wr_en && cfg_sel == 2'd2 && wave_word_ok;
-        wr_lp     <= cfg_wr_en && cfg_sel == 2'd3 && lp_word_ok;
+        wr_sin    <= cfg_wr_en && cfg_sel == 4'd1 && wave_word_ok;
+        wr_cos    <= cfg_wr_en && cfg_sel == 4'd2 && wave_word_ok;
+        wr_lp     <= cfg_wr_en && cfg_sel == 4'd3 && lp_word_ok;
+        wr_trim   <= cfg_wr_en && (cfg_sel == 4'd4 || cfg_sel == 4'd5 || cfg_sel == 4'd6) && trim_word_ok;
+        wr_trim_sel <= cfg_sel[1:0];   // 4, 5, 6 -> 0 map, 1 speed, 2 magnitude
         wr_word   <= cfg_word;
         wr_bank_r <= wr_bank;
         wr_data   <= cfg_wr_data;
@@ -188,7 +215,7 @@ module fringe_core #(
 
     // CTRL swaps at once: a write issued before it carries its bank in wr_bank_r
     always @(posedge clk) begin
-        if (cfg_wr_en && cfg_sel == 2'd0 && cfg_word == CTRL_WORD && cfg_wr_data[0]) begin
+        if (cfg_wr_en && cfg_sel == 4'd0 && cfg_word == CTRL_WORD && cfg_wr_data[0]) begin
             bank_r <= ~bank_r;
         end
     end
@@ -197,6 +224,7 @@ module fringe_core #(
 
     wire [WAVE_ADDR_W+1:0] wave_wr_addr = {wr_bank_r, wr_word[WAVE_ADDR_W:0]};
     wire [LP_ADDR_W:0]     lp_wr_addr   = {wr_bank_r, wr_word[LP_ADDR_W-1:0]};
+    wire [MAP_PSI_W+MAP_PHI_W+1:0] trim_wr_addr = {wr_bank_r, wr_word[MAP_PSI_W+MAP_PHI_W:0]};
 
     // ---- stage 1 (registered): the sample takes the active bank and that bank's branch thresholds --
     // (the register file read and the compares sit in separate stages: one long path otherwise)
@@ -269,9 +297,10 @@ module fringe_core #(
     localparam integer LAT_Q  = 5;                      // fringe_quadrature
     localparam integer LAT_C  = CORDIC_STAGES + 2;      // fringe_cordic
     localparam integer LAT_P  = 3;                      // fringe_period_count
+    localparam integer LAT_T  = (TRIM != 0) ? 11 : 0;   // fringe_trim (TRIM = 1)
     localparam integer TAP_Q  = LAT_WL - 2;             // quadrature coefficients
     localparam integer TAP_C  = LAT_WL + LAT_Q + LAT_C - 2;          // magnitude thresholds, COARSE_OFS
-    localparam integer TAP_P  = LAT_WL + LAT_Q + LAT_C + LAT_P - 2;  // ZERO, DIR
+    localparam integer TAP_P  = LAT_WL + LAT_Q + LAT_C + LAT_P + LAT_T - 2;  // ZERO, DIR
     reg [TAP_P:0] bank_d;
 
     always @(posedge clk) begin
@@ -372,7 +401,7 @@ module fringe_core #(
     wire             f_high   = mag > amp_high;
 
     // ---- period count ----------------------------------------------------------------------------
-    localparam integer U_P = 6;         // {amp_high, amp_low, sat, clip_c, clip_s, bank}
+    localparam integer U_P = AMP_W + 6; // {mag, amp_high, amp_low, sat, clip_c, clip_s, bank}
     wire             p_valid;
     wire [POS_W-1:0] p_pos;
     wire             p_overspeed, p_coarse_err;
@@ -384,14 +413,49 @@ module fringe_core #(
         .clk(clk), .rst(rst), .ce(ce),
         .in_valid(c_valid), .phase(phase), .coarse(c_coarse),
         .coarse_ofs(coarse_ofs_r),
-        .in_user({f_high, f_low, c_user[3:0]}),
+        .in_user({mag, f_high, f_low, c_user[3:0]}),
         .out_valid(p_valid), .pos(p_pos), .overspeed(p_overspeed), .coarse_err(p_coarse_err),
         .out_user(p_user)
     );
 
+    // status sideband from here on: {bank, sat, coarse_err, overspeed, amp_high, amp_low, clip_c, clip_s}
+    localparam integer U_L = 8;
+    wire [U_L-1:0] p_status = {p_user[0], p_user[3], p_coarse_err, p_overspeed, p_user[5:4], p_user[2:1]};
+
+    // ---- closed-loop trim (TRIM = 1), tables and bank as every other stage ------------------------
+    wire             t_valid;
+    wire [POS_W-1:0] t_pos;
+    wire [U_L-1:0]   t_status;
+
+    generate
+        if (TRIM != 0) begin : g_trim
+            wire           trim_sat, trim_dir;
+            wire [U_L-1:0] trim_user;
+
+            fringe_trim #(
+                .LINES(LINES), .FINE_W(FINE_W), .AMP_W(AMP_W), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W),
+                .MAP_PHI_W(MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT),
+                .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT), .MAP_INIT(MAP_INIT), .SPEED_INIT(SPEED_INIT),
+                .AMP_INIT(AMP_INIT), .USER_W(U_L)
+            ) u_trim (
+                .clk(clk), .rst(rst), .ce(ce),
+                .in_valid(p_valid), .pos(p_pos), .mag(p_user[U_P-1:6]), .bank(p_status[7]), .in_user(p_status),
+                .wr_en(wr_trim), .wr_sel(wr_trim_sel), .wr_addr(trim_wr_addr), .wr_data(wr_data[2*TRIM_W-1:0]),
+                .out_valid(t_valid), .pos_out(t_pos), .dir(trim_dir), .sat(trim_sat), .out_user(trim_user)
+            );
+
+            // a clipped trim is a saturation like the quadrature's
+            assign t_status = {trim_user[7], trim_user[6] | trim_sat, trim_user[5:0]};
+            wire unused_trim = &{1'b0, trim_dir};
+        end else begin : g_no_trim
+            assign t_valid  = p_valid;
+            assign t_pos    = p_pos;
+            assign t_status = p_status;
+            wire unused_trim = &{1'b0, wr_trim, wr_trim_sel, trim_wr_addr, p_user[U_P-1:6]};
+        end
+    endgenerate
+
     // ---- long-period table, zero and direction -------------------------------------------------
-    localparam integer U_L = 8;         // {bank, sat, coarse_err, overspeed, amp_high, amp_low, clip_c, clip_s}
-    wire p_bank = p_user[0];
     wire [U_L-1:0] l_user;
 
     fringe_long_period #(
@@ -399,9 +463,9 @@ module fringe_core #(
         .LP_IF(LP_IF), .LP_RECIP(LP_RECIP), .LP_SHIFT(LP_SHIFT), .INIT_FILE(LP_INIT), .USER_W(U_L)
     ) u_long (
         .clk(clk), .rst(rst), .ce(ce),
-        .in_valid(p_valid), .pos(p_pos), .bank(p_bank),
+        .in_valid(t_valid), .pos(t_pos), .bank(t_status[7]),
         .zero(zero_r), .dir(dir_r),
-        .in_user({p_bank, p_user[3], p_coarse_err, p_overspeed, p_user[5:4], p_user[2:1]}),
+        .in_user(t_status),
         .wr_en(wr_lp), .wr_addr(lp_wr_addr), .wr_data(wr_data[2*LP_W-1:0]),
         .out_valid(out_valid), .pos_out(pos), .out_user(l_user)
     );

@@ -14,7 +14,7 @@
 // rst (synchronous, active high) empties the pipeline: m_axis_tvalid is 0 after it, samples in
 // flight and a sample taken in the same clock are dropped.
 //
-// LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 clocks from the s_axis handshake to
+// LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 (+ 11 with TRIM = 1) clocks from the s_axis handshake to
 // m_axis_tvalid when the sink does not stall (every stall adds its cycles).
 
 `default_nettype none
@@ -35,10 +35,22 @@ module fringe_top #(
     parameter integer LP_IF         = 8,   // interpolation fraction bits of the long-period table
     parameter [63:0]  LP_RECIP      = 64'd1, // long-period index multiplier (fringe.fixed.long_period.index_mapping)
     parameter integer LP_SHIFT      = 16,  // long-period index shift (fringe.fixed.long_period.index_mapping)
+    parameter integer TRIM          = 0,   // 1 = fringe_trim (closed-loop corrections); the trim parameters: fringe_core
+    parameter integer SPEED_LOG2    = 5,
+    parameter integer MAP_PSI_W     = 6,
+    parameter integer MAP_PHI_W     = 5,
+    parameter integer TRIM_W        = 18,
+    parameter integer TRIM_FRAC     = 4,
+    parameter integer G_SHIFT       = 24,
+    parameter [63:0]  SECT_RECIP    = 64'd1,
+    parameter integer SECT_SHIFT    = 18,
     parameter         REGS_INIT     = "",  // $readmemh image of the registers, 2 x 16 words of 32 bits
     parameter         WAVE_SIN_INIT = "",  // $readmemh image of the sine table, both banks
     parameter         WAVE_COS_INIT = "",  // $readmemh image of the cosine table, both banks
-    parameter         LP_INIT       = ""   // $readmemh image of the long-period table, both banks
+    parameter         LP_INIT       = "",  // $readmemh image of the long-period table, both banks
+    parameter         MAP_INIT      = "",  // $readmemh images of the trim tables, both banks (TRIM = 1)
+    parameter         SPEED_INIT    = "",
+    parameter         AMP_INIT      = ""
 ) (
     input  wire                clk,
     input  wire                rst,            // synchronous, active high
@@ -54,14 +66,14 @@ module fringe_top #(
     input  wire                m_axis_tready,
     // configuration write port (fringe_core)
     input  wire                cfg_wr_en,
-    input  wire [17:0]         cfg_wr_addr,
+    input  wire [19:0]         cfg_wr_addr,
     input  wire [63:0]         cfg_wr_data,
     output wire                active_bank
 );
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 24;
+    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 11 : 0);
     /* verilator lint_on UNUSEDPARAM */
     localparam integer CW          = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width of the core
     localparam integer POS_W       = $clog2(LINES) + FINE_W;         // position bits
@@ -89,7 +101,10 @@ module fringe_top #(
         .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
         .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
         .LP_SHIFT(LP_SHIFT), .REGS_INIT(REGS_INIT), .WAVE_SIN_INIT(WAVE_SIN_INIT),
-        .WAVE_COS_INIT(WAVE_COS_INIT), .LP_INIT(LP_INIT)
+        .WAVE_COS_INIT(WAVE_COS_INIT), .LP_INIT(LP_INIT),
+        .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W), .TRIM_W(TRIM_W),
+        .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT), .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT),
+        .MAP_INIT(MAP_INIT), .SPEED_INIT(SPEED_INIT), .AMP_INIT(AMP_INIT)
     ) u_core (
         .clk(clk), .rst(rst), .ce(ce),
         .in_valid(s_axis_tvalid),

@@ -15,8 +15,9 @@
 -- user sideband, so each stage reads the tables and registers of the sample's own bank:
 --   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, AMP_LOW/AMP_HIGH
 --   at the CORDIC output, COARSE_OFS at the period-count input, ZERO/DIR at the long-period input.
--- Configuration write port (independent of ce): cfg_wr_addr[17:16] selects 0 registers and
--- control, 1 sine table, 2 cosine table, 3 long-period table; cfg_wr_addr[15:0] is the word within
+-- Configuration write port (independent of ce): cfg_wr_addr[19:16] selects 0 registers and
+-- control, 1 sine table, 2 cosine table, 3 long-period table, and with TRIM = 1: 4 trim map,
+-- 5 trim speed table, 6 trim magnitude table (others ignored); cfg_wr_addr[15:0] is the word within
 -- one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
 -- Writes always go to the inactive bank (the one inactive when the write is issued); they are
 -- registered (decoded enables, address, data) and land one clock later. Register word 0x80 is
@@ -29,7 +30,7 @@
 -- the register file, the tables and the active bank are configuration and keep their values
 -- (power-up: bank 0, the init files).
 --
--- LATENCY = CORDIC_STAGES + 24 clock enables from in_valid to out_valid:
+-- LATENCY = CORDIC_STAGES + 24 (+ 11 with TRIM = 1) clock enables from in_valid to out_valid:
 --   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
 --   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count + 8 fringe_long_period.
 -- The registers a block takes with the sample (quadrature coefficients, magnitude thresholds,
@@ -60,10 +61,23 @@ entity fringe_core is
         LP_IF         : integer := 8;     -- interpolation fraction bits of the long-period table
         LP_RECIP      : natural := 1;     -- long-period index multiplier (index_mapping; < 2^31 in VHDL)
         LP_SHIFT      : integer := 16;    -- long-period index shift (fringe.fixed.long_period.index_mapping)
+        -- fringe_trim (closed-loop corrections, docs/trim.md): built only with TRIM = 1
+        TRIM          : integer := 0;     -- 1 = fringe_trim between the period count and the long-period table
+        SPEED_LOG2    : integer := 5;     -- speed window 2^SPEED_LOG2 samples, 0..8
+        MAP_PSI_W     : integer := 6;     -- 2^MAP_PSI_W error-map sectors per revolution, 0..8
+        MAP_PHI_W     : integer := 5;     -- 2^MAP_PHI_W error-map bins per period; MAP_PSI_W + MAP_PHI_W <= 15
+        TRIM_W        : integer := 18;    -- trim table value/slope width, 8..24
+        TRIM_FRAC     : integer := 4;     -- fraction bits of the trim (fine counts), 0..16
+        G_SHIFT       : integer := 24;    -- right shift of the speed and magnitude products, 1..48
+        SECT_RECIP    : natural := 1;     -- sector multiplier (fringe.fixed.trim.sector_mapping; < 2^31 in VHDL)
+        SECT_SHIFT    : integer := 18;    -- sector shift (fringe.fixed.trim.sector_mapping)
         REGS_INIT     : string  := "";    -- $readmemh image of the registers, 2 x 16 words of 32 bits
         WAVE_SIN_INIT : string  := "";    -- $readmemh image of the sine table, both banks
         WAVE_COS_INIT : string  := "";    -- $readmemh image of the cosine table, both banks
-        LP_INIT       : string  := ""     -- $readmemh image of the long-period table, both banks
+        LP_INIT       : string  := "";    -- $readmemh image of the long-period table, both banks
+        MAP_INIT      : string  := "";    -- $readmemh image of the trim map, both banks (TRIM = 1)
+        SPEED_INIT    : string  := "";    -- $readmemh image of the trim speed table, both banks (TRIM = 1)
+        AMP_INIT      : string  := ""     -- $readmemh image of the trim magnitude table, both banks (TRIM = 1)
     );
     port (
         clk         : in  std_logic;
@@ -81,7 +95,7 @@ entity fringe_core is
         status      : out std_logic_vector(7 downto 0);           -- status word, bit 7 = BANK
         -- configuration write port
         cfg_wr_en   : in  std_logic;
-        cfg_wr_addr : in  std_logic_vector(17 downto 0);
+        cfg_wr_addr : in  std_logic_vector(19 downto 0);
         cfg_wr_data : in  std_logic_vector(63 downto 0);
         active_bank : out std_logic
     );
@@ -121,6 +135,11 @@ architecture rtl of fringe_core is
                    & ": register fields must fit 32 bits" severity failure;
         assert POS_PORT_W = POS_W
             report "fringe_core: port width (real log2) differs from clog2(LINES) + FINE_W" severity failure;
+        assert TRIM = 0 or TRIM = 1
+            report "fringe_core: TRIM = " & integer'image(TRIM) & " must be 0 or 1" severity failure;
+        assert TRIM = 0 or MAP_PSI_W + MAP_PHI_W <= 15
+            report "fringe_core: MAP_PSI_W + MAP_PHI_W = " & integer'image(MAP_PSI_W + MAP_PHI_W)
+                   & " > 15: a trim map bank must fit the 16-bit word address" severity failure;
         assert LP_W <= 32
             report "fringe_core: LP_W = " & integer'image(LP_W)
                    & " > 32: a table word {slope, value} must fit cfg_wr_data" severity failure;
@@ -128,7 +147,15 @@ architecture rtl of fringe_core is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := CORDIC_STAGES + 24;
+    function trim_latency return integer is
+    begin
+        if TRIM /= 0 then
+            return 11;
+        end if;
+        return 0;
+    end function trim_latency;
+    constant LAT_T   : integer := trim_latency;   -- fringe_trim (TRIM = 1)
+    constant LATENCY : integer := CORDIC_STAGES + 24 + LAT_T;
     constant REG_W   : integer := 32;
     constant AMP_W   : integer := WAVE_W + 1;   -- CORDIC magnitude u(WAVE_W+1)
     constant BR_W    : integer := ADC_W + 1;    -- branch thresholds s(ADC_W+1)
@@ -210,7 +237,7 @@ architecture rtl of fringe_core is
     end function reg_field;
 
     -- configuration decode; the writes registered (one-hot register enables {bank, index})
-    signal cfg_sel      : std_logic_vector(1 downto 0);
+    signal cfg_sel      : std_logic_vector(3 downto 0);
     signal cfg_word     : unsigned(15 downto 0);
     signal wr_bank      : std_logic;
     -- power-up values: no write lands before the first one issued (as bank_r, not reset)
@@ -218,11 +245,14 @@ architecture rtl of fringe_core is
     signal wr_sin       : std_logic := '0';
     signal wr_cos       : std_logic := '0';
     signal wr_lp        : std_logic := '0';
+    signal wr_trim      : std_logic := '0';
+    signal wr_trim_sel  : std_logic_vector(1 downto 0);
     signal wr_word      : unsigned(15 downto 0);
     signal wr_bank_r    : std_logic;
     signal wr_data      : std_logic_vector(63 downto 0);
     signal wave_wr_addr : std_logic_vector(WAVE_ADDR_W + 1 downto 0);
     signal lp_wr_addr   : std_logic_vector(LP_ADDR_W downto 0);
+    signal trim_wr_addr : std_logic_vector(MAP_PSI_W + MAP_PHI_W + 1 downto 0);
 
     -- stage 1: the sample and its bank's branch thresholds
     signal valid0       : std_logic;
@@ -247,7 +277,7 @@ architecture rtl of fringe_core is
     constant LAT_P  : integer := 3;                      -- fringe_period_count
     constant TAP_Q  : integer := LAT_WL - 2;             -- quadrature coefficients
     constant TAP_C  : integer := LAT_WL + LAT_Q + LAT_C - 2;          -- magnitude thresholds, COARSE_OFS
-    constant TAP_P  : integer := LAT_WL + LAT_Q + LAT_C + LAT_P - 2;  -- ZERO, DIR
+    constant TAP_P  : integer := LAT_WL + LAT_Q + LAT_C + LAT_P + LAT_T - 2;  -- ZERO, DIR
     signal bank_d       : std_logic_vector(TAP_P downto 0);
     signal ofs_s_r, ofs_c_r : std_logic_vector(WAVE_W - 1 downto 0);
     signal k_ss_r, k_sc_r, k_cc_r : std_logic_vector(COEF_W - 1 downto 0);
@@ -284,27 +314,29 @@ architecture rtl of fringe_core is
     signal f_low        : std_logic;
     signal f_high       : std_logic;
 
-    -- period count: user {amp_high, amp_low, sat, clip_c, clip_s, bank}
-    constant U_P : integer := 6;
+    -- period count: user {mag, amp_high, amp_low, sat, clip_c, clip_s, bank}
+    constant U_P : integer := AMP_W + 6;
     signal p_in_user    : std_logic_vector(U_P - 1 downto 0);
     signal p_valid      : std_logic;
     signal p_pos        : std_logic_vector(POS_W - 1 downto 0);
     signal p_overspeed  : std_logic;
     signal p_coarse_err : std_logic;
     signal p_user       : std_logic_vector(U_P - 1 downto 0);
-    signal p_bank       : std_logic;
     signal p_zero       : std_logic_vector(POS_W - 1 downto 0);
     signal p_dir        : std_logic_vector(0 downto 0);
 
     -- long period: user {bank, sat, coarse_err, overspeed, amp_high, amp_low, clip_c, clip_s}
     constant U_L : integer := 8;
-    signal l_in_user    : std_logic_vector(U_L - 1 downto 0);
+    signal p_status     : std_logic_vector(U_L - 1 downto 0);
+    signal t_valid      : std_logic;
+    signal t_pos        : std_logic_vector(POS_W - 1 downto 0);
+    signal t_status     : std_logic_vector(U_L - 1 downto 0);
     signal l_user       : std_logic_vector(U_L - 1 downto 0);
 
 begin
 
     -- ---- register file and bank control (configuration, not reset) ----------------------------
-    cfg_sel  <= cfg_wr_addr(17 downto 16);
+    cfg_sel  <= cfg_wr_addr(19 downto 16);
     cfg_word <= unsigned(cfg_wr_addr(15 downto 0));
     wr_bank  <= not bank_r;                 -- writes go to the inactive bank
 
@@ -314,7 +346,7 @@ begin
     begin
         if rising_edge(clk) then
             for i in 0 to 31 loop
-                if cfg_wr_en = '1' and cfg_sel = "00" and cfg_word = to_unsigned(i mod 16, 16)
+                if cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word = to_unsigned(i mod 16, 16)
                    and (wr_bank = '1') = (i >= 16) then
                     reg_we(i) <= '1';
                 else
@@ -322,9 +354,12 @@ begin
                 end if;
             end loop;
             -- table write enables: the word must lie inside one bank
-            wr_sin <= '1' when cfg_wr_en = '1' and cfg_sel = "01" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
-            wr_cos <= '1' when cfg_wr_en = '1' and cfg_sel = "10" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
-            wr_lp  <= '1' when cfg_wr_en = '1' and cfg_sel = "11" and shift_right(cfg_word, LP_ADDR_W) = 0 else '0';
+            wr_sin <= '1' when cfg_wr_en = '1' and cfg_sel = "0001" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
+            wr_cos <= '1' when cfg_wr_en = '1' and cfg_sel = "0010" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
+            wr_lp  <= '1' when cfg_wr_en = '1' and cfg_sel = "0011" and shift_right(cfg_word, LP_ADDR_W) = 0 else '0';
+            wr_trim <= '1' when cfg_wr_en = '1' and (cfg_sel = "0100" or cfg_sel = "0101" or cfg_sel = "0110")
+                                and shift_right(cfg_word, MAP_PSI_W + MAP_PHI_W + 1) = 0 else '0';
+            wr_trim_sel <= cfg_sel(1 downto 0);   -- 4, 5, 6 -> 0 map, 1 speed, 2 magnitude
             wr_word   <= cfg_word;
             wr_bank_r <= wr_bank;
             wr_data   <= cfg_wr_data;
@@ -346,7 +381,7 @@ begin
     p_ctrl : process (clk)
     begin
         if rising_edge(clk) then
-            if cfg_wr_en = '1' and cfg_sel = "00" and cfg_word = CTRL_WORD and cfg_wr_data(0) = '1' then
+            if cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word = CTRL_WORD and cfg_wr_data(0) = '1' then
                 bank_r <= not bank_r;
             end if;
         end if;
@@ -356,6 +391,7 @@ begin
 
     wave_wr_addr <= wr_bank_r & std_logic_vector(wr_word(WAVE_ADDR_W downto 0));
     lp_wr_addr   <= wr_bank_r & std_logic_vector(wr_word(LP_ADDR_W - 1 downto 0));
+    trim_wr_addr <= wr_bank_r & std_logic_vector(wr_word(MAP_PSI_W + MAP_PHI_W downto 0));
 
     -- ---- stage 1 (registered): the sample takes the active bank and that bank's branch thresholds --
     -- (the register file read and the compares sit in separate stages: one long path otherwise)
@@ -502,7 +538,7 @@ begin
     f_high <= '1' when not is_x(mag) and not is_x(amp_high) and unsigned(mag) > unsigned(amp_high) else '0';
 
     -- ---- period count ----------------------------------------------------------------------------
-    p_in_user <= f_high & f_low & c_user(3 downto 0);
+    p_in_user <= mag & f_high & f_low & c_user(3 downto 0);
 
     u_count : entity work.fringe_period_count
         generic map (FINE_W => FINE_W, LINES => LINES, COARSE_W => COARSE_W, USER_W => U_P)
@@ -515,19 +551,45 @@ begin
             out_user => p_user
         );
 
-    -- ---- long-period table, zero and direction -------------------------------------------------
-    p_bank    <= p_user(0);
-    l_in_user <= p_bank & p_user(3) & p_coarse_err & p_overspeed & p_user(5 downto 4) & p_user(2 downto 1);
+    -- status sideband from here on: {bank, sat, coarse_err, overspeed, amp_high, amp_low, clip_c, clip_s}
+    p_status <= p_user(0) & p_user(3) & p_coarse_err & p_overspeed & p_user(5 downto 4) & p_user(2 downto 1);
 
+    -- ---- closed-loop trim (TRIM = 1), tables and bank as every other stage ------------------------
+    g_trim : if TRIM /= 0 generate
+        signal trim_sat, trim_dir : std_logic;
+        signal trim_user          : std_logic_vector(U_L - 1 downto 0);
+    begin
+        u_trim : entity work.fringe_trim
+            generic map (LINES => LINES, FINE_W => FINE_W, AMP_W => AMP_W, SPEED_LOG2 => SPEED_LOG2,
+                         MAP_PSI_W => MAP_PSI_W, MAP_PHI_W => MAP_PHI_W, TRIM_W => TRIM_W, TRIM_FRAC => TRIM_FRAC,
+                         G_SHIFT => G_SHIFT, SECT_RECIP => SECT_RECIP, SECT_SHIFT => SECT_SHIFT,
+                         MAP_INIT => MAP_INIT, SPEED_INIT => SPEED_INIT, AMP_INIT => AMP_INIT, USER_W => U_L)
+            port map (
+                clk => clk, rst => rst, ce => ce,
+                in_valid => p_valid, pos => p_pos, mag => p_user(U_P - 1 downto 6), bank => p_status(7),
+                in_user => p_status,
+                wr_en => wr_trim, wr_sel => wr_trim_sel, wr_addr => trim_wr_addr,
+                wr_data => wr_data(2 * TRIM_W - 1 downto 0),
+                out_valid => t_valid, pos_out => t_pos, dir => trim_dir, sat => trim_sat, out_user => trim_user
+            );
+        -- a clipped trim is a saturation like the quadrature's
+        t_status <= trim_user(7) & (trim_user(6) or trim_sat) & trim_user(5 downto 0);
+    else generate
+        t_valid  <= p_valid;
+        t_pos    <= p_pos;
+        t_status <= p_status;
+    end generate g_trim;
+
+    -- ---- long-period table, zero and direction -------------------------------------------------
     u_long : entity work.fringe_long_period
         generic map (LINES => LINES, FINE_W => FINE_W, LP_ADDR_W => LP_ADDR_W, LP_W => LP_W,
                      LP_FRAC => LP_FRAC, LP_IF => LP_IF, LP_RECIP => LP_RECIP, LP_SHIFT => LP_SHIFT,
                      INIT_FILE => LP_INIT, USER_W => U_L)
         port map (
             clk => clk, rst => rst, ce => ce,
-            in_valid => p_valid, pos => p_pos, bank => p_bank,
+            in_valid => t_valid, pos => t_pos, bank => t_status(7),
             zero => p_zero, dir => p_dir(0),
-            in_user => l_in_user,
+            in_user => t_status,
             wr_en => wr_lp, wr_addr => lp_wr_addr, wr_data => wr_data(2 * LP_W - 1 downto 0),
             out_valid => out_valid, pos_out => pos, out_user => l_user
         );

@@ -16,7 +16,7 @@
 -- rst (synchronous, active high) empties the pipeline: m_axis_tvalid is 0 after it, samples in
 -- flight and a sample taken in the same clock are dropped.
 --
--- LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 clocks from the s_axis handshake to
+-- LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 (+ 11 with TRIM = 1) clocks from the s_axis handshake to
 -- m_axis_tvalid when the sink does not stall (every stall adds its cycles).
 
 library ieee;
@@ -41,10 +41,22 @@ entity fringe_top is
         LP_IF         : integer := 8;     -- interpolation fraction bits of the long-period table
         LP_RECIP      : natural := 1;     -- long-period index multiplier (index_mapping; < 2^31 in VHDL)
         LP_SHIFT      : integer := 16;    -- long-period index shift (fringe.fixed.long_period.index_mapping)
+        TRIM          : integer := 0;     -- 1 = fringe_trim (closed-loop corrections); the trim generics: fringe_core
+        SPEED_LOG2    : integer := 5;
+        MAP_PSI_W     : integer := 6;
+        MAP_PHI_W     : integer := 5;
+        TRIM_W        : integer := 18;
+        TRIM_FRAC     : integer := 4;
+        G_SHIFT       : integer := 24;
+        SECT_RECIP    : natural := 1;
+        SECT_SHIFT    : integer := 18;
         REGS_INIT     : string  := "";    -- $readmemh image of the registers, 2 x 16 words of 32 bits
         WAVE_SIN_INIT : string  := "";    -- $readmemh image of the sine table, both banks
         WAVE_COS_INIT : string  := "";    -- $readmemh image of the cosine table, both banks
-        LP_INIT       : string  := ""     -- $readmemh image of the long-period table, both banks
+        LP_INIT       : string  := "";    -- $readmemh image of the long-period table, both banks
+        MAP_INIT      : string  := "";    -- $readmemh images of the trim tables, both banks (TRIM = 1)
+        SPEED_INIT    : string  := "";
+        AMP_INIT      : string  := ""
     );
     port (
         clk           : in  std_logic;
@@ -62,7 +74,7 @@ entity fringe_top is
         m_axis_tready : in  std_logic;
         -- configuration write port (fringe_core)
         cfg_wr_en     : in  std_logic;
-        cfg_wr_addr   : in  std_logic_vector(17 downto 0);
+        cfg_wr_addr   : in  std_logic_vector(19 downto 0);
         cfg_wr_data   : in  std_logic_vector(63 downto 0);
         active_bank   : out std_logic
     );
@@ -79,7 +91,14 @@ architecture rtl of fringe_top is
         return r;
     end function clog2;
 
-    constant LATENCY  : integer := CORDIC_STAGES + 24;
+    function trim_latency return integer is
+    begin
+        if TRIM /= 0 then
+            return 11;
+        end if;
+        return 0;
+    end function trim_latency;
+    constant LATENCY  : integer := CORDIC_STAGES + 24 + trim_latency;
     constant CW       : integer := maximum(COARSE_W, 1);      -- coarse port width of the core
     constant POS_W    : integer := clog2(LINES) + FINE_W;     -- position bits
     constant ADC_LANE : integer := 8 * ((ADC_W + 7) / 8);     -- bits of the sin and cos lanes
@@ -109,7 +128,10 @@ begin
             WAVE_W => WAVE_W, COEF_W => COEF_W, FINE_W => FINE_W, CORDIC_STAGES => CORDIC_STAGES,
             CORDIC_GUARD => CORDIC_GUARD, LP_ADDR_W => LP_ADDR_W, LP_W => LP_W, LP_FRAC => LP_FRAC,
             LP_IF => LP_IF, LP_RECIP => LP_RECIP, LP_SHIFT => LP_SHIFT, REGS_INIT => REGS_INIT,
-            WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT, LP_INIT => LP_INIT
+            WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT, LP_INIT => LP_INIT,
+            TRIM => TRIM, SPEED_LOG2 => SPEED_LOG2, MAP_PSI_W => MAP_PSI_W, MAP_PHI_W => MAP_PHI_W,
+            TRIM_W => TRIM_W, TRIM_FRAC => TRIM_FRAC, G_SHIFT => G_SHIFT, SECT_RECIP => SECT_RECIP,
+            SECT_SHIFT => SECT_SHIFT, MAP_INIT => MAP_INIT, SPEED_INIT => SPEED_INIT, AMP_INIT => AMP_INIT
         )
         port map (
             clk => clk, rst => rst, ce => ce,

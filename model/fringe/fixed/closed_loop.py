@@ -132,8 +132,8 @@ def choose_g_shift(grids: TrimGrids, trim_w: int, trim_frac: int) -> int:
     """The largest G_SHIFT (1..48) that keeps every gain value within a quarter of s(TRIM_W),
     leaving room for the slopes (a slope is at most twice the largest value)."""
     peak = float(max(np.max(np.abs(grids.speed)), np.max(np.abs(grids.amp))))
-    if peak == 0.0:
-        return 1
+    if peak == 0.0:      # no gains: the products are zero, any shift is exact; the largest keeps the budget tight
+        return 48
     g = int(np.floor(np.log2((1 << (trim_w - 3)) / peak))) - trim_frac
     return int(min(48, max(1, g)))
 

@@ -31,6 +31,7 @@ from . import cordic as cordic_mod
 from . import long_period as lp_mod
 from . import period_count as pc_mod
 from . import quadrature as quad_mod
+from . import trim as trim_mod
 from . import wave_lut as wave_mod
 from .config import CoreConfig
 
@@ -50,6 +51,7 @@ class CoreTables:
     direction: int                # 1: output runs the other way
     amp_low: int                  # CORDIC magnitude thresholds (mag units)
     amp_high: int
+    trim: object | None = None    # closed_loop.TrimTables of fringe_trim (TRIM = 1), else None
 
 
 def _ceil_code(v: float) -> int:
@@ -80,9 +82,15 @@ def build_tables(cal: Calibration, cfg: CoreConfig) -> CoreTables:
         lp = np.zeros(1 << cfg.lp_addr_w, dtype=np.int64)
     zero = round(cal.zero_deg / 360.0 * cfg.rev) % cfg.rev
     gain = cordic_mod.cordic_gain(cfg.cordic_stages) * (1 << (cfg.wave_w - 2))
+    trim = None
+    if cfg.trim:
+        from .closed_loop import build_trim_tables
+        trim = build_trim_tables(cal, cfg)
+    elif cal.rev_norm is not None or cal.angle_terms:
+        raise ValueError("this calibration carries closed-loop corrections: the core needs TRIM = 1")
     return CoreTables(wave["sin"], wave["cos"], branch_registers(cal.inv_sin), branch_registers(cal.inv_cos),
                       quad, coarse_ofs, lp, zero, 1 if cal.direction < 0 else 0,
-                      round(cal.amp_low * gain), round(cal.amp_high * gain))
+                      round(cal.amp_low * gain), round(cal.amp_high * gain), trim)
 
 
 def long_period_params(cfg: CoreConfig) -> lp_mod.LongPeriodParams:
@@ -121,7 +129,11 @@ def run_core(t: CoreTables, cfg: CoreConfig, sin: np.ndarray, cos: np.ndarray,
         coarse = np.zeros(len(sin), dtype=np.int64)
     pos, overspeed, coarse_err = pc_mod.period_count(phase, np.asarray(coarse, dtype=np.int64), t.coarse_ofs,
                                                      period_count_params(cfg))
-    out = lp_mod.long_period(pos, t.lp, t.zero, t.direction, long_period_params(cfg))
+    trimmed = pos
+    if cfg.trim:
+        trimmed, _, trim_sat = trim_mod.trim(pos, mag, t.trim.map, t.trim.speed, t.trim.amp, cfg.trim_params())
+        sat = sat | trim_sat.astype(bool)
+    out = lp_mod.long_period(trimmed, t.lp, t.zero, t.direction, long_period_params(cfg))
     status = (np.where(clip_s, CLIP_SIN, 0) | np.where(clip_c, CLIP_COS, 0)
               | np.where(mag < t.amp_low, AMP_LOW, 0) | np.where(mag > t.amp_high, AMP_HIGH, 0)
               | np.where(overspeed, OVERSPEED, 0) | np.where(coarse_err, COARSE_ERR, 0)
@@ -137,10 +149,11 @@ def core_latency(cfg: CoreConfig) -> int:
     """LATENCY of rtl/*/fringe_core (and fringe_top): clock enables from in_valid to out_valid.
 
     The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 5, CORDIC
-    CORDIC_STAGES + 2, period count 3, long-period table 8; CORDIC_STAGES + 24 in all.
+    CORDIC_STAGES + 2, period count 3, long-period table 8; CORDIC_STAGES + 24 in all, plus fringe_trim's
+    11 with TRIM = 1.
     """
     return (INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + cfg.cordic().latency
-            + pc_mod.LATENCY + lp_mod.LATENCY)
+            + pc_mod.LATENCY + (trim_mod.LATENCY if cfg.trim else 0) + lp_mod.LATENCY)
 
 
 def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreConfig, sin: np.ndarray,
@@ -183,8 +196,14 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
     pcp = period_count_params(cfg)
     per = [pc_mod.period_count(phase, coarse, t.coarse_ofs, pcp) for t in banks]
     pos, overspeed, coarse_err = (pick([p[k] for p in per]) for k in range(3))
+    trimmed = pos
+    if cfg.trim:    # the speed history follows the stream; the tables follow each sample's bank
+        trimmed, _, trim_sat = trim_mod.trim(pos, mag, np.stack([t.trim.map for t in banks]),
+                                             np.stack([t.trim.speed for t in banks]),
+                                             np.stack([t.trim.amp for t in banks]), cfg.trim_params(), bank=bank)
+        sat = sat | trim_sat.astype(bool)
     lpp = long_period_params(cfg)
-    out = pick([lp_mod.long_period(pos, t.lp, t.zero, t.direction, lpp) for t in banks])
+    out = pick([lp_mod.long_period(trimmed, t.lp, t.zero, t.direction, lpp) for t in banks])
     amp_low = pick([np.full(n, t.amp_low, dtype=np.int64) for t in banks])
     amp_high = pick([np.full(n, t.amp_high, dtype=np.int64) for t in banks])
     status = (np.where(clip_s, CLIP_SIN, 0) | np.where(clip_c, CLIP_COS, 0)
@@ -207,8 +226,9 @@ def run_model(cal: Calibration, cfg: CoreConfig, sin, cos, coarse=None, tables: 
     """The bit-exact engine with the float engine's result type (angle in degrees)."""
     t = tables or build_tables(cal, cfg)
     o = run_core(t, cfg, to_adc_codes(sin, cfg.adc_w, "sin"), to_adc_codes(cos, cfg.adc_w, "cos"), coarse)
+    mag_unit = cordic_mod.cordic_gain(cfg.cordic_stages) * (1 << (cfg.wave_w - 2))
     return Result(angle_deg=o.pos * (360.0 / cfg.rev), status=o.status, frac=o.phase / float(1 << cfg.fine_w),
-                  position=o.count_pos / float(1 << cfg.fine_w), magnitude=o.mag.astype(float))
+                  position=o.count_pos / float(1 << cfg.fine_w), magnitude=o.mag / mag_unit)
 
 
 def error_budget(t: CoreTables, cfg: CoreConfig, quad_float=None) -> dict:
@@ -238,6 +258,13 @@ def error_budget(t: CoreTables, cfg: CoreConfig, quad_float=None) -> dict:
     arcsec_per_count = ARCSEC_PER_REV / cfg.rev
     stages = {"wave_tables": wave * counts_per_rad, "quadrature": quad * counts_per_rad, "cordic": cordic,
               "long_period": lp, "output_rounding": 0.5}
+    if cfg.trim and t.trim is not None:
+        # fringe_trim against the float functions its tables hold (closed_loop.trim_grids), at speeds below
+        # the overspeed limit (a quarter period per sample) and magnitudes up to AMP_HIGH
+        tp = cfg.trim_params()
+        stages["trim"] = trim_mod.error_budget(tp, speed_max=float(1 << (cfg.fine_w - 2 + tp.speed_log2)),
+                                               mag_max=float(t.amp_high), map_values=t.trim.map,
+                                               speed_values=t.trim.speed, amp_values=t.trim.amp)
     out = {name: round(v * arcsec_per_count, 5) for name, v in stages.items()}
     out["total_arcsec"] = round(sum(stages.values()) * arcsec_per_count, 5)
     return out
