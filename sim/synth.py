@@ -54,7 +54,7 @@ from fringe.evaluate import measurement_of  # noqa: E402
 from fringe.fixed.config import CoreConfig  # noqa: E402
 from fringe.fixed.core import build_tables, core_latency  # noqa: E402
 from fringe.rom import write_roms  # noqa: E402
-from fringe.rtlsim import INIT_FILES  # noqa: E402
+from fringe.rtlsim import init_files  # noqa: E402
 from fringe.simulate import SimulationConfig, seed_encoder, simulate  # noqa: E402
 
 RTL = REPO / "rtl" / "verilog"   # --rtl DIR points it elsewhere; main() then measures a snapshot of it
@@ -121,6 +121,12 @@ def seed18_config():
     return CoreConfig(adc_w=cfg.adc_w, lines=cfg.lines, coarse_w=cfg.coarse_w), cal
 
 
+def seed_trim_config():
+    # the closed loop's fringe_trim (TRIM = 1, default map 2 x 64 sectors x 32 bins); table contents do not
+    # change size or timing (the RAMs are writable), so the declared calibration's zero trim tables serve
+    return _calibrated(seed_encoder(), trim=1)
+
+
 def line1_config():
     return _calibrated(SimulationConfig(lines_per_rev=1, adc_bits=16, coarse_bits=0, sample_rate_hz=5000.0,
                                         speed_mean_rev_s=3.0, speed_swing_rev_s=2.0))
@@ -130,6 +136,7 @@ CONFIGS = {
     "seed": ("seed encoder, fringe calibrate's widths", seed_config),
     "seed18": ("seed encoder, CoreConfig() 18-bit defaults", seed18_config),
     "line1": ("16-bit ADC, 1 line, no coarse code", line1_config),
+    "seed_trim": ("seed encoder with fringe_trim (closed-loop corrections, TRIM = 1)", seed_trim_config),
 }
 
 
@@ -145,7 +152,7 @@ def prepare(name: str, out: Path) -> Prepared:
     cfg, cal = CONFIGS[name][1]()
     rom_dir = out / "synth" / name / "rom"
     write_roms(build_tables(cal, cfg), cfg, str(rom_dir), ("mem",), command=f"sim/synth.py ({name})")
-    return Prepared(name, cfg, {g: rom_dir / f"{stem}.mem" for g, stem in INIT_FILES.items()})
+    return Prepared(name, cfg, {g: rom_dir / f"{stem}.mem" for g, stem in init_files(cfg).items()})
 
 
 # --------------------------------------------------------------------------- tools
@@ -168,7 +175,7 @@ def log_tail(log: Path, n: int = 15) -> str:
 def param_value(k: str, v) -> str:
     if isinstance(v, Path):
         return f'"{v}"'
-    return f"64'd{v}" if k == "LP_RECIP" else str(v)
+    return f"64'd{v}" if k in ("LP_RECIP", "SECT_RECIP") else str(v)
 
 
 def yosys(work: Path, top: str, params: dict, device: Device, sources: list[Path]) -> dict:

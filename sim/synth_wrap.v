@@ -25,7 +25,11 @@ module fringe_synth_wrap #(
     parameter integer FINE_W = 16, parameter integer CORDIC_STAGES = 18, parameter integer CORDIC_GUARD = 3,
     parameter integer LP_ADDR_W = 8, parameter integer LP_W = 18, parameter integer LP_FRAC = 4,
     parameter integer LP_IF = 8, parameter [63:0] LP_RECIP = 64'd1, parameter integer LP_SHIFT = 16,
-    parameter REGS_INIT = "", parameter WAVE_SIN_INIT = "", parameter WAVE_COS_INIT = "", parameter LP_INIT = ""
+    parameter integer TRIM = 0, parameter integer SPEED_LOG2 = 5, parameter integer MAP_PSI_W = 6,
+    parameter integer MAP_PHI_W = 5, parameter integer TRIM_W = 18, parameter integer TRIM_FRAC = 4,
+    parameter integer G_SHIFT = 24, parameter [63:0] SECT_RECIP = 64'd1, parameter integer SECT_SHIFT = 18,
+    parameter REGS_INIT = "", parameter WAVE_SIN_INIT = "", parameter WAVE_COS_INIT = "", parameter LP_INIT = "",
+    parameter MAP_INIT = "", parameter SPEED_INIT = "", parameter AMP_INIT = ""
 ) (
     input  wire       clk,
     input  wire       rst,
@@ -40,7 +44,7 @@ module fringe_synth_wrap #(
 );
     localparam integer S_W = 2 * (8 * ((ADC_W + 7) / 8)) + 8 * ((COARSE_W + 7) / 8);
     localparam integer M_W = 8 * (($clog2(LINES) + FINE_W + 7) / 8) + 8;
-    localparam integer SR_W = S_W + 18 + 64;
+    localparam integer SR_W = S_W + 20 + 64;
 
     reg  [SR_W-1:0] sr;
     reg             s_valid_r, cfg_we_r, m_ready_r, rst_r;
@@ -60,12 +64,15 @@ module fringe_synth_wrap #(
         .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
         .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
         .LP_SHIFT(LP_SHIFT), .REGS_INIT(REGS_INIT), .WAVE_SIN_INIT(WAVE_SIN_INIT),
-        .WAVE_COS_INIT(WAVE_COS_INIT), .LP_INIT(LP_INIT)
+        .WAVE_COS_INIT(WAVE_COS_INIT), .LP_INIT(LP_INIT), .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2),
+        .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT),
+        .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT), .MAP_INIT(MAP_INIT), .SPEED_INIT(SPEED_INIT),
+        .AMP_INIT(AMP_INIT)
     ) u_top (
         .clk(clk), .rst(rst_r),
         .s_axis_tdata(sr[S_W-1:0]), .s_axis_tvalid(s_valid_r), .s_axis_tready(s_ready_w),
         .m_axis_tdata(m_data), .m_axis_tvalid(m_valid_w), .m_axis_tready(m_ready_r),
-        .cfg_wr_en(cfg_we_r), .cfg_wr_addr(sr[S_W +: 18]), .cfg_wr_data(sr[S_W+18 +: 64]),
+        .cfg_wr_en(cfg_we_r), .cfg_wr_addr(sr[S_W +: 20]), .cfg_wr_data(sr[S_W+20 +: 64]),
         .active_bank(bank_w)
     );
 

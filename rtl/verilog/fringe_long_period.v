@@ -27,8 +27,14 @@
 //   3 slope x fraction, bare (a DSP registered on both sides); a slope wider than 16 bits is split,
 //     slope * frac = slope_hi * frac * 2^15 + slope_lo * frac (slope_lo unsigned), so each partial
 //     product fits a 16x16 DSP (iCE40); value + 2^(LP_FRAC-1)
-//   3b the partial products summed (else the product registered again)
-//   4 step = ({value, 2^(LP_IF-1)} + product) >>> (LP_IF + LP_FRAC) (one add); pos, pos + REV, pos - REV
+//     A signed slope (or slope_hi) is multiplied by fc = frac - 2^(LP_IF-1) = frac ^ 2^(LP_IF-1),
+//     an s(LP_IF) with a live sign bit (a zero-extended {1'b0, frac} has a constant sign bit, and
+//     Yosys's ice40_dsp then leaves that operand's register outside the SB_MAC16, whose multiply
+//     delay nextpnr-ice40 does not time); the difference, slope * 2^(LP_IF-1) (slope_hi * 2^(14+LP_IF)
+//     when split), goes into the base below. unsigned slope_lo * frac stays as it is.
+//   3b the partial products summed (else the product registered again);
+//     base = {value + 2^(LP_FRAC-1), 2^(LP_IF-1)} + that difference (one add)
+//   4 step = (base + product) >>> (LP_IF + LP_FRAC) (one add); pos, pos + REV, pos - REV
 //   5 pos - step and its wrapped alternatives in parallel, chosen by sign bits; zero -+ REV
 //   6 zero and direction, wrap
 // One sample per clock. ce = 0 freezes every register (and the table read); rst (synchronous,
@@ -207,7 +213,8 @@ module fringe_long_period #(
         .rd_en(ce), .rd_addr({s1_bank, s1_entry}), .rd_data(word_ram)
     );
 
-    reg [LP_IF-1:0] s1b_frac, s2_frac;
+    reg [LP_IF-1:0] s1b_frac;
+    reg signed [LP_IF-1:0] s2_fc;   // frac - 2^(LP_IF-1)
     reg [POS_W-1:0] s1b_pos, s1b_zero, s2_pos, s2_zero;
     reg             s1b_dir, s2_dir;
 
@@ -218,7 +225,7 @@ module fringe_long_period #(
             s1b_zero <= s1_zero;
             s1b_dir  <= s1_dir;
             word     <= word_ram;
-            s2_frac  <= s1b_frac;
+            s2_fc    <= s1b_frac ^ RND_IF;
             s2_pos   <= s1b_pos;
             s2_zero  <= s1b_zero;
             s2_dir   <= s1b_dir;
@@ -230,9 +237,9 @@ module fringe_long_period #(
     wire signed [LP_W-1:0]  slope = word[2*LP_W-1:LP_W];
     wire signed [C_W-1:0]   value_x = {{(C_W-LP_W){value[LP_W-1]}}, value};
     wire signed [C_W-1:0]   value_rnd;
-    wire signed [LP_IF:0]   frac_s = {1'b0, s2_frac};   // u(LP_IF) as a signed operand
-    reg  signed [PR_W-1:0]  s3_prod;                    // after stage 3b: slope * frac
-    reg  signed [C_W-1:0]   s3a_value, s3_value;
+    reg  signed [PR_W-1:0]  s3_prod;                    // after stage 3b: slope * frac - 2^(LP_IF-1) * (slope or slope_hi * 2^15)
+    reg  signed [C_W-1:0]   s3a_value;
+    reg  [SX_W-1:0]         s3_base;                    // {s3a_value, 2^(LP_IF-1)} + that difference
     reg  [POS_W-1:0]        s3a_pos, s3a_zero, s3_pos, s3_zero;
     reg                     s3a_dir, s3_dir;
 
@@ -247,28 +254,41 @@ module fringe_long_period #(
     generate
         if (LP_W <= 16) begin : g_prod
             reg signed [PR_W-1:0] s3a_prod;
+            reg signed [LP_W-1:0] s3a_slope;
+            // slope * 2^(LP_IF-1), modulo 2^SX_W
+            wire [SX_W-1:0] diff = {{(SX_W-LP_W){s3a_slope[LP_W-1]}}, s3a_slope} << (LP_IF - 1);
 
             always @(posedge clk) begin
                 if (ce) begin
-                    s3a_prod <= slope * frac_s;   // s(LP_W) x u(LP_IF)
-                    s3_prod  <= s3a_prod;
+                    s3a_prod  <= slope * s2_fc;   // s(LP_W) x s(LP_IF)
+                    s3a_slope <= slope;
+                    s3_prod   <= s3a_prod;
+                    s3_base   <= {s3a_value, RND_IF} + diff;
                 end
             end
         end else begin : g_split
             localparam integer L    = 15;                      // slope_lo bits, unsigned
             localparam integer LO_W = L + LP_IF + 2;           // s(L+1) x s(LP_IF+1)
-            localparam integer HI_W = LP_W - L + LP_IF + 1;    // s(LP_W-L) x s(LP_IF+1)
+            localparam integer HI_W = LP_W - L + LP_IF + 1;    // s(LP_W-L) x s(LP_IF), sign-extended
             wire signed [L:0]        slope_lo = {1'b0, slope[L-1:0]};
             wire signed [LP_W-L-1:0] slope_hi = slope[LP_W-1:L];
+            reg  [LP_IF-1:0]         s2_frac;                  // frac, for the unsigned slope_lo
+            wire signed [LP_IF:0]    frac_s = {1'b0, s2_frac}; // u(LP_IF) x u(L): an unsigned product
             reg  signed [LO_W-1:0]   s3a_lo;
             reg  signed [HI_W-1:0]   s3a_hi;
+            reg  signed [LP_W-L-1:0] s3a_slope_hi;
+            // slope_hi * 2^(L+LP_IF-1), modulo 2^SX_W
+            wire [SX_W-1:0] diff = {{(SX_W-LP_W+L){s3a_slope_hi[LP_W-L-1]}}, s3a_slope_hi} << (L + LP_IF - 1);
 
             always @(posedge clk) begin
                 if (ce) begin
-                    s3a_lo  <= slope_lo * frac_s;
-                    s3a_hi  <= slope_hi * frac_s;
-                    // 3b: hi * 2^L + lo (|slope * frac| < 2^(PR_W-2): no wrap)
+                    s2_frac      <= s1b_frac;
+                    s3a_lo       <= slope_lo * frac_s;
+                    s3a_hi       <= slope_hi * s2_fc;
+                    s3a_slope_hi <= slope_hi;
+                    // 3b: hi * 2^L + lo (|hi| * 2^L + |lo| < 2^(LP_W+LP_IF-2) + 2^(L+LP_IF) <= 2^(PR_W-2): no wrap)
                     s3_prod <= $signed({s3a_hi, {L{1'b0}}}) + $signed({{(PR_W-LO_W){s3a_lo[LO_W-1]}}, s3a_lo});
+                    s3_base <= {s3a_value, RND_IF} + diff;
                 end
             end
         end
@@ -280,7 +300,6 @@ module fringe_long_period #(
             s3a_pos   <= s2_pos;
             s3a_zero  <= s2_zero;
             s3a_dir   <= s2_dir;
-            s3_value  <= s3a_value;
             s3_pos    <= s3a_pos;
             s3_zero   <= s3a_zero;
             s3_dir    <= s3a_dir;
@@ -288,10 +307,11 @@ module fringe_long_period #(
     end
 
     // ---- 4: step = (value + round(slope * frac / 2^LP_IF) + 2^(LP_FRAC-1)) >>> LP_FRAC ----------------
-    // ({value + 2^(LP_FRAC-1), 2^(LP_IF-1)} + product) >>> LP_IF = corr + 2^(LP_FRAC-1): one add.
+    // (base + product) >>> LP_IF = ({value + 2^(LP_FRAC-1), 2^(LP_IF-1)} + slope * frac) >>> LP_IF
+    // = corr + 2^(LP_FRAC-1): one add, exact modulo 2^SX_W.
     // In parallel pos + REV and pos - REV, the wrapped alternatives' starting points for stage 5.
     wire signed [SX_W-1:0] prod_x = {{(SX_W-PR_W){s3_prod[PR_W-1]}}, s3_prod};
-    wire signed [SX_W-1:0] sum4   = $signed({s3_value, RND_IF}) + prod_x;   // |corr| <= 2^LP_W + 2^(LP_FRAC-1)
+    wire signed [SX_W-1:0] sum4   = $signed(s3_base) + prod_x;   // |corr| <= 2^LP_W + 2^(LP_FRAC-1)
     wire [WW-1:0]          pos_x  = {2'b00, s3_pos};
     reg  signed [C_W-LP_FRAC-1:0] s4_step;
     reg  signed [WW-1:0]   s4_pos, s4_pos_up, s4_pos_dn;

@@ -13,8 +13,13 @@
 //
 // LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
 //   1: table RAM read (fringe_table_ram, registered)   2: the RAM's output register
-//   3: slope * frac (the bare product: a DSP registered on both sides)
-//   4: ({value, 2^(FB-1)} + product) >>> FB, the rounding constant concatenated below value (one add)
+//   3: slope * (frac - 2^(FB-1)) (the bare product: a DSP registered on both sides, both operands
+//      genuinely signed, see below); in parallel base = {value, 2^(FB-1)} + slope * 2^(FB-1) (one add)
+//   4: (base + product) >>> FB (one add)
+// The multiplier's fraction operand is fc = frac - 2^(FB-1) = frac ^ 2^(FB-1), an s(FB) with a
+// live sign bit: slope * frac = slope * fc + slope * 2^(FB-1), exactly. (A zero-extended signed
+// {1'b0, frac} has a constant sign bit; Yosys's ice40_dsp then leaves that operand's register
+// outside the SB_MAC16, whose multiply delay nextpnr-ice40 does not time.)
 // ce = 0 freezes every register (including the RAM read); rst (synchronous, active high,
 // wins over ce) clears only the valid pipeline, never the data registers. The table write port
 // is independent of ce: write the bank that no sample in flight carries, then switch `bank`;
@@ -51,7 +56,7 @@ module fringe_wave_lut #(
 
     localparam integer LATENCY = 4;
     localparam integer FB      = ADC_W - WAVE_ADDR_W;  // fraction bits of the index, >= 1
-    localparam integer PROD_W  = WAVE_W + FB + 1;       // s(WAVE_W) * u(FB+1)
+    localparam integer PROD_W  = WAVE_W + FB;           // s(WAVE_W) * s(FB)
     localparam [FB:0]   RND_X = {1'b1, {FB{1'b0}}} >> 1;
     localparam [FB-1:0] RND   = RND_X[FB-1:0];            // 2^(FB-1), the rounding constant
 
@@ -74,7 +79,7 @@ module fringe_wave_lut #(
     // ---- stage 0 (combinational): index ----------------------------------------------------
     wire [ADC_W-1:0]       u0    = {~adc[ADC_W-1], adc[ADC_W-2:0]};  // adc + 2^(ADC_W-1)
     wire [WAVE_ADDR_W-1:0] addr0 = u0[ADC_W-1:FB];
-    wire [FB-1:0]          frac0 = u0[FB-1:0];
+    wire [FB-1:0]          fc0   = u0[FB-1:0] ^ RND;    // frac - 2^(FB-1), s(FB)
     wire                   clip0 = (u0 == {ADC_W{1'b0}}) || (u0 == {ADC_W{1'b1}});
 
     // ---- stage 1: table read ----------------------------------------------------------------
@@ -94,17 +99,18 @@ module fringe_wave_lut #(
         .rd_data (word1)
     );
 
-    reg          [FB-1:0] frac0r, frac1;
+    reg          [FB-1:0] fc0r;
+    reg  signed  [FB-1:0] fc1;
     reg                   clip0r, clip1;
     reg  [2*WAVE_W-1:0]   word1r;
 
     // stage 1b: the RAM's output register (a block RAM's clock-to-out then feeds no logic)
     always @(posedge clk) begin
         if (ce) begin
-            frac0r <= frac0;
+            fc0r   <= fc0;
             clip0r <= clip0;
             word1r <= word1;
-            frac1  <= frac0r;
+            fc1    <= fc0r;
             clip1  <= clip0r;
         end
     end
@@ -112,25 +118,26 @@ module fringe_wave_lut #(
     wire signed [WAVE_W-1:0] slope1 = word1r[2*WAVE_W-1:WAVE_W];
     wire signed [WAVE_W-1:0] value1 = word1r[WAVE_W-1:0];
 
-    // ---- stage 2: slope * frac ----------------------------------------------------------------
-    reg signed [PROD_W-1:0] prod2;
-    reg signed [WAVE_W-1:0] value2;
-    reg                     clip2;
+    // ---- stage 2: slope * fc; base = {value, 2^(FB-1)} + slope * 2^(FB-1) -----------------------
+    // Both modulo 2^(WAVE_W+FB), the width of the sum below (base's FB-1 low bits are zero).
+    reg signed [PROD_W-1:0]      prod2;
+    reg        [WAVE_W+FB-1:0]   base2;
+    reg                          clip2;
 
-    wire signed [FB:0] frac1_s = {1'b0, frac1};
+    wire [WAVE_W+FB-1:0] slope1_x = {{FB{slope1[WAVE_W-1]}}, slope1} << (FB - 1);  // slope * 2^(FB-1)
 
     always @(posedge clk) begin
         if (ce) begin
-            prod2  <= slope1 * frac1_s;
-            value2 <= value1;
-            clip2  <= clip1;
+            prod2 <= slope1 * fc1;
+            base2 <= {value1, RND} + slope1_x;
+            clip2 <= clip1;
         end
     end
 
-    // ---- stage 3: x = ({value, 2^(FB-1)} + product) >>> FB ------------------------------------
-    // = value + ((product + 2^(FB-1)) >>> FB), one add. The interpolated step lies between 0 and
-    // slope, and x between value[k] and value[k+1]: the sum is exact modulo 2^WAVE_W.
-    wire [WAVE_W+FB-1:0] sum2 = {value2, RND} + prod2[WAVE_W+FB-1:0];
+    // ---- stage 3: x = (base + product) >>> FB ----------------------------------------------------
+    // = value + ((slope * frac + 2^(FB-1)) >>> FB), one add. The interpolated step lies between 0
+    // and slope, and x between value[k] and value[k+1]: the sum is exact modulo 2^WAVE_W.
+    wire [WAVE_W+FB-1:0] sum2 = base2 + prod2;
 
     always @(posedge clk) begin
         if (ce) begin
@@ -160,9 +167,8 @@ module fringe_wave_lut #(
     assign out_valid = valid_sr[LATENCY-1];
     assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
 
-    // prod2[PROD_W-1:FB+WAVE_W] only carries the sign of the step, already implied by the sum;
-    // the sum's low bits are rounded off.
-    wire unused_ok = &{1'b0, prod2[PROD_W-1:FB+WAVE_W], sum2[FB-1:0]};
+    // The sum's low bits are rounded off.
+    wire unused_ok = &{1'b0, sum2[FB-1:0]};
 
 endmodule
 
