@@ -46,6 +46,7 @@ REPO = Path(__file__).resolve().parent.parent
 TOPLEVEL = "fringe_top"
 DEFAULT_SEED = 20251124
 DATA_ENV = "FRINGE_TOP_DATA"
+CTRL_DELAY = 2    # a CTRL swap takes effect at the second edge after the edge that takes the write
 
 # ============================================================================ cocotb side
 
@@ -101,6 +102,7 @@ class Bench:
         self.epoch = 0
         self.bank = int(dut.active_bank.value)             # expected active bank
         self.swap_edges: list[int] = []
+        self.pending_swaps: list[int] = []                 # edges at which a CTRL write takes effect
         self.edge = 0                                      # index of the coming edge
         self.ctrl_seen = 0
         cocotb.start_soon(self._monitor())
@@ -122,6 +124,9 @@ class Bench:
                 self.epoch += 1
             if (int(d.cfg_wr_en.value) and int(d.cfg_wr_addr.value) == 0x80
                     and int(d.cfg_wr_data.value) & 1):
+                self.pending_swaps.append(self.edge + CTRL_DELAY)
+            if self.pending_swaps and self.pending_swaps[0] == self.edge:
+                self.pending_swaps.pop(0)
                 self.bank ^= 1           # samples after this edge take the other bank
                 self.swap_edges.append(self.edge)
             self.edge += 1
@@ -478,7 +483,8 @@ if cocotb is not None:
         dut.cfg_wr_data.value = 1
         await RisingEdge(dut.clk)
         dut.cfg_wr_en.value = 0
-        await RisingEdge(dut.clk)
+        for _ in range(CTRL_DELAY + 1):
+            await RisingEdge(dut.clk)
         if int(dut.active_bank.value) != inactive:
             raise AssertionError("the swap did not happen")
         b = Bench(dut, case, rng)
@@ -630,13 +636,13 @@ def test_latency_documented():
     cfg = CoreConfig()
     lat = core_latency(cfg)
     assert lat == cfg.cordic_stages + 24
-    assert core_latency(dataclasses.replace(cfg, trim=1)) == lat + trim.LATENCY == lat + 11
+    assert core_latency(dataclasses.replace(cfg, trim=1)) == lat + trim.LATENCY == lat + 12
     for f in ("rtl/verilog/fringe_core.v", "rtl/verilog/fringe_top.v", "rtl/vhdl/fringe_core.vhd",
               "rtl/vhdl/fringe_top.vhd"):
         text = (REPO / f).read_text()
-        # CORDIC_STAGES + 24, plus fringe_trim's 11 when TRIM = 1
+        # CORDIC_STAGES + 24, plus fringe_trim's 12 when TRIM = 1
         assert re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*24\s*\+", text), f
-        assert re.search(r"\?\s*11\s*:\s*0|return 11;", text), f
+        assert re.search(r"\?\s*12\s*:\s*0|return 12;", text), f
     # the core's bank pipeline taps (registers read one clock enable ahead) use the blocks' latencies
     for f in ("rtl/verilog/fringe_core.v", "rtl/vhdl/fringe_core.vhd"):
         text = (REPO / f).read_text()

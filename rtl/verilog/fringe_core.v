@@ -18,19 +18,19 @@
 // 5 trim speed table, 6 trim magnitude table (others ignored); cfg_wr_addr[15:0] is the word within
 // one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
 // Writes always go to the inactive bank (the one inactive when the write is issued); they are
-// registered (decoded enables, address, data) and land one clock later. Register word 0x80 is
-// CTRL: writing bit 0 = 1 swaps the banks at that clock edge; a sample accepted at the same edge
-// still takes the old bank, every later sample the new one. A write issued before the swap lands
-// at the swap's edge at the latest, in the bank it was issued for, so every sample of the new
-// bank sees it. Software rule: after a swap, wait until the samples accepted before it have come
+// decoded in two registered steps and land two clocks after the edge that takes them. Register
+// word 0x80 is CTRL: writing bit 0 = 1 swaps the banks two clocks after that edge (with the writes
+// presented with it); samples accepted up to that clock take the old bank, every later sample the
+// new one. A write presented before the CTRL write lands before the swap, in the bank it was
+// issued for, so every sample of the new bank sees it. Software rule: after a swap, wait until the samples accepted before it have come
 // out (LATENCY clock enables) before writing the now inactive bank.
 // rst (synchronous, active high) clears the sample pipeline (valid bits, the period counter);
 // the register file, the tables and the active bank are configuration and keep their values
 // (power-up: bank 0, the init files).
 //
-// LATENCY = CORDIC_STAGES + 24 (+ 11 with TRIM = 1) clock enables from in_valid to out_valid:
+// LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1) clock enables from in_valid to out_valid:
 //   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
-//   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count [+ 11 fringe_trim] + 8 fringe_long_period.
+//   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count [+ 12 fringe_trim] + 8 fringe_long_period.
 // The registers a block takes with the sample (quadrature coefficients, magnitude thresholds,
 // COARSE_OFS, ZERO/DIR) are read one clock enable ahead, with the sample's bank from a copy of
 // the bank pipeline (taps at the blocks' latencies), so no register-file mux feeds block logic.
@@ -93,7 +93,7 @@ module fringe_core #(
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 11 : 0);
+    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 12 : 0);
     /* verilator lint_on UNUSEDPARAM */
     localparam integer POS_W   = $clog2(LINES) + FINE_W;        // clog2(LINES * 2^FINE_W)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width
@@ -164,42 +164,66 @@ module fringe_core #(
     wire [15:0] cfg_word = cfg_wr_addr[15:0];
     wire        wr_bank  = ~bank_r;   // writes go to the inactive bank
 
-    // Writes are registered: one-hot register enables {bank, index}, table enables, addresses and
-    // data; they land one clock later (the decode and the 32-way fan-out sit in separate clocks).
+    // The write decode is two registered steps (the iCE40's routing cannot take the 22-input compare and
+    // the 32-way fan-out in one clock): step 1 registers partial decodes of the presented write, step 2
+    // the one-hot register enables and the table enables; the write lands at the clock after step 2,
+    // two clocks after it was presented, in the bank that was inactive when it was presented.
+    reg               st1_en_reg, st1_en_ctrl_a, st1_en_ctrl_b;
+    reg  [6:0]        st1_sel;                  // one-hot: sin, cos, lp, trim map, trim speed, trim amp (+ unused)
+    reg               st1_wave_ok, st1_lp_ok, st1_trim_ok;
+    reg  [15:0]       st1_word;
+    reg               st1_bank;
+    reg  [63:0]       st1_data;
     reg  [31:0]       reg_we;
-    reg               wr_sin, wr_cos, wr_lp, wr_trim;
+    reg               wr_sin, wr_cos, wr_lp, wr_trim, ctrl_swap;
     reg  [1:0]        wr_trim_sel;
     reg  [15:0]       wr_word;
     reg               wr_bank_r;
     reg  [63:0]       wr_data;
 
-    // power-up values: no write lands before the first one issued (as bank_r, not reset)
+    // power-up values: no write lands before the first one presented (as bank_r, not reset)
     initial begin
-        reg_we = 32'd0;
-        wr_sin = 1'b0;
-        wr_cos = 1'b0;
-        wr_lp  = 1'b0;
-        wr_trim = 1'b0;
+        st1_en_reg    = 1'b0;
+        st1_en_ctrl_a = 1'b0;
+        st1_sel       = 7'd0;
+        reg_we        = 32'd0;
+        wr_sin        = 1'b0;
+        wr_cos        = 1'b0;
+        wr_lp         = 1'b0;
+        wr_trim       = 1'b0;
+        ctrl_swap     = 1'b0;
     end
 
-    // table write enables: the word must lie inside one bank
-    wire wave_word_ok = (cfg_word >> (WAVE_ADDR_W + 1)) == 16'd0;
-    wire lp_word_ok   = (cfg_word >> LP_ADDR_W) == 16'd0;
-    wire trim_word_ok = (cfg_word >> (MAP_PSI_W + MAP_PHI_W + 1)) == 16'd0;
+    // step 1: which space, whether the word lies inside one bank (table words), CTRL in two halves
+    always @(posedge clk) begin
+        st1_en_reg    <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word[15:4] == 12'd0;
+        st1_en_ctrl_a <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word[15:8] == 8'd0;
+        st1_en_ctrl_b <= cfg_word[7:0] == CTRL_WORD[7:0] && cfg_wr_data[0];
+        st1_sel       <= {1'b0, cfg_sel == 4'd6, cfg_sel == 4'd5, cfg_sel == 4'd4, cfg_sel == 4'd3,
+                          cfg_sel == 4'd2, cfg_sel == 4'd1} & {7{cfg_wr_en}};
+        st1_wave_ok   <= (cfg_word >> (WAVE_ADDR_W + 1)) == 16'd0;
+        st1_lp_ok     <= (cfg_word >> LP_ADDR_W) == 16'd0;
+        st1_trim_ok   <= (cfg_word >> (MAP_PSI_W + MAP_PHI_W + 1)) == 16'd0;
+        st1_word      <= cfg_word;
+        st1_bank      <= wr_bank;
+        st1_data      <= cfg_wr_data;
+    end
 
+    // step 2: one-hot register enables {bank, index}, table enables, CTRL
     integer wi;
     always @(posedge clk) begin
         for (wi = 0; wi < 32; wi = wi + 1) begin
-            reg_we[wi] <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word == {12'd0, wi[3:0]} && wr_bank == wi[4];
+            reg_we[wi] <= st1_en_reg && st1_word[3:0] == wi[3:0] && st1_bank == wi[4];
         end
-        wr_sin    <= cfg_wr_en && cfg_sel == 4'd1 && wave_word_ok;
-        wr_cos    <= cfg_wr_en && cfg_sel == 4'd2 && wave_word_ok;
-        wr_lp     <= cfg_wr_en && cfg_sel == 4'd3 && lp_word_ok;
-        wr_trim   <= cfg_wr_en && (cfg_sel == 4'd4 || cfg_sel == 4'd5 || cfg_sel == 4'd6) && trim_word_ok;
-        wr_trim_sel <= cfg_sel[1:0];   // 4, 5, 6 -> 0 map, 1 speed, 2 magnitude
-        wr_word   <= cfg_word;
-        wr_bank_r <= wr_bank;
-        wr_data   <= cfg_wr_data;
+        wr_sin      <= st1_sel[0] && st1_wave_ok;
+        wr_cos      <= st1_sel[1] && st1_wave_ok;
+        wr_lp       <= st1_sel[2] && st1_lp_ok;
+        wr_trim     <= (st1_sel[3] || st1_sel[4] || st1_sel[5]) && st1_trim_ok;
+        wr_trim_sel <= {st1_sel[5], st1_sel[4]};   // 4, 5, 6 -> 0 map, 1 speed, 2 magnitude
+        ctrl_swap   <= st1_en_ctrl_a && st1_en_ctrl_b;
+        wr_word     <= st1_word;
+        wr_bank_r   <= st1_bank;
+        wr_data     <= st1_data;
     end
 
     genvar ri;
@@ -213,9 +237,10 @@ module fringe_core #(
         end
     endgenerate
 
-    // CTRL swaps at once: a write issued before it carries its bank in wr_bank_r
+    // CTRL swaps at the clock after step 2, as a write presented at the same time would land: every
+    // write presented before it has landed by then (each carries its bank in wr_bank_r)
     always @(posedge clk) begin
-        if (cfg_wr_en && cfg_sel == 4'd0 && cfg_word == CTRL_WORD && cfg_wr_data[0]) begin
+        if (ctrl_swap) begin
             bank_r <= ~bank_r;
         end
     end
@@ -297,7 +322,7 @@ module fringe_core #(
     localparam integer LAT_Q  = 5;                      // fringe_quadrature
     localparam integer LAT_C  = CORDIC_STAGES + 2;      // fringe_cordic
     localparam integer LAT_P  = 3;                      // fringe_period_count
-    localparam integer LAT_T  = (TRIM != 0) ? 11 : 0;   // fringe_trim (TRIM = 1)
+    localparam integer LAT_T  = (TRIM != 0) ? 12 : 0;   // fringe_trim (TRIM = 1)
     localparam integer TAP_Q  = LAT_WL - 2;             // quadrature coefficients
     localparam integer TAP_C  = LAT_WL + LAT_Q + LAT_C - 2;          // magnitude thresholds, COARSE_OFS
     localparam integer TAP_P  = LAT_WL + LAT_Q + LAT_C + LAT_P + LAT_T - 2;  // ZERO, DIR
@@ -472,7 +497,7 @@ module fringe_core #(
 
     // The cosine table runs in step with the sine table (same latency): its valid and sideband
     // are duplicates. cfg_wr_data above the widest table word is not used.
-    wire unused_ok = &{1'b0, wl_valid_c, wl_user_c, wr_data, wr_word, c_bank};
+    wire unused_ok = &{1'b0, wl_valid_c, wl_user_c, wr_data, wr_word, c_bank, st1_sel[6]};
 
     // status word: bit 0 CLIP_SIN .. 6 SATURATED, 7 BANK (the blocks' sideband, registered)
     assign status = l_user;

@@ -20,17 +20,17 @@
 -- 5 trim speed table, 6 trim magnitude table (others ignored); cfg_wr_addr[15:0] is the word within
 -- one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
 -- Writes always go to the inactive bank (the one inactive when the write is issued); they are
--- registered (decoded enables, address, data) and land one clock later. Register word 0x80 is
--- CTRL: writing bit 0 = 1 swaps the banks at that clock edge; a sample accepted at the same edge
--- still takes the old bank, every later sample the new one. A write issued before the swap lands
--- at the swap's edge at the latest, in the bank it was issued for, so every sample of the new
--- bank sees it. Software rule: after a swap, wait until the samples accepted before it have come
+-- decoded in two registered steps and land two clocks after the edge that takes them. Register
+-- word 0x80 is CTRL: writing bit 0 = 1 swaps the banks two clocks after that edge (with the writes
+-- presented with it); samples accepted up to that clock take the old bank, every later sample the
+-- new one. A write presented before the CTRL write lands before the swap, in the bank it was
+-- issued for, so every sample of the new bank sees it. Software rule: after a swap, wait until the samples accepted before it have come
 -- out (LATENCY clock enables) before writing the now inactive bank.
 -- rst (synchronous, active high) clears the sample pipeline (valid bits, the period counter);
 -- the register file, the tables and the active bank are configuration and keep their values
 -- (power-up: bank 0, the init files).
 --
--- LATENCY = CORDIC_STAGES + 24 (+ 11 with TRIM = 1) clock enables from in_valid to out_valid:
+-- LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1) clock enables from in_valid to out_valid:
 --   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
 --   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count + 8 fringe_long_period.
 -- The registers a block takes with the sample (quadrature coefficients, magnitude thresholds,
@@ -150,7 +150,7 @@ architecture rtl of fringe_core is
     function trim_latency return integer is
     begin
         if TRIM /= 0 then
-            return 11;
+            return 12;
         end if;
         return 0;
     end function trim_latency;
@@ -241,6 +241,17 @@ architecture rtl of fringe_core is
     signal cfg_word     : unsigned(15 downto 0);
     signal wr_bank      : std_logic;
     -- power-up values: no write lands before the first one issued (as bank_r, not reset)
+    -- step 1 of the write decode (partial decodes of the presented write)
+    signal st1_en_reg    : std_logic := '0';
+    signal st1_en_ctrl_a : std_logic := '0';
+    signal st1_en_ctrl_b : std_logic;
+    signal st1_sel       : std_logic_vector(5 downto 0) := (others => '0');  -- one-hot: sin, cos, lp, map, speed, amp
+    signal st1_wave_ok, st1_lp_ok, st1_trim_ok : std_logic;
+    signal st1_word      : unsigned(15 downto 0);
+    signal st1_bank      : std_logic;
+    signal st1_data      : std_logic_vector(63 downto 0);
+    signal ctrl_swap     : std_logic := '0';
+    -- step 2: enables, address, data of the landing write
     signal reg_we       : std_logic_vector(31 downto 0) := (others => '0');
     signal wr_sin       : std_logic := '0';
     signal wr_cos       : std_logic := '0';
@@ -340,29 +351,55 @@ begin
     cfg_word <= unsigned(cfg_wr_addr(15 downto 0));
     wr_bank  <= not bank_r;                 -- writes go to the inactive bank
 
-    -- Writes are registered: one-hot register enables {bank, index}, table enables, addresses and
-    -- data; they land one clock later (the decode and the 32-way fan-out sit in separate clocks).
+    -- The write decode is two registered steps (the iCE40's routing cannot take the 22-input compare and
+    -- the 32-way fan-out in one clock): step 1 registers partial decodes of the presented write, step 2
+    -- the one-hot register enables and the table enables; the write lands at the clock after step 2,
+    -- two clocks after it was presented, in the bank that was inactive when it was presented.
+    p_cfg_step1 : process (clk)
+        function b(c : boolean) return std_logic is
+        begin
+            if c then
+                return '1';
+            end if;
+            return '0';
+        end function b;
+    begin
+        if rising_edge(clk) then
+            st1_en_reg    <= b(cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word(15 downto 4) = 0);
+            st1_en_ctrl_a <= b(cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word(15 downto 8) = 0);
+            st1_en_ctrl_b <= b(cfg_word(7 downto 0) = to_unsigned(CTRL_WORD mod 256, 8) and cfg_wr_data(0) = '1');
+            for k in 0 to 5 loop
+                st1_sel(k) <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = k + 1);
+            end loop;
+            st1_wave_ok <= b(shift_right(cfg_word, WAVE_ADDR_W + 1) = 0);
+            st1_lp_ok   <= b(shift_right(cfg_word, LP_ADDR_W) = 0);
+            st1_trim_ok <= b(shift_right(cfg_word, MAP_PSI_W + MAP_PHI_W + 1) = 0);
+            st1_word    <= cfg_word;
+            st1_bank    <= wr_bank;
+            st1_data    <= cfg_wr_data;
+        end if;
+    end process p_cfg_step1;
+
     p_cfg_dec : process (clk)
     begin
         if rising_edge(clk) then
             for i in 0 to 31 loop
-                if cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word = to_unsigned(i mod 16, 16)
-                   and (wr_bank = '1') = (i >= 16) then
+                if st1_en_reg = '1' and st1_word(3 downto 0) = to_unsigned(i mod 16, 4)
+                   and (st1_bank = '1') = (i >= 16) then
                     reg_we(i) <= '1';
                 else
                     reg_we(i) <= '0';
                 end if;
             end loop;
-            -- table write enables: the word must lie inside one bank
-            wr_sin <= '1' when cfg_wr_en = '1' and cfg_sel = "0001" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
-            wr_cos <= '1' when cfg_wr_en = '1' and cfg_sel = "0010" and shift_right(cfg_word, WAVE_ADDR_W + 1) = 0 else '0';
-            wr_lp  <= '1' when cfg_wr_en = '1' and cfg_sel = "0011" and shift_right(cfg_word, LP_ADDR_W) = 0 else '0';
-            wr_trim <= '1' when cfg_wr_en = '1' and (cfg_sel = "0100" or cfg_sel = "0101" or cfg_sel = "0110")
-                                and shift_right(cfg_word, MAP_PSI_W + MAP_PHI_W + 1) = 0 else '0';
-            wr_trim_sel <= cfg_sel(1 downto 0);   -- 4, 5, 6 -> 0 map, 1 speed, 2 magnitude
-            wr_word   <= cfg_word;
-            wr_bank_r <= wr_bank;
-            wr_data   <= cfg_wr_data;
+            wr_sin      <= st1_sel(0) and st1_wave_ok;
+            wr_cos      <= st1_sel(1) and st1_wave_ok;
+            wr_lp       <= st1_sel(2) and st1_lp_ok;
+            wr_trim     <= (st1_sel(3) or st1_sel(4) or st1_sel(5)) and st1_trim_ok;
+            wr_trim_sel <= st1_sel(5) & st1_sel(4);   -- 4, 5, 6 -> 0 map, 1 speed, 2 magnitude
+            ctrl_swap   <= st1_en_ctrl_a and st1_en_ctrl_b;
+            wr_word     <= st1_word;
+            wr_bank_r   <= st1_bank;
+            wr_data     <= st1_data;
         end if;
     end process p_cfg_dec;
 
@@ -377,11 +414,12 @@ begin
         end if;
     end process p_regs;
 
-    -- CTRL swaps at once: a write issued before it carries its bank in wr_bank_r
+    -- CTRL swaps at the clock after step 2, as a write presented at the same time would land: every
+    -- write presented before it has landed by then (each carries its bank in wr_bank_r)
     p_ctrl : process (clk)
     begin
         if rising_edge(clk) then
-            if cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word = CTRL_WORD and cfg_wr_data(0) = '1' then
+            if ctrl_swap = '1' then
                 bank_r <= not bank_r;
             end if;
         end if;
