@@ -95,9 +95,9 @@ def _write_recording(cfg, seed: int, path) -> None:
     write_csv(str(path), cols, simulate.describe(cfg, seed), simulate.csv_formats())
 
 
-@pytest.mark.parametrize("case", ["eccentricity+hysteresis", "ref_lag+skew"])
+@pytest.mark.parametrize("case", ["eccentricity+hysteresis", "ref_lag+skew", "drift"])
 def test_cli_loop_calibration_rtl_rows_equal_model(sim, tmp_path, case):
-    """A calibration from `fringe loop` (its added effects carried by fringe_trim) through
+    """A calibration from `fringe loop` (its added effects carried by fringe_trim and fringe_drift) through
     `fringe correct`: the RTL engine writes the same rows as the bit-exact model."""
     import json
 
@@ -111,8 +111,9 @@ def test_cli_loop_calibration_rtl_rows_equal_model(sim, tmp_path, case):
     (d / "e.json").write_text(json.dumps(cfg.encoder().to_dict()))
     assert main(["loop", str(d / "a.csv"), "--encoder", str(d / "e.json"), "--out", str(d / "loop")]) == 0
     added = {e["name"] for e in json.loads((d / "loop" / "report.json").read_text())["effects_added"]}
-    assert added & {"rev_offset_gain", "hysteresis", "sampling_skew"}, added
-    assert json.loads((d / "loop" / "cal" / "core.json").read_text())["config"]["trim"] == 1
+    assert added & {"rev_offset_gain", "hysteresis", "sampling_skew", "drift"}, added
+    core = json.loads((d / "loop" / "cal" / "core.json").read_text())["config"]
+    assert core["trim"] == 1 or core["drift"] == 1, core
     engine = {"verilator": "verilog", "ghdl": "vhdl"}[sim]
     for e in ("model", engine):
         assert main(["correct", str(d / "b.csv"), "--cal", str(d / "loop" / "cal"), "--out", str(d / f"{e}.csv"),

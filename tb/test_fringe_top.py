@@ -542,6 +542,7 @@ CONFIGS = {
     "adc12-L256-c9": (lambda: CoreConfig(), seed_sim, 1),
     "adc16-L1-c0": (lambda: CoreConfig.for_encoder(Encoder(1, 16, 0)), one_line_sim, 8),
     "adc12-L256-c9-trim": (lambda: CoreConfig(trim=1, map_psi_w=4, map_phi_w=5, g_shift=20), seed_sim, 1),
+    "adc12-L256-c9-drift": (lambda: CoreConfig(drift=1, drift_block_log2=7, drift_fwd_w=6), seed_sim, 1),
 }
 N_STREAM = 2500
 
@@ -550,7 +551,8 @@ def cfg_words(t: CoreTables, cfg: CoreConfig) -> list[tuple[int, int]]:
     """(cfg_wr_addr, cfg_wr_data) of one bank of every image: registers, sine, cosine, long period."""
     from fringe.rom import images
 
-    sel = {"regs": 0, "wave_sin": 1, "wave_cos": 2, "long_period": 3, "trim_map": 4, "trim_speed": 5, "trim_amp": 6}
+    sel = {"regs": 0, "wave_sin": 1, "wave_cos": 2, "long_period": 3, "trim_map": 4, "trim_speed": 5, "trim_amp": 6,
+           "drift_fwd_sin": 7, "drift_fwd_cos": 8}
     out = []
     for im in images(t, cfg):
         half = len(im.words) // 2
@@ -585,6 +587,9 @@ def prepare(name: str) -> Path:
     sc = make_sim()
     rec_a = simulate(sc, seed=11)
     cal_a = calibrate(measurement_of(rec_a), rec_a.encoder)
+    if cfg.drift:      # the gain-loop constants' scale for this encoder
+        from fringe.fixed.closed_loop import choose_kg_shift
+        cfg = dataclasses.replace(cfg, drift_kg_shift=choose_kg_shift(cal_a, cfg))
     rec_b = simulate(other_channels(sc), seed=12)
     cal_b = calibrate(measurement_of(rec_b), rec_b.encoder)
     tab_a, tab_b = build_tables(cal_a, cfg), build_tables(cal_b, cfg)
@@ -631,18 +636,20 @@ def test_latency_documented():
     """The LATENCY in the HDL (core, top, and the blocks' constants) is the model's core_latency."""
     import re
 
-    from fringe.fixed import long_period, period_count, quadrature, trim, wave_lut
+    from fringe.fixed import drift, long_period, period_count, quadrature, trim, wave_lut
 
     cfg = CoreConfig()
     lat = core_latency(cfg)
     assert lat == cfg.cordic_stages + 24
     assert core_latency(dataclasses.replace(cfg, trim=1)) == lat + trim.LATENCY == lat + 12
+    assert core_latency(dataclasses.replace(cfg, drift=1)) == lat + drift.NORM_LATENCY == lat + 4
     for f in ("rtl/verilog/fringe_core.v", "rtl/verilog/fringe_top.v", "rtl/vhdl/fringe_core.vhd",
               "rtl/vhdl/fringe_top.vhd"):
         text = (REPO / f).read_text()
         # CORDIC_STAGES + 24, plus fringe_trim's 12 when TRIM = 1
         assert re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*24\s*\+", text), f
         assert re.search(r"\?\s*12\s*:\s*0|return 12;", text), f
+        assert re.search(r"\(DRIFT != 0\)\s*\?\s*4\s*:\s*0|return 4;", text), f
     # the core's bank pipeline taps (registers read one clock enable ahead) use the blocks' latencies
     for f in ("rtl/verilog/fringe_core.v", "rtl/vhdl/fringe_core.vhd"):
         text = (REPO / f).read_text()

@@ -98,7 +98,7 @@ def test_rom_images_are_deterministic_range_checked_and_labelled(seed_setup, tmp
     words = [ln for ln in mem if not ln.startswith("//")]
     assert len(words) == 2 * 2 * (1 << cfg.wave_addr_w)
     mif = (tmp_path / "a" / "regs.mif").read_text()
-    assert "DEPTH = 32;" in mif and "WIDTH = 32;" in mif
+    assert "DEPTH = 64;" in mif and "WIDTH = 32;" in mif   # 2 banks x 32 registers
     coe = (tmp_path / "a" / "long_period.coe").read_text()
     assert "memory_initialization_radix=16;" in coe and coe.rstrip().endswith(";")
     assert "package fringe_rom_pkg is" in (tmp_path / "a" / "fringe_rom_pkg.vhd").read_text()

@@ -18,7 +18,6 @@ proportional to speed, and so on.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -258,40 +257,11 @@ def fit_rev_normalisation(waves: dict, sin: np.ndarray, cos: np.ndarray, phi: np
 
 # ---------------------------------------------------------------- adaptive offset/gain tracker
 
-BLOCK = 256          # samples per update
-TRACK_GAIN = 0.5     # fraction of each block's estimate taken into the running correction
+def tracked_phase(cal, sin: np.ndarray, cos: np.ndarray):
+    """Fine phase with the online offset/gain tracker in front of the tables (fringe_drift's equations,
+    docs/drift.md: per block of samples the normalised readings are compared with the calibrated
+    waveform at the measured phase; the mean error steps the offset, its correlation with the waveform
+    the gain; the new values apply from a fixed sample on, causal as in the hardware)."""
+    from .fixed.closed_loop import tracked_phase as track
 
-
-def tracked_phase(cal, sin: np.ndarray, cos: np.ndarray, block: int = BLOCK, gain: float = TRACK_GAIN):
-    """Fine phase with an online tracker of each channel's offset and gain, in front of the tables.
-
-    A drifting gain changes a near-triangular waveform's shape against the tables, so it must be
-    undone on the raw readings. Per block: the readings (normalised with the running estimates) are
-    fitted as offset + gain * (W(theta) - w0) against the calibrated waveform W at the block's own
-    phase; a fraction of the block's residual offset and gain goes into the running estimates,
-    which apply from the NEXT block on (causal, as the hardware would). At the fixed point the
-    normalised readings follow the calibrated waveform. Standstill blocks do not update.
-    """
-    from .pipeline import fine_phase
-
-    off = {"sin": 0.0, "cos": 0.0}
-    g = {"sin": 1.0, "cos": 1.0}
-    frac = np.empty(len(sin))
-    mag = np.empty(len(sin))
-    plain = dataclasses.replace(cal, adaptive=False)
-    psi_c = cal.waves["cos"].psi
-    for start in range(0, len(sin), block):
-        sl = slice(start, start + block)
-        ys = {"sin": (sin[sl] - off["sin"]) / g["sin"], "cos": (cos[sl] - off["cos"]) / g["cos"]}
-        frac[sl], mag[sl] = fine_phase(plain, ys["sin"], ys["cos"])
-        theta = 2 * np.pi * frac[sl] - psi_c
-        if len(theta) < 16 or np.ptp(np.unwrap(theta)) < 2 * np.pi:
-            continue
-        for kind in ("sin", "cos"):
-            w = cal.waves[kind]
-            ac = w(theta) - w.weights[0]
-            (d_off, d_gain), *_ = np.linalg.lstsq(np.column_stack([np.ones_like(ac), ac]), ys[kind] - w.weights[0],
-                                                  rcond=None)
-            off[kind] += gain * d_off * g[kind]
-            g[kind] *= 1 + gain * (d_gain - 1)
-    return frac, mag
+    return track(cal, sin, cos)

@@ -26,9 +26,11 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
     base.update(overrides)
     try:
         cfg = CoreConfig.for_encoder(cal.encoder, **base)
+        from .fixed.closed_loop import drift_config, trim_config
         if "trim" not in base:     # closed-loop corrections switch fringe_trim on, with gains sized for them
-            from .fixed.closed_loop import trim_config
             cfg = trim_config(cal, cfg)
+        if "drift" not in base:    # and the drift tracker fringe_drift
+            cfg = drift_config(cal, cfg)
         return cfg
     except (TypeError, ValueError) as e:
         raise FringeInputError(f"core configuration not possible: {e}", path or "core configuration") from None

@@ -15,6 +15,7 @@ import numpy as np
 
 from . import __version__
 from .dataio import atomic_dir
+from .fixed import drift as drift_mod
 from .fixed import long_period as lp_mod
 from .fixed import trim as trim_mod
 from .fixed import wave_lut as wave_mod
@@ -40,7 +41,9 @@ def register_values(t: CoreTables) -> dict[str, int]:
             "MID_S": t.branch_sin[0], "THR_HI_S": t.branch_sin[1], "THR_LO_S": t.branch_sin[2],
             "MID_C": t.branch_cos[0], "THR_HI_C": t.branch_cos[1], "THR_LO_C": t.branch_cos[2],
             "COARSE_OFS": t.coarse_ofs, "ZERO": t.zero, "DIR": t.direction,
-            "AMP_LOW": t.amp_low, "AMP_HIGH": t.amp_high}
+            "AMP_LOW": t.amp_low, "AMP_HIGH": t.amp_high,
+            "W0_S": 0 if t.drift is None else int(t.drift.w0[0]), "W0_C": 0 if t.drift is None else int(t.drift.w0[1]),
+            "KG_S": 0 if t.drift is None else int(t.drift.kg[0]), "KG_C": 0 if t.drift is None else int(t.drift.kg[1])}
 
 
 def images(t: CoreTables, cfg: CoreConfig) -> list[Image]:
@@ -68,6 +71,13 @@ def images(t: CoreTables, cfg: CoreConfig) -> list[Image]:
                       "fringe_trim speed gain {slope, value} per fine-phase bin"),
                 Image("trim_amp", two_banks(trim_mod.pack_words(t.trim.amp, tp)), tp.word_w,
                       "fringe_trim magnitude gain {slope, value} per fine-phase bin")]
+    if cfg.drift:
+        if t.drift is None:
+            raise ValueError("DRIFT = 1: the core tables hold no fringe_drift tables")
+        dp = cfg.drift_params()
+        out += [Image(f"drift_fwd_{k}", two_banks(drift_mod.pack_words(t.drift.fwd[i], dp)), 2 * dp.table_w,
+                      f"fringe_drift forward {k} waveform minus its mean {{slope, value}} per fine-phase bin")
+                for i, k in enumerate(("sin", "cos"))]
     return out
 
 

@@ -46,11 +46,13 @@ INIT_FILES = {"REGS_INIT": "regs", "WAVE_SIN_INIT": "wave_sin", "WAVE_COS_INIT":
               "LP_INIT": "long_period"}
 #: ... and those of fringe_trim, with TRIM = 1
 TRIM_INIT_FILES = {"MAP_INIT": "trim_map", "SPEED_INIT": "trim_speed", "AMP_INIT": "trim_amp"}
+#: ... and those of fringe_drift, with DRIFT = 1
+DRIFT_INIT_FILES = {"FWD_SIN_INIT": "drift_fwd_sin", "FWD_COS_INIT": "drift_fwd_cos"}
 
 
 def init_files(cfg: CoreConfig) -> dict[str, str]:
     """{generic: ROM image stem} of a configuration."""
-    return INIT_FILES | (TRIM_INIT_FILES if cfg.trim else {})
+    return INIT_FILES | (TRIM_INIT_FILES if cfg.trim else {}) | (DRIFT_INIT_FILES if cfg.drift else {})
 
 
 # --------------------------------------------------------------------------- top-level formats

@@ -1,36 +1,39 @@
 // fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock.
 //
-//   sin, cos s(ADC_W) -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
+//   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1: the online offset/gain tracker, docs/drift.md]
+//   -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
 //   -> fringe_cordic -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W))
 //   [-> fringe_trim, TRIM = 1: the closed loop's corrections, docs/trim.md]
 //   -> fringe_long_period -> pos u(POS_W), status (8 bits)
 // Formats, register map and status word: docs/architecture.md. Bit-exact model:
 // model/fringe/fixed/core.py (run_core; run_core_banks for a bank swap in mid-stream).
 //
-// Register file: 2 banks x 16 words of 32 bits (model/fringe/fixed/regmap.py), initialised from
-// REGS_INIT (bank 0 words 0..15, then bank 1). Every sample takes the active bank when it is
+// Register file: 2 banks x 32 words of 32 bits (model/fringe/fixed/regmap.py), initialised from
+// REGS_INIT (bank 0 words 0..31, then bank 1). Every sample takes the active bank when it is
 // accepted and carries the bank bit (and its early flags: clip, sat, magnitude) in the blocks'
 // user sideband, so each stage reads the tables and registers of the sample's own bank:
 //   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, AMP_LOW/AMP_HIGH
 //   at the CORDIC output, COARSE_OFS at the period-count input, ZERO/DIR at the long-period input.
 // Configuration write port (independent of ce): cfg_wr_addr[19:16] selects 0 registers and
 // control, 1 sine table, 2 cosine table, 3 long-period table, and with TRIM = 1: 4 trim map,
-// 5 trim speed table, 6 trim magnitude table (others ignored); cfg_wr_addr[15:0] is the word within
+// 5 trim speed table, 6 trim magnitude table, with DRIFT = 1: 7 drift sine forward table, 8 drift
+// cosine forward table (others ignored); cfg_wr_addr[15:0] is the word within
 // one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
 // Writes always go to the inactive bank (the one inactive when the write is issued); they are
 // decoded in two registered steps and land two clocks after the edge that takes them. Register
 // word 0x80 is CTRL: writing bit 0 = 1 swaps the banks two clocks after that edge (with the writes
 // presented with it); samples accepted up to that clock take the old bank, every later sample the
 // new one. A write presented before the CTRL write lands before the swap, in the bank it was
-// issued for, so every sample of the new bank sees it. Software rule: after a swap, wait until the samples accepted before it have come
-// out (LATENCY clock enables) before writing the now inactive bank.
+// issued for, so every sample of the new bank sees it. Software rule: after a swap, wait until the
+// samples accepted before it have come out (LATENCY clock enables) before writing the now inactive bank.
 // rst (synchronous, active high) clears the sample pipeline (valid bits, the period counter);
 // the register file, the tables and the active bank are configuration and keep their values
 // (power-up: bank 0, the init files).
 //
-// LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1) clock enables from in_valid to out_valid:
+// LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1) clock enables from in_valid to out_valid:
 //   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
-//   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count [+ 12 fringe_trim] + 8 fringe_long_period.
+//   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count [+ 12 fringe_trim] + 8 fringe_long_period
+//   [+ 4 in front: fringe_drift's normaliser, DRIFT = 1; the sample takes its bank when accepted].
 // The registers a block takes with the sample (quadrature coefficients, magnitude thresholds,
 // COARSE_OFS, ZERO/DIR) are read one clock enable ahead, with the sample's bank from a copy of
 // the bank pipeline (taps at the blocks' latencies), so no register-file mux feeds block logic.
@@ -64,13 +67,26 @@ module fringe_core #(
     parameter integer G_SHIFT       = 24,  // right shift of the speed and magnitude products, 1..48
     parameter [63:0]  SECT_RECIP    = 64'd1, // sector multiplier (fringe.fixed.trim.sector_mapping)
     parameter integer SECT_SHIFT    = 18,  // sector shift (fringe.fixed.trim.sector_mapping)
-    parameter         REGS_INIT     = "",  // $readmemh image of the registers, 2 x 16 words of 32 bits
+    // fringe_drift (the closed loop's online offset/gain tracker, docs/drift.md): built only with DRIFT = 1
+    parameter integer DRIFT            = 0,  // 1 = fringe_drift normalises the ADC codes in front of everything
+    parameter integer DRIFT_BLOCK_LOG2 = 8,  // samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 here (see PIPE_D)
+    parameter integer DRIFT_MU_LOG2    = 1,  // tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
+    parameter integer DRIFT_OFS_FRAC   = 4,  // fraction bits of the tracked offsets, 0..8
+    parameter integer DRIFT_GINV_W     = 18, // tracked inverse gains u(DRIFT_GINV_W), 8..24
+    parameter integer DRIFT_FWD_W      = 8,  // 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
+    parameter integer DRIFT_TABLE_W    = 18, // forward table value/slope width, 8..24
+    parameter integer DRIFT_TABLE_FRAC = 4,  // fraction bits of the forward tables and W0_S/W0_C, 0..12
+    parameter integer DRIFT_KG_W       = 18, // KG_S/KG_C width, 8..24
+    parameter integer DRIFT_KG_SHIFT   = 40, // right shift of the gain-loop product, 1..60
+    parameter         REGS_INIT     = "",  // $readmemh image of the registers, 2 x 32 words of 32 bits
     parameter         WAVE_SIN_INIT = "",  // $readmemh image of the sine table, both banks
     parameter         WAVE_COS_INIT = "",  // $readmemh image of the cosine table, both banks
     parameter         LP_INIT       = "",  // $readmemh image of the long-period table, both banks
     parameter         MAP_INIT      = "",  // $readmemh image of the trim map, both banks (TRIM = 1)
     parameter         SPEED_INIT    = "",  // $readmemh image of the trim speed table, both banks (TRIM = 1)
-    parameter         AMP_INIT      = ""   // $readmemh image of the trim magnitude table, both banks (TRIM = 1)
+    parameter         AMP_INIT      = "",  // $readmemh image of the trim magnitude table, both banks (TRIM = 1)
+    parameter         FWD_SIN_INIT  = "",  // $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
+    parameter         FWD_COS_INIT  = ""   // $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
 ) (
     input  wire             clk,
     input  wire             rst,          // synchronous, active high: clears the sample pipeline
@@ -93,7 +109,7 @@ module fringe_core #(
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 12 : 0);
+    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 12 : 0) + ((DRIFT != 0) ? 4 : 0);
     /* verilator lint_on UNUSEDPARAM */
     localparam integer POS_W   = $clog2(LINES) + FINE_W;        // clog2(LINES * 2^FINE_W)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width
@@ -128,6 +144,9 @@ module fringe_core #(
             $error("fringe_core: MAP_PSI_W + MAP_PHI_W = %0d > 15: a trim map bank must fit the 16-bit word address (instance %m)",
                    MAP_PSI_W + MAP_PHI_W);
         end
+        if (DRIFT != 0 && DRIFT != 1) begin : g_bad_drift
+            $error("fringe_core: DRIFT = %0d must be 0 or 1 (instance %m)", DRIFT);
+        end
         if (LP_W > 32) begin : g_bad_lp_w
             $error("fringe_core: LP_W = %0d > 32: a table word {slope, value} must fit cfg_wr_data (instance %m)",
                    LP_W);
@@ -136,13 +155,14 @@ module fringe_core #(
 
     // ---- register file and bank control (configuration, not reset) ----------------------------
     // regs[{bank, index}], index as in model/fringe/fixed/regmap.py
-    localparam [3:0] R_K_SS = 4'd0, R_K_SC = 4'd1, R_K_CC = 4'd2, R_OFS_S = 4'd3, R_OFS_C = 4'd4;
-    localparam [3:0] R_MID_S = 4'd5, R_THR_HI_S = 4'd6, R_THR_LO_S = 4'd7;
-    localparam [3:0] R_MID_C = 4'd8, R_THR_HI_C = 4'd9, R_THR_LO_C = 4'd10;
-    localparam [3:0] R_COARSE_OFS = 4'd11, R_ZERO = 4'd12, R_DIR = 4'd13, R_AMP_LOW = 4'd14, R_AMP_HIGH = 4'd15;
+    localparam [4:0] R_K_SS = 5'd0, R_K_SC = 5'd1, R_K_CC = 5'd2, R_OFS_S = 5'd3, R_OFS_C = 5'd4;
+    localparam [4:0] R_MID_S = 5'd5, R_THR_HI_S = 5'd6, R_THR_LO_S = 5'd7;
+    localparam [4:0] R_MID_C = 5'd8, R_THR_HI_C = 5'd9, R_THR_LO_C = 5'd10;
+    localparam [4:0] R_COARSE_OFS = 5'd11, R_ZERO = 5'd12, R_DIR = 5'd13, R_AMP_LOW = 5'd14, R_AMP_HIGH = 5'd15;
+    localparam [4:0] R_W0_S = 5'd16, R_W0_C = 5'd17, R_KG_S = 5'd18, R_KG_C = 5'd19;
     localparam [15:0] CTRL_WORD = 16'h0080;
 
-    reg [REG_W-1:0] regs [0:31];
+    reg [REG_W-1:0] regs [0:63];
     reg             bank_r;
 
     initial bank_r = 1'b0;   // power-up value (configuration: rst does not touch it)
@@ -153,7 +173,7 @@ module fringe_core #(
         end else begin : g_regs_zero
             integer i;
             initial begin
-                for (i = 0; i < 32; i = i + 1) begin
+                for (i = 0; i < 64; i = i + 1) begin
                     regs[i] = {REG_W{1'b0}};
                 end
             end
@@ -169,13 +189,13 @@ module fringe_core #(
     // the one-hot register enables and the table enables; the write lands at the clock after step 2,
     // two clocks after it was presented, in the bank that was inactive when it was presented.
     reg               st1_en_reg, st1_en_ctrl_a, st1_en_ctrl_b;
-    reg  [6:0]        st1_sel;                  // one-hot: sin, cos, lp, trim map, trim speed, trim amp (+ unused)
-    reg               st1_wave_ok, st1_lp_ok, st1_trim_ok;
+    reg  [7:0]        st1_sel;                  // one-hot: sin, cos, lp, trim map, trim speed, trim amp, fwd sin, fwd cos
+    reg               st1_wave_ok, st1_lp_ok, st1_trim_ok, st1_fwd_ok;
     reg  [15:0]       st1_word;
     reg               st1_bank;
     reg  [63:0]       st1_data;
-    reg  [31:0]       reg_we;
-    reg               wr_sin, wr_cos, wr_lp, wr_trim, ctrl_swap;
+    reg  [63:0]       reg_we;
+    reg               wr_sin, wr_cos, wr_lp, wr_trim, wr_fwd, wr_fwd_sel, ctrl_swap;
     reg  [1:0]        wr_trim_sel;
     reg  [15:0]       wr_word;
     reg               wr_bank_r;
@@ -185,25 +205,27 @@ module fringe_core #(
     initial begin
         st1_en_reg    = 1'b0;
         st1_en_ctrl_a = 1'b0;
-        st1_sel       = 7'd0;
-        reg_we        = 32'd0;
+        st1_sel       = 8'd0;
+        reg_we        = 64'd0;
         wr_sin        = 1'b0;
         wr_cos        = 1'b0;
         wr_lp         = 1'b0;
         wr_trim       = 1'b0;
+        wr_fwd        = 1'b0;
         ctrl_swap     = 1'b0;
     end
 
     // step 1: which space, whether the word lies inside one bank (table words), CTRL in two halves
     always @(posedge clk) begin
-        st1_en_reg    <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word[15:4] == 12'd0;
+        st1_en_reg    <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word[15:5] == 11'd0;
         st1_en_ctrl_a <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word[15:8] == 8'd0;
         st1_en_ctrl_b <= cfg_word[7:0] == CTRL_WORD[7:0] && cfg_wr_data[0];
-        st1_sel       <= {1'b0, cfg_sel == 4'd6, cfg_sel == 4'd5, cfg_sel == 4'd4, cfg_sel == 4'd3,
-                          cfg_sel == 4'd2, cfg_sel == 4'd1} & {7{cfg_wr_en}};
+        st1_sel       <= {cfg_sel == 4'd8, cfg_sel == 4'd7, cfg_sel == 4'd6, cfg_sel == 4'd5, cfg_sel == 4'd4,
+                          cfg_sel == 4'd3, cfg_sel == 4'd2, cfg_sel == 4'd1} & {8{cfg_wr_en}};
         st1_wave_ok   <= (cfg_word >> (WAVE_ADDR_W + 1)) == 16'd0;
         st1_lp_ok     <= (cfg_word >> LP_ADDR_W) == 16'd0;
         st1_trim_ok   <= (cfg_word >> (MAP_PSI_W + MAP_PHI_W + 1)) == 16'd0;
+        st1_fwd_ok    <= (cfg_word >> DRIFT_FWD_W) == 16'd0;
         st1_word      <= cfg_word;
         st1_bank      <= wr_bank;
         st1_data      <= cfg_wr_data;
@@ -212,14 +234,16 @@ module fringe_core #(
     // step 2: one-hot register enables {bank, index}, table enables, CTRL
     integer wi;
     always @(posedge clk) begin
-        for (wi = 0; wi < 32; wi = wi + 1) begin
-            reg_we[wi] <= st1_en_reg && st1_word[3:0] == wi[3:0] && st1_bank == wi[4];
+        for (wi = 0; wi < 64; wi = wi + 1) begin
+            reg_we[wi] <= st1_en_reg && st1_word[4:0] == wi[4:0] && st1_bank == wi[5];
         end
         wr_sin      <= st1_sel[0] && st1_wave_ok;
         wr_cos      <= st1_sel[1] && st1_wave_ok;
         wr_lp       <= st1_sel[2] && st1_lp_ok;
         wr_trim     <= (st1_sel[3] || st1_sel[4] || st1_sel[5]) && st1_trim_ok;
         wr_trim_sel <= {st1_sel[5], st1_sel[4]};   // 4, 5, 6 -> 0 map, 1 speed, 2 magnitude
+        wr_fwd      <= (st1_sel[6] || st1_sel[7]) && st1_fwd_ok;
+        wr_fwd_sel  <= st1_sel[7];                 // 7, 8 -> 0 sine, 1 cosine
         ctrl_swap   <= st1_en_ctrl_a && st1_en_ctrl_b;
         wr_word     <= st1_word;
         wr_bank_r   <= st1_bank;
@@ -228,7 +252,7 @@ module fringe_core #(
 
     genvar ri;
     generate
-        for (ri = 0; ri < 32; ri = ri + 1) begin : g_reg_wr
+        for (ri = 0; ri < 64; ri = ri + 1) begin : g_reg_wr
             always @(posedge clk) begin
                 if (reg_we[ri]) begin
                     regs[ri] <= wr_data[REG_W-1:0];
@@ -251,34 +275,92 @@ module fringe_core #(
     wire [LP_ADDR_W:0]     lp_wr_addr   = {wr_bank_r, wr_word[LP_ADDR_W-1:0]};
     wire [MAP_PSI_W+MAP_PHI_W+1:0] trim_wr_addr = {wr_bank_r, wr_word[MAP_PSI_W+MAP_PHI_W:0]};
 
-    // ---- stage 1 (registered): the sample takes the active bank and that bank's branch thresholds --
+    // ---- the drift normaliser (DRIFT = 1) or the raw codes ----------------------------------------
+    // The sample takes the active bank when it is accepted; the flags of the raw codes (CLIP_*) and of
+    // the normalisation (a saturated normalised code) travel with it, with the normalised codes the
+    // tracker's observer needs at the CORDIC output: dx = {y_sin, y_cos, norm_sat, clip_c, clip_s}.
+    localparam integer DX_W   = 2 * ADC_W + 3;
+    localparam integer PIPE_D = 2 + 4 + 5 + CORDIC_STAGES + 2;   // normaliser outputs -> CORDIC outputs
+    localparam [ADC_W-1:0] ADC_MIN = {1'b1, {(ADC_W-1){1'b0}}}, ADC_MAX = {1'b0, {(ADC_W-1){1'b1}}};
+    wire             raw_clip_s = (sin == ADC_MIN) || (sin == ADC_MAX);
+    wire             raw_clip_c = (cos == ADC_MIN) || (cos == ADC_MAX);
+    wire             n_valid;
+    wire [ADC_W-1:0] n_sin, n_cos;
+    wire             n_sat, n_bank, n_clip_s, n_clip_c;
+    wire [CW-1:0]    n_coarse;
+
+    generate
+        if (DRIFT != 0) begin : g_drift
+            wire signed [ADC_W+DRIFT_OFS_FRAC-1:0] off_s, off_c;
+            wire [DRIFT_GINV_W-1:0]                ginv_s, ginv_c;
+            wire                                   track_sat;
+            wire [CW+2:0]                          nu;
+
+            fringe_drift #(
+                .ADC_W(ADC_W), .FINE_W(FINE_W), .BLOCK_LOG2(DRIFT_BLOCK_LOG2), .MU_LOG2(DRIFT_MU_LOG2),
+                .OFS_FRAC(DRIFT_OFS_FRAC), .GINV_W(DRIFT_GINV_W), .FWD_W(DRIFT_FWD_W), .TABLE_W(DRIFT_TABLE_W),
+                .TABLE_FRAC(DRIFT_TABLE_FRAC), .KG_W(DRIFT_KG_W), .KG_SHIFT(DRIFT_KG_SHIFT), .PIPE_LATENCY(PIPE_D),
+                .FWD_SIN_INIT(FWD_SIN_INIT), .FWD_COS_INIT(FWD_COS_INIT), .USER_W(CW + 3)
+            ) u_drift (
+                .clk(clk), .rst(rst), .ce(ce),
+                .in_valid(in_valid), .raw_sin(sin), .raw_cos(cos), .in_user({coarse, bank_r, raw_clip_c, raw_clip_s}),
+                .norm_valid(n_valid), .y_sin(n_sin), .y_cos(n_cos), .norm_sat(n_sat), .norm_user(nu),
+                .obs_valid(c_valid), .obs_phase(phase), .obs_y_sin(c_dx[DX_W-1 -: ADC_W]),
+                .obs_y_cos(c_dx[ADC_W+2:3]), .obs_bank(c_bank),
+                .w0_sin(regs[{c_bank, R_W0_S}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
+                .w0_cos(regs[{c_bank, R_W0_C}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
+                .kg_sin(regs[{c_bank, R_KG_S}][DRIFT_KG_W-1:0]), .kg_cos(regs[{c_bank, R_KG_C}][DRIFT_KG_W-1:0]),
+                .wr_en(wr_fwd), .wr_sel(wr_fwd_sel), .wr_addr({wr_bank_r, wr_word[DRIFT_FWD_W-1:0]}),
+                .wr_data(wr_data[2*DRIFT_TABLE_W-1:0]),
+                .off_sin(off_s), .off_cos(off_c), .ginv_sin(ginv_s), .ginv_cos(ginv_c), .track_sat(track_sat)
+            );
+
+            assign {n_coarse, n_bank, n_clip_c, n_clip_s} = nu;
+            // the tracker's state is observable in simulation; the samples carry norm_sat
+            wire unused_drift = &{1'b0, off_s, off_c, ginv_s, ginv_c, track_sat, c_dx[2:0]};
+        end else begin : g_no_drift
+            assign n_valid  = in_valid;
+            assign n_sin    = sin;
+            assign n_cos    = cos;
+            assign n_sat    = 1'b0;
+            assign n_bank   = bank_r;
+            assign n_clip_s = raw_clip_s;
+            assign n_clip_c = raw_clip_c;
+            assign n_coarse = coarse;
+            wire unused_drift = &{1'b0, wr_fwd, wr_fwd_sel, c_dx};
+        end
+    endgenerate
+
+    // ---- stage 1 (registered): the sample and its bank's branch thresholds -----------------------
     // (the register file read and the compares sit in separate stages: one long path otherwise)
     reg                    valid0;
     reg [ADC_W-1:0]        sin0, cos0;
     reg [CW-1:0]           coarse0;
     reg                    bank0;
+    reg [2:0]              flags0;   // {norm_sat, clip_c, clip_s}
     reg signed [BR_W-1:0]  mid_s, hi_s, lo_s, mid_c, hi_c, lo_c;
 
     always @(posedge clk) begin
         if (rst) begin
             valid0 <= 1'b0;
         end else if (ce) begin
-            valid0 <= in_valid;
+            valid0 <= n_valid;
         end
     end
 
     always @(posedge clk) begin
         if (ce) begin
-            sin0    <= sin;
-            cos0    <= cos;
-            coarse0 <= coarse;
-            bank0   <= bank_r;
-            mid_s   <= regs[{bank_r, R_MID_S}][BR_W-1:0];
-            hi_s    <= regs[{bank_r, R_THR_HI_S}][BR_W-1:0];
-            lo_s    <= regs[{bank_r, R_THR_LO_S}][BR_W-1:0];
-            mid_c   <= regs[{bank_r, R_MID_C}][BR_W-1:0];
-            hi_c    <= regs[{bank_r, R_THR_HI_C}][BR_W-1:0];
-            lo_c    <= regs[{bank_r, R_THR_LO_C}][BR_W-1:0];
+            sin0    <= n_sin;
+            cos0    <= n_cos;
+            coarse0 <= n_coarse;
+            bank0   <= n_bank;
+            flags0  <= {n_sat, n_clip_c, n_clip_s};
+            mid_s   <= regs[{n_bank, R_MID_S}][BR_W-1:0];
+            hi_s    <= regs[{n_bank, R_THR_HI_S}][BR_W-1:0];
+            lo_s    <= regs[{n_bank, R_THR_LO_S}][BR_W-1:0];
+            mid_c   <= regs[{n_bank, R_MID_C}][BR_W-1:0];
+            hi_c    <= regs[{n_bank, R_THR_HI_C}][BR_W-1:0];
+            lo_c    <= regs[{n_bank, R_THR_LO_C}][BR_W-1:0];
         end
     end
 
@@ -293,6 +375,7 @@ module fringe_core #(
     reg [ADC_W-1:0] sin1, cos1;
     reg [CW-1:0]    coarse1;
     reg             bank1, br_s1, br_c1;
+    reg [2:0]       flags1;
 
     always @(posedge clk) begin
         if (rst) begin
@@ -308,6 +391,7 @@ module fringe_core #(
             cos1    <= cos0;
             coarse1 <= coarse0;
             bank1   <= bank0;
+            flags1  <= flags0;
             br_s1   <= br_s0;
             br_c1   <= br_c0;
         end
@@ -360,7 +444,7 @@ module fringe_core #(
     end
 
     // ---- stages 3..6: waveform tables ------------------------------------------------------------
-    localparam integer U_WL = CW + 1;   // {coarse, bank}
+    localparam integer U_WL = DX_W + CW + 1;   // {dx, coarse, bank}
     wire              wl_valid;
     wire [WAVE_W-1:0] xs, xc;
     wire              clip_s, clip_c;
@@ -372,7 +456,7 @@ module fringe_core #(
         .ADC_W(ADC_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W), .INIT_FILE(WAVE_SIN_INIT), .USER_W(U_WL)
     ) u_wave_sin (
         .clk(clk), .rst(rst), .ce(ce),
-        .in_valid(valid1), .adc(sin1), .branch(br_s1), .bank(bank1), .in_user({coarse1, bank1}),
+        .in_valid(valid1), .adc(sin1), .branch(br_s1), .bank(bank1), .in_user({sin1, cos1, flags1, coarse1, bank1}),
         .wr_en(wr_sin), .wr_addr(wave_wr_addr), .wr_data(wr_data[2*WAVE_W-1:0]),
         .out_valid(wl_valid), .x(xs), .clip(clip_s), .out_user(wl_user)
     );
@@ -387,11 +471,15 @@ module fringe_core #(
         .out_valid(wl_valid_c), .x(xc), .clip(clip_c), .out_user(wl_user_c)
     );
 
-    wire          wl_bank   = wl_user[0];
-    wire [CW-1:0] wl_coarse = wl_user[U_WL-1:1];
+    wire            wl_bank   = wl_user[0];
+    wire [CW-1:0]   wl_coarse = wl_user[CW:1];
+    wire [DX_W-1:0] wl_dx     = wl_user[U_WL-1 -: DX_W];
+    // CLIP_*: the raw ADC codes (with the normaliser in front, the table inputs are not the raw codes)
+    wire            wl_clip_s = (DRIFT != 0) ? wl_dx[0] : clip_s;
+    wire            wl_clip_c = (DRIFT != 0) ? wl_dx[1] : clip_c;
 
     // ---- stages 7..11: quadrature, coefficients of the sample's bank ----------------------------
-    localparam integer U_Q = CW + 3;    // {coarse, clip_c, clip_s, bank}
+    localparam integer U_Q = DX_W + CW + 3;    // {dx, coarse, clip_c, clip_s, bank}
     wire              q_valid;
     wire [WAVE_W-1:0] qs, qc;
     wire              q_sat;
@@ -399,13 +487,15 @@ module fringe_core #(
 
     fringe_quadrature #(.WAVE_W(WAVE_W), .COEF_W(COEF_W), .USER_W(U_Q)) u_quad (
         .clk(clk), .rst(rst), .ce(ce),
-        .in_valid(wl_valid), .xs(xs), .xc(xc), .in_user({wl_coarse, clip_c, clip_s, wl_bank}),
+        .in_valid(wl_valid), .xs(xs), .xc(xc), .in_user({wl_dx, wl_coarse, wl_clip_c, wl_clip_s, wl_bank}),
         .ofs_s(ofs_s_r), .ofs_c(ofs_c_r), .k_ss(k_ss_r), .k_sc(k_sc_r), .k_cc(k_cc_r),
         .out_valid(q_valid), .s(qs), .c(qc), .sat(q_sat), .out_user(q_user)
     );
 
     // ---- stages 12..CORDIC_STAGES+13: CORDIC (x = c, y = s) -------------------------------------
-    localparam integer U_C = CW + 4;    // {coarse, sat, clip_c, clip_s, bank}
+    localparam integer U_C = DX_W + CW + 4;    // {dx, coarse, sat, clip_c, clip_s, bank}
+    wire [DX_W-1:0]   q_dx  = q_user[U_Q-1 -: DX_W];
+    wire              q_any = q_sat | q_dx[2];  // the quadrature or the normaliser saturated
     wire              c_valid;
     wire [FINE_W-1:0] phase;
     wire [AMP_W-1:0]  mag;
@@ -415,12 +505,13 @@ module fringe_core #(
         .IN_W(WAVE_W), .FINE_W(FINE_W), .STAGES(CORDIC_STAGES), .GUARD(CORDIC_GUARD), .USER_W(U_C)
     ) u_cordic (
         .clk(clk), .rst(rst), .ce(ce),
-        .in_valid(q_valid), .x(qc), .y(qs), .in_user({q_user[U_Q-1:3], q_sat, q_user[2:0]}),
+        .in_valid(q_valid), .x(qc), .y(qs), .in_user({q_dx, q_user[CW+2:3], q_any, q_user[2:0]}),
         .out_valid(c_valid), .phase(phase), .mag(mag), .out_user(c_user)
     );
 
     wire          c_bank   = c_user[0];
-    wire [CW-1:0] c_coarse = c_user[U_C-1:4];
+    wire [CW-1:0] c_coarse = c_user[CW+3:4];
+    wire [DX_W-1:0] c_dx   = c_user[U_C-1 -: DX_W];
     // magnitude flags with the thresholds of the sample's bank (registered above)
     wire             f_low    = mag < amp_low;
     wire             f_high   = mag > amp_high;
@@ -497,7 +588,7 @@ module fringe_core #(
 
     // The cosine table runs in step with the sine table (same latency): its valid and sideband
     // are duplicates. cfg_wr_data above the widest table word is not used.
-    wire unused_ok = &{1'b0, wl_valid_c, wl_user_c, wr_data, wr_word, c_bank, st1_sel[6]};
+    wire unused_ok = &{1'b0, wl_valid_c, wl_user_c, wr_data, wr_word, c_bank};
 
     // status word: bit 0 CLIP_SIN .. 6 SATURATED, 7 BANK (the blocks' sideband, registered)
     assign status = l_user;

@@ -14,7 +14,7 @@
 // rst (synchronous, active high) empties the pipeline: m_axis_tvalid is 0 after it, samples in
 // flight and a sample taken in the same clock are dropped.
 //
-// LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 (+ 11 with TRIM = 1) clocks from the s_axis handshake to
+// LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1) clocks from the s_axis handshake to
 // m_axis_tvalid when the sink does not stall (every stall adds its cycles).
 
 `default_nettype none
@@ -44,13 +44,25 @@ module fringe_top #(
     parameter integer G_SHIFT       = 24,
     parameter [63:0]  SECT_RECIP    = 64'd1,
     parameter integer SECT_SHIFT    = 18,
-    parameter         REGS_INIT     = "",  // $readmemh image of the registers, 2 x 16 words of 32 bits
+    parameter integer DRIFT            = 0,  // 1 = fringe_drift (online offset/gain tracker); its parameters: fringe_core
+    parameter integer DRIFT_BLOCK_LOG2 = 8,
+    parameter integer DRIFT_MU_LOG2    = 1,
+    parameter integer DRIFT_OFS_FRAC   = 4,
+    parameter integer DRIFT_GINV_W     = 18,
+    parameter integer DRIFT_FWD_W      = 8,
+    parameter integer DRIFT_TABLE_W    = 18,
+    parameter integer DRIFT_TABLE_FRAC = 4,
+    parameter integer DRIFT_KG_W       = 18,
+    parameter integer DRIFT_KG_SHIFT   = 40,
+    parameter         REGS_INIT     = "",  // $readmemh image of the registers, 2 x 32 words of 32 bits
     parameter         WAVE_SIN_INIT = "",  // $readmemh image of the sine table, both banks
     parameter         WAVE_COS_INIT = "",  // $readmemh image of the cosine table, both banks
     parameter         LP_INIT       = "",  // $readmemh image of the long-period table, both banks
     parameter         MAP_INIT      = "",  // $readmemh images of the trim tables, both banks (TRIM = 1)
     parameter         SPEED_INIT    = "",
-    parameter         AMP_INIT      = ""
+    parameter         AMP_INIT      = "",
+    parameter         FWD_SIN_INIT  = "",  // $readmemh images of the drift forward tables, both banks (DRIFT = 1)
+    parameter         FWD_COS_INIT  = ""
 ) (
     input  wire                clk,
     input  wire                rst,            // synchronous, active high
@@ -73,7 +85,7 @@ module fringe_top #(
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 11 : 0);
+    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 12 : 0) + ((DRIFT != 0) ? 4 : 0);
     /* verilator lint_on UNUSEDPARAM */
     localparam integer CW          = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width of the core
     localparam integer POS_W       = $clog2(LINES) + FINE_W;         // position bits
@@ -104,7 +116,11 @@ module fringe_top #(
         .WAVE_COS_INIT(WAVE_COS_INIT), .LP_INIT(LP_INIT),
         .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W), .TRIM_W(TRIM_W),
         .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT), .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT),
-        .MAP_INIT(MAP_INIT), .SPEED_INIT(SPEED_INIT), .AMP_INIT(AMP_INIT)
+        .MAP_INIT(MAP_INIT), .SPEED_INIT(SPEED_INIT), .AMP_INIT(AMP_INIT),
+        .DRIFT(DRIFT), .DRIFT_BLOCK_LOG2(DRIFT_BLOCK_LOG2), .DRIFT_MU_LOG2(DRIFT_MU_LOG2),
+        .DRIFT_OFS_FRAC(DRIFT_OFS_FRAC), .DRIFT_GINV_W(DRIFT_GINV_W), .DRIFT_FWD_W(DRIFT_FWD_W),
+        .DRIFT_TABLE_W(DRIFT_TABLE_W), .DRIFT_TABLE_FRAC(DRIFT_TABLE_FRAC), .DRIFT_KG_W(DRIFT_KG_W),
+        .DRIFT_KG_SHIFT(DRIFT_KG_SHIFT), .FWD_SIN_INIT(FWD_SIN_INIT), .FWD_COS_INIT(FWD_COS_INIT)
     ) u_core (
         .clk(clk), .rst(rst), .ce(ce),
         .in_valid(s_axis_tvalid),

@@ -29,14 +29,18 @@
 // wr_addr ({bank, word}; the small tables use the low MAP_PHI_W bits and ignore words beyond) /
 // wr_data whatever ce is; write only the bank no sample in flight reads.
 //
-// LATENCY = 11 clock enables (ce = 1 cycles) from in_valid to out_valid:
+// LATENCY = 12 clock enables (ce = 1 cycles) from in_valid to out_valid:
 //   1 input registers; history RAM read (and write)     2 history RAM output register; sector product
 //   3 pos - old; gain table reads                        4 speed wrapped, dir; gain RAM output registers
-//   5 map read at {bank, dir, sector, bin}; gain slope x frac   6 map RAM output register; gs, ga
-//   7 map slope x frac; speed x gs, mag x ga (+ rounding)    8 m (+ 2^(TRIM_FRAC-1)); product sum
-//   9 total                                              10 clip to corr, sat; pos -+ REV
-//   11 pos - corr, wrapped: pos_out, dir, sat
-// One carry chain or one multiply (with its rounding constant) per stage. One sample per clock.
+//   5 map read at {bank, dir, sector, bin}; gain slope x frac (bare)
+//   6 map RAM output register; gs, ga (rounding bit as carry in)
+//   7 map slope x frac (bare); partial products of speed x gs and mag x ga (bare; an operand wider
+//     than 18 bits split into a signed high part and an unsigned 17-bit low part: <= 18x18 each)
+//   8 m (+ 2^(TRIM_FRAC-1)); partial products summed in pairs (bit-field joins where they do not overlap)
+//   9 the pairs summed, m * 2^G_SHIFT + 2^(G_SHIFT-1) joined
+//   10 A = (total + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + r, 0 <= r < 2^G_SHIFT
+//   11 clip to corr, sat; pos -+ REV                     12 pos - corr, wrapped: pos_out, dir, sat
+// One carry chain or one bare multiply (register -> a*b -> register) per stage. One sample per clock.
 // ce = 0 freezes every register (and the RAM reads); rst (synchronous, active high, wins over ce)
 // clears only the valid pipeline and the history fill counter, never the data registers.
 
@@ -81,7 +85,7 @@ module fringe_trim #(
     output wire [USER_W-1:0]                     out_user
 );
 
-    localparam integer LATENCY = 11;
+    localparam integer LATENCY = 12;
     localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
     localparam [63:0]  LINES64 = LINES * 64'd1;
     localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^31 when legal
@@ -167,7 +171,7 @@ module fringe_trim #(
     localparam integer PSI_R   = (MAP_PSI_W > 0) ? MAP_PSI_W : 1;   // sector register width
     localparam integer TW      = TRIM_W;
     localparam integer GW      = TW + 1;                       // gs, ga: value + interpolated step, s(TW+1)
-    localparam integer IP_W    = TW + FB + 1;                  // slope x frac + 2^(FB-1)
+    localparam integer IP_W    = TW + FB + 1;                  // slope x frac
     localparam integer P1_W    = POS_W + GW;                   // speed x gs, s(POS_W) x s(TW+1)
     localparam integer P2_W0   = AMP_W + GW;                   // mag x ga, u(AMP_W) x s(TW+1)
     localparam integer P2_W    = ((P2_W0 > G_SHIFT) ? P2_W0 : G_SHIFT) + 1;   // + 2^(G_SHIFT-1)
@@ -361,7 +365,7 @@ module fringe_trim #(
         end
     end
 
-    // ---- 5: map read at {bank, dir, sector, bin}; gain slope x frac + 2^(FB-1) -------------------
+    // ---- 5: map read at {bank, dir, sector, bin}; gain slope x frac (bare) -------------------------
     wire [MAP_PHI_W-1:0] s4_bin  = s4_pos[FINE_W-1:FB];
     wire [FB-1:0]        s4_frac = s4_pos[FB-1:0];
     wire [MA_W:0]        map_rd_addr;
@@ -384,13 +388,12 @@ module fringe_trim #(
         .rd_en(ce), .rd_addr(map_rd_addr), .rd_data(map_q)
     );
 
-    localparam [IP_W-1:0] RND_FB = {{(IP_W-1){1'b0}}, 1'b1} << (FB - 1);
     wire signed [TW-1:0]   spd_slope = spd_word[2*TW-1:TW];
     wire signed [TW-1:0]   spd_value = spd_word[TW-1:0];
     wire signed [TW-1:0]   amp_slope = amp_word[2*TW-1:TW];
     wire signed [TW-1:0]   amp_value = amp_word[TW-1:0];
     wire signed [FB:0]     s4_frac_s = {1'b0, s4_frac};
-    reg  signed [IP_W-1:0] s5_sprod, s5_aprod;
+    reg  signed [IP_W-1:0] s5_sprod, s5_aprod;          // slope * frac
     reg  signed [TW-1:0]   s5_svalue, s5_avalue;
     reg  signed [POS_W-1:0] s5_speed;
     reg                    s5_dir;
@@ -399,8 +402,8 @@ module fringe_trim #(
 
     always @(posedge clk) begin
         if (ce) begin
-            s5_sprod  <= spd_slope * s4_frac_s + $signed(RND_FB);
-            s5_aprod  <= amp_slope * s4_frac_s + $signed(RND_FB);
+            s5_sprod  <= spd_slope * s4_frac_s;
+            s5_aprod  <= amp_slope * s4_frac_s;
             s5_svalue <= spd_value;
             s5_avalue <= amp_value;
             s5_speed  <= s4_speed;
@@ -410,9 +413,12 @@ module fringe_trim #(
         end
     end
 
-    // ---- 6: map RAM output register; gs, ga = value + (product >>> FB) ----------------------------
-    wire signed [GW-1:0]   s_ip = s5_sprod[FB +: GW];           // (slope * frac + 2^(FB-1)) >>> FB
+    // ---- 6: map RAM output register; gs, ga = value + ((product + 2^(FB-1)) >>> FB) ---------------
+    // (p + 2^(FB-1)) >>> FB = (p >>> FB) + p[FB-1]: the rounding bit is the adder's carry in.
+    wire signed [GW-1:0]   s_ip = s5_sprod[FB +: GW];           // slope * frac >>> FB
     wire signed [GW-1:0]   a_ip = s5_aprod[FB +: GW];
+    wire signed [GW-1:0]   s_rb = {{(GW-1){1'b0}}, s5_sprod[FB-1]};
+    wire signed [GW-1:0]   a_rb = {{(GW-1){1'b0}}, s5_aprod[FB-1]};
     reg  [2*TW-1:0]        map_word;
     reg  signed [GW-1:0]   s6_gs, s6_ga;
     reg  signed [POS_W-1:0] s6_speed;
@@ -422,9 +428,9 @@ module fringe_trim #(
 
     always @(posedge clk) begin
         if (ce) begin
-            map_word    <= map_q;
-            s6_gs    <= $signed({s5_svalue[TW-1], s5_svalue}) + s_ip;
-            s6_ga    <= $signed({s5_avalue[TW-1], s5_avalue}) + a_ip;
+            map_word <= map_q;
+            s6_gs    <= $signed({s5_svalue[TW-1], s5_svalue}) + s_ip + s_rb;
+            s6_ga    <= $signed({s5_avalue[TW-1], s5_avalue}) + a_ip + a_rb;
             s6_speed <= s5_speed;
             s6_dir   <= s5_dir;
             s6_pos   <= s5_pos;
@@ -432,106 +438,182 @@ module fringe_trim #(
         end
     end
 
-    // ---- 7: map slope x frac + 2^(FB-1), value + 2^(TRIM_FRAC-1); speed x gs; mag x ga + 2^(G_SHIFT-1)
+    // ---- 7: map slope x frac (bare), value + 2^(TRIM_FRAC-1); the partial products of speed x gs and
+    // mag x ga (bare). An operand wider than 18 bits is split, x = x_hi * 2^17 + x_lo (x_lo unsigned,
+    // 17 bits, as s18), so that every partial product is at most 18x18 signed, registered on both
+    // sides; an operand of at most 18 bits is x_hi = x, x_lo = 0 (its x_lo products are constant 0).
+    // a * b = hh * 2^(AL+BL) + hl * 2^AL + lh * 2^BL + ll, with ll < 2^(AL+BL) (0 unless both split).
     localparam [VR_W-1:0] RND_TF = (TRIM_FRAC > 0) ? ({{(VR_W-1){1'b0}}, 1'b1} << (TRIM_FRAC - 1)) : {VR_W{1'b0}};
-    localparam [P2_W-1:0] RND_G  = {{(P2_W-1){1'b0}}, 1'b1} << (G_SHIFT - 1);
+    localparam integer L    = 17;
+    localparam integer MG_W = AMP_W + 1;                        // mag as a signed operand
+    localparam integer SP_L = (POS_W > 18) ? L : 0;             // low part bits of speed, gs/ga, mag
+    localparam integer GN_L = (GW > 18) ? L : 0;
+    localparam integer MG_L = (MG_W > 18) ? L : 0;
+    localparam integer SP_H = POS_W - SP_L;                     // their high part widths (signed)
+    localparam integer GN_H = GW - GN_L;
+    localparam integer MG_H = MG_W - MG_L;
+    localparam integer LL_W = 2 * L + 2;                        // x_lo * y_lo, s18 x s18
     wire signed [TW-1:0]   map_slope = map_word[2*TW-1:TW];
     wire signed [TW-1:0]   map_value = map_word[TW-1:0];
     wire [FB-1:0]          s6_frac   = s6_pos[FB-1:0];
     wire signed [FB:0]     s6_frac_s = {1'b0, s6_frac};
-    wire signed [AMP_W:0]  s6_mag_s  = {1'b0, s6_mag};
-    reg  signed [IP_W-1:0] s7_mprod;
+    wire signed [MG_W-1:0] s6_mag_s  = {1'b0, s6_mag};
+    wire [POS_W+L-1:0]     sp_x      = {{L{s6_speed[POS_W-1]}}, s6_speed};
+    wire [GW+L-1:0]        gs_x      = {{L{s6_gs[GW-1]}}, s6_gs};
+    wire [GW+L-1:0]        ga_x      = {{L{s6_ga[GW-1]}}, s6_ga};
+    wire [MG_W+L-1:0]      mg_x      = {{L{1'b0}}, s6_mag_s};
+    wire signed [L:0]      sp_lo     = (SP_L > 0) ? {1'b0, sp_x[L-1:0]} : {(L+1){1'b0}};
+    wire signed [L:0]      gs_lo     = (GN_L > 0) ? {1'b0, gs_x[L-1:0]} : {(L+1){1'b0}};
+    wire signed [L:0]      ga_lo     = (GN_L > 0) ? {1'b0, ga_x[L-1:0]} : {(L+1){1'b0}};
+    wire signed [L:0]      mg_lo     = (MG_L > 0) ? {1'b0, mg_x[L-1:0]} : {(L+1){1'b0}};
+    wire signed [SP_H-1:0] sp_hi     = s6_speed[POS_W-1:SP_L];
+    wire signed [GN_H-1:0] gs_hi     = s6_gs[GW-1:GN_L];
+    wire signed [GN_H-1:0] ga_hi     = s6_ga[GW-1:GN_L];
+    wire signed [MG_H-1:0] mg_hi     = s6_mag_s[MG_W-1:MG_L];
+    reg  signed [IP_W-1:0] s7_mprod;                           // map slope * frac
     reg  signed [VR_W-1:0] s7_mvalue;
-    reg  signed [P1_W-1:0] s7_p1;
-    reg  signed [P2_W-1:0] s7_p2;
+    reg  signed [SP_H+GN_H-1:0] s7_shh;                        // speed x gs
+    reg  signed [SP_H+L:0]      s7_shl;
+    reg  signed [L+GN_H:0]      s7_slh;
+    reg  signed [LL_W-1:0]      s7_sll;
+    reg  signed [MG_H+GN_H-1:0] s7_ahh;                        // mag x ga
+    reg  signed [MG_H+L:0]      s7_ahl;
+    reg  signed [L+GN_H:0]      s7_alh;
+    reg  signed [LL_W-1:0]      s7_all;
     reg                    s7_dir;
     reg  [POS_W-1:0]       s7_pos;
 
     always @(posedge clk) begin
         if (ce) begin
-            s7_mprod  <= map_slope * s6_frac_s + $signed(RND_FB);
+            s7_mprod  <= map_slope * s6_frac_s;
             s7_mvalue <= $signed({{(VR_W-TW){map_value[TW-1]}}, map_value}) + $signed(RND_TF);
-            s7_p1     <= s6_speed * s6_gs;
-            s7_p2     <= s6_mag_s * s6_ga + $signed(RND_G);
+            s7_shh    <= sp_hi * gs_hi;
+            s7_shl    <= sp_hi * gs_lo;
+            s7_slh    <= sp_lo * gs_hi;
+            s7_sll    <= sp_lo * gs_lo;
+            s7_ahh    <= mg_hi * ga_hi;
+            s7_ahl    <= mg_hi * ga_lo;
+            s7_alh    <= mg_lo * ga_hi;
+            s7_all    <= mg_lo * ga_lo;
             s7_dir    <= s6_dir;
             s7_pos    <= s6_pos;
         end
     end
 
-    // ---- 8: m + 2^(TRIM_FRAC-1) = value + 2^(TRIM_FRAC-1) + (product >>> FB); the products' sum ----
-    wire signed [GW-1:0]   m_ip  = s7_mprod[FB +: GW];
+    // ---- 8: m + 2^(TRIM_FRAC-1) = value + 2^(TRIM_FRAC-1) + ((product + 2^(FB-1)) >>> FB) (the
+    // rounding bit as carry in); the partial products summed in pairs (terms below) ----------------
+    // From here on the sum A = (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) + speed * gs + mag * ga
+    // is formed, A >>> G_SHIFT = total + 2^(TRIM_FRAC-1) (m * 2^G_SHIFT has no bits below G_SHIFT):
+    // A = total' * 2^G_SHIFT + r, 0 <= r < 2^G_SHIFT, fits s(TT_W + G_SHIFT); every adder works modulo
+    // 2^A_W, so partial sums may wrap, the final one is exact. Terms in E_W bits (wider than any).
+    localparam integer A_W  = TT_W + G_SHIFT;
+    localparam integer E_W  = A_W + 64;
+    localparam integer LL_S = SP_L + GN_L;                      // weight of speed x gs's hh
+    localparam integer LL_A = MG_L + GN_L;                      // weight of mag x ga's hh
+    localparam [E_W-1:0] ONE_E  = {{(E_W-1){1'b0}}, 1'b1};
+    localparam [E_W-1:0] MASK_S = (ONE_E << LL_S) - ONE_E;      // ll's bits (no overlap with hh)
+    localparam [E_W-1:0] MASK_A = (ONE_E << LL_A) - ONE_E;
+    wire signed [GW-1:0]   m_ip  = s7_mprod[FB +: GW];          // map slope * frac >>> FB
+    wire signed [GW-1:0]   m_rb  = {{(GW-1){1'b0}}, s7_mprod[FB-1]};
+    wire [E_W-1:0] t_s1 = ({{(E_W-SP_H-GN_H){s7_shh[SP_H+GN_H-1]}}, s7_shh} << LL_S)
+                        | ({{(E_W-LL_W){1'b0}}, s7_sll} & MASK_S);
+    wire [E_W-1:0] t_s2 = {{(E_W-SP_H-L-1){s7_shl[SP_H+L]}}, s7_shl} << SP_L;
+    wire [E_W-1:0] t_s3 = {{(E_W-GN_H-L-1){s7_slh[GN_H+L]}}, s7_slh} << GN_L;
+    wire [E_W-1:0] t_a1 = ({{(E_W-MG_H-GN_H){s7_ahh[MG_H+GN_H-1]}}, s7_ahh} << LL_A)
+                        | ({{(E_W-LL_W){1'b0}}, s7_all} & MASK_A);
+    wire [E_W-1:0] t_a2 = {{(E_W-MG_H-L-1){s7_ahl[MG_H+L]}}, s7_ahl} << MG_L;
+    wire [E_W-1:0] t_a3 = {{(E_W-GN_H-L-1){s7_alh[GN_H+L]}}, s7_alh} << GN_L;
     reg  signed [MR_W-1:0] s8_m;
-    reg  signed [S_W-1:0]  s8_s;
+    reg  [A_W-1:0]         s8_u1, s8_u2, s8_u3;
     reg                    s8_dir;
     reg  [POS_W-1:0]       s8_pos;
 
     always @(posedge clk) begin
         if (ce) begin
-            s8_m   <= $signed({s7_mvalue[VR_W-1], s7_mvalue}) + $signed({{(MR_W-GW){m_ip[GW-1]}}, m_ip});
-            s8_s   <= $signed({{(S_W-P1_W){s7_p1[P1_W-1]}}, s7_p1}) + $signed({{(S_W-P2_W){s7_p2[P2_W-1]}}, s7_p2});
+            s8_m   <= $signed({s7_mvalue[VR_W-1], s7_mvalue}) + $signed({{(MR_W-GW){m_ip[GW-1]}}, m_ip})
+                      + $signed({{(MR_W-GW){1'b0}}, m_rb});
+            s8_u1  <= t_s1[A_W-1:0] + t_a1[A_W-1:0];
+            s8_u2  <= t_s2[A_W-1:0] + t_s3[A_W-1:0];
+            s8_u3  <= t_a2[A_W-1:0] + t_a3[A_W-1:0];
             s8_dir <= s7_dir;
             s8_pos <= s7_pos;
         end
     end
 
-    // ---- 9: total + 2^(TRIM_FRAC-1) = m + 2^(TRIM_FRAC-1) + (sum >>> G_SHIFT) -----------------------
-    wire signed [SS_W-1:0] s_sh = s8_s[S_W-1:G_SHIFT];
-    reg  signed [TT_W-1:0] s9_total;
+    // ---- 9: the pairs summed; (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) joins (bit fields) ---
+    wire [E_W-1:0] t_m = ({{(E_W-MR_W){s8_m[MR_W-1]}}, s8_m} << G_SHIFT) | (ONE_E << (G_SHIFT - 1));
+    reg  [A_W-1:0]         s9_v1, s9_v2;
     reg                    s9_dir;
     reg  [POS_W-1:0]       s9_pos;
 
     always @(posedge clk) begin
         if (ce) begin
-            s9_total <= $signed({{(TT_W-MR_W){s8_m[MR_W-1]}}, s8_m}) + $signed({{(TT_W-SS_W){s_sh[SS_W-1]}}, s_sh});
-            s9_dir   <= s8_dir;
-            s9_pos   <= s8_pos;
+            s9_v1  <= s8_u1 + s8_u2;
+            s9_v2  <= s8_u3 + t_m[A_W-1:0];
+            s9_dir <= s8_dir;
+            s9_pos <= s8_pos;
         end
     end
 
-    // ---- 10: corr = total >>> TRIM_FRAC, clipped to s(FINE_W); pos -+ REV for stage 11 -------------
-    wire signed [C_W-1:0]  corr  = s9_total[TT_W-1:TRIM_FRAC];
+    // ---- 10: A; A >>> G_SHIFT = total + 2^(TRIM_FRAC-1) ---------------------------------------------
+    reg  [A_W-1:0]         s10_a;
+    reg                    s10_dir;
+    reg  [POS_W-1:0]       s10_pos;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s10_a   <= s9_v1 + s9_v2;
+            s10_dir <= s9_dir;
+            s10_pos <= s9_pos;
+        end
+    end
+
+    // ---- 11: corr = total >>> TRIM_FRAC, clipped to s(FINE_W); pos -+ REV for stage 12 -------------
+    wire signed [C_W-1:0]  corr  = s10_a[A_W-1:G_SHIFT+TRIM_FRAC];
     wire signed [CX_W-1:0] corr_x = {{(CX_W-C_W){corr[C_W-1]}}, corr};
     wire                   neg   = corr_x[CX_W-1];
     // in range <=> bits CX_W-1 .. FINE_W-1 all equal the sign
     wire                   over  = neg ? ~&corr_x[CX_W-1:FINE_W-1] : |corr_x[CX_W-1:FINE_W-1];
     wire [FINE_W-1:0]      clip  = neg ? {1'b1, {(FINE_W-1){1'b0}}} : {1'b0, {(FINE_W-1){1'b1}}};
-    wire [WW-1:0]          pos_x = {2'b00, s9_pos};
-    reg  [FINE_W-1:0]      s10_corr;
-    reg                    s10_sat, s10_dir, s10_neg;
-    reg  [WW-1:0]          s10_pos, s10_alt;
+    wire [WW-1:0]          pos_x = {2'b00, s10_pos};
+    reg  [FINE_W-1:0]      s11_corr;
+    reg                    s11_sat, s11_dir, s11_neg;
+    reg  [WW-1:0]          s11_pos, s11_alt;
 
     always @(posedge clk) begin
         if (ce) begin
-            s10_corr <= over ? clip : corr_x[FINE_W-1:0];
-            s10_sat  <= over;
-            s10_neg  <= neg;
-            s10_dir  <= s9_dir;
-            s10_pos  <= pos_x;
+            s11_corr <= over ? clip : corr_x[FINE_W-1:0];
+            s11_sat  <= over;
+            s11_neg  <= neg;
+            s11_dir  <= s10_dir;
+            s11_pos  <= pos_x;
             // corr < 0: pos - corr may reach REV, alternative pos - REV - corr;
             // corr >= 0: pos - corr may fall below 0, alternative pos + REV - corr
-            s10_alt  <= neg ? pos_x - REV_W : pos_x + REV_W;
+            s11_alt  <= neg ? pos_x - REV_W : pos_x + REV_W;
         end
     end
 
-    // ---- 11: pos - corr, wrapped into [0, REV) ------------------------------------------------------
-    wire [WW-1:0] corr_w = {{(WW-FINE_W){s10_corr[FINE_W-1]}}, s10_corr};
-    wire [WW-1:0] a      = s10_pos - corr_w;
-    wire [WW-1:0] b      = s10_alt - corr_w;
-    wire          use_b  = s10_neg ? ~b[WW-1] : a[WW-1];
+    // ---- 12: pos - corr, wrapped into [0, REV) ------------------------------------------------------
+    wire [WW-1:0] corr_w = {{(WW-FINE_W){s11_corr[FINE_W-1]}}, s11_corr};
+    wire [WW-1:0] a      = s11_pos - corr_w;
+    wire [WW-1:0] b      = s11_alt - corr_w;
+    wire          use_b  = s11_neg ? ~b[WW-1] : a[WW-1];
     wire [WW-1:0] o      = use_b ? b : a;
 
     always @(posedge clk) begin
         if (ce) begin
             pos_out <= o[POS_W-1:0];
-            dir     <= s10_dir;
-            sat     <= s10_sat;
+            dir     <= s11_dir;
+            sat     <= s11_sat;
         end
     end
 
-    // Bits that carry nothing: the products' rounded-off bits and sign extension, the fraction bits
-    // of total, the sign bits of the wrapped speed and of positions in [0, REV).
-    wire unused = &{1'b0, s5_sprod, s5_aprod, s7_mprod, s8_s[G_SHIFT-1:0], s9_total[TRIM_FRAC:0],
-                    d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x};
+    // Bits that carry nothing: the products' rounded-off bits and sign extension, the terms beyond
+    // A_W bits, the fraction bits of A, the sign bits of the wrapped speed and of positions in [0, REV),
+    // the low parts of operands that are not split.
+    wire unused = &{1'b0, s5_sprod, s5_aprod, s7_mprod, t_s1, t_s2, t_s3, t_a1, t_a2, t_a3, t_m,
+                    s10_a[G_SHIFT+TRIM_FRAC:0], d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x,
+                    sp_x, gs_x, ga_x, mg_x};
 
 endmodule
 

@@ -17,7 +17,8 @@
 --   at the CORDIC output, COARSE_OFS at the period-count input, ZERO/DIR at the long-period input.
 -- Configuration write port (independent of ce): cfg_wr_addr[19:16] selects 0 registers and
 -- control, 1 sine table, 2 cosine table, 3 long-period table, and with TRIM = 1: 4 trim map,
--- 5 trim speed table, 6 trim magnitude table (others ignored); cfg_wr_addr[15:0] is the word within
+-- 5 trim speed table, 6 trim magnitude table, with DRIFT = 1: 7 drift sine forward table, 8 drift
+-- cosine forward table (others ignored); cfg_wr_addr[15:0] is the word within
 -- one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
 -- Writes always go to the inactive bank (the one inactive when the write is issued); they are
 -- decoded in two registered steps and land two clocks after the edge that takes them. Register
@@ -30,7 +31,7 @@
 -- the register file, the tables and the active bank are configuration and keep their values
 -- (power-up: bank 0, the init files).
 --
--- LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1) clock enables from in_valid to out_valid:
+-- LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1) clock enables from in_valid to out_valid:
 --   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
 --   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count + 8 fringe_long_period.
 -- The registers a block takes with the sample (quadrature coefficients, magnitude thresholds,
@@ -71,13 +72,26 @@ entity fringe_core is
         G_SHIFT       : integer := 24;    -- right shift of the speed and magnitude products, 1..48
         SECT_RECIP    : natural := 1;     -- sector multiplier (fringe.fixed.trim.sector_mapping; < 2^31 in VHDL)
         SECT_SHIFT    : integer := 18;    -- sector shift (fringe.fixed.trim.sector_mapping)
-        REGS_INIT     : string  := "";    -- $readmemh image of the registers, 2 x 16 words of 32 bits
+        -- fringe_drift (the closed loop's online offset/gain tracker, docs/drift.md): built only with DRIFT = 1
+        DRIFT            : integer := 0;  -- 1 = fringe_drift normalises the ADC codes in front of everything
+        DRIFT_BLOCK_LOG2 : integer := 8;  -- samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 here (see PIPE_D)
+        DRIFT_MU_LOG2    : integer := 1;  -- tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
+        DRIFT_OFS_FRAC   : integer := 4;  -- fraction bits of the tracked offsets, 0..8
+        DRIFT_GINV_W     : integer := 18; -- tracked inverse gains u(DRIFT_GINV_W), 8..24
+        DRIFT_FWD_W      : integer := 8;  -- 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
+        DRIFT_TABLE_W    : integer := 18; -- forward table value/slope width, 8..24
+        DRIFT_TABLE_FRAC : integer := 4;  -- fraction bits of the forward tables and W0_S/W0_C, 0..12
+        DRIFT_KG_W       : integer := 18; -- KG_S/KG_C width, 8..24
+        DRIFT_KG_SHIFT   : integer := 40; -- right shift of the gain-loop product, 1..60
+        REGS_INIT     : string  := "";    -- $readmemh image of the registers, 2 x 32 words of 32 bits
         WAVE_SIN_INIT : string  := "";    -- $readmemh image of the sine table, both banks
         WAVE_COS_INIT : string  := "";    -- $readmemh image of the cosine table, both banks
         LP_INIT       : string  := "";    -- $readmemh image of the long-period table, both banks
         MAP_INIT      : string  := "";    -- $readmemh image of the trim map, both banks (TRIM = 1)
         SPEED_INIT    : string  := "";    -- $readmemh image of the trim speed table, both banks (TRIM = 1)
-        AMP_INIT      : string  := ""     -- $readmemh image of the trim magnitude table, both banks (TRIM = 1)
+        AMP_INIT      : string  := "";    -- $readmemh image of the trim magnitude table, both banks (TRIM = 1)
+        FWD_SIN_INIT  : string  := "";    -- $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
+        FWD_COS_INIT  : string  := ""     -- $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
     );
     port (
         clk         : in  std_logic;
@@ -140,6 +154,8 @@ architecture rtl of fringe_core is
         assert TRIM = 0 or MAP_PSI_W + MAP_PHI_W <= 15
             report "fringe_core: MAP_PSI_W + MAP_PHI_W = " & integer'image(MAP_PSI_W + MAP_PHI_W)
                    & " > 15: a trim map bank must fit the 16-bit word address" severity failure;
+        assert DRIFT = 0 or DRIFT = 1
+            report "fringe_core: DRIFT = " & integer'image(DRIFT) & " must be 0 or 1" severity failure;
         assert LP_W <= 32
             report "fringe_core: LP_W = " & integer'image(LP_W)
                    & " > 32: a table word {slope, value} must fit cfg_wr_data" severity failure;
@@ -155,7 +171,14 @@ architecture rtl of fringe_core is
         return 0;
     end function trim_latency;
     constant LAT_T   : integer := trim_latency;   -- fringe_trim (TRIM = 1)
-    constant LATENCY : integer := CORDIC_STAGES + 24 + LAT_T;
+    function drift_latency return integer is
+    begin
+        if DRIFT /= 0 then
+            return 4;
+        end if;
+        return 0;
+    end function drift_latency;
+    constant LATENCY : integer := CORDIC_STAGES + 24 + LAT_T + drift_latency;
     constant REG_W   : integer := 32;
     constant AMP_W   : integer := WAVE_W + 1;   -- CORDIC magnitude u(WAVE_W+1)
     constant BR_W    : integer := ADC_W + 1;    -- branch thresholds s(ADC_W+1)
@@ -177,9 +200,13 @@ architecture rtl of fringe_core is
     constant R_DIR        : integer := 13;
     constant R_AMP_LOW    : integer := 14;
     constant R_AMP_HIGH   : integer := 15;
+    constant R_W0_S       : integer := 16;
+    constant R_W0_C       : integer := 17;
+    constant R_KG_S       : integer := 18;
+    constant R_KG_C       : integer := 19;
     constant CTRL_WORD    : integer := 16#80#;
 
-    type regs_t is array (0 to 31) of std_logic_vector(REG_W - 1 downto 0);
+    type regs_t is array (0 to 63) of std_logic_vector(REG_W - 1 downto 0);
 
     -- Reads a $readmemh image (as fringe_table_ram): one word per line, "//" comment lines and
     -- empty lines skipped; all zeros when the name is "".
@@ -199,7 +226,7 @@ architecture rtl of fringe_core is
         file_open(stat, f, fname, read_mode);
         assert stat = open_ok
             report "fringe_core: cannot open REGS_INIT """ & fname & """" severity failure;
-        while not endfile(f) and n < 32 loop
+        while not endfile(f) and n < 64 loop
             readline(f, l);
             while l'length > 0 loop
                 exit when l(l'left) /= ' ' and l(l'left) /= HT;
@@ -231,7 +258,7 @@ architecture rtl of fringe_core is
     function reg_field(r : regs_t; b : std_logic; idx : integer; w : integer) return std_logic_vector is
     begin
         if b = '1' then
-            return r(16 + idx)(w - 1 downto 0);
+            return r(32 + idx)(w - 1 downto 0);
         end if;
         return r(idx)(w - 1 downto 0);
     end function reg_field;
@@ -245,14 +272,16 @@ architecture rtl of fringe_core is
     signal st1_en_reg    : std_logic := '0';
     signal st1_en_ctrl_a : std_logic := '0';
     signal st1_en_ctrl_b : std_logic;
-    signal st1_sel       : std_logic_vector(5 downto 0) := (others => '0');  -- one-hot: sin, cos, lp, map, speed, amp
-    signal st1_wave_ok, st1_lp_ok, st1_trim_ok : std_logic;
+    signal st1_sel       : std_logic_vector(7 downto 0) := (others => '0');  -- one-hot: sin, cos, lp, map, speed, amp, fwd sin, fwd cos
+    signal st1_wave_ok, st1_lp_ok, st1_trim_ok, st1_fwd_ok : std_logic;
+    signal wr_fwd        : std_logic := '0';
+    signal wr_fwd_sel    : std_logic;
     signal st1_word      : unsigned(15 downto 0);
     signal st1_bank      : std_logic;
     signal st1_data      : std_logic_vector(63 downto 0);
     signal ctrl_swap     : std_logic := '0';
     -- step 2: enables, address, data of the landing write
-    signal reg_we       : std_logic_vector(31 downto 0) := (others => '0');
+    signal reg_we       : std_logic_vector(63 downto 0) := (others => '0');
     signal wr_sin       : std_logic := '0';
     signal wr_cos       : std_logic := '0';
     signal wr_lp        : std_logic := '0';
@@ -265,7 +294,18 @@ architecture rtl of fringe_core is
     signal lp_wr_addr   : std_logic_vector(LP_ADDR_W downto 0);
     signal trim_wr_addr : std_logic_vector(MAP_PSI_W + MAP_PHI_W + 1 downto 0);
 
+    -- the drift normaliser (DRIFT = 1) or the raw codes; dx = {y_sin, y_cos, norm_sat, clip_c, clip_s}
+    -- travels with the sample to the CORDIC output (the tracker's observer), CLIP_* of the raw codes
+    constant DX_W   : integer := 2 * ADC_W + 3;
+    constant PIPE_D : integer := 2 + 4 + 5 + CORDIC_STAGES + 2;   -- normaliser outputs -> CORDIC outputs
+    signal raw_clip_s, raw_clip_c : std_logic;
+    signal n_valid      : std_logic;
+    signal n_sin, n_cos : std_logic_vector(ADC_W - 1 downto 0);
+    signal n_sat, n_bank, n_clip_s, n_clip_c : std_logic;
+    signal n_coarse     : std_logic_vector(CW - 1 downto 0);
+
     -- stage 1: the sample and its bank's branch thresholds
+    signal flags0, flags1 : std_logic_vector(2 downto 0);   -- {norm_sat, clip_c, clip_s}
     signal valid0       : std_logic;
     signal sin0, cos0   : std_logic_vector(ADC_W - 1 downto 0);
     signal coarse0      : std_logic_vector(CW - 1 downto 0);
@@ -295,8 +335,8 @@ architecture rtl of fringe_core is
     signal amp_low, amp_high : std_logic_vector(AMP_W - 1 downto 0);
     signal coarse_ofs_r : std_logic_vector(POS_W downto 0);
 
-    -- waveform tables: user {coarse, bank}
-    constant U_WL : integer := CW + 1;
+    -- waveform tables: user {dx, coarse, bank}
+    constant U_WL : integer := DX_W + CW + 1;
     signal wl_in_user   : std_logic_vector(U_WL - 1 downto 0);
     signal wl_valid     : std_logic;
     signal xs, xc       : std_logic_vector(WAVE_W - 1 downto 0);
@@ -306,17 +346,21 @@ architecture rtl of fringe_core is
     signal wl_valid_c   : std_logic;            -- duplicate of wl_valid
     signal wl_user_c    : std_logic_vector(0 downto 0);
     signal wl_bank      : std_logic;
+    signal wl_dx        : std_logic_vector(DX_W - 1 downto 0);
+    signal wl_clip_s, wl_clip_c : std_logic;
 
-    -- quadrature: user {coarse, clip_c, clip_s, bank}
-    constant U_Q : integer := CW + 3;
+    -- quadrature: user {dx, coarse, clip_c, clip_s, bank}
+    constant U_Q : integer := DX_W + CW + 3;
     signal q_in_user    : std_logic_vector(U_Q - 1 downto 0);
     signal q_valid      : std_logic;
     signal qs, qc       : std_logic_vector(WAVE_W - 1 downto 0);
     signal q_sat        : std_logic;
     signal q_user       : std_logic_vector(U_Q - 1 downto 0);
 
-    -- CORDIC: user {coarse, sat, clip_c, clip_s, bank}
-    constant U_C : integer := CW + 4;
+    -- CORDIC: user {dx, coarse, sat, clip_c, clip_s, bank}
+    constant U_C : integer := DX_W + CW + 4;
+    signal q_any        : std_logic;           -- the quadrature or the normaliser saturated
+    signal c_dx         : std_logic_vector(DX_W - 1 downto 0);
     signal c_in_user    : std_logic_vector(U_C - 1 downto 0);
     signal c_valid      : std_logic;
     signal phase        : std_logic_vector(FINE_W - 1 downto 0);
@@ -365,15 +409,16 @@ begin
         end function b;
     begin
         if rising_edge(clk) then
-            st1_en_reg    <= b(cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word(15 downto 4) = 0);
+            st1_en_reg    <= b(cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word(15 downto 5) = 0);
             st1_en_ctrl_a <= b(cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word(15 downto 8) = 0);
             st1_en_ctrl_b <= b(cfg_word(7 downto 0) = to_unsigned(CTRL_WORD mod 256, 8) and cfg_wr_data(0) = '1');
-            for k in 0 to 5 loop
+            for k in 0 to 7 loop
                 st1_sel(k) <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = k + 1);
             end loop;
             st1_wave_ok <= b(shift_right(cfg_word, WAVE_ADDR_W + 1) = 0);
             st1_lp_ok   <= b(shift_right(cfg_word, LP_ADDR_W) = 0);
             st1_trim_ok <= b(shift_right(cfg_word, MAP_PSI_W + MAP_PHI_W + 1) = 0);
+            st1_fwd_ok  <= b(shift_right(cfg_word, DRIFT_FWD_W) = 0);
             st1_word    <= cfg_word;
             st1_bank    <= wr_bank;
             st1_data    <= cfg_wr_data;
@@ -383,9 +428,9 @@ begin
     p_cfg_dec : process (clk)
     begin
         if rising_edge(clk) then
-            for i in 0 to 31 loop
-                if st1_en_reg = '1' and st1_word(3 downto 0) = to_unsigned(i mod 16, 4)
-                   and (st1_bank = '1') = (i >= 16) then
+            for i in 0 to 63 loop
+                if st1_en_reg = '1' and st1_word(4 downto 0) = to_unsigned(i mod 32, 5)
+                   and (st1_bank = '1') = (i >= 32) then
                     reg_we(i) <= '1';
                 else
                     reg_we(i) <= '0';
@@ -396,6 +441,8 @@ begin
             wr_lp       <= st1_sel(2) and st1_lp_ok;
             wr_trim     <= (st1_sel(3) or st1_sel(4) or st1_sel(5)) and st1_trim_ok;
             wr_trim_sel <= st1_sel(5) & st1_sel(4);   -- 4, 5, 6 -> 0 map, 1 speed, 2 magnitude
+            wr_fwd      <= (st1_sel(6) or st1_sel(7)) and st1_fwd_ok;
+            wr_fwd_sel  <= st1_sel(7);                -- 7, 8 -> 0 sine, 1 cosine
             ctrl_swap   <= st1_en_ctrl_a and st1_en_ctrl_b;
             wr_word     <= st1_word;
             wr_bank_r   <= st1_bank;
@@ -406,7 +453,7 @@ begin
     p_regs : process (clk)
     begin
         if rising_edge(clk) then
-            for i in 0 to 31 loop
+            for i in 0 to 63 loop
                 if reg_we(i) = '1' then
                     regs(i) <= wr_data(REG_W - 1 downto 0);
                 end if;
@@ -431,6 +478,64 @@ begin
     lp_wr_addr   <= wr_bank_r & std_logic_vector(wr_word(LP_ADDR_W - 1 downto 0));
     trim_wr_addr <= wr_bank_r & std_logic_vector(wr_word(MAP_PSI_W + MAP_PHI_W downto 0));
 
+    -- ---- the drift normaliser (DRIFT = 1) or the raw codes ----------------------------------------
+    -- The sample takes the active bank when it is accepted; the flags of the raw codes (CLIP_*) and of
+    -- the normalisation travel with it, with the normalised codes the observer needs at the CORDIC output.
+    raw_clip_s <= '1' when sin = std_logic_vector(to_signed(-2 ** (ADC_W - 1), ADC_W))
+                        or sin = std_logic_vector(to_signed(2 ** (ADC_W - 1) - 1, ADC_W)) else '0';
+    raw_clip_c <= '1' when cos = std_logic_vector(to_signed(-2 ** (ADC_W - 1), ADC_W))
+                        or cos = std_logic_vector(to_signed(2 ** (ADC_W - 1) - 1, ADC_W)) else '0';
+    c_dx <= c_user(U_C - 1 downto U_C - DX_W);
+
+    g_drift : if DRIFT /= 0 generate
+        signal off_s, off_c   : std_logic_vector(ADC_W + DRIFT_OFS_FRAC - 1 downto 0);
+        signal ginv_s, ginv_c : std_logic_vector(DRIFT_GINV_W - 1 downto 0);
+        signal track_sat      : std_logic;
+        signal d_in_user, nu  : std_logic_vector(CW + 2 downto 0);
+        signal d_wr_addr      : std_logic_vector(DRIFT_FWD_W downto 0);
+        signal c_bank_d       : std_logic;
+    begin
+        d_in_user <= coarse & bank_r & raw_clip_c & raw_clip_s;
+        d_wr_addr <= wr_bank_r & std_logic_vector(wr_word(DRIFT_FWD_W - 1 downto 0));
+        c_bank_d  <= c_user(0);
+
+        u_drift : entity work.fringe_drift
+            generic map (ADC_W => ADC_W, FINE_W => FINE_W, BLOCK_LOG2 => DRIFT_BLOCK_LOG2,
+                         MU_LOG2 => DRIFT_MU_LOG2, OFS_FRAC => DRIFT_OFS_FRAC, GINV_W => DRIFT_GINV_W,
+                         FWD_W => DRIFT_FWD_W, TABLE_W => DRIFT_TABLE_W, TABLE_FRAC => DRIFT_TABLE_FRAC,
+                         KG_W => DRIFT_KG_W, KG_SHIFT => DRIFT_KG_SHIFT, PIPE_LATENCY => PIPE_D,
+                         FWD_SIN_INIT => FWD_SIN_INIT, FWD_COS_INIT => FWD_COS_INIT, USER_W => CW + 3)
+            port map (
+                clk => clk, rst => rst, ce => ce,
+                in_valid => in_valid, raw_sin => sin, raw_cos => cos, in_user => d_in_user,
+                norm_valid => n_valid, y_sin => n_sin, y_cos => n_cos, norm_sat => n_sat, norm_user => nu,
+                obs_valid => c_valid, obs_phase => phase,
+                obs_y_sin => c_dx(DX_W - 1 downto ADC_W + 3), obs_y_cos => c_dx(ADC_W + 2 downto 3),
+                obs_bank => c_bank_d,
+                w0_sin => reg_field(regs, c_bank_d, R_W0_S, ADC_W + DRIFT_TABLE_FRAC),
+                w0_cos => reg_field(regs, c_bank_d, R_W0_C, ADC_W + DRIFT_TABLE_FRAC),
+                kg_sin => reg_field(regs, c_bank_d, R_KG_S, DRIFT_KG_W),
+                kg_cos => reg_field(regs, c_bank_d, R_KG_C, DRIFT_KG_W),
+                wr_en => wr_fwd, wr_sel => wr_fwd_sel, wr_addr => d_wr_addr,
+                wr_data => wr_data(2 * DRIFT_TABLE_W - 1 downto 0),
+                off_sin => off_s, off_cos => off_c, ginv_sin => ginv_s, ginv_cos => ginv_c, track_sat => track_sat
+            );
+
+        n_coarse <= nu(CW + 2 downto 3);
+        n_bank   <= nu(2);
+        n_clip_c <= nu(1);
+        n_clip_s <= nu(0);
+    else generate
+        n_valid  <= in_valid;
+        n_sin    <= sin;
+        n_cos    <= cos;
+        n_sat    <= '0';
+        n_bank   <= bank_r;
+        n_clip_s <= raw_clip_s;
+        n_clip_c <= raw_clip_c;
+        n_coarse <= coarse;
+    end generate g_drift;
+
     -- ---- stage 1 (registered): the sample takes the active bank and that bank's branch thresholds --
     -- (the register file read and the compares sit in separate stages: one long path otherwise)
     p_input_valid : process (clk)
@@ -440,7 +545,7 @@ begin
                 valid0 <= '0';
                 valid1 <= '0';
             elsif ce = '1' then
-                valid0 <= in_valid;
+                valid0 <= n_valid;
                 valid1 <= valid0;
             end if;
         end if;
@@ -450,16 +555,17 @@ begin
     begin
         if rising_edge(clk) then
             if ce = '1' then
-                sin0    <= sin;
-                cos0    <= cos;
-                coarse0 <= coarse;
-                bank0   <= bank_r;
-                mid_s   <= signed(reg_field(regs, bank_r, R_MID_S, BR_W));
-                hi_s    <= signed(reg_field(regs, bank_r, R_THR_HI_S, BR_W));
-                lo_s    <= signed(reg_field(regs, bank_r, R_THR_LO_S, BR_W));
-                mid_c   <= signed(reg_field(regs, bank_r, R_MID_C, BR_W));
-                hi_c    <= signed(reg_field(regs, bank_r, R_THR_HI_C, BR_W));
-                lo_c    <= signed(reg_field(regs, bank_r, R_THR_LO_C, BR_W));
+                sin0    <= n_sin;
+                cos0    <= n_cos;
+                coarse0 <= n_coarse;
+                bank0   <= n_bank;
+                flags0  <= n_sat & n_clip_c & n_clip_s;
+                mid_s   <= signed(reg_field(regs, n_bank, R_MID_S, BR_W));
+                hi_s    <= signed(reg_field(regs, n_bank, R_THR_HI_S, BR_W));
+                lo_s    <= signed(reg_field(regs, n_bank, R_THR_LO_S, BR_W));
+                mid_c   <= signed(reg_field(regs, n_bank, R_MID_C, BR_W));
+                hi_c    <= signed(reg_field(regs, n_bank, R_THR_HI_C, BR_W));
+                lo_c    <= signed(reg_field(regs, n_bank, R_THR_LO_C, BR_W));
             end if;
         end if;
     end process p_stage1;
@@ -476,6 +582,7 @@ begin
                 cos1    <= cos0;
                 coarse1 <= coarse0;
                 bank1   <= bank0;
+                flags1  <= flags0;
                 -- (only on defined inputs: no numeric_std warnings while the inputs are undriven)
                 if not is_x(sin0) and not is_x(cos0) then
                     s_x := resize(signed(sin0), BR_W);
@@ -521,7 +628,7 @@ begin
     end process p_bank_d;
 
     -- ---- stages 3..6: waveform tables ------------------------------------------------------------
-    wl_in_user <= coarse1 & bank1;
+    wl_in_user <= sin1 & cos1 & flags1 & coarse1 & bank1;
 
     u_wave_sin : entity work.fringe_wave_lut
         generic map (ADC_W => ADC_W, WAVE_ADDR_W => WAVE_ADDR_W, WAVE_W => WAVE_W,
@@ -545,9 +652,13 @@ begin
         );
 
     wl_bank <= wl_user(0);
+    wl_dx   <= wl_user(U_WL - 1 downto U_WL - DX_W);
+    -- CLIP_*: the raw ADC codes (with the normaliser in front, the table inputs are not the raw codes)
+    wl_clip_s <= wl_dx(0) when DRIFT /= 0 else clip_s;
+    wl_clip_c <= wl_dx(1) when DRIFT /= 0 else clip_c;
 
     -- ---- stages 7..11: quadrature, coefficients of the sample's bank ----------------------------
-    q_in_user <= wl_user(U_WL - 1 downto 1) & clip_c & clip_s & wl_bank;
+    q_in_user <= wl_user(U_WL - 1 downto 1) & wl_clip_c & wl_clip_s & wl_bank;
 
     u_quad : entity work.fringe_quadrature
         generic map (WAVE_W => WAVE_W, COEF_W => COEF_W, USER_W => U_Q)
@@ -559,7 +670,8 @@ begin
         );
 
     -- ---- stages 12..CORDIC_STAGES+13: CORDIC (x = c, y = s) -------------------------------------
-    c_in_user <= q_user(U_Q - 1 downto 3) & q_sat & q_user(2 downto 0);
+    q_any     <= q_sat or q_user(U_Q - 1 - DX_W + 3);
+    c_in_user <= q_user(U_Q - 1 downto 3) & q_any & q_user(2 downto 0);
 
     u_cordic : entity work.fringe_cordic
         generic map (IN_W => WAVE_W, FINE_W => FINE_W, STAGES => CORDIC_STAGES, GUARD => CORDIC_GUARD,
@@ -582,7 +694,7 @@ begin
         generic map (FINE_W => FINE_W, LINES => LINES, COARSE_W => COARSE_W, USER_W => U_P)
         port map (
             clk => clk, rst => rst, ce => ce,
-            in_valid => c_valid, phase => phase, coarse => c_user(U_C - 1 downto 4),
+            in_valid => c_valid, phase => phase, coarse => c_user(CW + 3 downto 4),
             coarse_ofs => coarse_ofs_r,
             in_user => p_in_user,
             out_valid => p_valid, pos => p_pos, overspeed => p_overspeed, coarse_err => p_coarse_err,

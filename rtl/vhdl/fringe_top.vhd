@@ -16,7 +16,7 @@
 -- rst (synchronous, active high) empties the pipeline: m_axis_tvalid is 0 after it, samples in
 -- flight and a sample taken in the same clock are dropped.
 --
--- LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 (+ 11 with TRIM = 1) clocks from the s_axis handshake to
+-- LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1) clocks from the s_axis handshake to
 -- m_axis_tvalid when the sink does not stall (every stall adds its cycles).
 
 library ieee;
@@ -50,13 +50,25 @@ entity fringe_top is
         G_SHIFT       : integer := 24;
         SECT_RECIP    : natural := 1;
         SECT_SHIFT    : integer := 18;
-        REGS_INIT     : string  := "";    -- $readmemh image of the registers, 2 x 16 words of 32 bits
+        DRIFT            : integer := 0;  -- 1 = fringe_drift (online offset/gain tracker); its generics: fringe_core
+        DRIFT_BLOCK_LOG2 : integer := 8;
+        DRIFT_MU_LOG2    : integer := 1;
+        DRIFT_OFS_FRAC   : integer := 4;
+        DRIFT_GINV_W     : integer := 18;
+        DRIFT_FWD_W      : integer := 8;
+        DRIFT_TABLE_W    : integer := 18;
+        DRIFT_TABLE_FRAC : integer := 4;
+        DRIFT_KG_W       : integer := 18;
+        DRIFT_KG_SHIFT   : integer := 40;
+        REGS_INIT     : string  := "";    -- $readmemh image of the registers, 2 x 32 words of 32 bits
         WAVE_SIN_INIT : string  := "";    -- $readmemh image of the sine table, both banks
         WAVE_COS_INIT : string  := "";    -- $readmemh image of the cosine table, both banks
         LP_INIT       : string  := "";    -- $readmemh image of the long-period table, both banks
         MAP_INIT      : string  := "";    -- $readmemh images of the trim tables, both banks (TRIM = 1)
         SPEED_INIT    : string  := "";
-        AMP_INIT      : string  := ""
+        AMP_INIT      : string  := "";
+        FWD_SIN_INIT  : string  := "";    -- $readmemh images of the drift forward tables, both banks (DRIFT = 1)
+        FWD_COS_INIT  : string  := ""
     );
     port (
         clk           : in  std_logic;
@@ -94,11 +106,18 @@ architecture rtl of fringe_top is
     function trim_latency return integer is
     begin
         if TRIM /= 0 then
-            return 11;
+            return 12;
         end if;
         return 0;
     end function trim_latency;
-    constant LATENCY  : integer := CORDIC_STAGES + 24 + trim_latency;
+    function drift_latency return integer is
+    begin
+        if DRIFT /= 0 then
+            return 4;
+        end if;
+        return 0;
+    end function drift_latency;
+    constant LATENCY  : integer := CORDIC_STAGES + 24 + trim_latency + drift_latency;
     constant CW       : integer := maximum(COARSE_W, 1);      -- coarse port width of the core
     constant POS_W    : integer := clog2(LINES) + FINE_W;     -- position bits
     constant ADC_LANE : integer := 8 * ((ADC_W + 7) / 8);     -- bits of the sin and cos lanes
@@ -131,7 +150,11 @@ begin
             WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT, LP_INIT => LP_INIT,
             TRIM => TRIM, SPEED_LOG2 => SPEED_LOG2, MAP_PSI_W => MAP_PSI_W, MAP_PHI_W => MAP_PHI_W,
             TRIM_W => TRIM_W, TRIM_FRAC => TRIM_FRAC, G_SHIFT => G_SHIFT, SECT_RECIP => SECT_RECIP,
-            SECT_SHIFT => SECT_SHIFT, MAP_INIT => MAP_INIT, SPEED_INIT => SPEED_INIT, AMP_INIT => AMP_INIT
+            SECT_SHIFT => SECT_SHIFT, MAP_INIT => MAP_INIT, SPEED_INIT => SPEED_INIT, AMP_INIT => AMP_INIT,
+            DRIFT => DRIFT, DRIFT_BLOCK_LOG2 => DRIFT_BLOCK_LOG2, DRIFT_MU_LOG2 => DRIFT_MU_LOG2,
+            DRIFT_OFS_FRAC => DRIFT_OFS_FRAC, DRIFT_GINV_W => DRIFT_GINV_W, DRIFT_FWD_W => DRIFT_FWD_W,
+            DRIFT_TABLE_W => DRIFT_TABLE_W, DRIFT_TABLE_FRAC => DRIFT_TABLE_FRAC, DRIFT_KG_W => DRIFT_KG_W,
+            DRIFT_KG_SHIFT => DRIFT_KG_SHIFT, FWD_SIN_INIT => FWD_SIN_INIT, FWD_COS_INIT => FWD_COS_INIT
         )
         port map (
             clk => clk, rst => rst, ce => ce,

@@ -31,14 +31,18 @@
 -- wr_addr ({bank, word}; the small tables use the low MAP_PHI_W bits and ignore words beyond) /
 -- wr_data whatever ce is; write only the bank no sample in flight reads.
 --
--- LATENCY = 11 clock enables (ce = 1 cycles) from in_valid to out_valid:
+-- LATENCY = 12 clock enables (ce = 1 cycles) from in_valid to out_valid:
 --   1 input registers; history RAM read (and write)     2 history RAM output register; sector product
 --   3 pos - old; gain table reads                        4 speed wrapped, dir; gain RAM output registers
---   5 map read at {bank, dir, sector, bin}; gain slope x frac   6 map RAM output register; gs, ga
---   7 map slope x frac; speed x gs, mag x ga (+ rounding)    8 m (+ 2^(TRIM_FRAC-1)); product sum
---   9 total                                              10 clip to corr, sat; pos -+ REV
---   11 pos - corr, wrapped: pos_out, dir, sat
--- One carry chain or one multiply (with its rounding constant) per stage. One sample per clock.
+--   5 map read at {bank, dir, sector, bin}; gain slope x frac (bare)
+--   6 map RAM output register; gs, ga (rounding bit as carry in)
+--   7 map slope x frac (bare); partial products of speed x gs and mag x ga (bare; an operand wider
+--     than 18 bits split into a signed high part and an unsigned 17-bit low part: <= 18x18 each)
+--   8 m (+ 2^(TRIM_FRAC-1)); partial products summed in pairs (bit-field joins where they do not overlap)
+--   9 the pairs summed, m * 2^G_SHIFT + 2^(G_SHIFT-1) joined
+--   10 A = (total + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + r, 0 <= r < 2^G_SHIFT
+--   11 clip to corr, sat; pos -+ REV                     12 pos - corr, wrapped: pos_out, dir, sat
+-- One carry chain or one bare multiply (register -> a*b -> register) per stage. One sample per clock.
 -- ce = 0 freezes every register (and the RAM reads); rst (synchronous, active high, wins over ce)
 -- clears only the valid pipeline and the history fill counter, never the data registers.
 -- The port widths use ceil(log2(real(LINES))) (exact in GHDL for LINES <= 2^20); elaboration
@@ -203,7 +207,7 @@ architecture rtl of fringe_trim is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := 11;
+    constant LATENCY : integer := 12;
     constant POS_W   : integer := FINE_W + clog2(LINES);            -- clog2(REV)
     constant N       : integer := 2**SPEED_LOG2;                    -- speed window
     constant FB      : integer := FINE_W - MAP_PHI_W;               -- fraction bits within a bin, >= 1
@@ -211,7 +215,7 @@ architecture rtl of fringe_trim is
     constant PSI_R   : integer := maximum(MAP_PSI_W, 1);            -- sector register width
     constant TW      : integer := TRIM_W;
     constant GW      : integer := TW + 1;                           -- gs, ga, s(TW+1)
-    constant IP_W    : integer := TW + FB + 1;                      -- slope x frac + 2^(FB-1)
+    constant IP_W    : integer := TW + FB + 1;                      -- slope x frac
     constant P1_W    : integer := POS_W + GW;                       -- speed x gs
     constant P2_W    : integer := maximum(AMP_W + GW, G_SHIFT) + 1; -- mag x ga + 2^(G_SHIFT-1)
     constant S_W     : integer := maximum(P1_W, P2_W) + 1;          -- their sum
@@ -228,6 +232,53 @@ architecture rtl of fringe_trim is
     constant HALF_W  : signed(WW - 1 downto 0) := signed(shift_left(to_unsigned(LINES, WW), FINE_W - 1));
     constant CLIP_LO : signed(FINE_W - 1 downto 0) := shift_left(to_signed(-1, FINE_W), FINE_W - 1);  -- -2^(FINE_W-1)
     constant CLIP_HI : signed(FINE_W - 1 downto 0) := not CLIP_LO;                                    -- 2^(FINE_W-1) - 1
+
+    -- The sum A = (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) + speed * gs + mag * ga, formed
+    -- modulo 2^A_W from the partial products (A >>> G_SHIFT = total + 2^(TRIM_FRAC-1), exact in A_W bits).
+    -- An operand wider than 18 bits is split, x = x_hi * 2^17 + x_lo (x_lo unsigned, 17 bits, as s18);
+    -- a * b = hh * 2^(AL+BL) + hl * 2^AL + lh * 2^BL + ll with ll < 2^(AL+BL) (0 unless both split).
+    constant A_W     : integer := TT_W + G_SHIFT;
+    constant E_W     : integer := A_W + 64;                         -- wider than every term
+    constant L       : integer := 17;
+    constant MG_W    : integer := AMP_W + 1;                        -- mag as a signed operand
+
+    function lo_bits(w : integer) return integer is
+    begin
+        if w > 18 then
+            return L;
+        end if;
+        return 0;
+    end function lo_bits;
+
+    constant SP_L    : integer := lo_bits(POS_W);                   -- low part bits of speed, gs/ga, mag
+    constant GN_L    : integer := lo_bits(GW);
+    constant MG_L    : integer := lo_bits(MG_W);
+    constant SP_H    : integer := POS_W - SP_L;                     -- their high part widths (signed)
+    constant GN_H    : integer := GW - GN_L;
+    constant MG_H    : integer := MG_W - MG_L;
+    constant LL_S    : integer := SP_L + GN_L;                      -- weight of speed x gs's hh
+    constant LL_A    : integer := MG_L + GN_L;                      -- weight of mag x ga's hh
+
+    -- x * 2^sh modulo 2^A_W
+    function term(x : signed; sh : integer) return unsigned is
+        variable r : signed(E_W - 1 downto 0);
+    begin
+        r := shift_left(resize(x, E_W), sh);
+        return unsigned(r(A_W - 1 downto 0));
+    end function term;
+
+    -- the low k bits of x (k < A_W), zero above
+    function low_bits(x : signed; k : integer) return unsigned is
+        variable xe : signed(E_W - 1 downto 0);
+        variable r  : unsigned(A_W - 1 downto 0);
+    begin
+        xe := resize(x, E_W);
+        r  := (others => '0');
+        if k > 0 then
+            r(k - 1 downto 0) := unsigned(xe(k - 1 downto 0));
+        end if;
+        return r;
+    end function low_bits;
 
     -- 2^(k-1) in a w-bit signed word, 0 when k = 0 (no rounding)
     function round_term(w, k : integer) return signed is
@@ -250,7 +301,7 @@ architecture rtl of fringe_trim is
     signal fill     : unsigned(SPEED_LOG2 downto 0);   -- accepted samples since reset, saturating at N
     signal accept   : std_logic;
 
-    signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s5_pos, s6_pos, s7_pos, s8_pos, s9_pos
+    signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s5_pos, s6_pos, s7_pos, s8_pos, s9_pos, s10_pos
                     : unsigned(POS_W - 1 downto 0);
     signal s1_mag, s2_mag, s3_mag, s4_mag, s5_mag, s6_mag : unsigned(AMP_W - 1 downto 0);
     signal s1_bank, s2_bank, s3_bank, s4_bank : std_logic;
@@ -258,20 +309,25 @@ architecture rtl of fringe_trim is
     signal s2_sector, s3_sector, s4_sector : unsigned(PSI_R - 1 downto 0);
     signal s3_d     : signed(POS_W downto 0);
     signal s4_speed, s5_speed, s6_speed : signed(POS_W - 1 downto 0);
-    signal s4_dir, s5_dir, s6_dir, s7_dir, s8_dir, s9_dir, s10_dir : std_logic;
+    signal s4_dir, s5_dir, s6_dir, s7_dir, s8_dir, s9_dir, s10_dir, s11_dir : std_logic;
     signal spd_q, amp_q, map_q, spd_word, amp_word, map_word : std_logic_vector(2 * TW - 1 downto 0);
     signal s5_sprod, s5_aprod, s7_mprod : signed(IP_W - 1 downto 0);
     signal s5_svalue, s5_avalue : signed(TW - 1 downto 0);
     signal s6_gs, s6_ga : signed(GW - 1 downto 0);
     signal s7_mvalue : signed(VR_W - 1 downto 0);
-    signal s7_p1    : signed(P1_W - 1 downto 0);
-    signal s7_p2    : signed(P2_W - 1 downto 0);
+    signal s7_shh   : signed(SP_H + GN_H - 1 downto 0);        -- speed x gs, partial products
+    signal s7_shl   : signed(SP_H + L downto 0);
+    signal s7_slh   : signed(L + GN_H downto 0);
+    signal s7_sll   : signed(2 * L + 1 downto 0);
+    signal s7_ahh   : signed(MG_H + GN_H - 1 downto 0);        -- mag x ga, partial products
+    signal s7_ahl   : signed(MG_H + L downto 0);
+    signal s7_alh   : signed(L + GN_H downto 0);
+    signal s7_all   : signed(2 * L + 1 downto 0);
     signal s8_m     : signed(MR_W - 1 downto 0);
-    signal s8_s     : signed(S_W - 1 downto 0);
-    signal s9_total : signed(TT_W - 1 downto 0);
-    signal s10_corr : signed(FINE_W - 1 downto 0);
-    signal s10_sat, s10_neg : std_logic;
-    signal s10_pos, s10_alt : signed(WW - 1 downto 0);
+    signal s8_u1, s8_u2, s8_u3, s9_v1, s9_v2, s10_a : unsigned(A_W - 1 downto 0);
+    signal s11_corr : signed(FINE_W - 1 downto 0);
+    signal s11_sat, s11_neg : std_logic;
+    signal s11_pos, s11_alt : signed(WW - 1 downto 0);
 
     signal gain_rd_addr : std_logic_vector(MAP_PHI_W downto 0);
     signal map_rd_addr  : std_logic_vector(MA_W downto 0);
@@ -369,6 +425,15 @@ begin
         variable over    : boolean;
         variable pos_x, corr_w, a, b : signed(WW - 1 downto 0);
         variable use_b   : boolean;
+        variable mag_s   : signed(MG_W - 1 downto 0);
+        variable sp_x    : signed(POS_W + L - 1 downto 0);
+        variable gs_x, ga_x : signed(GW + L - 1 downto 0);
+        variable mg_x    : signed(MG_W + L - 1 downto 0);
+        variable sp_lo, gs_lo, ga_lo, mg_lo : signed(L downto 0);
+        variable sp_hi   : signed(SP_H - 1 downto 0);
+        variable gs_hi, ga_hi : signed(GN_H - 1 downto 0);
+        variable mg_hi   : signed(MG_H - 1 downto 0);
+        variable tm      : unsigned(A_W - 1 downto 0);
     begin
         if rising_edge(clk) then
             if ce = '1' then
@@ -425,10 +490,10 @@ begin
                 s4_bank   <= s3_bank;
                 s4_sector <= s3_sector;
 
-                -- 5: the map read at {bank, dir, sector, bin}; gain slope x frac + 2^(FB-1)
+                -- 5: the map read at {bank, dir, sector, bin}; gain slope x frac (bare)
                 frac4 := signed('0' & s4_pos(FB - 1 downto 0));
-                s5_sprod  <= resize(signed(spd_word(2 * TW - 1 downto TW)) * frac4, IP_W) + round_term(IP_W, FB);
-                s5_aprod  <= resize(signed(amp_word(2 * TW - 1 downto TW)) * frac4, IP_W) + round_term(IP_W, FB);
+                s5_sprod  <= resize(signed(spd_word(2 * TW - 1 downto TW)) * frac4, IP_W);
+                s5_aprod  <= resize(signed(amp_word(2 * TW - 1 downto TW)) * frac4, IP_W);
                 s5_svalue <= signed(spd_word(TW - 1 downto 0));
                 s5_avalue <= signed(amp_word(TW - 1 downto 0));
                 s5_speed  <= s4_speed;
@@ -436,38 +501,80 @@ begin
                 s5_pos    <= s4_pos;
                 s5_mag    <= s4_mag;
 
-                -- 6: the map RAM output register; gs, ga = value + (product >>> FB)
-                map_word    <= map_q;
-                s6_gs    <= resize(s5_svalue, GW) + s5_sprod(FB + GW - 1 downto FB);
-                s6_ga    <= resize(s5_avalue, GW) + s5_aprod(FB + GW - 1 downto FB);
+                -- 6: the map RAM output register; gs, ga = value + ((product + 2^(FB-1)) >>> FB)
+                -- (p + 2^(FB-1)) >>> FB = (p >>> FB) + p[FB-1]: the rounding bit is the adder's carry in
+                map_word <= map_q;
+                s6_gs    <= resize(s5_svalue, GW) + s5_sprod(FB + GW - 1 downto FB) + ('0' & s5_sprod(FB - 1 downto FB - 1));
+                s6_ga    <= resize(s5_avalue, GW) + s5_aprod(FB + GW - 1 downto FB) + ('0' & s5_aprod(FB - 1 downto FB - 1));
                 s6_speed <= s5_speed;
                 s6_dir   <= s5_dir;
                 s6_pos   <= s5_pos;
                 s6_mag   <= s5_mag;
 
-                -- 7: map slope x frac + 2^(FB-1), value + 2^(TRIM_FRAC-1); speed x gs; mag x ga + 2^(G_SHIFT-1)
+                -- 7: map slope x frac (bare), value + 2^(TRIM_FRAC-1); the partial products of speed x gs
+                -- and mag x ga (bare): an operand wider than 18 bits is x_hi * 2^17 + x_lo (x_lo unsigned),
+                -- one of at most 18 bits is x_hi = x, x_lo = 0
                 frac6 := signed('0' & s6_pos(FB - 1 downto 0));
-                s7_mprod  <= resize(signed(map_word(2 * TW - 1 downto TW)) * frac6, IP_W) + round_term(IP_W, FB);
+                s7_mprod  <= resize(signed(map_word(2 * TW - 1 downto TW)) * frac6, IP_W);
                 s7_mvalue <= resize(signed(map_word(TW - 1 downto 0)), VR_W) + round_term(VR_W, TRIM_FRAC);
-                s7_p1     <= resize(s6_speed * s6_gs, P1_W);
-                s7_p2     <= resize(signed('0' & s6_mag) * s6_ga, P2_W) + round_term(P2_W, G_SHIFT);
-                s7_dir    <= s6_dir;
-                s7_pos    <= s6_pos;
+                mag_s := signed('0' & s6_mag);
+                sp_x  := resize(s6_speed, POS_W + L);
+                gs_x  := resize(s6_gs, GW + L);
+                ga_x  := resize(s6_ga, GW + L);
+                mg_x  := resize(mag_s, MG_W + L);
+                sp_lo := (others => '0');
+                gs_lo := (others => '0');
+                ga_lo := (others => '0');
+                mg_lo := (others => '0');
+                if SP_L > 0 then
+                    sp_lo := '0' & sp_x(L - 1 downto 0);
+                end if;
+                if GN_L > 0 then
+                    gs_lo := '0' & gs_x(L - 1 downto 0);
+                    ga_lo := '0' & ga_x(L - 1 downto 0);
+                end if;
+                if MG_L > 0 then
+                    mg_lo := '0' & mg_x(L - 1 downto 0);
+                end if;
+                sp_hi := s6_speed(POS_W - 1 downto SP_L);
+                gs_hi := s6_gs(GW - 1 downto GN_L);
+                ga_hi := s6_ga(GW - 1 downto GN_L);
+                mg_hi := mag_s(MG_W - 1 downto MG_L);
+                s7_shh <= sp_hi * gs_hi;
+                s7_shl <= sp_hi * gs_lo;
+                s7_slh <= sp_lo * gs_hi;
+                s7_sll <= sp_lo * gs_lo;
+                s7_ahh <= mg_hi * ga_hi;
+                s7_ahl <= mg_hi * ga_lo;
+                s7_alh <= mg_lo * ga_hi;
+                s7_all <= mg_lo * ga_lo;
+                s7_dir <= s6_dir;
+                s7_pos <= s6_pos;
 
-                -- 8: m + 2^(TRIM_FRAC-1); the products' sum
+                -- 8: m + 2^(TRIM_FRAC-1) (the rounding bit as carry in); the partial products in pairs
                 ip     := s7_mprod;
-                s8_m   <= resize(s7_mvalue, MR_W) + resize(ip(FB + GW - 1 downto FB), MR_W);
-                s8_s   <= resize(s7_p1, S_W) + resize(s7_p2, S_W);
+                s8_m   <= resize(s7_mvalue, MR_W) + resize(ip(FB + GW - 1 downto FB), MR_W) + ('0' & ip(FB - 1 downto FB - 1));
+                s8_u1  <= (term(s7_shh, LL_S) or low_bits(s7_sll, LL_S)) + (term(s7_ahh, LL_A) or low_bits(s7_all, LL_A));
+                s8_u2  <= term(s7_shl, SP_L) + term(s7_slh, GN_L);
+                s8_u3  <= term(s7_ahl, MG_L) + term(s7_alh, GN_L);
                 s8_dir <= s7_dir;
                 s8_pos <= s7_pos;
 
-                -- 9: total + 2^(TRIM_FRAC-1) = m + 2^(TRIM_FRAC-1) + (sum >>> G_SHIFT)
-                s9_total <= resize(s8_m, TT_W) + resize(s8_s(S_W - 1 downto G_SHIFT), TT_W);
-                s9_dir   <= s8_dir;
-                s9_pos   <= s8_pos;
+                -- 9: the pairs summed; (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) joins (bit fields)
+                tm     := term(s8_m, G_SHIFT);
+                tm(G_SHIFT - 1) := '1';
+                s9_v1  <= s8_u1 + s8_u2;
+                s9_v2  <= s8_u3 + tm;
+                s9_dir <= s8_dir;
+                s9_pos <= s8_pos;
 
-                -- 10: corr = total >>> TRIM_FRAC clipped to s(FINE_W); pos -+ REV for stage 11
-                corr_x := resize(s9_total(TT_W - 1 downto TRIM_FRAC), CX_W);
+                -- 10: A; A >>> G_SHIFT = total + 2^(TRIM_FRAC-1)
+                s10_a   <= s9_v1 + s9_v2;
+                s10_dir <= s9_dir;
+                s10_pos <= s9_pos;
+
+                -- 11: corr = total >>> TRIM_FRAC clipped to s(FINE_W); pos -+ REV for stage 12
+                corr_x := resize(signed(s10_a(A_W - 1 downto G_SHIFT + TRIM_FRAC)), CX_W);
                 -- in range <=> bits CX_W-1 .. FINE_W-1 all equal the sign
                 if corr_x(CX_W - 1) = '1' then
                     over := not (corr_x(CX_W - 1 downto FINE_W - 1) = (CX_W - FINE_W downto 0 => '1'));
@@ -475,30 +582,30 @@ begin
                     over := corr_x(CX_W - 1 downto FINE_W - 1) /= (CX_W - FINE_W downto 0 => '0');
                 end if;
                 if not over then
-                    s10_corr <= corr_x(FINE_W - 1 downto 0);
+                    s11_corr <= corr_x(FINE_W - 1 downto 0);
                 elsif corr_x(CX_W - 1) = '1' then
-                    s10_corr <= CLIP_LO;
+                    s11_corr <= CLIP_LO;
                 else
-                    s10_corr <= CLIP_HI;
+                    s11_corr <= CLIP_HI;
                 end if;
-                s10_sat <= '1' when over else '0';
-                s10_neg <= corr_x(CX_W - 1);
-                s10_dir <= s9_dir;
-                pos_x   := signed(resize(s9_pos, WW));
-                s10_pos <= pos_x;
+                s11_sat <= '1' when over else '0';
+                s11_neg <= corr_x(CX_W - 1);
+                s11_dir <= s10_dir;
+                pos_x   := signed(resize(s10_pos, WW));
+                s11_pos <= pos_x;
                 -- corr < 0: pos - corr may reach REV, alternative pos - REV - corr;
                 -- corr >= 0: pos - corr may fall below 0, alternative pos + REV - corr
                 if corr_x(CX_W - 1) = '1' then
-                    s10_alt <= pos_x - REV_W;
+                    s11_alt <= pos_x - REV_W;
                 else
-                    s10_alt <= pos_x + REV_W;
+                    s11_alt <= pos_x + REV_W;
                 end if;
 
-                -- 11: pos - corr, wrapped into [0, REV)
-                corr_w := resize(s10_corr, WW);
-                a := s10_pos - corr_w;
-                b := s10_alt - corr_w;
-                if s10_neg = '1' then
+                -- 12: pos - corr, wrapped into [0, REV)
+                corr_w := resize(s11_corr, WW);
+                a := s11_pos - corr_w;
+                b := s11_alt - corr_w;
+                if s11_neg = '1' then
                     use_b := b(WW - 1) = '0';
                 else
                     use_b := a(WW - 1) = '1';
@@ -508,8 +615,8 @@ begin
                 else
                     pos_out <= std_logic_vector(a(POS_W - 1 downto 0));
                 end if;
-                dir <= s10_dir;
-                sat <= s10_sat;
+                dir <= s11_dir;
+                sat <= s11_sat;
             end if;
         end if;
     end process p_data;

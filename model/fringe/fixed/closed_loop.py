@@ -13,7 +13,9 @@ a calibration, in float, at the tables' points:
 - gs holds the speed terms (sampling skew): the speed in fine counts per 2^SPEED_LOG2 samples
   becomes rev/s through the recording's sample interval;
 - ga holds the magnitude terms, per unit of the CORDIC's magnitude.
-Terms that fringe_trim cannot carry (the drift tracker) are named by `unsupported`.
+Drift is tracked online by fringe_drift (DRIFT = 1): `build_drift_tables` gives its forward waveform
+tables and W0/KG registers, and `tracked_phase` is the float engine's run of the same equations. Terms
+neither block carries are named by `unsupported`.
 """
 
 from __future__ import annotations
@@ -38,9 +40,7 @@ def needs_trim(cal: Calibration) -> bool:
 
 def unsupported(cal: Calibration) -> list[str]:
     """Closed-loop corrections of this calibration that the bit-exact core does not carry."""
-    out = ["drift (online offset/gain tracker)"] if cal.adaptive else []
-    out += [t.name for t in cal.angle_terms if t.name not in TRIM_EFFECTS]
-    return out
+    return [t.name for t in cal.angle_terms if t.name not in TRIM_EFFECTS]
 
 
 @dataclass(frozen=True)
@@ -173,3 +173,76 @@ def build_trim_tables(cal: Calibration, cfg) -> TrimTables:
         raise ValueError(f"{e}: the closed-loop corrections do not fit fringe_trim's tables "
                          f"(TRIM_W = {p.trim_w}, TRIM_FRAC = {p.trim_frac}, G_SHIFT = {p.g_shift})") from None
     return TrimTables(m, gs, ga)
+
+
+# ---------------------------------------------------------------- fringe_drift (the online tracker)
+
+@dataclass(frozen=True)
+class DriftTables:
+    """fringe_drift's forward tables (values, (2, 2^FWD_W): sin, cos) and its W0 / KG registers (2,)."""
+
+    fwd: np.ndarray
+    w0: np.ndarray
+    kg: np.ndarray
+
+
+def channel_waveforms(cal: Calibration):
+    """The calibrated channel readings (ADC codes) as functions of the core's fine phase (fraction of a
+    period): the phase the CORDIC measures is theta + psi_cos (effects.tracked_phase's convention)."""
+    psi_c = cal.waves["cos"].psi
+    return {k: (lambda ph, w=cal.waves[k]: w(2 * np.pi * np.asarray(ph) - psi_c)) for k in ("sin", "cos")}
+
+
+def choose_kg_shift(cal: Calibration, cfg) -> int:
+    """The largest KG_SHIFT (1..60) that keeps both KG constants below half of u(KG_W)."""
+    from .drift import make_fwd_table
+
+    p = dataclasses.replace(cfg, drift_kg_shift=1).drift_params()
+    m2 = max(float(np.mean(make_fwd_table(f, p)[0].astype(float) ** 2)) for f in channel_waveforms(cal).values())
+    # KG = 2^(KG_SHIFT + GINV_W - 2 - MU_LOG2) / (B m2) < 2^(KG_W - 1)
+    shift = int(np.floor(np.log2(2.0 ** (p.kg_w - 1) * p.b * m2))) - (p.ginv_w - 2 - p.mu_log2)
+    return int(min(60, max(1, shift)))
+
+
+def drift_config(cal: Calibration, cfg):
+    """cfg with fringe_drift switched on for an adaptive calibration (KG_SHIFT chosen), else unchanged."""
+    if not cal.adaptive:
+        return cfg
+    on = dataclasses.replace(cfg, drift=1)
+    return dataclasses.replace(on, drift_kg_shift=choose_kg_shift(cal, on))
+
+
+def build_drift_tables(cal: Calibration, cfg, pipe_latency: int = 0) -> DriftTables:
+    """Forward tables, W0 and KG of a calibration (zero tables for one without waveform models)."""
+    from .drift import kg_for, make_fwd_table
+
+    p = cfg.drift_params(pipe_latency)
+    if not cal.waves:
+        raise ValueError("fringe_drift needs the calibrated waveform models")
+    fwd, w0, kg = [], [], []
+    for f in channel_waveforms(cal).values():
+        v, w = make_fwd_table(f, p)
+        fwd.append(v)
+        w0.append(w)
+        kg.append(kg_for(v, p))
+    return DriftTables(np.stack(fwd), np.array(w0, dtype=np.int64), np.array(kg, dtype=np.int64))
+
+
+def tracked_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
+    """The float engine's drift tracker: fringe_drift's equations without rounding (drift.drift_float),
+    with the forward tables of the core configuration's defaults. Returns (fraction of a period, magnitude)."""
+    from ..engines import core_config
+    from . import drift as drift_mod
+
+    cfg = drift_config(cal, core_config(cal))
+    p = cfg.drift_params()
+    t = build_drift_tables(cal, cfg)
+    plain = dataclasses.replace(cal, adaptive=False)
+    scale = float(1 << cfg.fine_w)
+    words = np.stack([drift_mod.pack_words(v, p) for v in t.fwd])
+
+    def phase_of(ys, yc):
+        return fine_phase(plain, ys, yc)[0] * scale
+
+    r = drift_mod.drift_float(sin, cos, phase_of, p, words, t.w0, t.kg)
+    return fine_phase(plain, r["y_sin"], r["y_cos"])

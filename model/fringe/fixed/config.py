@@ -16,6 +16,8 @@ from .quadrature import QuadratureParams
 from .wave_lut import WaveLutParams
 
 TRIM_FIELDS = ("trim", "speed_log2", "map_psi_w", "map_phi_w", "trim_w", "trim_frac", "g_shift")
+DRIFT_FIELDS = ("drift", "drift_block_log2", "drift_mu_log2", "drift_ofs_frac", "drift_ginv_w", "drift_fwd_w",
+                "drift_table_w", "drift_table_frac", "drift_kg_w", "drift_kg_shift")
 
 
 @dataclass(frozen=True)
@@ -41,6 +43,17 @@ class CoreConfig:
     trim_w: int = 18           # TRIM_W: trim table value/slope width
     trim_frac: int = 4         # TRIM_FRAC: fraction bits of the trim (fine counts)
     g_shift: int = 24          # G_SHIFT: right shift of the speed and magnitude products
+    # fringe_drift (the closed loop's online offset/gain tracker, docs/drift.md); DRIFT = 0: not built
+    drift: int = 0             # DRIFT: 1 = fringe_drift normalises the ADC codes in front of everything
+    drift_block_log2: int = 8  # DRIFT_BLOCK_LOG2: samples per tracker update = 2^DRIFT_BLOCK_LOG2 (>= 7 in the core)
+    drift_mu_log2: int = 1     # DRIFT_MU_LOG2: tracker step 2^-DRIFT_MU_LOG2 per block
+    drift_ofs_frac: int = 4    # DRIFT_OFS_FRAC: fraction bits of the tracked offsets (ADC codes)
+    drift_ginv_w: int = 18     # DRIFT_GINV_W: tracked inverse gains u(DRIFT_GINV_W), DRIFT_GINV_W-2 fraction bits
+    drift_fwd_w: int = 8       # DRIFT_FWD_W: 2^DRIFT_FWD_W bins of the forward waveform tables
+    drift_table_w: int = 18    # DRIFT_TABLE_W: forward table value/slope width
+    drift_table_frac: int = 4  # DRIFT_TABLE_FRAC: fraction bits of the forward tables (ADC codes)
+    drift_kg_w: int = 18       # DRIFT_KG_W: gain-loop constants u(DRIFT_KG_W)
+    drift_kg_shift: int = 40   # DRIFT_KG_SHIFT: right shift of the gain-loop product
 
     @classmethod
     def for_encoder(cls, enc: Encoder, **overrides) -> CoreConfig:
@@ -85,16 +98,29 @@ class CoreConfig:
                           map_psi_w=self.map_psi_w, map_phi_w=self.map_phi_w, trim_w=self.trim_w,
                           trim_frac=self.trim_frac, g_shift=self.g_shift)
 
+    def drift_params(self, pipe_latency: int = 0):
+        """fringe_drift's parameters; pipe_latency: clock enables from its normaliser outputs to its
+        observer inputs in the core (fringe.fixed.core.drift_pipe_latency)."""
+        from .drift import DriftParams
+
+        return DriftParams(adc_w=self.adc_w, fine_w=self.fine_w, block_log2=self.drift_block_log2,
+                           mu_log2=self.drift_mu_log2, ofs_frac=self.drift_ofs_frac, ginv_w=self.drift_ginv_w,
+                           fwd_w=self.drift_fwd_w, table_w=self.drift_table_w, table_frac=self.drift_table_frac,
+                           kg_w=self.drift_kg_w, kg_shift=self.drift_kg_shift, pipe_latency=pipe_latency)
+
     def hdl_parameters(self) -> dict[str, int]:
         """Parameters/generics of fringe_core and fringe_top (with the long-period index mapping)."""
         from .long_period import index_mapping
 
-        p = {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in TRIM_FIELDS}
+        p = {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self)
+             if f.name not in TRIM_FIELDS + DRIFT_FIELDS}
         p["LP_RECIP"], p["LP_SHIFT"] = index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if)
         if self.trim:     # without fringe_trim its parameters are not passed (the HDL defaults stand)
             p.update({name.upper(): getattr(self, name) for name in TRIM_FIELDS})
             tp = self.trim_params()
             p["SECT_RECIP"], p["SECT_SHIFT"] = tp.recip, tp.shift
+        if self.drift:    # likewise fringe_drift's
+            p.update({name.upper(): getattr(self, name) for name in DRIFT_FIELDS})
         return p
 
     def to_dict(self) -> dict:

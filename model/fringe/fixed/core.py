@@ -28,6 +28,7 @@ from ..pipeline import (
 )
 from ..waveform import WaveformInverse
 from . import cordic as cordic_mod
+from . import drift as drift_mod
 from . import long_period as lp_mod
 from . import period_count as pc_mod
 from . import quadrature as quad_mod
@@ -52,6 +53,7 @@ class CoreTables:
     amp_low: int                  # CORDIC magnitude thresholds (mag units)
     amp_high: int
     trim: object | None = None    # closed_loop.TrimTables of fringe_trim (TRIM = 1), else None
+    drift: object | None = None   # closed_loop.DriftTables of fringe_drift (DRIFT = 1), else None
 
 
 def _ceil_code(v: float) -> int:
@@ -88,9 +90,15 @@ def build_tables(cal: Calibration, cfg: CoreConfig) -> CoreTables:
         trim = build_trim_tables(cal, cfg)
     elif cal.rev_norm is not None or cal.angle_terms:
         raise ValueError("this calibration carries closed-loop corrections: the core needs TRIM = 1")
+    drift = None
+    if cfg.drift:
+        from .closed_loop import build_drift_tables
+        drift = build_drift_tables(cal, cfg, drift_pipe_latency(cfg))
+    elif cal.adaptive:
+        raise ValueError("this calibration tracks drift online: the core needs DRIFT = 1")
     return CoreTables(wave["sin"], wave["cos"], branch_registers(cal.inv_sin), branch_registers(cal.inv_cos),
                       quad, coarse_ofs, lp, zero, 1 if cal.direction < 0 else 0,
-                      round(cal.amp_low * gain), round(cal.amp_high * gain), trim)
+                      round(cal.amp_low * gain), round(cal.amp_high * gain), trim, drift)
 
 
 def long_period_params(cfg: CoreConfig) -> lp_mod.LongPeriodParams:
@@ -118,27 +126,7 @@ class CoreOutput:
 def run_core(t: CoreTables, cfg: CoreConfig, sin: np.ndarray, cos: np.ndarray,
              coarse: np.ndarray | None = None) -> CoreOutput:
     """One stream of samples from reset; every output word as the RTL produces it."""
-    sin = np.asarray(sin, dtype=np.int64)
-    cos = np.asarray(cos, dtype=np.int64)
-    wl = cfg.wave_lut()
-    xs, clip_s = wave_mod.wave_lut(sin, branch_select(sin, cos, t.branch_sin), t.wave_sin, wl)
-    xc, clip_c = wave_mod.wave_lut(cos, branch_select(cos, sin, t.branch_cos), t.wave_cos, wl)
-    s, c, sat = quad_mod.quadrature(xs, xc, t.quad, cfg.quadrature())
-    phase, mag = cordic_mod.cordic(c, s, cfg.cordic())
-    if coarse is None or cfg.coarse_w == 0:
-        coarse = np.zeros(len(sin), dtype=np.int64)
-    pos, overspeed, coarse_err = pc_mod.period_count(phase, np.asarray(coarse, dtype=np.int64), t.coarse_ofs,
-                                                     period_count_params(cfg))
-    trimmed = pos
-    if cfg.trim:
-        trimmed, _, trim_sat = trim_mod.trim(pos, mag, t.trim.map, t.trim.speed, t.trim.amp, cfg.trim_params())
-        sat = sat | trim_sat.astype(bool)
-    out = lp_mod.long_period(trimmed, t.lp, t.zero, t.direction, long_period_params(cfg))
-    status = (np.where(clip_s, CLIP_SIN, 0) | np.where(clip_c, CLIP_COS, 0)
-              | np.where(mag < t.amp_low, AMP_LOW, 0) | np.where(mag > t.amp_high, AMP_HIGH, 0)
-              | np.where(overspeed, OVERSPEED, 0) | np.where(coarse_err, COARSE_ERR, 0)
-              | np.where(sat, SATURATED, 0)).astype(np.int64)
-    return CoreOutput(out, status, phase, pos, mag)
+    return run_core_banks([t], cfg, sin, cos, coarse, np.zeros(len(sin), dtype=np.int64))
 
 
 #: Clock enables of fringe_core's own input registers (bank thresholds, branch select), see core_latency().
@@ -150,10 +138,16 @@ def core_latency(cfg: CoreConfig) -> int:
 
     The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 5, CORDIC
     CORDIC_STAGES + 2, period count 3, long-period table 8; CORDIC_STAGES + 24 in all, plus fringe_trim's
-    11 with TRIM = 1.
+    LATENCY with TRIM = 1 and fringe_drift's normaliser (NORM_LATENCY) with DRIFT = 1.
     """
-    return (INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + cfg.cordic().latency
+    return ((drift_mod.NORM_LATENCY if cfg.drift else 0) + drift_pipe_latency(cfg)
             + pc_mod.LATENCY + (trim_mod.LATENCY if cfg.trim else 0) + lp_mod.LATENCY)
+
+
+def drift_pipe_latency(cfg: CoreConfig) -> int:
+    """Clock enables from fringe_drift's normaliser outputs to its observer inputs: the input registers,
+    the waveform tables, the quadrature and the CORDIC (PIPE_LATENCY)."""
+    return INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + cfg.cordic().latency
 
 
 def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreConfig, sin: np.ndarray,
@@ -184,15 +178,45 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
             out = np.where(bank == b, values[b], out)
         return out
 
-    per = []
-    for t in banks:
-        xs, clip_s = wave_mod.wave_lut(sin, branch_select(sin, cos, t.branch_sin), t.wave_sin, wl)
-        xc, clip_c = wave_mod.wave_lut(cos, branch_select(cos, sin, t.branch_cos), t.wave_cos, wl)
-        per.append((xs, xc, clip_s, clip_c))
-    xs, xc, clip_s, clip_c = (pick([p[k] for p in per]) for k in range(4))
-    per = [quad_mod.quadrature(xs, xc, t.quad, qp) for t in banks]
-    s, c, sat = (pick([p[k] for p in per]) for k in range(3))
-    phase, mag = cordic_mod.cordic(c, s, cfg.cordic())
+    def front(ys, yc, bk):
+        """The stateless chain from the (normalised) ADC codes to the CORDIC, samples of banks bk."""
+        def pick_b(values):
+            out = np.array(values[0], copy=True)
+            for b in range(1, len(values)):
+                out = np.where(bk == b, values[b], out)
+            return out
+
+        per = []
+        for t in banks:
+            xs, cs = wave_mod.wave_lut(ys, branch_select(ys, yc, t.branch_sin), t.wave_sin, wl)
+            xc, cc = wave_mod.wave_lut(yc, branch_select(yc, ys, t.branch_cos), t.wave_cos, wl)
+            per.append((xs, xc, cs, cc))
+        xs, xc, cs, cc = (pick_b([p[k] for p in per]) for k in range(4))
+        per = [quad_mod.quadrature(xs, xc, t.quad, qp) for t in banks]
+        s_, c_, sat_ = (pick_b([p[k] for p in per]) for k in range(3))
+        ph, mg = cordic_mod.cordic(c_, s_, cfg.cordic())
+        return cs, cc, sat_, ph, mg
+
+    if cfg.drift:
+        # fringe_drift normalises the codes; its state follows the stream, its tables each sample's bank.
+        # CLIP_* stay flags of the raw ADC codes; a saturated normalised code is SATURATED.
+        dp = cfg.drift_params(drift_pipe_latency(cfg))
+        words = np.stack([[drift_mod.pack_words(v, dp) for v in t.drift.fwd] for t in banks])
+        cursor = [0]
+
+        def phase_of(ys, yc):
+            i = cursor[0]
+            cursor[0] = i + len(ys)
+            return front(ys, yc, bank[i:i + len(ys)])[3]
+
+        r = drift_mod.drift_run(sin, cos, phase_of, dp, words, np.stack([t.drift.w0 for t in banks]),
+                                np.stack([t.drift.kg for t in banks]), bank=bank)
+        half = 1 << (cfg.adc_w - 1)
+        clip_s, clip_c = (sin <= -half) | (sin >= half - 1), (cos <= -half) | (cos >= half - 1)
+        _, _, sat, phase, mag = front(r.y_sin, r.y_cos, bank)
+        sat = sat | r.sat.astype(bool)
+    else:
+        clip_s, clip_c, sat, phase, mag = front(sin, cos, bank)
     pcp = period_count_params(cfg)
     per = [pc_mod.period_count(phase, coarse, t.coarse_ofs, pcp) for t in banks]
     pos, overspeed, coarse_err = (pick([p[k] for p in per]) for k in range(3))

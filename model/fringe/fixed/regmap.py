@@ -42,13 +42,19 @@ REGISTERS = (
     Reg(13, "DIR", False, "1", "1: output runs the other way"),
     Reg(14, "AMP_LOW", False, "WAVE_W+1", "AMP_LOW flag below this CORDIC magnitude"),
     Reg(15, "AMP_HIGH", False, "WAVE_W+1", "AMP_HIGH flag above this CORDIC magnitude"),
+    # fringe_drift (DRIFT = 1, docs/drift.md); 0 otherwise
+    Reg(16, "W0_S", True, "ADC_W+DRIFT_TABLE_FRAC", "drift tracker: mean of the calibrated sine waveform"),
+    Reg(17, "W0_C", True, "ADC_W+DRIFT_TABLE_FRAC", "drift tracker: mean of the calibrated cosine waveform"),
+    Reg(18, "KG_S", False, "DRIFT_KG_W", "drift tracker: sine gain-loop constant"),
+    Reg(19, "KG_C", False, "DRIFT_KG_W", "drift tracker: cosine gain-loop constant"),
 )
-N_REGS = 16
+N_REGS = 32       # words per bank (20..31 reserved, written as 0)
 
 
 def widths(cfg: CoreConfig) -> dict[str, int]:
     w = {"COEF_W": cfg.coef_w, "WAVE_W": cfg.wave_w, "ADC_W+1": cfg.adc_w + 1, "POS_W+1": cfg.pos_w + 1,
-         "POS_W": cfg.pos_w, "1": 1, "WAVE_W+1": cfg.wave_w + 1}
+         "POS_W": cfg.pos_w, "1": 1, "WAVE_W+1": cfg.wave_w + 1,
+         "ADC_W+DRIFT_TABLE_FRAC": cfg.adc_w + cfg.drift_table_frac, "DRIFT_KG_W": cfg.drift_kg_w}
     return {r.name: w[r.width] for r in REGISTERS}
 
 

@@ -1,0 +1,555 @@
+// fringe_drift: online offset / gain tracker for drifting sin/cos signals.
+//
+// Two sides in one block (contract in docs/drift.md, bit-exact model model/fringe/fixed/drift.py),
+// per channel k in {sin, cos}; state OFF_k s(ADC_W + OFS_FRAC) (ADC codes, OFS_FRAC fraction bits),
+// GINV_k u(GINV_W) (GINV_W - 2 fraction bits, unity 2^(GINV_W-2)); reset values 0 and unity.
+//
+// NORMALISER (raw ADC codes at the front of the core):
+//   y_k = ((raw_k * 2^OFS_FRAC - OFF_k) * GINV_k + 2^(OFS_FRAC + GINV_W - 3)) >>> (OFS_FRAC + GINV_W - 2),
+//   saturated to s(ADC_W); norm_sat = either channel saturated.
+// OBSERVER (each sample's fine phase from downstream with the same sample's normalised codes):
+//   FB = FINE_W - FWD_W; bin = phase >> FB; frac = phase mod 2^FB
+//   a_k = value + ((slope * frac + 2^(FB-1)) >>> FB), word {slope, value} s(TABLE_W) at {obs_bank, bin}
+//   e_k = y_k * 2^TABLE_FRAC - W0_k - a_k           (W0_k s(ADC_W + TABLE_FRAC), taken with the sample)
+//   block j = observer samples [jB, (j+1)B) since reset, B = 2^BLOCK_LOG2:
+//   SE_k = sum e_k; SEA_k = sum e_k * a_k; SWEEP = sum |wrap(phase[n] - phase[n-1])| (0 for the first
+//   sample after reset). At the end of the block, if SWEEP >= 2^FINE_W:
+//   OFF_k  + ((SE_k * 2^OFS_FRAC) >>> (BLOCK_LOG2 + TABLE_FRAC + MU_LOG2)) saturated to s(ADC_W + OFS_FRAC)
+//   GINV_k - ((SEA_k * KG_k + 2^(KG_SHIFT-1)) >>> KG_SHIFT) saturated to u(GINV_W)
+//   (KG_k: kg_* with the block's last observer sample), else the block is skipped.
+// APPLICATION: the normaliser counts its accepted samples since reset; block j's update applies from
+//   input sample (j+1)B + D on, D = B/2 (taken when that sample is accepted). track_sat: the update
+//   applied last saturated (held through skipped blocks, cleared by rst).
+// Requirement: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY <= D + 1 clock enables, PIPE_LATENCY being the
+//   clock enables from norm_valid/y_* to obs_valid/obs_* in the core (0: wired directly) -- checked.
+//
+// Widths (none can overflow): YW = ADC_W + TABLE_FRAC + 1 (y * 2^TABLE_FRAC - W0), AW = TABLE_W + 1 (a),
+// E_W = max(YW, AW) + 1 (e), EA_W = E_W + AW (e * a), SE_W = E_W + BLOCK_LOG2, SEA_W = EA_W + BLOCK_LOG2,
+// SWEEP FINE_W + BLOCK_LOG2 bits (unsigned), SEA * KG SEA_W + KG_W + 1 bits.
+//
+// NORM_LATENCY = 4 clock enables from in_valid to norm_valid:
+//   1 input registers (the state is taken at acceptance)   2 d = raw * 2^OFS_FRAC - OFF
+//   3 d * GINV + 2^(OFS_FRAC+GINV_W-3)                      4 >>> and saturate: y, norm_sat
+// OBS_LATENCY = 10 clock enables from obs_valid of a block's last sample to the pending update:
+//   1 input registers, table read at {bank, bin}            2 table RAM output register; phase delta;
+//                                                              y * 2^TABLE_FRAC - W0
+//   3 slope * frac + 2^(FB-1); |delta|                      4 a = value + (product >>> FB)
+//   5 e = yw - a                                            6 e * a
+//   7 SE, SEA, SWEEP accumulated (last sample: snapshot, accumulators cleared)
+//   8 SEA * KG + 2^(KG_SHIFT-1); OFF + step; SWEEP test     9 GINV - (product >>> KG_SHIFT); OFF saturated
+//   10 GINV saturated: the pending update
+// One carry chain or one multiply (with its rounding constant) per stage; SEA * KG is a multi-DSP
+// product for wide configurations. ce = 0 freezes every register (and the RAM reads); rst
+// (synchronous, active high, wins over ce) clears the valid bits, the counters, the accumulators, the
+// pending update, track_sat and the state (OFF = 0, GINV = unity); never the data registers.
+// Tables: two two-bank fringe_table_ram (2 x 2^FWD_W words each), written through wr_en / wr_sel
+// (0 sin, 1 cos) / wr_addr {bank, bin} / wr_data {slope, value} whatever ce is; write only the bank
+// no sample in flight reads.
+
+`default_nettype none
+
+module fringe_drift #(
+    parameter integer ADC_W        = 14,   // ADC code width, 4..24
+    parameter integer FINE_W       = 16,   // fine phase bits per period, 8..30
+    parameter integer BLOCK_LOG2   = 8,    // B = 2^BLOCK_LOG2 samples per update block, 4..12
+    parameter integer MU_LOG2      = 3,    // offset step 2^-MU_LOG2 of the mean error, 0..8
+    parameter integer OFS_FRAC     = 4,    // fraction bits of OFF, 0..8; ADC_W + OFS_FRAC <= 32
+    parameter integer GINV_W       = 18,   // GINV width (GINV_W - 2 fraction bits), 8..24
+    parameter integer FWD_W        = 6,    // 2^FWD_W bins per period in the forward tables, 2..min(10, FINE_W-1)
+    parameter integer TABLE_W      = 18,   // forward table value and slope width, 8..24
+    parameter integer TABLE_FRAC   = 2,    // fraction bits of the table values and of W0 (ADC codes), 0..12
+    parameter integer KG_W         = 18,   // KG width (unsigned), 8..24
+    parameter integer KG_SHIFT     = 38,   // right shift of SEA * KG, 1..60
+    parameter integer PIPE_LATENCY = 0,    // clock enables from the norm outputs to the obs inputs in the core, >= 0
+    parameter         FWD_SIN_INIT = "",   // $readmemh image of the sine table, 2 banks x 2^FWD_W words; "" = zeros
+    parameter         FWD_COS_INIT = "",   // $readmemh image of the cosine table, 2 banks x 2^FWD_W words; "" = zeros
+    parameter integer USER_W       = 1     // normaliser sideband width, >= 1
+) (
+    input  wire                              clk,
+    input  wire                              rst,        // synchronous, active high
+    input  wire                              ce,         // clock enable
+    // normaliser in
+    input  wire                              in_valid,
+    input  wire signed [ADC_W-1:0]           raw_sin,    // s(ADC_W)
+    input  wire signed [ADC_W-1:0]           raw_cos,
+    input  wire [USER_W-1:0]                 in_user,
+    // normaliser out
+    output wire                              norm_valid,
+    output reg  signed [ADC_W-1:0]           y_sin,      // s(ADC_W)
+    output reg  signed [ADC_W-1:0]           y_cos,
+    output reg                               norm_sat,   // y saturated (either channel)
+    output wire [USER_W-1:0]                 norm_user,
+    // observer in
+    input  wire                              obs_valid,
+    input  wire [FINE_W-1:0]                 obs_phase,  // u(FINE_W)
+    input  wire signed [ADC_W-1:0]           obs_y_sin,  // the same sample's normalised codes
+    input  wire signed [ADC_W-1:0]           obs_y_cos,
+    input  wire                              obs_bank,   // table (and W0, KG) bank of this sample
+    input  wire signed [ADC_W+TABLE_FRAC-1:0] w0_sin,    // W0 of this sample's bank, s(ADC_W + TABLE_FRAC)
+    input  wire signed [ADC_W+TABLE_FRAC-1:0] w0_cos,
+    input  wire [KG_W-1:0]                   kg_sin,     // KG of this sample's bank (taken with a block's last sample)
+    input  wire [KG_W-1:0]                   kg_cos,
+    // table write port (software side), independent of ce
+    input  wire                              wr_en,
+    input  wire                              wr_sel,     // 0 sine table, 1 cosine table
+    input  wire [FWD_W:0]                    wr_addr,    // {bank, bin}
+    input  wire [2*TABLE_W-1:0]              wr_data,    // {slope, value}
+    // tracker state
+    output reg  signed [ADC_W+OFS_FRAC-1:0]  off_sin,    // OFF, s(ADC_W + OFS_FRAC)
+    output reg  signed [ADC_W+OFS_FRAC-1:0]  off_cos,
+    output reg  [GINV_W-1:0]                 ginv_sin,   // GINV, u(GINV_W)
+    output reg  [GINV_W-1:0]                 ginv_cos,
+    output reg                               track_sat   // the last applied update saturated
+);
+
+    localparam integer NORM_LATENCY = 4;
+    localparam integer OBS_LATENCY = 10;
+    localparam integer D        = 1 << (BLOCK_LOG2 - 1);
+    localparam integer FWD_MAX  = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
+    localparam integer TOTAL    = NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY;
+
+    // ---- parameter checks ---------------------------------------------------------------------------
+    generate
+        if (ADC_W < 4 || ADC_W > 24) begin : g_bad_adc_w
+            $error("fringe_drift: ADC_W = %0d out of range 4..24 (instance %m)", ADC_W);
+        end
+        if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
+            $error("fringe_drift: FINE_W = %0d out of range 8..30 (instance %m)", FINE_W);
+        end
+        if (BLOCK_LOG2 < 4 || BLOCK_LOG2 > 12) begin : g_bad_block_log2
+            $error("fringe_drift: BLOCK_LOG2 = %0d out of range 4..12 (instance %m)", BLOCK_LOG2);
+        end
+        if (MU_LOG2 < 0 || MU_LOG2 > 8) begin : g_bad_mu_log2
+            $error("fringe_drift: MU_LOG2 = %0d out of range 0..8 (instance %m)", MU_LOG2);
+        end
+        if (OFS_FRAC < 0 || OFS_FRAC > 8) begin : g_bad_ofs_frac
+            $error("fringe_drift: OFS_FRAC = %0d out of range 0..8 (instance %m)", OFS_FRAC);
+        end
+        if (ADC_W + OFS_FRAC > 32) begin : g_bad_ofs_w
+            $error("fringe_drift: ADC_W + OFS_FRAC = %0d exceeds 32 (instance %m)", ADC_W + OFS_FRAC);
+        end
+        if (GINV_W < 8 || GINV_W > 24) begin : g_bad_ginv_w
+            $error("fringe_drift: GINV_W = %0d out of range 8..24 (instance %m)", GINV_W);
+        end
+        if (FWD_W < 2 || FWD_W > FWD_MAX) begin : g_bad_fwd_w
+            $error("fringe_drift: FWD_W = %0d out of range 2..min(10, FINE_W-1) = %0d (instance %m)", FWD_W, FWD_MAX);
+        end
+        if (TABLE_W < 8 || TABLE_W > 24) begin : g_bad_table_w
+            $error("fringe_drift: TABLE_W = %0d out of range 8..24 (instance %m)", TABLE_W);
+        end
+        if (TABLE_FRAC < 0 || TABLE_FRAC > 12) begin : g_bad_table_frac
+            $error("fringe_drift: TABLE_FRAC = %0d out of range 0..12 (instance %m)", TABLE_FRAC);
+        end
+        if (KG_W < 8 || KG_W > 24) begin : g_bad_kg_w
+            $error("fringe_drift: KG_W = %0d out of range 8..24 (instance %m)", KG_W);
+        end
+        if (KG_SHIFT < 1 || KG_SHIFT > 60) begin : g_bad_kg_shift
+            $error("fringe_drift: KG_SHIFT = %0d out of range 1..60 (instance %m)", KG_SHIFT);
+        end
+        if (PIPE_LATENCY < 0) begin : g_bad_pipe
+            $error("fringe_drift: PIPE_LATENCY = %0d must be >= 0 (instance %m)", PIPE_LATENCY);
+        end else if (TOTAL > D + 1) begin : g_late
+            $error("fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = %0d + %0d + %0d = %0d exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = %0d: the update would come too late (instance %m)",
+                   NORM_LATENCY, PIPE_LATENCY, OBS_LATENCY, TOTAL, D + 1);
+        end
+        if (USER_W < 1) begin : g_bad_user_w
+            $error("fringe_drift: USER_W = %0d must be >= 1 (instance %m)", USER_W);
+        end
+    endgenerate
+
+    // ---- widths ---------------------------------------------------------------------------------------
+    localparam integer OW     = ADC_W + OFS_FRAC;                     // OFF
+    localparam integer SHN    = OFS_FRAC + GINV_W - 2;                // normaliser shift
+    localparam integer PW     = OW + GINV_W + 2;                      // (raw * 2^OFS_FRAC - OFF) * GINV
+    localparam integer QW     = PW - SHN;                             // that >>> SHN (ADC_W + 4)
+    localparam integer TW     = TABLE_W;
+    localparam integer FB     = FINE_W - FWD_W;                       // >= 1
+    localparam integer IP_W   = TW + FB + 1;                          // slope * frac + 2^(FB-1)
+    localparam integer AW     = TW + 1;                               // a
+    localparam integer YW     = ADC_W + TABLE_FRAC + 1;               // y * 2^TABLE_FRAC - W0
+    localparam integer E_W    = ((YW > AW) ? YW : AW) + 1;            // e
+    localparam integer EA_W   = E_W + AW;                             // e * a
+    localparam integer SE_W   = E_W + BLOCK_LOG2;
+    localparam integer SEA_W  = EA_W + BLOCK_LOG2;
+    localparam integer SW_W   = FINE_W + BLOCK_LOG2;                  // SWEEP
+    localparam integer SH_O   = BLOCK_LOG2 + TABLE_FRAC + MU_LOG2;    // offset step shift
+    localparam integer XW     = SE_W + OFS_FRAC + 1;                  // SE * 2^OFS_FRAC
+    localparam integer OS_W   = XW + 1;                               // OFF + step
+    localparam integer KP_W   = SEA_W + KG_W + 1;                     // SEA * KG
+    localparam integer PR_W   = ((KP_W > KG_SHIFT) ? KP_W : KG_SHIFT) + 1;   // + 2^(KG_SHIFT-1)
+    localparam integer DG_W   = PR_W - KG_SHIFT;                      // the GINV step
+    localparam integer GS_W   = (((GINV_W + 1) > DG_W) ? GINV_W + 1 : DG_W) + 1;   // GINV - step
+    localparam [GINV_W-1:0] UNITY = {{(GINV_W-2){1'b0}}, 2'b01} << (GINV_W - 2);
+    localparam [BLOCK_LOG2-1:0] CNT_D    = D[BLOCK_LOG2-1:0];
+    localparam [BLOCK_LOG2-1:0] CNT_LAST = {BLOCK_LOG2{1'b1}};
+
+    // ---- application of the pending update (normaliser input side) ---------------------------------
+    wire                   acc_n = ce & in_valid & ~rst;
+    reg  [BLOCK_LOG2-1:0]  ncnt;          // accepted input samples since reset, mod B
+    reg                    npast;         // at least B accepted since reset
+    reg                    pend_valid;
+    reg  signed [OW-1:0]   pend_off_s, pend_off_c;
+    reg  [GINV_W-1:0]      pend_ginv_s, pend_ginv_c;
+    reg                    pend_sat;
+    wire                   take = acc_n & npast & (ncnt == CNT_D) & pend_valid;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            ncnt      <= {BLOCK_LOG2{1'b0}};
+            npast     <= 1'b0;
+            off_sin   <= {OW{1'b0}};
+            off_cos   <= {OW{1'b0}};
+            ginv_sin  <= UNITY;
+            ginv_cos  <= UNITY;
+            track_sat <= 1'b0;
+        end else if (acc_n) begin
+            ncnt <= ncnt + 1'b1;
+            if (ncnt == CNT_LAST) begin
+                npast <= 1'b1;
+            end
+            if (take) begin
+                off_sin   <= pend_off_s;
+                off_cos   <= pend_off_c;
+                ginv_sin  <= pend_ginv_s;
+                ginv_cos  <= pend_ginv_c;
+                track_sat <= pend_sat;
+            end
+        end
+    end
+
+    // ---- normaliser ------------------------------------------------------------------------------------
+    reg  [NORM_LATENCY-1:0]        nvalid;
+    reg  [NORM_LATENCY*USER_W-1:0] nuser;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            nvalid <= {NORM_LATENCY{1'b0}};
+        end else if (ce) begin
+            nvalid <= {nvalid[NORM_LATENCY-2:0], in_valid};
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            nuser <= {nuser[(NORM_LATENCY-1)*USER_W-1:0], in_user};
+        end
+    end
+
+    assign norm_valid = nvalid[NORM_LATENCY-1];
+    assign norm_user  = nuser[NORM_LATENCY*USER_W-1:(NORM_LATENCY-1)*USER_W];
+
+    localparam [PW-1:0] RND_N = {{(PW-1){1'b0}}, 1'b1} << (SHN - 1);
+    reg  signed [ADC_W-1:0] n1_s, n1_c;
+    reg  signed [OW:0]      n2_s, n2_c;
+    reg         [GINV_W-1:0] n2_gs, n2_gc;
+    reg  signed [PW-1:0]    n3_s, n3_c;
+    wire signed [OW:0]      n1_sx = {{(OFS_FRAC+1){n1_s[ADC_W-1]}}, n1_s} <<< OFS_FRAC;
+    wire signed [OW:0]      n1_cx = {{(OFS_FRAC+1){n1_c[ADC_W-1]}}, n1_c} <<< OFS_FRAC;
+    wire signed [QW-1:0]    q_s = n3_s[PW-1:SHN];
+    wire signed [QW-1:0]    q_c = n3_c[PW-1:SHN];
+    // in range of s(ADC_W) <=> bits QW-1 .. ADC_W-1 all equal the sign
+    wire                    qs_over = q_s[QW-1] ? ~&q_s[QW-1:ADC_W-1] : |q_s[QW-1:ADC_W-1];
+    wire                    qc_over = q_c[QW-1] ? ~&q_c[QW-1:ADC_W-1] : |q_c[QW-1:ADC_W-1];
+    wire signed [ADC_W-1:0] y_max = {1'b0, {(ADC_W-1){1'b1}}};
+    wire signed [ADC_W-1:0] y_min = {1'b1, {(ADC_W-1){1'b0}}};
+
+    always @(posedge clk) begin
+        if (ce) begin
+            // 1: input registers
+            n1_s <= raw_sin;
+            n1_c <= raw_cos;
+            // 2: d = raw * 2^OFS_FRAC - OFF (the state after this sample's acceptance)
+            n2_s  <= n1_sx - {off_sin[OW-1], off_sin};
+            n2_c  <= n1_cx - {off_cos[OW-1], off_cos};
+            n2_gs <= ginv_sin;
+            n2_gc <= ginv_cos;
+            // 3: d * GINV + 2^(SHN-1)
+            n3_s <= n2_s * $signed({1'b0, n2_gs}) + $signed(RND_N);
+            n3_c <= n2_c * $signed({1'b0, n2_gc}) + $signed(RND_N);
+            // 4: >>> SHN, saturate
+            y_sin    <= qs_over ? (q_s[QW-1] ? y_min : y_max) : q_s[ADC_W-1:0];
+            y_cos    <= qc_over ? (q_c[QW-1] ? y_min : y_max) : q_c[ADC_W-1:0];
+            norm_sat <= qs_over | qc_over;
+        end
+    end
+
+    // ---- observer: counters --------------------------------------------------------------------------
+    wire                  acc_o = ce & obs_valid & ~rst;
+    reg  [BLOCK_LOG2-1:0] ocnt;           // accepted observer samples since reset, mod B
+    reg                   ohave;          // a previous phase exists (not the first sample after reset)
+    reg  [FINE_W-1:0]     last_phase;
+    reg  [KG_W-1:0]       kg_hold_s, kg_hold_c;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            ocnt  <= {BLOCK_LOG2{1'b0}};
+            ohave <= 1'b0;
+        end else if (acc_o) begin
+            ocnt  <= ocnt + 1'b1;
+            ohave <= 1'b1;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (acc_o) begin
+            last_phase <= obs_phase;
+            if (ocnt == CNT_LAST) begin
+                kg_hold_s <= kg_sin;
+                kg_hold_c <= kg_cos;
+            end
+        end
+    end
+
+    // ---- observer: tables --------------------------------------------------------------------------
+    wire [2*TW-1:0] fs_q, fc_q;       // the RAMs' read registers
+    wire [FWD_W:0]  rd_addr = {obs_bank, obs_phase[FINE_W-1:FB]};
+
+    fringe_table_ram #(
+        .ADDR_W(FWD_W), .DATA_W(2 * TW), .INIT_FILE(FWD_SIN_INIT)
+    ) u_fwd_sin (
+        .clk(clk),
+        .wr_en(wr_en && !wr_sel), .wr_addr(wr_addr), .wr_data(wr_data),
+        .rd_en(ce), .rd_addr(rd_addr), .rd_data(fs_q)
+    );
+
+    fringe_table_ram #(
+        .ADDR_W(FWD_W), .DATA_W(2 * TW), .INIT_FILE(FWD_COS_INIT)
+    ) u_fwd_cos (
+        .clk(clk),
+        .wr_en(wr_en && wr_sel), .wr_addr(wr_addr), .wr_data(wr_data),
+        .rd_en(ce), .rd_addr(rd_addr), .rd_data(fc_q)
+    );
+
+    // ---- observer: pipeline --------------------------------------------------------------------------
+    reg  [5:0] ovalid;                // stages 1..6 (7: o7_go)
+    reg  [5:0] olast;                 // the block's last sample, stages 1..6
+
+    always @(posedge clk) begin
+        if (rst) begin
+            ovalid <= 6'd0;
+        end else if (ce) begin
+            ovalid <= {ovalid[4:0], obs_valid};
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            olast <= {olast[4:0], ocnt == CNT_LAST};
+        end
+    end
+
+    localparam [IP_W-1:0] RND_FB = {{(IP_W-1){1'b0}}, 1'b1} << (FB - 1);
+    // 1
+    reg  [FINE_W-1:0]        o1_phase, o1_prev;
+    reg                      o1_nz;
+    reg  signed [ADC_W-1:0]  o1_ys, o1_yc;
+    reg  signed [YW-2:0]     o1_w0s, o1_w0c;
+    // 2
+    reg  [2*TW-1:0]          o2_ws, o2_wc;
+    reg  [FB-1:0]            o2_frac;
+    reg  [FINE_W-1:0]        o2_dl;
+    reg  signed [YW-1:0]     o2_yws, o2_ywc;
+    // 3
+    reg  signed [IP_W-1:0]   o3_ps, o3_pc;
+    reg  signed [TW-1:0]     o3_vs, o3_vc;
+    reg  signed [YW-1:0]     o3_yws, o3_ywc;
+    reg  [FINE_W-1:0]        o3_abs;
+    // 4
+    reg  signed [AW-1:0]     o4_as, o4_ac;
+    reg  signed [YW-1:0]     o4_yws, o4_ywc;
+    reg  [FINE_W-1:0]        o4_abs;
+    // 5
+    reg  signed [E_W-1:0]    o5_es, o5_ec;
+    reg  signed [AW-1:0]     o5_as, o5_ac;
+    reg  [FINE_W-1:0]        o5_abs;
+    // 6
+    reg  signed [EA_W-1:0]   o6_eas, o6_eac;
+    reg  signed [E_W-1:0]    o6_es, o6_ec;
+    reg  [FINE_W-1:0]        o6_abs;
+
+    wire signed [YW-1:0] ys_x  = {{(TABLE_FRAC+1){o1_ys[ADC_W-1]}}, o1_ys} <<< TABLE_FRAC;
+    wire signed [YW-1:0] yc_x  = {{(TABLE_FRAC+1){o1_yc[ADC_W-1]}}, o1_yc} <<< TABLE_FRAC;
+    wire [FINE_W-1:0]    delta = o1_phase - o1_prev;     // wraps into [-2^(FINE_W-1), 2^(FINE_W-1))
+    wire signed [FB:0]   frac_s = {1'b0, o2_frac};
+    wire signed [TW-1:0] sl_s = o2_ws[2*TW-1:TW];
+    wire signed [TW-1:0] sl_c = o2_wc[2*TW-1:TW];
+    wire signed [AW-1:0] ip_s = o3_ps[FB +: AW];         // (slope * frac + 2^(FB-1)) >>> FB
+    wire signed [AW-1:0] ip_c = o3_pc[FB +: AW];
+
+    always @(posedge clk) begin
+        if (ce) begin
+            // 1: input registers (the table read is in the RAMs)
+            o1_phase <= obs_phase;
+            o1_prev  <= last_phase;
+            o1_nz    <= ohave;
+            o1_ys    <= obs_y_sin;
+            o1_yc    <= obs_y_cos;
+            o1_w0s   <= w0_sin;
+            o1_w0c   <= w0_cos;
+            // 2: RAM output registers; phase delta; y * 2^TABLE_FRAC - W0
+            o2_ws   <= fs_q;
+            o2_wc   <= fc_q;
+            o2_frac <= o1_phase[FB-1:0];
+            o2_dl   <= o1_nz ? delta : {FINE_W{1'b0}};
+            o2_yws  <= ys_x - {o1_w0s[YW-2], o1_w0s};
+            o2_ywc  <= yc_x - {o1_w0c[YW-2], o1_w0c};
+            // 3: slope * frac + 2^(FB-1); |delta| (2^(FINE_W-1) fits unsigned)
+            o3_ps  <= sl_s * frac_s + $signed(RND_FB);
+            o3_pc  <= sl_c * frac_s + $signed(RND_FB);
+            o3_vs  <= o2_ws[TW-1:0];
+            o3_vc  <= o2_wc[TW-1:0];
+            o3_yws <= o2_yws;
+            o3_ywc <= o2_ywc;
+            o3_abs <= o2_dl[FINE_W-1] ? -o2_dl : o2_dl;
+            // 4: a = value + (product >>> FB)
+            o4_as  <= {o3_vs[TW-1], o3_vs} + ip_s;
+            o4_ac  <= {o3_vc[TW-1], o3_vc} + ip_c;
+            o4_yws <= o3_yws;
+            o4_ywc <= o3_ywc;
+            o4_abs <= o3_abs;
+            // 5: e = yw - a
+            o5_es  <= {{(E_W-YW){o4_yws[YW-1]}}, o4_yws} - {{(E_W-AW){o4_as[AW-1]}}, o4_as};
+            o5_ec  <= {{(E_W-YW){o4_ywc[YW-1]}}, o4_ywc} - {{(E_W-AW){o4_ac[AW-1]}}, o4_ac};
+            o5_as  <= o4_as;
+            o5_ac  <= o4_ac;
+            o5_abs <= o4_abs;
+            // 6: e * a
+            o6_eas <= o5_es * o5_as;
+            o6_eac <= o5_ec * o5_ac;
+            o6_es  <= o5_es;
+            o6_ec  <= o5_ec;
+            o6_abs <= o5_abs;
+        end
+    end
+
+    // 7: accumulators; the block's last sample goes to the snapshot and clears them
+    reg  signed [SE_W-1:0]  se_s, se_c, snap_se_s, snap_se_c;
+    reg  signed [SEA_W-1:0] sea_s, sea_c, snap_sea_s, snap_sea_c;
+    reg  [SW_W-1:0]         sweep, snap_sweep;
+    reg                     o7_go;
+    wire signed [SE_W-1:0]  se_s_n  = se_s + {{BLOCK_LOG2{o6_es[E_W-1]}}, o6_es};
+    wire signed [SE_W-1:0]  se_c_n  = se_c + {{BLOCK_LOG2{o6_ec[E_W-1]}}, o6_ec};
+    wire signed [SEA_W-1:0] sea_s_n = sea_s + {{BLOCK_LOG2{o6_eas[EA_W-1]}}, o6_eas};
+    wire signed [SEA_W-1:0] sea_c_n = sea_c + {{BLOCK_LOG2{o6_eac[EA_W-1]}}, o6_eac};
+    wire [SW_W-1:0]         sweep_n = sweep + {{BLOCK_LOG2{1'b0}}, o6_abs};
+    wire                    blk_end = ovalid[5] & olast[5];
+
+    always @(posedge clk) begin
+        if (rst) begin
+            se_s  <= {SE_W{1'b0}};
+            se_c  <= {SE_W{1'b0}};
+            sea_s <= {SEA_W{1'b0}};
+            sea_c <= {SEA_W{1'b0}};
+            sweep <= {SW_W{1'b0}};
+            o7_go <= 1'b0;
+        end else if (ce) begin
+            o7_go <= blk_end;
+            if (blk_end) begin
+                se_s  <= {SE_W{1'b0}};
+                se_c  <= {SE_W{1'b0}};
+                sea_s <= {SEA_W{1'b0}};
+                sea_c <= {SEA_W{1'b0}};
+                sweep <= {SW_W{1'b0}};
+            end else if (ovalid[5]) begin
+                se_s  <= se_s_n;
+                se_c  <= se_c_n;
+                sea_s <= sea_s_n;
+                sea_c <= sea_c_n;
+                sweep <= sweep_n;
+            end
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce && blk_end) begin
+            snap_se_s  <= se_s_n;
+            snap_se_c  <= se_c_n;
+            snap_sea_s <= sea_s_n;
+            snap_sea_c <= sea_c_n;
+            snap_sweep <= sweep_n;
+        end
+    end
+
+    // ---- the update: 8 SEA * KG, OFF + step, SWEEP test; 9 GINV - step, OFF saturated; 10 pending -----
+    localparam [PR_W-1:0] RND_KG = {{(PR_W-1){1'b0}}, 1'b1} << (KG_SHIFT - 1);
+    wire signed [XW-1:0]   sex_s = {{(OFS_FRAC+1){snap_se_s[SE_W-1]}}, snap_se_s};
+    wire signed [XW-1:0]   sex_c = {{(OFS_FRAC+1){snap_se_c[SE_W-1]}}, snap_se_c};
+    wire signed [XW-1:0]   stp_s = (sex_s <<< OFS_FRAC) >>> SH_O;
+    wire signed [XW-1:0]   stp_c = (sex_c <<< OFS_FRAC) >>> SH_O;
+    wire signed [KP_W-1:0] kp_s  = snap_sea_s * $signed({1'b0, kg_hold_s});
+    wire signed [KP_W-1:0] kp_c  = snap_sea_c * $signed({1'b0, kg_hold_c});
+    reg  signed [PR_W-1:0] u1_ps, u1_pc;
+    reg  signed [OS_W-1:0] u1_os, u1_oc;
+    reg                    u1_ok, u1_v, u2_ok, u2_v;
+    reg  signed [GS_W-1:0] u2_gs, u2_gc;
+    reg  signed [OW-1:0]   u2_os, u2_oc;
+    reg                    u2_sat;
+    wire signed [DG_W-1:0] dg_s = u1_ps[PR_W-1:KG_SHIFT];
+    wire signed [DG_W-1:0] dg_c = u1_pc[PR_W-1:KG_SHIFT];
+    // OFF + step in range of s(OW) <=> bits OS_W-1 .. OW-1 all equal the sign
+    wire os_over = u1_os[OS_W-1] ? ~&u1_os[OS_W-1:OW-1] : |u1_os[OS_W-1:OW-1];
+    wire oc_over = u1_oc[OS_W-1] ? ~&u1_oc[OS_W-1:OW-1] : |u1_oc[OS_W-1:OW-1];
+    wire signed [OW-1:0] o_max = {1'b0, {(OW-1){1'b1}}};
+    wire signed [OW-1:0] o_min = {1'b1, {(OW-1){1'b0}}};
+    // GINV - step: below 0 -> 0, above 2^GINV_W - 1 -> 2^GINV_W - 1
+    wire gs_neg  = u2_gs[GS_W-1];
+    wire gc_neg  = u2_gc[GS_W-1];
+    wire gs_high = ~gs_neg & |u2_gs[GS_W-2:GINV_W];
+    wire gc_high = ~gc_neg & |u2_gc[GS_W-2:GINV_W];
+
+    always @(posedge clk) begin
+        if (rst) begin
+            u1_v <= 1'b0;
+            u2_v <= 1'b0;
+        end else if (ce) begin
+            u1_v <= o7_go;
+            u2_v <= u1_v;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            // 8
+            u1_ps <= {{(PR_W-KP_W){kp_s[KP_W-1]}}, kp_s} + $signed(RND_KG);
+            u1_pc <= {{(PR_W-KP_W){kp_c[KP_W-1]}}, kp_c} + $signed(RND_KG);
+            u1_os <= {{(OS_W-OW){off_sin[OW-1]}}, off_sin} + {stp_s[XW-1], stp_s};
+            u1_oc <= {{(OS_W-OW){off_cos[OW-1]}}, off_cos} + {stp_c[XW-1], stp_c};
+            u1_ok <= |snap_sweep[SW_W-1:FINE_W];
+            // 9
+            u2_gs  <= $signed({{(GS_W-GINV_W){1'b0}}, ginv_sin}) - {{(GS_W-DG_W){dg_s[DG_W-1]}}, dg_s};
+            u2_gc  <= $signed({{(GS_W-GINV_W){1'b0}}, ginv_cos}) - {{(GS_W-DG_W){dg_c[DG_W-1]}}, dg_c};
+            u2_os  <= os_over ? (u1_os[OS_W-1] ? o_min : o_max) : u1_os[OW-1:0];
+            u2_oc  <= oc_over ? (u1_oc[OS_W-1] ? o_min : o_max) : u1_oc[OW-1:0];
+            u2_sat <= os_over | oc_over;
+            u2_ok  <= u1_ok;
+        end
+    end
+
+    // 10: the pending update (taken by the normaliser at its application sample)
+    always @(posedge clk) begin
+        if (rst) begin
+            pend_valid <= 1'b0;
+        end else if (ce && u2_v && u2_ok) begin
+            pend_valid <= 1'b1;
+        end else if (take) begin
+            pend_valid <= 1'b0;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce && u2_v && u2_ok) begin
+            pend_off_s  <= u2_os;
+            pend_off_c  <= u2_oc;
+            pend_ginv_s <= gs_neg ? {GINV_W{1'b0}} : (gs_high ? {GINV_W{1'b1}} : u2_gs[GINV_W-1:0]);
+            pend_ginv_c <= gc_neg ? {GINV_W{1'b0}} : (gc_high ? {GINV_W{1'b1}} : u2_gc[GINV_W-1:0]);
+            pend_sat    <= u2_sat | gs_neg | gs_high | gc_neg | gc_high;
+        end
+    end
+
+    // Bits that carry nothing: the rounded-off bits of the products and of the offset step.
+    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], o3_ps, o3_pc, u1_ps[KG_SHIFT-1:0], u1_pc[KG_SHIFT-1:0],
+                    snap_sweep[FINE_W-1:0], olast[5]};
+
+endmodule
+
+`default_nettype wire

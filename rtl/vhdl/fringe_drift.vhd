@@ -1,0 +1,608 @@
+-- fringe_drift: online offset / gain tracker for drifting sin/cos signals.
+--
+-- VHDL-2008 twin of rtl/verilog/fringe_drift.v (same generics, ports, latencies and bit-exact
+-- behaviour). Contract in docs/drift.md, bit-exact model model/fringe/fixed/drift.py. Per channel k in
+-- {sin, cos}; state OFF_k s(ADC_W + OFS_FRAC) (ADC codes, OFS_FRAC fraction bits), GINV_k u(GINV_W)
+-- (GINV_W - 2 fraction bits, unity 2^(GINV_W-2)); reset values 0 and unity.
+--
+-- NORMALISER (raw ADC codes at the front of the core):
+--   y_k = ((raw_k * 2^OFS_FRAC - OFF_k) * GINV_k + 2^(OFS_FRAC + GINV_W - 3)) >>> (OFS_FRAC + GINV_W - 2),
+--   saturated to s(ADC_W); norm_sat = either channel saturated.
+-- OBSERVER (each sample's fine phase from downstream with the same sample's normalised codes):
+--   FB = FINE_W - FWD_W; bin = phase >> FB; frac = phase mod 2^FB
+--   a_k = value + ((slope * frac + 2^(FB-1)) >>> FB), word {slope, value} s(TABLE_W) at {obs_bank, bin}
+--   e_k = y_k * 2^TABLE_FRAC - W0_k - a_k           (W0_k s(ADC_W + TABLE_FRAC), taken with the sample)
+--   block j = observer samples [jB, (j+1)B) since reset, B = 2^BLOCK_LOG2:
+--   SE_k = sum e_k; SEA_k = sum e_k * a_k; SWEEP = sum |wrap(phase[n] - phase[n-1])| (0 for the first
+--   sample after reset). At the end of the block, if SWEEP >= 2^FINE_W:
+--   OFF_k  + ((SE_k * 2^OFS_FRAC) >>> (BLOCK_LOG2 + TABLE_FRAC + MU_LOG2)) saturated to s(ADC_W + OFS_FRAC)
+--   GINV_k - ((SEA_k * KG_k + 2^(KG_SHIFT-1)) >>> KG_SHIFT) saturated to u(GINV_W)
+--   (KG_k: kg_* with the block's last observer sample), else the block is skipped.
+-- APPLICATION: the normaliser counts its accepted samples since reset; block j's update applies from
+--   input sample (j+1)B + D on, D = B/2 (taken when that sample is accepted). track_sat: the update
+--   applied last saturated (held through skipped blocks, cleared by rst).
+-- Requirement: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY <= D + 1 clock enables, PIPE_LATENCY being the
+--   clock enables from norm_valid/y_* to obs_valid/obs_* in the core (0: wired directly) -- checked.
+--
+-- Widths (none can overflow): YW = ADC_W + TABLE_FRAC + 1 (y * 2^TABLE_FRAC - W0), AW = TABLE_W + 1 (a),
+-- E_W = max(YW, AW) + 1 (e), EA_W = E_W + AW (e * a), SE_W = E_W + BLOCK_LOG2, SEA_W = EA_W + BLOCK_LOG2,
+-- SWEEP FINE_W + BLOCK_LOG2 bits (unsigned), SEA * KG SEA_W + KG_W + 1 bits.
+--
+-- NORM_LATENCY = 4 clock enables from in_valid to norm_valid:
+--   1 input registers (the state is taken at acceptance)   2 d = raw * 2^OFS_FRAC - OFF
+--   3 d * GINV + 2^(OFS_FRAC+GINV_W-3)                      4 >>> and saturate: y, norm_sat
+-- OBS_LATENCY = 10 clock enables from obs_valid of a block's last sample to the pending update:
+--   1 input registers, table read at {bank, bin}            2 table RAM output register; phase delta;
+--                                                              y * 2^TABLE_FRAC - W0
+--   3 slope * frac + 2^(FB-1); |delta|                      4 a = value + (product >>> FB)
+--   5 e = yw - a                                            6 e * a
+--   7 SE, SEA, SWEEP accumulated (last sample: snapshot, accumulators cleared)
+--   8 SEA * KG + 2^(KG_SHIFT-1); OFF + step; SWEEP test     9 GINV - (product >>> KG_SHIFT); OFF saturated
+--   10 GINV saturated: the pending update
+-- One carry chain or one multiply (with its rounding constant) per stage. ce = 0 freezes every
+-- register (and the RAM reads); rst (synchronous, active high, wins over ce) clears the valid bits, the
+-- counters, the accumulators, the pending update, track_sat and the state; never the data registers.
+-- Tables: two two-bank fringe_table_ram (2 x 2^FWD_W words each), written through wr_en / wr_sel
+-- (0 sin, 1 cos) / wr_addr {bank, bin} / wr_data {slope, value} whatever ce is.
+
+library ieee;
+use ieee.std_logic_1164.all;
+use ieee.numeric_std.all;
+
+entity fringe_drift is
+    generic (
+        ADC_W        : integer := 14;   -- ADC code width, 4..24
+        FINE_W       : integer := 16;   -- fine phase bits per period, 8..30
+        BLOCK_LOG2   : integer := 8;    -- B = 2^BLOCK_LOG2 samples per update block, 4..12
+        MU_LOG2      : integer := 3;    -- offset step 2^-MU_LOG2 of the mean error, 0..8
+        OFS_FRAC     : integer := 4;    -- fraction bits of OFF, 0..8; ADC_W + OFS_FRAC <= 32
+        GINV_W       : integer := 18;   -- GINV width (GINV_W - 2 fraction bits), 8..24
+        FWD_W        : integer := 6;    -- 2^FWD_W bins per period in the forward tables, 2..min(10, FINE_W-1)
+        TABLE_W      : integer := 18;   -- forward table value and slope width, 8..24
+        TABLE_FRAC   : integer := 2;    -- fraction bits of the table values and of W0 (ADC codes), 0..12
+        KG_W         : integer := 18;   -- KG width (unsigned), 8..24
+        KG_SHIFT     : integer := 38;   -- right shift of SEA * KG, 1..60
+        PIPE_LATENCY : integer := 0;    -- clock enables from the norm outputs to the obs inputs in the core, >= 0
+        FWD_SIN_INIT : string  := "";   -- hex image of the sine table, 2 banks x 2^FWD_W words; "" = zeros
+        FWD_COS_INIT : string  := "";   -- hex image of the cosine table, 2 banks x 2^FWD_W words; "" = zeros
+        USER_W       : integer := 1     -- normaliser sideband width, >= 1
+    );
+    port (
+        clk        : in  std_logic;
+        rst        : in  std_logic;                                        -- synchronous, active high
+        ce         : in  std_logic;                                        -- clock enable
+        -- normaliser in
+        in_valid   : in  std_logic;
+        raw_sin    : in  std_logic_vector(ADC_W - 1 downto 0);             -- s(ADC_W)
+        raw_cos    : in  std_logic_vector(ADC_W - 1 downto 0);
+        in_user    : in  std_logic_vector(USER_W - 1 downto 0);
+        -- normaliser out
+        norm_valid : out std_logic;
+        y_sin      : out std_logic_vector(ADC_W - 1 downto 0);             -- s(ADC_W)
+        y_cos      : out std_logic_vector(ADC_W - 1 downto 0);
+        norm_sat   : out std_logic;                                        -- y saturated (either channel)
+        norm_user  : out std_logic_vector(USER_W - 1 downto 0);
+        -- observer in
+        obs_valid  : in  std_logic;
+        obs_phase  : in  std_logic_vector(FINE_W - 1 downto 0);            -- u(FINE_W)
+        obs_y_sin  : in  std_logic_vector(ADC_W - 1 downto 0);             -- the same sample's normalised codes
+        obs_y_cos  : in  std_logic_vector(ADC_W - 1 downto 0);
+        obs_bank   : in  std_logic;                                        -- table (and W0, KG) bank
+        w0_sin     : in  std_logic_vector(ADC_W + TABLE_FRAC - 1 downto 0);  -- W0, s(ADC_W + TABLE_FRAC)
+        w0_cos     : in  std_logic_vector(ADC_W + TABLE_FRAC - 1 downto 0);
+        kg_sin     : in  std_logic_vector(KG_W - 1 downto 0);              -- KG (taken with a block's last sample)
+        kg_cos     : in  std_logic_vector(KG_W - 1 downto 0);
+        -- table write port (software side), independent of ce
+        wr_en      : in  std_logic;
+        wr_sel     : in  std_logic;                                        -- 0 sine table, 1 cosine table
+        wr_addr    : in  std_logic_vector(FWD_W downto 0);                 -- {bank, bin}
+        wr_data    : in  std_logic_vector(2 * TABLE_W - 1 downto 0);       -- {slope, value}
+        -- tracker state
+        off_sin    : out std_logic_vector(ADC_W + OFS_FRAC - 1 downto 0);  -- OFF, s(ADC_W + OFS_FRAC)
+        off_cos    : out std_logic_vector(ADC_W + OFS_FRAC - 1 downto 0);
+        ginv_sin   : out std_logic_vector(GINV_W - 1 downto 0);            -- GINV, u(GINV_W)
+        ginv_cos   : out std_logic_vector(GINV_W - 1 downto 0);
+        track_sat  : out std_logic                                         -- the last applied update saturated
+    );
+end entity fringe_drift;
+
+architecture rtl of fringe_drift is
+
+    constant NORM_LATENCY : integer := 4;
+    constant OBS_LATENCY : integer := 10;
+
+    -- Stops elaboration with a clear message on illegal generics (before anything is sized).
+    function generics_ok return boolean is
+        constant FWD_MAX : integer := minimum(10, FINE_W - 1);
+        constant TOTAL   : integer := NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY;
+        constant D1      : integer := 2 ** (BLOCK_LOG2 - 1) + 1;
+    begin
+        assert ADC_W >= 4 and ADC_W <= 24
+            report "fringe_drift: ADC_W = " & integer'image(ADC_W) & " out of range 4..24"
+            severity failure;
+        assert FINE_W >= 8 and FINE_W <= 30
+            report "fringe_drift: FINE_W = " & integer'image(FINE_W) & " out of range 8..30"
+            severity failure;
+        assert BLOCK_LOG2 >= 4 and BLOCK_LOG2 <= 12
+            report "fringe_drift: BLOCK_LOG2 = " & integer'image(BLOCK_LOG2) & " out of range 4..12"
+            severity failure;
+        assert MU_LOG2 >= 0 and MU_LOG2 <= 8
+            report "fringe_drift: MU_LOG2 = " & integer'image(MU_LOG2) & " out of range 0..8"
+            severity failure;
+        assert OFS_FRAC >= 0 and OFS_FRAC <= 8
+            report "fringe_drift: OFS_FRAC = " & integer'image(OFS_FRAC) & " out of range 0..8"
+            severity failure;
+        assert ADC_W + OFS_FRAC <= 32
+            report "fringe_drift: ADC_W + OFS_FRAC = " & integer'image(ADC_W + OFS_FRAC) & " exceeds 32"
+            severity failure;
+        assert GINV_W >= 8 and GINV_W <= 24
+            report "fringe_drift: GINV_W = " & integer'image(GINV_W) & " out of range 8..24"
+            severity failure;
+        assert FWD_W >= 2 and FWD_W <= FWD_MAX
+            report "fringe_drift: FWD_W = " & integer'image(FWD_W) & " out of range 2..min(10, FINE_W-1) = "
+                   & integer'image(FWD_MAX)
+            severity failure;
+        assert TABLE_W >= 8 and TABLE_W <= 24
+            report "fringe_drift: TABLE_W = " & integer'image(TABLE_W) & " out of range 8..24"
+            severity failure;
+        assert TABLE_FRAC >= 0 and TABLE_FRAC <= 12
+            report "fringe_drift: TABLE_FRAC = " & integer'image(TABLE_FRAC) & " out of range 0..12"
+            severity failure;
+        assert KG_W >= 8 and KG_W <= 24
+            report "fringe_drift: KG_W = " & integer'image(KG_W) & " out of range 8..24"
+            severity failure;
+        assert KG_SHIFT >= 1 and KG_SHIFT <= 60
+            report "fringe_drift: KG_SHIFT = " & integer'image(KG_SHIFT) & " out of range 1..60"
+            severity failure;
+        assert PIPE_LATENCY >= 0
+            report "fringe_drift: PIPE_LATENCY = " & integer'image(PIPE_LATENCY) & " must be >= 0"
+            severity failure;
+        assert TOTAL <= D1
+            report "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = " & integer'image(NORM_LATENCY)
+                   & " + " & integer'image(PIPE_LATENCY) & " + " & integer'image(OBS_LATENCY) & " = "
+                   & integer'image(TOTAL) & " exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = " & integer'image(D1)
+                   & ": the update would come too late"
+            severity failure;
+        assert USER_W >= 1
+            report "fringe_drift: USER_W = " & integer'image(USER_W) & " must be >= 1"
+            severity failure;
+        return true;
+    end function generics_ok;
+    constant GENERICS_CHECKED : boolean := generics_ok;
+
+    constant D      : integer := 2 ** (BLOCK_LOG2 - 1);
+    constant OW     : integer := ADC_W + OFS_FRAC;                  -- OFF
+    constant SHN    : integer := OFS_FRAC + GINV_W - 2;             -- normaliser shift
+    constant PW     : integer := OW + GINV_W + 2;                   -- (raw * 2^OFS_FRAC - OFF) * GINV
+    constant QW     : integer := PW - SHN;                          -- that >>> SHN
+    constant TW     : integer := TABLE_W;
+    constant FB     : integer := FINE_W - FWD_W;                    -- >= 1
+    constant IP_W   : integer := TW + FB + 1;                       -- slope * frac + 2^(FB-1)
+    constant AW     : integer := TW + 1;                            -- a
+    constant YW     : integer := ADC_W + TABLE_FRAC + 1;            -- y * 2^TABLE_FRAC - W0
+    constant E_W    : integer := maximum(YW, AW) + 1;               -- e
+    constant EA_W   : integer := E_W + AW;                          -- e * a
+    constant SE_W   : integer := E_W + BLOCK_LOG2;
+    constant SEA_W  : integer := EA_W + BLOCK_LOG2;
+    constant SW_W   : integer := FINE_W + BLOCK_LOG2;               -- SWEEP
+    constant SH_O   : integer := BLOCK_LOG2 + TABLE_FRAC + MU_LOG2; -- offset step shift
+    constant XW     : integer := SE_W + OFS_FRAC + 1;               -- SE * 2^OFS_FRAC
+    constant OS_W   : integer := XW + 1;                            -- OFF + step
+    constant KP_W   : integer := SEA_W + KG_W + 1;                  -- SEA * KG
+    constant PR_W   : integer := maximum(KP_W, KG_SHIFT) + 1;       -- + 2^(KG_SHIFT-1)
+    constant DG_W   : integer := PR_W - KG_SHIFT;                   -- the GINV step
+    constant GS_W   : integer := maximum(GINV_W + 1, DG_W) + 1;     -- GINV - step
+    constant UNITY  : unsigned(GINV_W - 1 downto 0) := shift_left(to_unsigned(1, GINV_W), GINV_W - 2);
+    constant CNT_D  : unsigned(BLOCK_LOG2 - 1 downto 0) := to_unsigned(D, BLOCK_LOG2);
+    constant CNT_LAST : unsigned(BLOCK_LOG2 - 1 downto 0) := (others => '1');
+
+    -- 2^(k-1) in a w-bit signed word
+    function round_term(w, k : integer) return signed is
+    begin
+        return shift_left(to_signed(1, w), k - 1);
+    end function round_term;
+
+    -- v saturated to s(w) (v wider than w)
+    function sat_s(v : signed; w : integer) return signed is
+        constant MX : signed(w - 1 downto 0) := '0' & (w - 2 downto 0 => '1');
+        constant MN : signed(w - 1 downto 0) := '1' & (w - 2 downto 0 => '0');
+    begin
+        if v > resize(MX, v'length) then
+            return MX;
+        elsif v < resize(MN, v'length) then
+            return MN;
+        end if;
+        return resize(v, w);
+    end function sat_s;
+
+    -- v outside s(w) (v wider than w): the bits from w-1 up are not all equal to the sign
+    function out_of(v : signed; w : integer) return boolean is
+        variable top : signed(v'length - w downto 0);
+    begin
+        top := v(v'high downto v'low + w - 1);
+        return not (top = (top'range => '0') or top = (top'range => '1'));
+    end function out_of;
+
+    -- application
+    signal acc_n      : std_logic;
+    signal take       : std_logic;
+    signal ncnt       : unsigned(BLOCK_LOG2 - 1 downto 0);
+    signal npast      : std_logic;
+    signal off_s, off_c   : signed(OW - 1 downto 0);
+    signal ginv_s, ginv_c : unsigned(GINV_W - 1 downto 0);
+    signal tsat       : std_logic;
+    signal pend_valid : std_logic;
+    signal pend_off_s, pend_off_c   : signed(OW - 1 downto 0);
+    signal pend_ginv_s, pend_ginv_c : unsigned(GINV_W - 1 downto 0);
+    signal pend_sat   : std_logic;
+
+    -- normaliser
+    signal nvalid : std_logic_vector(1 to NORM_LATENCY);
+    type nuser_t is array (1 to NORM_LATENCY) of std_logic_vector(USER_W - 1 downto 0);
+    signal nuser  : nuser_t;
+    signal n1_s, n1_c   : signed(ADC_W - 1 downto 0);
+    signal n2_s, n2_c   : signed(OW downto 0);
+    signal n2_gs, n2_gc : unsigned(GINV_W - 1 downto 0);
+    signal n3_s, n3_c   : signed(PW - 1 downto 0);
+
+    -- observer
+    signal acc_o      : std_logic;
+    signal ocnt       : unsigned(BLOCK_LOG2 - 1 downto 0);
+    signal ohave      : std_logic;
+    signal last_phase : unsigned(FINE_W - 1 downto 0);
+    signal kg_hold_s, kg_hold_c : unsigned(KG_W - 1 downto 0);
+    signal rd_addr    : std_logic_vector(FWD_W downto 0);
+    signal wr_en_s, wr_en_c : std_logic;
+    signal fs_q, fc_q : std_logic_vector(2 * TW - 1 downto 0);
+    signal ovalid     : std_logic_vector(1 to 6);
+    signal olast      : std_logic_vector(1 to 6);
+    signal o1_phase, o1_prev : unsigned(FINE_W - 1 downto 0);
+    signal o1_nz      : std_logic;
+    signal o1_ys, o1_yc   : signed(ADC_W - 1 downto 0);
+    signal o1_w0s, o1_w0c : signed(YW - 2 downto 0);
+    signal o2_ws, o2_wc   : std_logic_vector(2 * TW - 1 downto 0);
+    signal o2_frac    : unsigned(FB - 1 downto 0);
+    signal o2_dl      : unsigned(FINE_W - 1 downto 0);
+    signal o2_yws, o2_ywc : signed(YW - 1 downto 0);
+    signal o3_ps, o3_pc   : signed(IP_W - 1 downto 0);
+    signal o3_vs, o3_vc   : signed(TW - 1 downto 0);
+    signal o3_yws, o3_ywc : signed(YW - 1 downto 0);
+    signal o3_abs     : unsigned(FINE_W - 1 downto 0);
+    signal o4_as, o4_ac   : signed(AW - 1 downto 0);
+    signal o4_yws, o4_ywc : signed(YW - 1 downto 0);
+    signal o4_abs     : unsigned(FINE_W - 1 downto 0);
+    signal o5_es, o5_ec   : signed(E_W - 1 downto 0);
+    signal o5_as, o5_ac   : signed(AW - 1 downto 0);
+    signal o5_abs     : unsigned(FINE_W - 1 downto 0);
+    signal o6_eas, o6_eac : signed(EA_W - 1 downto 0);
+    signal o6_es, o6_ec   : signed(E_W - 1 downto 0);
+    signal o6_abs     : unsigned(FINE_W - 1 downto 0);
+    signal se_s, se_c, snap_se_s, snap_se_c     : signed(SE_W - 1 downto 0);
+    signal sea_s, sea_c, snap_sea_s, snap_sea_c : signed(SEA_W - 1 downto 0);
+    signal sweep, snap_sweep : unsigned(SW_W - 1 downto 0);
+    signal o7_go      : std_logic;
+
+    -- update
+    signal u1_ps, u1_pc : signed(PR_W - 1 downto 0);
+    signal u1_os, u1_oc : signed(OS_W - 1 downto 0);
+    signal u1_ok, u1_v, u2_ok, u2_v : std_logic;
+    signal u2_gs, u2_gc : signed(GS_W - 1 downto 0);
+    signal u2_os, u2_oc : signed(OW - 1 downto 0);
+    signal u2_sat       : std_logic;
+
+begin
+
+    -- ---- application of the pending update ------------------------------------------------------------
+    acc_n <= ce and in_valid and not rst;
+    take  <= '1' when acc_n = '1' and npast = '1' and ncnt = CNT_D and pend_valid = '1' else '0';
+
+    p_apply : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                ncnt   <= (others => '0');
+                npast  <= '0';
+                off_s  <= (others => '0');
+                off_c  <= (others => '0');
+                ginv_s <= UNITY;
+                ginv_c <= UNITY;
+                tsat   <= '0';
+            elsif acc_n = '1' then
+                ncnt <= ncnt + 1;
+                if ncnt = CNT_LAST then
+                    npast <= '1';
+                end if;
+                if take = '1' then
+                    off_s  <= pend_off_s;
+                    off_c  <= pend_off_c;
+                    ginv_s <= pend_ginv_s;
+                    ginv_c <= pend_ginv_c;
+                    tsat   <= pend_sat;
+                end if;
+            end if;
+        end if;
+    end process p_apply;
+
+    off_sin   <= std_logic_vector(off_s);
+    off_cos   <= std_logic_vector(off_c);
+    ginv_sin  <= std_logic_vector(ginv_s);
+    ginv_cos  <= std_logic_vector(ginv_c);
+    track_sat <= tsat;
+
+    -- ---- normaliser ------------------------------------------------------------------------------------
+    p_nvalid : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                nvalid <= (others => '0');
+            elsif ce = '1' then
+                nvalid <= in_valid & nvalid(1 to NORM_LATENCY - 1);
+            end if;
+            if ce = '1' then
+                nuser <= in_user & nuser(1 to NORM_LATENCY - 1);
+            end if;
+        end if;
+    end process p_nvalid;
+
+    norm_valid <= nvalid(NORM_LATENCY);
+    norm_user  <= nuser(NORM_LATENCY);
+
+    p_norm : process (clk)
+        variable q_s, q_c : signed(QW - 1 downto 0);
+        variable os, oc   : boolean;
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                -- 1: input registers
+                n1_s <= signed(raw_sin);
+                n1_c <= signed(raw_cos);
+                -- 2: d = raw * 2^OFS_FRAC - OFF (the state after this sample's acceptance)
+                n2_s  <= shift_left(resize(n1_s, OW + 1), OFS_FRAC) - resize(off_s, OW + 1);
+                n2_c  <= shift_left(resize(n1_c, OW + 1), OFS_FRAC) - resize(off_c, OW + 1);
+                n2_gs <= ginv_s;
+                n2_gc <= ginv_c;
+                -- 3: d * GINV + 2^(SHN-1)
+                n3_s <= n2_s * signed('0' & n2_gs) + round_term(PW, SHN);
+                n3_c <= n2_c * signed('0' & n2_gc) + round_term(PW, SHN);
+                -- 4: >>> SHN, saturate
+                q_s := n3_s(PW - 1 downto SHN);
+                q_c := n3_c(PW - 1 downto SHN);
+                os := out_of(q_s, ADC_W);
+                oc := out_of(q_c, ADC_W);
+                y_sin <= std_logic_vector(sat_s(q_s, ADC_W));
+                y_cos <= std_logic_vector(sat_s(q_c, ADC_W));
+                norm_sat <= '1' when os or oc else '0';
+            end if;
+        end if;
+    end process p_norm;
+
+    -- ---- observer: counters ------------------------------------------------------------------------------
+    acc_o <= ce and obs_valid and not rst;
+
+    p_ocnt : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                ocnt  <= (others => '0');
+                ohave <= '0';
+            elsif acc_o = '1' then
+                ocnt  <= ocnt + 1;
+                ohave <= '1';
+            end if;
+            if acc_o = '1' then
+                last_phase <= unsigned(obs_phase);
+                if ocnt = CNT_LAST then
+                    kg_hold_s <= unsigned(kg_sin);
+                    kg_hold_c <= unsigned(kg_cos);
+                end if;
+            end if;
+        end if;
+    end process p_ocnt;
+
+    -- ---- observer: tables ------------------------------------------------------------------------------
+    rd_addr <= obs_bank & obs_phase(FINE_W - 1 downto FB);
+    wr_en_s <= wr_en and not wr_sel;
+    wr_en_c <= wr_en and wr_sel;
+
+    u_fwd_sin : entity work.fringe_table_ram
+        generic map (ADDR_W => FWD_W, DATA_W => 2 * TW, INIT_FILE => FWD_SIN_INIT)
+        port map (clk => clk, wr_en => wr_en_s, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_en => ce, rd_addr => rd_addr, rd_data => fs_q);
+
+    u_fwd_cos : entity work.fringe_table_ram
+        generic map (ADDR_W => FWD_W, DATA_W => 2 * TW, INIT_FILE => FWD_COS_INIT)
+        port map (clk => clk, wr_en => wr_en_c, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_en => ce, rd_addr => rd_addr, rd_data => fc_q);
+
+    -- ---- observer: pipeline ------------------------------------------------------------------------------
+    p_obs : process (clk)
+        variable frac_s : signed(FB downto 0);
+        variable dl     : unsigned(FINE_W - 1 downto 0);
+        variable ip     : signed(IP_W - 1 downto 0);
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                ovalid <= (others => '0');
+            elsif ce = '1' then
+                ovalid <= obs_valid & ovalid(1 to 5);
+            end if;
+            if ce = '1' then
+                if ocnt = CNT_LAST then
+                    olast <= '1' & olast(1 to 5);
+                else
+                    olast <= '0' & olast(1 to 5);
+                end if;
+                -- 1: input registers (the table read is in the RAMs)
+                o1_phase <= unsigned(obs_phase);
+                o1_prev  <= last_phase;
+                o1_nz    <= ohave;
+                o1_ys    <= signed(obs_y_sin);
+                o1_yc    <= signed(obs_y_cos);
+                o1_w0s   <= signed(w0_sin);
+                o1_w0c   <= signed(w0_cos);
+                -- 2: RAM output registers; phase delta (wraps); y * 2^TABLE_FRAC - W0
+                o2_ws   <= fs_q;
+                o2_wc   <= fc_q;
+                o2_frac <= o1_phase(FB - 1 downto 0);
+                if o1_nz = '1' then
+                    o2_dl <= o1_phase - o1_prev;
+                else
+                    o2_dl <= (others => '0');
+                end if;
+                o2_yws <= shift_left(resize(o1_ys, YW), TABLE_FRAC) - resize(o1_w0s, YW);
+                o2_ywc <= shift_left(resize(o1_yc, YW), TABLE_FRAC) - resize(o1_w0c, YW);
+                -- 3: slope * frac + 2^(FB-1); |delta|
+                frac_s := signed('0' & o2_frac);
+                o3_ps  <= signed(o2_ws(2 * TW - 1 downto TW)) * frac_s + round_term(IP_W, FB);
+                o3_pc  <= signed(o2_wc(2 * TW - 1 downto TW)) * frac_s + round_term(IP_W, FB);
+                o3_vs  <= signed(o2_ws(TW - 1 downto 0));
+                o3_vc  <= signed(o2_wc(TW - 1 downto 0));
+                o3_yws <= o2_yws;
+                o3_ywc <= o2_ywc;
+                dl := o2_dl;
+                if dl(FINE_W - 1) = '1' then
+                    o3_abs <= 0 - dl;
+                else
+                    o3_abs <= dl;
+                end if;
+                -- 4: a = value + (product >>> FB)
+                ip := o3_ps;
+                o4_as  <= resize(o3_vs, AW) + ip(FB + AW - 1 downto FB);
+                ip := o3_pc;
+                o4_ac  <= resize(o3_vc, AW) + ip(FB + AW - 1 downto FB);
+                o4_yws <= o3_yws;
+                o4_ywc <= o3_ywc;
+                o4_abs <= o3_abs;
+                -- 5: e = yw - a
+                o5_es  <= resize(o4_yws, E_W) - resize(o4_as, E_W);
+                o5_ec  <= resize(o4_ywc, E_W) - resize(o4_ac, E_W);
+                o5_as  <= o4_as;
+                o5_ac  <= o4_ac;
+                o5_abs <= o4_abs;
+                -- 6: e * a
+                o6_eas <= o5_es * o5_as;
+                o6_eac <= o5_ec * o5_ac;
+                o6_es  <= o5_es;
+                o6_ec  <= o5_ec;
+                o6_abs <= o5_abs;
+            end if;
+        end if;
+    end process p_obs;
+
+    -- 7: accumulators; the block's last sample goes to the snapshot and clears them
+    p_acc : process (clk)
+        variable se_s_n, se_c_n   : signed(SE_W - 1 downto 0);
+        variable sea_s_n, sea_c_n : signed(SEA_W - 1 downto 0);
+        variable sweep_n          : unsigned(SW_W - 1 downto 0);
+        variable blk_end          : boolean;
+    begin
+        if rising_edge(clk) then
+            se_s_n  := se_s + resize(o6_es, SE_W);
+            se_c_n  := se_c + resize(o6_ec, SE_W);
+            sea_s_n := sea_s + resize(o6_eas, SEA_W);
+            sea_c_n := sea_c + resize(o6_eac, SEA_W);
+            sweep_n := sweep + resize(o6_abs, SW_W);
+            blk_end := ovalid(6) = '1' and olast(6) = '1';
+            if rst = '1' then
+                se_s  <= (others => '0');
+                se_c  <= (others => '0');
+                sea_s <= (others => '0');
+                sea_c <= (others => '0');
+                sweep <= (others => '0');
+                o7_go <= '0';
+            elsif ce = '1' then
+                o7_go <= '1' when blk_end else '0';
+                if blk_end then
+                    se_s  <= (others => '0');
+                    se_c  <= (others => '0');
+                    sea_s <= (others => '0');
+                    sea_c <= (others => '0');
+                    sweep <= (others => '0');
+                elsif ovalid(6) = '1' then
+                    se_s  <= se_s_n;
+                    se_c  <= se_c_n;
+                    sea_s <= sea_s_n;
+                    sea_c <= sea_c_n;
+                    sweep <= sweep_n;
+                end if;
+            end if;
+            if ce = '1' and blk_end then
+                snap_se_s  <= se_s_n;
+                snap_se_c  <= se_c_n;
+                snap_sea_s <= sea_s_n;
+                snap_sea_c <= sea_c_n;
+                snap_sweep <= sweep_n;
+            end if;
+        end if;
+    end process p_acc;
+
+    -- ---- the update: 8 SEA * KG, OFF + step, SWEEP test; 9 GINV - step, OFF saturated; 10 pending -----
+    p_upd : process (clk)
+        variable stp_s, stp_c : signed(XW - 1 downto 0);
+        variable dg_s, dg_c   : signed(DG_W - 1 downto 0);
+        variable gs_neg, gc_neg, gs_high, gc_high, os_over, oc_over : boolean;
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                u1_v <= '0';
+                u2_v <= '0';
+            elsif ce = '1' then
+                u1_v <= o7_go;
+                u2_v <= u1_v;
+            end if;
+            if ce = '1' then
+                -- 8
+                u1_ps <= resize(snap_sea_s * signed('0' & kg_hold_s), PR_W) + round_term(PR_W, KG_SHIFT);
+                u1_pc <= resize(snap_sea_c * signed('0' & kg_hold_c), PR_W) + round_term(PR_W, KG_SHIFT);
+                stp_s := shift_right(shift_left(resize(snap_se_s, XW), OFS_FRAC), SH_O);
+                stp_c := shift_right(shift_left(resize(snap_se_c, XW), OFS_FRAC), SH_O);
+                u1_os <= resize(off_s, OS_W) + resize(stp_s, OS_W);
+                u1_oc <= resize(off_c, OS_W) + resize(stp_c, OS_W);
+                u1_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
+                -- 9
+                dg_s := u1_ps(PR_W - 1 downto KG_SHIFT);
+                dg_c := u1_pc(PR_W - 1 downto KG_SHIFT);
+                u2_gs <= signed(resize(ginv_s, GS_W)) - resize(dg_s, GS_W);
+                u2_gc <= signed(resize(ginv_c, GS_W)) - resize(dg_c, GS_W);
+                os_over := out_of(u1_os, OW);
+                oc_over := out_of(u1_oc, OW);
+                u2_os  <= sat_s(u1_os, OW);
+                u2_oc  <= sat_s(u1_oc, OW);
+                u2_sat <= '1' when os_over or oc_over else '0';
+                u2_ok  <= u1_ok;
+            end if;
+            -- 10: the pending update (taken by the normaliser at its application sample)
+            gs_neg  := u2_gs(GS_W - 1) = '1';
+            gc_neg  := u2_gc(GS_W - 1) = '1';
+            gs_high := not gs_neg and u2_gs(GS_W - 2 downto GINV_W) /= 0;
+            gc_high := not gc_neg and u2_gc(GS_W - 2 downto GINV_W) /= 0;
+            if rst = '1' then
+                pend_valid <= '0';
+            elsif ce = '1' and u2_v = '1' and u2_ok = '1' then
+                pend_valid <= '1';
+            elsif take = '1' then
+                pend_valid <= '0';
+            end if;
+            if ce = '1' and u2_v = '1' and u2_ok = '1' then
+                pend_off_s <= u2_os;
+                pend_off_c <= u2_oc;
+                if gs_neg then
+                    pend_ginv_s <= (others => '0');
+                elsif gs_high then
+                    pend_ginv_s <= (others => '1');
+                else
+                    pend_ginv_s <= unsigned(u2_gs(GINV_W - 1 downto 0));
+                end if;
+                if gc_neg then
+                    pend_ginv_c <= (others => '0');
+                elsif gc_high then
+                    pend_ginv_c <= (others => '1');
+                else
+                    pend_ginv_c <= unsigned(u2_gc(GINV_W - 1 downto 0));
+                end if;
+                pend_sat <= '1' when u2_sat = '1' or gs_neg or gs_high or gc_neg or gc_high else '0';
+            end if;
+        end if;
+    end process p_upd;
+
+end architecture rtl;

@@ -1,0 +1,318 @@
+"""Unit tests of the bit-exact fringe_drift model (model/fringe/fixed/drift.py)."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fringe.fixed.drift import (
+    NORM_LATENCY,
+    OBS_LATENCY,
+    DriftParams,
+    drift_float,
+    drift_run,
+    error_bound,
+    kg_for,
+    make_fwd_table,
+    pack_words,
+    unpack_words,
+)
+
+REPO = Path(__file__).resolve().parent.parent
+
+P1 = DriftParams(adc_w=14, fine_w=16, block_log2=8, mu_log2=3, ofs_frac=4, ginv_w=18, fwd_w=6, table_w=18,
+                 table_frac=2, kg_w=18, kg_shift=38)
+P2 = DriftParams(adc_w=10, fine_w=12, block_log2=5, mu_log2=1, ofs_frac=0, ginv_w=12, fwd_w=4, table_w=12,
+                 table_frac=0, kg_w=12, kg_shift=21)
+
+
+class Encoder:
+    """A synthetic drifting encoder: W0 + A sin / cos with offsets and gains ramping over time."""
+
+    def __init__(self, p: DriftParams, n: int, seed: int = 1, amp_frac: float = 0.3, speed: float = 0.013,
+                 drift: float = 1.0, w0=(30.0, -20.0)):
+        rng = np.random.default_rng(seed)
+        self.p = p
+        amp = amp_frac * 2 ** (p.adc_w - 1)
+        self.amp = amp
+        self.w0f = w0
+        t = np.arange(n)
+        self.phi = 2 * np.pi * (t * speed + 0.3 * np.sin(t * 1e-4) + rng.uniform())
+        sc = 2 ** (p.adc_w - 14)
+        self.os = (200 + drift * 100 * t / n) * sc
+        self.oc = (-150 + drift * 80 * np.sin(t / n * 3)) * sc
+        self.gs = 1.1 - drift * 0.05 * t / n
+        self.gc = 0.92 + drift * 0.04 * t / n
+        lo, hi = -(1 << (p.adc_w - 1)), (1 << (p.adc_w - 1)) - 1
+        self.rs = np.clip(np.round(self.os + self.gs * (w0[0] + amp * np.sin(self.phi))), lo, hi).astype(np.int64)
+        self.rc = np.clip(np.round(self.oc + self.gc * (w0[1] + amp * np.cos(self.phi))), lo, hi).astype(np.int64)
+        vs, w0s = make_fwd_table(lambda ph: w0[0] + amp * np.sin(2 * np.pi * ph), p)
+        vc, w0c = make_fwd_table(lambda ph: w0[1] + amp * np.cos(2 * np.pi * ph), p)
+        self.values = (vs, vc)
+        self.tables = np.stack([pack_words(vs, p), pack_words(vc, p)])
+        self.w0 = (w0s, w0c)
+        self.kg = (kg_for(vs, p), kg_for(vc, p))
+        tf = 2.0 ** p.table_frac
+        ws, wc, fw = w0s / tf, w0c / tf, p.fine_w
+
+        def phase_of(ys, yc):
+            x = np.mod(np.arctan2(np.asarray(ys) - ws, np.asarray(yc) - wc) / (2 * np.pi), 1.0)
+            return np.floor(x * 2.0 ** fw).astype(np.int64) & ((1 << fw) - 1)
+
+        self.phase_of = phase_of
+
+    def run(self, **kw):
+        return drift_run(self.rs, self.rc, self.phase_of, self.p, self.tables, self.w0, self.kg, **kw)
+
+
+def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg):
+    """The contract of docs/drift.md as a plain per-sample loop on Python integers."""
+    B, D = p.b, p.d
+    off, ginv = [0, 0], [p.unity, p.unity]
+    pending = []                          # (apply index, state)
+    lo, hi = -(1 << (p.adc_w - 1)), (1 << (p.adc_w - 1)) - 1
+    se, sea, sweep = [0, 0], [0, 0], 0
+    prev = None
+    ys, yc, sat, states = [], [], [], [(0, 0, p.unity, p.unity)]
+    for n in range(len(rs)):
+        while pending and pending[0][0] == n:
+            _, st = pending.pop(0)
+            off, ginv = list(st[:2]), list(st[2:])
+        y, s = [], False
+        for k, r in enumerate((int(rs[n]), int(rc[n]))):
+            sh = p.ofs_frac + p.ginv_w - 2
+            v = (((r << p.ofs_frac) - off[k]) * ginv[k] + (1 << (sh - 1))) >> sh
+            s = s or not lo <= v <= hi
+            y.append(min(max(v, lo), hi))
+        ys.append(y[0])
+        yc.append(y[1])
+        sat.append(int(s))
+        ph = int(phase_of(np.array([y[0]]), np.array([y[1]]))[0])
+        fb = p.fb
+        for k in (0, 1):
+            word = int(tables[k][ph >> fb])
+            sl, va = (int(x[0]) for x in unpack_words(np.array([word]), p))
+            a = va + ((sl * (ph & ((1 << fb) - 1)) + (1 << (fb - 1))) >> fb)
+            e = (y[k] << p.table_frac) - int(w0[k]) - a
+            se[k] += e
+            sea[k] += e * a
+        if prev is not None:
+            d = (ph - prev) % (1 << p.fine_w)
+            sweep += min(d, (1 << p.fine_w) - d)
+        prev = ph
+        if n % B == B - 1:
+            cur = pending[-1][1] if pending else (off[0], off[1], ginv[0], ginv[1])
+            if sweep >= 1 << p.fine_w:
+                no, ng = [], []
+                for k in (0, 1):
+                    o = cur[k] + ((se[k] << p.ofs_frac) >> (p.block_log2 + p.table_frac + p.mu_log2))
+                    no.append(min(max(o, -(1 << (p.ofs_w - 1))), (1 << (p.ofs_w - 1)) - 1))
+                    g = cur[2 + k] - ((sea[k] * int(kg[k]) + (1 << (p.kg_shift - 1))) >> p.kg_shift)
+                    ng.append(min(max(g, 0), (1 << p.ginv_w) - 1))
+                cur = (no[0], no[1], ng[0], ng[1])
+            states.append(cur)
+            pending.append((n + 1 + D, cur))
+            se, sea, sweep = [0, 0], [0, 0], 0
+    return np.array(ys), np.array(yc), np.array(sat), np.array(states)
+
+
+# ---------------------------------------------------------------------------- parameters
+
+
+def test_derived_constants():
+    p = P1
+    assert (p.b, p.d, p.fb, p.bins, p.ofs_w, p.unity, p.norm_shift, p.off_shift) == (256, 128, 10, 64, 18, 1 << 16,
+                                                                                      20, 13)
+    assert (p.e_w, p.se_w, p.sea_w, p.sweep_w, p.word_w) == (20, 28, 47, 24, 36)
+    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 10, 4, 10)
+    assert p.hdl_parameters()["PIPE_LATENCY"] == 0 and p.hdl_parameters()["KG_SHIFT"] == 38
+
+
+BASE = P1.hdl_parameters()
+KEYS = {k.lower(): k for k in BASE}
+
+
+@pytest.mark.parametrize(
+    "over, msg",
+    [
+        ({"adc_w": 3}, "fringe_drift: ADC_W = 3 out of range 4..24"),
+        ({"adc_w": 25}, "fringe_drift: ADC_W = 25 out of range 4..24"),
+        ({"fine_w": 7, "fwd_w": 4}, "fringe_drift: FINE_W = 7 out of range 8..30"),
+        ({"fine_w": 31}, "fringe_drift: FINE_W = 31 out of range 8..30"),
+        ({"block_log2": 3}, "fringe_drift: BLOCK_LOG2 = 3 out of range 4..12"),
+        ({"block_log2": 13}, "fringe_drift: BLOCK_LOG2 = 13 out of range 4..12"),
+        ({"mu_log2": 9}, "fringe_drift: MU_LOG2 = 9 out of range 0..8"),
+        ({"ofs_frac": 9}, "fringe_drift: OFS_FRAC = 9 out of range 0..8"),
+        ({"adc_w": 24, "ofs_frac": 9}, "fringe_drift: OFS_FRAC = 9 out of range 0..8"),
+        ({"adc_w": 24, "ofs_frac": 8}, "NOERROR"),
+        ({"ginv_w": 7}, "fringe_drift: GINV_W = 7 out of range 8..24"),
+        ({"ginv_w": 25}, "fringe_drift: GINV_W = 25 out of range 8..24"),
+        ({"fwd_w": 1}, "fringe_drift: FWD_W = 1 out of range 2..min(10, FINE_W-1) = 10"),
+        ({"fwd_w": 11}, "fringe_drift: FWD_W = 11 out of range 2..min(10, FINE_W-1) = 10"),
+        ({"fine_w": 9, "fwd_w": 9}, "fringe_drift: FWD_W = 9 out of range 2..min(10, FINE_W-1) = 8"),
+        ({"table_w": 7}, "fringe_drift: TABLE_W = 7 out of range 8..24"),
+        ({"table_w": 25}, "fringe_drift: TABLE_W = 25 out of range 8..24"),
+        ({"table_frac": 13}, "fringe_drift: TABLE_FRAC = 13 out of range 0..12"),
+        ({"kg_w": 7}, "fringe_drift: KG_W = 7 out of range 8..24"),
+        ({"kg_w": 25}, "fringe_drift: KG_W = 25 out of range 8..24"),
+        ({"kg_shift": 0}, "fringe_drift: KG_SHIFT = 0 out of range 1..60"),
+        ({"kg_shift": 61}, "fringe_drift: KG_SHIFT = 61 out of range 1..60"),
+        ({"pipe_latency": -1}, "fringe_drift: PIPE_LATENCY = -1 must be >= 0"),
+        ({"pipe_latency": 116}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 116 + 10 = 130 "
+                                "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = 129: the update would come too late"),
+        ({"block_log2": 4}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 10 = 14 exceeds "
+                            "D + 1 = 2^(BLOCK_LOG2-1) + 1 = 9: the update would come too late"),
+        ({"table_w": 18.0}, "fringe_drift: TABLE_W must be an integer"),
+    ],
+)
+def test_parameter_validation(over, msg):
+    kw = {k: BASE[v] for k, v in KEYS.items()}
+    kw.update(over)
+    if msg == "NOERROR":
+        DriftParams(**kw)
+        return
+    with pytest.raises(ValueError, match=re.escape(msg)):
+        DriftParams(**kw)
+
+
+def test_pipe_latency_limit_is_exact():
+    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 115})   # 4 + 115 + 10 = 129 = D + 1
+
+
+def test_hdl_messages_match_model():
+    v = (REPO / "rtl/verilog/fringe_drift.v").read_text()
+    h = (REPO / "rtl/vhdl/fringe_drift.vhd").read_text()
+    for name, rng in (("ADC_W", "4..24"), ("FINE_W", "8..30"), ("BLOCK_LOG2", "4..12"), ("MU_LOG2", "0..8"),
+                      ("OFS_FRAC", "0..8"), ("GINV_W", "8..24"), ("TABLE_W", "8..24"), ("TABLE_FRAC", "0..12"),
+                      ("KG_W", "8..24"), ("KG_SHIFT", "1..60")):
+        assert f'"fringe_drift: {name} = %0d out of range {rng} (instance %m)"' in v, name
+        assert f'"fringe_drift: {name} = " & integer\'image({name}) & " out of range {rng}"' in h, name
+    for frag in ("out of range 2..min(10, FINE_W-1) = ", "ADC_W + OFS_FRAC = ", " exceeds 32",
+                 "NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = ", "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = ",
+                 ": the update would come too late", "must be >= 0", "USER_W = "):
+        assert frag in v and frag in h, frag
+
+
+def test_latency_constants_in_hdl():
+    for path in (REPO / "rtl/verilog/fringe_drift.v", REPO / "rtl/vhdl/fringe_drift.vhd"):
+        text = path.read_text()
+        for name, val in (("NORM_LATENCY", NORM_LATENCY), ("OBS_LATENCY", OBS_LATENCY)):
+            m = re.search(rf"(?:localparam\s+integer\s+|constant\s+){name}\s*(?::\s*integer\s*:)?=\s*(\d+)\s*;", text)
+            assert m and int(m.group(1)) == val, (path, name)
+
+
+# ---------------------------------------------------------------------------- tables
+
+
+def test_tables_pack_unpack_and_limits():
+    p = P1
+    v, w0 = make_fwd_table(lambda ph: 10 + 4000 * np.sin(2 * np.pi * ph), p)
+    assert w0 == 40 and abs(v.mean()) < 1
+    sl, va = unpack_words(pack_words(v, p), p)
+    np.testing.assert_array_equal(va, v)
+    np.testing.assert_array_equal(sl, np.roll(v, -1) - v)
+    with pytest.raises(ValueError, match="does not fit s\\(18\\)"):
+        make_fwd_table(lambda ph: 1e5 * np.sin(2 * np.pi * ph), p)
+    with pytest.raises(ValueError, match="KG = .* does not fit u\\(18\\)"):
+        kg_for(np.ones(p.bins, dtype=np.int64), p)
+    kg = kg_for(v, p)
+    assert abs(kg * p.b * np.mean(v.astype(float) ** 2) / 2.0 ** (p.kg_shift + p.ginv_w - 2 - p.mu_log2) - 1) < 1e-4
+
+
+# ---------------------------------------------------------------------------- bit-exact behaviour
+
+
+@pytest.mark.parametrize("p", [P1, P2], ids=["P1", "P2"])
+def test_matches_plain_reference(p):
+    enc = Encoder(p, 9 * p.b + 37, seed=3, speed=0.05, drift=5.0)
+    r = enc.run()
+    ys, yc, sat, states = reference(enc.rs, enc.rc, enc.phase_of, p, enc.tables, enc.w0, enc.kg)
+    np.testing.assert_array_equal(r.y_sin, ys)
+    np.testing.assert_array_equal(r.y_cos, yc)
+    np.testing.assert_array_equal(r.sat, sat)
+    np.testing.assert_array_equal(r.states, states)
+    assert r.updated.any() and (np.diff(r.states, axis=0) != 0).any()
+
+
+def test_segment_boundaries_do_not_matter():
+    p = P2
+    enc = Encoder(p, 40 * p.b + 5, seed=4, speed=0.05)
+    base = enc.run()
+    for chunk in (1, 7, 33, 1000):
+        r = enc.run(chunk=chunk)
+        for f in ("y_sin", "y_cos", "sat", "phase", "states", "updated", "track_sat", "sweep", "state_index"):
+            np.testing.assert_array_equal(getattr(r, f), getattr(base, f), err_msg=f"chunk {chunk}: {f}")
+    # a prefix of the stream gives a prefix of the result
+    short = drift_run(enc.rs[:1000], enc.rc[:1000], enc.phase_of, p, enc.tables, enc.w0, enc.kg)
+    np.testing.assert_array_equal(short.y_sin, base.y_sin[:1000])
+    np.testing.assert_array_equal(short.states, base.states[:short.states.shape[0]])
+
+
+def test_slow_blocks_are_skipped():
+    p = P2
+    enc = Encoder(p, 30 * p.b, seed=5, speed=0.2 / p.b)       # 0.2 period per block: SWEEP < 2^FINE_W
+    r = enc.run()
+    assert not r.updated.any() and (r.sweep < 1 << p.fine_w).all()
+    assert (r.states == r.states[0]).all()
+    fast = Encoder(p, 30 * p.b, seed=5, speed=1.5 / p.b).run()
+    assert fast.updated.all()
+
+
+def test_state_and_output_saturation():
+    p = dataclasses.replace(P2, kg_shift=16)
+    enc = Encoder(p, 60 * p.b, seed=6, amp_frac=0.45, speed=0.05, drift=0.0)
+    enc.kg = ((1 << p.kg_w) - 1,) * 2                           # a far too large gain step: GINV overshoots
+    r = enc.run()
+    assert r.track_sat.any() and r.sat.any()
+    assert r.states[:, 2:].min() == 0 and r.states[:, 2:].max() == (1 << p.ginv_w) - 1
+
+
+# ---------------------------------------------------------------------------- tracking quality
+
+
+def test_tracker_converges_on_drifting_signal():
+    p = P1
+    n = 400_000
+    enc = Encoder(p, n, seed=7)
+    r = enc.run()
+    j = np.arange(r.states.shape[0] - 1)
+    at = np.minimum((j + 1) * p.b + p.d, n - 1)
+    late = j >= len(j) // 4
+    off_err = np.abs(r.states[1:, :2] / 2.0 ** p.ofs_frac - np.stack([enc.os[at], enc.oc[at]], 1))[late]
+    gain_err = np.abs(r.states[1:, 2:] / p.unity * np.stack([enc.gs[at], enc.gc[at]], 1) - 1)[late]
+    drift_off = np.ptp(enc.os) + 200, np.ptp(enc.oc) + 150
+    assert off_err.max() < 3.0, off_err.max()                   # drift 100 (and 200 initial) codes
+    assert off_err.max() < 0.02 * min(drift_off)
+    assert gain_err.max() < 3e-3, gain_err.max()                # gains 1.1 -> 1.05 and 0.92 -> 0.96
+    # the signals after the tracker: the offset and gain seen by the rest of the core are near nominal
+    tail = slice(n // 2, n)
+    ys = r.y_sin[tail] - enc.w0[0] / 2.0 ** p.table_frac
+    assert abs(ys.mean()) < 3.0 and abs(np.sqrt(2) * ys.std() / enc.amp - 1) < 3e-3
+
+
+def test_float_agrees_within_bound():
+    p = P1
+    enc = Encoder(p, 300_000, seed=8)
+    r = enc.run()
+    f = drift_float(enc.rs, enc.rc, enc.phase_of, p, enc.tables, enc.w0, enc.kg)
+    np.testing.assert_array_equal(f["updated"], r.updated)
+    d = np.abs(f["states"] - r.states)[r.states.shape[0] // 3:]
+    b = error_bound(p)
+    assert d[:, :2].max() <= b["off_lsb"], (d[:, :2].max(), b)
+    assert d[:, 2:].max() <= b["ginv_lsb"], (d[:, 2:].max(), b)
+    assert np.abs(f["y_sin"] - r.y_sin)[100_000:].max() < 2.0
+
+
+def test_speed():
+    p = P1
+    enc = Encoder(p, 300_000, seed=9)
+    enc.run()
+    t0 = time.perf_counter()
+    enc.run()
+    rate = 300_000 / (time.perf_counter() - t0)
+    assert rate >= 2e5, rate
