@@ -50,7 +50,7 @@ $(SYNTH_STAMP): $(STAMP)
 	touch $@
 
 synth: $(SYNTH_STAMP)
-	$(BIN)/python sim/synth.py --out results --configs seed,line1,seed_trim
+	$(BIN)/python sim/synth.py --out results --configs seed,line1,seed_trim,seed_drift
 
 clean:
 	rm -rf $(OUT) results sim_build .pytest_cache

@@ -7,6 +7,8 @@ Per configuration (``--configs``):
          `fringe calibrate` picks for it (CoreConfig.for_encoder: 15-bit tables, 16-bit gains, 17 stages)
   seed18 the same encoder with CoreConfig()'s literal defaults (18-bit tables and gains, 18 stages)
   line1  a 16-bit ADC, 1 line per revolution, no coarse code (periods are counted)
+  seed_trim   the seed configuration with fringe_trim (TRIM = 1, the closed loop's corrections)
+  seed_drift  the seed configuration with fringe_drift (DRIFT = 1, the closed loop's drift tracker)
 the tables are filled from a real calibration of a short simulated recording (fringe.simulate ->
 fringe.evaluate.measurement_of -> fringe.calibrate -> fringe.fixed.core.build_tables ->
 fringe.rom.write_roms), so block-RAM inference sees what a user's design sees.
@@ -36,6 +38,7 @@ Usage: python sim/synth.py [--out results] [--configs seed,line1] [--devices ice
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import re
 import shutil
@@ -127,6 +130,14 @@ def seed_trim_config():
     return _calibrated(seed_encoder(), trim=1)
 
 
+def seed_drift_config():
+    # the closed loop's drift tracker fringe_drift (DRIFT = 1), tables from the seed calibration's waveforms
+    from fringe.fixed.closed_loop import drift_config
+
+    cfg, cal = _calibrated(seed_encoder())
+    return drift_config(dataclasses.replace(cal, adaptive=True), cfg), cal
+
+
 def line1_config():
     return _calibrated(SimulationConfig(lines_per_rev=1, adc_bits=16, coarse_bits=0, sample_rate_hz=5000.0,
                                         speed_mean_rev_s=3.0, speed_swing_rev_s=2.0))
@@ -137,6 +148,7 @@ CONFIGS = {
     "seed18": ("seed encoder, CoreConfig() 18-bit defaults", seed18_config),
     "line1": ("16-bit ADC, 1 line, no coarse code", line1_config),
     "seed_trim": ("seed encoder with fringe_trim (closed-loop corrections, TRIM = 1)", seed_trim_config),
+    "seed_drift": ("seed encoder with fringe_drift (the drift tracker, DRIFT = 1)", seed_drift_config),
 }
 
 

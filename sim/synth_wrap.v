@@ -28,6 +28,10 @@ module fringe_synth_wrap #(
     parameter integer TRIM = 0, parameter integer SPEED_LOG2 = 5, parameter integer MAP_PSI_W = 6,
     parameter integer MAP_PHI_W = 5, parameter integer TRIM_W = 18, parameter integer TRIM_FRAC = 4,
     parameter integer G_SHIFT = 24, parameter [63:0] SECT_RECIP = 64'd1, parameter integer SECT_SHIFT = 18,
+    parameter integer DRIFT = 0, parameter integer DRIFT_BLOCK_LOG2 = 8, parameter integer DRIFT_MU_LOG2 = 1,
+    parameter integer DRIFT_OFS_FRAC = 4, parameter integer DRIFT_GINV_W = 18, parameter integer DRIFT_FWD_W = 8,
+    parameter integer DRIFT_TABLE_W = 18, parameter integer DRIFT_TABLE_FRAC = 4, parameter integer DRIFT_KG_W = 18,
+    parameter integer DRIFT_KG_SHIFT = 40, parameter FWD_SIN_INIT = "", parameter FWD_COS_INIT = "",
     parameter REGS_INIT = "", parameter WAVE_SIN_INIT = "", parameter WAVE_COS_INIT = "", parameter LP_INIT = "",
     parameter MAP_INIT = "", parameter SPEED_INIT = "", parameter AMP_INIT = ""
 ) (
@@ -67,7 +71,10 @@ module fringe_synth_wrap #(
         .WAVE_COS_INIT(WAVE_COS_INIT), .LP_INIT(LP_INIT), .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2),
         .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT),
         .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT), .MAP_INIT(MAP_INIT), .SPEED_INIT(SPEED_INIT),
-        .AMP_INIT(AMP_INIT)
+        .AMP_INIT(AMP_INIT), .DRIFT(DRIFT), .DRIFT_BLOCK_LOG2(DRIFT_BLOCK_LOG2), .DRIFT_MU_LOG2(DRIFT_MU_LOG2),
+        .DRIFT_OFS_FRAC(DRIFT_OFS_FRAC), .DRIFT_GINV_W(DRIFT_GINV_W), .DRIFT_FWD_W(DRIFT_FWD_W),
+        .DRIFT_TABLE_W(DRIFT_TABLE_W), .DRIFT_TABLE_FRAC(DRIFT_TABLE_FRAC), .DRIFT_KG_W(DRIFT_KG_W),
+        .DRIFT_KG_SHIFT(DRIFT_KG_SHIFT), .FWD_SIN_INIT(FWD_SIN_INIT), .FWD_COS_INIT(FWD_COS_INIT)
     ) u_top (
         .clk(clk), .rst(rst_r),
         .s_axis_tdata(sr[S_W-1:0]), .s_axis_tvalid(s_valid_r), .s_axis_tready(s_ready_w),
