@@ -23,6 +23,21 @@ SCENARIOS = {
 }
 
 
+def _waveform_asymmetry() -> dict:
+    """Even and cosine-phase harmonics on both channels: outside the seed 001 model (odd sine
+    harmonics only) but inside fringe's declared model (the full Fourier waveform, two-branch
+    inverse), so the loop must add nothing and still reach the floor."""
+    base = seed_encoder()
+    s, c = base.sin_channel, base.cos_channel
+    return dict(sin_channel=dataclasses.replace(s, sin_h={**s.sin_h, 2: 0.02}, cos_h={**s.cos_h, 3: 0.012}),
+                cos_channel=dataclasses.replace(c, cos_h={**c.cos_h, 2: -0.015}, sin_h={**c.sin_h, 4: 0.006}))
+
+
+SCENARIOS["waveform_asymmetry"] = (_waveform_asymmetry, set())
+
+
 def scenario(name: str, samples: int = 100_000) -> tuple[SimulationConfig, set]:
     effects, expected = SCENARIOS[name]
+    if callable(effects):
+        effects = effects()
     return dataclasses.replace(seed_encoder(), samples=samples, **effects), expected
