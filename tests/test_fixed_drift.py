@@ -129,7 +129,7 @@ def test_derived_constants():
     assert (p.b, p.d, p.fb, p.bins, p.ofs_w, p.unity, p.norm_shift, p.off_shift) == (256, 128, 10, 64, 18, 1 << 16,
                                                                                       20, 13)
     assert (p.e_w, p.se_w, p.sea_w, p.sweep_w, p.word_w) == (20, 28, 47, 24, 36)
-    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 10, 4, 10)
+    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 13, 4, 13)
     assert p.hdl_parameters()["PIPE_LATENCY"] == 0 and p.hdl_parameters()["KG_SHIFT"] == 38
 
 
@@ -163,9 +163,9 @@ KEYS = {k.lower(): k for k in BASE}
         ({"kg_shift": 0}, "fringe_drift: KG_SHIFT = 0 out of range 1..60"),
         ({"kg_shift": 61}, "fringe_drift: KG_SHIFT = 61 out of range 1..60"),
         ({"pipe_latency": -1}, "fringe_drift: PIPE_LATENCY = -1 must be >= 0"),
-        ({"pipe_latency": 116}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 116 + 10 = 130 "
+        ({"pipe_latency": 113}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 113 + 13 = 130 "
                                 "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = 129: the update would come too late"),
-        ({"block_log2": 4}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 10 = 14 exceeds "
+        ({"block_log2": 4}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 13 = 17 exceeds "
                             "D + 1 = 2^(BLOCK_LOG2-1) + 1 = 9: the update would come too late"),
         ({"table_w": 18.0}, "fringe_drift: TABLE_W must be an integer"),
     ],
@@ -181,7 +181,7 @@ def test_parameter_validation(over, msg):
 
 
 def test_pipe_latency_limit_is_exact():
-    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 115})   # 4 + 115 + 10 = 129 = D + 1
+    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 112})   # 4 + 112 + 13 = 129 = D + 1
 
 
 def test_hdl_messages_match_model():

@@ -30,7 +30,7 @@
 // NORM_LATENCY = 4 clock enables from in_valid to norm_valid:
 //   1 input registers (the state is taken at acceptance)   2 d = raw * 2^OFS_FRAC - OFF
 //   3 d * GINV + 2^(OFS_FRAC+GINV_W-3)                      4 >>> and saturate: y, norm_sat
-// OBS_LATENCY = 10 clock enables from obs_valid of a block's last sample to the pending update:
+// OBS_LATENCY = 13 clock enables from obs_valid of a block's last sample to the pending update:
 //   1 input registers, table read at {bank, bin}            2 table RAM output register; phase delta;
 //                                                              y * 2^TABLE_FRAC - W0
 //   3 slope * frac + 2^(FB-1); |delta|                      4 a = value + (product >>> FB)
@@ -103,7 +103,7 @@ module fringe_drift #(
 );
 
     localparam integer NORM_LATENCY = 4;
-    localparam integer OBS_LATENCY = 10;
+    localparam integer OBS_LATENCY = 13;
     localparam integer D        = 1 << (BLOCK_LOG2 - 1);
     localparam integer FWD_MAX  = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
     localparam integer TOTAL    = NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY;
@@ -470,66 +470,167 @@ module fringe_drift #(
         end
     end
 
-    // ---- the update: 8 SEA * KG, OFF + step, SWEEP test; 9 GINV - step, OFF saturated; 10 pending -----
-    localparam [PR_W-1:0] RND_KG = {{(PR_W-1){1'b0}}, 1'b1} << (KG_SHIFT - 1);
+    // ---- the update (stages 8..13): SEA * KG as <= 18x18 partial products, one carry chain per stage ----
+    // SEA = sum_c C_c * 2^(17c), C_c = {0, 17 bits} (c < NC-1) or the signed top chunk (c = NC-1), as s18;
+    // KG = KH * 2^17 + KL, KL = {0, 17 bits}, KH = {0, KG_W-17 bits} (0 when KG_W <= 17).
+    // 8  partial products C_c * KL, C_c * KH (bare); OFF + step; SWEEP test
+    // 9  rows R_c = C_c * KG = C_c*KH * 2^17 + C_c*KL (bit join below 2^17); OFF saturated
+    // 10 PA = R_0 + R_1 * 2^17, PB = R_2 + R_3 * 2^17 (bit joins)      11 P = PA + PB * 2^34 + R_4 * 2^68
+    // 12 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   13 GINV saturated: pending
+    localparam integer L    = 17;
+    localparam integer NC   = (SEA_W + L - 1) / L;                    // SEA chunks, 2..5
+    localparam integer SXW  = 5 * L + 1;
+    localparam integer KH_W = (KG_W > L) ? KG_W - L : 1;
+    localparam integer AH_W = L + 1 + KH_W + 1;                       // C * KH
+    localparam integer RWD  = KG_W + L + 2;                           // C * KG
+    localparam integer RHW  = RWD - L;
+    localparam integer PAW  = RWD + L + 1;                            // PA, PB
+    localparam integer PX   = RWD + 5 * L + 2;                        // P (>= PR_W)
+    localparam integer PHW  = PX - 2 * L;
+    wire [SXW-1:0]     sx_s = {{(SXW-SEA_W){snap_sea_s[SEA_W-1]}}, snap_sea_s};
+    wire [SXW-1:0]     sx_c = {{(SXW-SEA_W){snap_sea_c[SEA_W-1]}}, snap_sea_c};
+    wire [2*L-1:0]     kgx_s = {{(2*L-KG_W){1'b0}}, kg_hold_s};
+    wire [2*L-1:0]     kgx_c = {{(2*L-KG_W){1'b0}}, kg_hold_c};
+    wire signed [L:0]      kl_s = {1'b0, kgx_s[L-1:0]};
+    wire signed [L:0]      kl_c = {1'b0, kgx_c[L-1:0]};
+    wire signed [KH_W:0]   kh_s = (KG_W > L) ? {1'b0, kgx_s[L +: KH_W]} : {(KH_W+1){1'b0}};
+    wire signed [KH_W:0]   kh_c = (KG_W > L) ? {1'b0, kgx_c[L +: KH_W]} : {(KH_W+1){1'b0}};
+    wire signed [L:0]      ch_s [0:4];
+    wire signed [L:0]      ch_c [0:4];
+    reg  signed [2*L+1:0]  m_ls [0:4];
+    reg  signed [2*L+1:0]  m_lc [0:4];
+    reg  signed [AH_W-1:0] m_hs [0:4];
+    reg  signed [AH_W-1:0] m_hc [0:4];
+    reg  [RWD-1:0]         r_s [0:4];
+    reg  [RWD-1:0]         r_c [0:4];
+    reg  [PAW-1:0]         pa_s, pb_s, pa_c, pb_c;
+    reg  [RWD-1:0]         r4_s, r4_c;
+    reg  [PX-1:0]          p_s, p_c;
+
+    genvar gc;
+    generate
+        for (gc = 0; gc < 5; gc = gc + 1) begin : g_chunk
+            if (gc < NC - 1) begin : g_lo
+                assign ch_s[gc] = {1'b0, sx_s[L*gc +: L]};
+                assign ch_c[gc] = {1'b0, sx_c[L*gc +: L]};
+            end else if (gc == NC - 1) begin : g_top
+                assign ch_s[gc] = sx_s[L*gc +: L+1];
+                assign ch_c[gc] = sx_c[L*gc +: L+1];
+            end else begin : g_none
+                assign ch_s[gc] = {(L+1){1'b0}};
+                assign ch_c[gc] = {(L+1){1'b0}};
+            end
+            wire signed [2*L+1:0]  ml_s = m_ls[gc];
+            wire signed [2*L+1:0]  ml_c = m_lc[gc];
+            wire signed [AH_W-1:0] mh_s = m_hs[gc];
+            wire [2*L+1:0]         rf_s = $signed({{(2*L+2-AH_W){mh_s[AH_W-1]}}, mh_s}) + (ml_s >>> L);
+            wire [RHW-1:0]         rh_s = rf_s[RHW-1:0];
+            wire unused_rs = &{1'b0, rf_s};
+            wire signed [AH_W-1:0] mh_c = m_hc[gc];
+            wire [2*L+1:0]         rf_c = $signed({{(2*L+2-AH_W){mh_c[AH_W-1]}}, mh_c}) + (ml_c >>> L);
+            wire [RHW-1:0]         rh_c = rf_c[RHW-1:0];
+            wire unused_rc = &{1'b0, rf_c};
+            always @(posedge clk) begin
+                if (ce) begin
+                    // 8: partial products (bare)
+                    m_ls[gc] <= ch_s[gc] * kl_s;
+                    m_lc[gc] <= ch_c[gc] * kl_c;
+                    m_hs[gc] <= ch_s[gc] * kh_s;
+                    m_hc[gc] <= ch_c[gc] * kh_c;
+                    // 9: rows
+                    r_s[gc] <= {rh_s, ml_s[L-1:0]};
+                    r_c[gc] <= {rh_c, ml_c[L-1:0]};
+                end
+            end
+        end
+    endgenerate
+
+    wire signed [RWD:0] pah_s = $signed({{(L+1){r_s[0][RWD-1]}}, r_s[0][RWD-1:L]}) + $signed({r_s[1][RWD-1], r_s[1]});
+    wire signed [RWD:0] pbh_s = $signed({{(L+1){r_s[2][RWD-1]}}, r_s[2][RWD-1:L]}) + $signed({r_s[3][RWD-1], r_s[3]});
+    wire signed [RWD:0] pah_c = $signed({{(L+1){r_c[0][RWD-1]}}, r_c[0][RWD-1:L]}) + $signed({r_c[1][RWD-1], r_c[1]});
+    wire signed [RWD:0] pbh_c = $signed({{(L+1){r_c[2][RWD-1]}}, r_c[2][RWD-1:L]}) + $signed({r_c[3][RWD-1], r_c[3]});
+    wire [PHW-1:0] ph_s = {{(PHW-PAW+2*L){pa_s[PAW-1]}}, pa_s[PAW-1:2*L]} + {{(PHW-PAW){pb_s[PAW-1]}}, pb_s}
+                        + ({{(PHW-RWD){r4_s[RWD-1]}}, r4_s} << (2 * L));
+    wire [PHW-1:0] ph_c = {{(PHW-PAW+2*L){pa_c[PAW-1]}}, pa_c[PAW-1:2*L]} + {{(PHW-PAW){pb_c[PAW-1]}}, pb_c}
+                        + ({{(PHW-RWD){r4_c[RWD-1]}}, r4_c} << (2 * L));
+
+    always @(posedge clk) begin
+        if (ce) begin
+            // 10: row pairs (bit joins below 2^17)
+            pa_s <= {pah_s, r_s[0][L-1:0]};
+            pb_s <= {pbh_s, r_s[2][L-1:0]};
+            pa_c <= {pah_c, r_c[0][L-1:0]};
+            pb_c <= {pbh_c, r_c[2][L-1:0]};
+            r4_s <= r_s[4];
+            r4_c <= r_c[4];
+            // 11: P = SEA * KG (bit join below 2^34)
+            p_s <= {ph_s, pa_s[2*L-1:0]};
+            p_c <= {ph_c, pa_c[2*L-1:0]};
+        end
+    end
+
     wire signed [XW-1:0]   sex_s = {{(OFS_FRAC+1){snap_se_s[SE_W-1]}}, snap_se_s};
     wire signed [XW-1:0]   sex_c = {{(OFS_FRAC+1){snap_se_c[SE_W-1]}}, snap_se_c};
     wire signed [XW-1:0]   stp_s = (sex_s <<< OFS_FRAC) >>> SH_O;
     wire signed [XW-1:0]   stp_c = (sex_c <<< OFS_FRAC) >>> SH_O;
-    wire signed [KP_W-1:0] kp_s  = snap_sea_s * $signed({1'b0, kg_hold_s});
-    wire signed [KP_W-1:0] kp_c  = snap_sea_c * $signed({1'b0, kg_hold_c});
-    reg  signed [PR_W-1:0] u1_ps, u1_pc;
     reg  signed [OS_W-1:0] u1_os, u1_oc;
-    reg                    u1_ok, u1_v, u2_ok, u2_v;
-    reg  signed [GS_W-1:0] u2_gs, u2_gc;
-    reg  signed [OW-1:0]   u2_os, u2_oc;
-    reg                    u2_sat;
-    wire signed [DG_W-1:0] dg_s = u1_ps[PR_W-1:KG_SHIFT];
-    wire signed [DG_W-1:0] dg_c = u1_pc[PR_W-1:KG_SHIFT];
+    reg  [4:0]             u_v;             // stages 8..12 valid
+    reg                    u1_ok, u2_ok, u3_ok, u4_ok, u5_ok;
+    reg  signed [OW-1:0]   u2_os, u2_oc, u3_os, u3_oc, u4_os, u4_oc, u5_os, u5_oc;
+    reg                    u2_sat, u3_sat, u4_sat, u5_sat;
+    reg  signed [GS_W-1:0] u5_gs, u5_gc;
+    // (P + 2^(KG_SHIFT-1)) >>> KG_SHIFT = (P >>> KG_SHIFT) + P[KG_SHIFT-1]
+    wire signed [DG_W-1:0] dg_s = p_s[PR_W-1:KG_SHIFT];
+    wire signed [DG_W-1:0] dg_c = p_c[PR_W-1:KG_SHIFT];
+    wire [GS_W-1:0]        dgn_s = ~{{(GS_W-DG_W){dg_s[DG_W-1]}}, dg_s};
+    wire [GS_W-1:0]        dgn_c = ~{{(GS_W-DG_W){dg_c[DG_W-1]}}, dg_c};
+    wire [GS_W-1:0]        rbn_s = {{(GS_W-1){1'b0}}, ~p_s[KG_SHIFT-1]};
+    wire [GS_W-1:0]        rbn_c = {{(GS_W-1){1'b0}}, ~p_c[KG_SHIFT-1]};
     // OFF + step in range of s(OW) <=> bits OS_W-1 .. OW-1 all equal the sign
     wire os_over = u1_os[OS_W-1] ? ~&u1_os[OS_W-1:OW-1] : |u1_os[OS_W-1:OW-1];
     wire oc_over = u1_oc[OS_W-1] ? ~&u1_oc[OS_W-1:OW-1] : |u1_oc[OS_W-1:OW-1];
     wire signed [OW-1:0] o_max = {1'b0, {(OW-1){1'b1}}};
     wire signed [OW-1:0] o_min = {1'b1, {(OW-1){1'b0}}};
     // GINV - step: below 0 -> 0, above 2^GINV_W - 1 -> 2^GINV_W - 1
-    wire gs_neg  = u2_gs[GS_W-1];
-    wire gc_neg  = u2_gc[GS_W-1];
-    wire gs_high = ~gs_neg & |u2_gs[GS_W-2:GINV_W];
-    wire gc_high = ~gc_neg & |u2_gc[GS_W-2:GINV_W];
+    wire gs_neg  = u5_gs[GS_W-1];
+    wire gc_neg  = u5_gc[GS_W-1];
+    wire gs_high = ~gs_neg & |u5_gs[GS_W-2:GINV_W];
+    wire gc_high = ~gc_neg & |u5_gc[GS_W-2:GINV_W];
 
     always @(posedge clk) begin
         if (rst) begin
-            u1_v <= 1'b0;
-            u2_v <= 1'b0;
+            u_v <= 5'd0;
         end else if (ce) begin
-            u1_v <= o7_go;
-            u2_v <= u1_v;
+            u_v <= {u_v[3:0], o7_go};
         end
     end
 
     always @(posedge clk) begin
         if (ce) begin
             // 8
-            u1_ps <= {{(PR_W-KP_W){kp_s[KP_W-1]}}, kp_s} + $signed(RND_KG);
-            u1_pc <= {{(PR_W-KP_W){kp_c[KP_W-1]}}, kp_c} + $signed(RND_KG);
             u1_os <= {{(OS_W-OW){off_sin[OW-1]}}, off_sin} + {stp_s[XW-1], stp_s};
             u1_oc <= {{(OS_W-OW){off_cos[OW-1]}}, off_cos} + {stp_c[XW-1], stp_c};
             u1_ok <= |snap_sweep[SW_W-1:FINE_W];
             // 9
-            u2_gs  <= $signed({{(GS_W-GINV_W){1'b0}}, ginv_sin}) - {{(GS_W-DG_W){dg_s[DG_W-1]}}, dg_s};
-            u2_gc  <= $signed({{(GS_W-GINV_W){1'b0}}, ginv_cos}) - {{(GS_W-DG_W){dg_c[DG_W-1]}}, dg_c};
             u2_os  <= os_over ? (u1_os[OS_W-1] ? o_min : o_max) : u1_os[OW-1:0];
             u2_oc  <= oc_over ? (u1_oc[OS_W-1] ? o_min : o_max) : u1_oc[OW-1:0];
             u2_sat <= os_over | oc_over;
             u2_ok  <= u1_ok;
+            // 10, 11: carried along
+            u3_os <= u2_os;  u3_oc <= u2_oc;  u3_sat <= u2_sat;  u3_ok <= u2_ok;
+            u4_os <= u3_os;  u4_oc <= u3_oc;  u4_sat <= u3_sat;  u4_ok <= u3_ok;
+            // 12: GINV - step
+            u5_gs  <= {{(GS_W-GINV_W){1'b0}}, ginv_sin} + dgn_s + rbn_s;
+            u5_gc  <= {{(GS_W-GINV_W){1'b0}}, ginv_cos} + dgn_c + rbn_c;
+            u5_os  <= u4_os;  u5_oc <= u4_oc;  u5_sat <= u4_sat;  u5_ok <= u4_ok;
         end
     end
 
-    // 10: the pending update (taken by the normaliser at its application sample)
+    // 13: the pending update (taken by the normaliser at its application sample)
     always @(posedge clk) begin
         if (rst) begin
             pend_valid <= 1'b0;
-        end else if (ce && u2_v && u2_ok) begin
+        end else if (ce && u_v[4] && u5_ok) begin
             pend_valid <= 1'b1;
         end else if (take) begin
             pend_valid <= 1'b0;
@@ -537,17 +638,17 @@ module fringe_drift #(
     end
 
     always @(posedge clk) begin
-        if (ce && u2_v && u2_ok) begin
-            pend_off_s  <= u2_os;
-            pend_off_c  <= u2_oc;
-            pend_ginv_s <= gs_neg ? {GINV_W{1'b0}} : (gs_high ? {GINV_W{1'b1}} : u2_gs[GINV_W-1:0]);
-            pend_ginv_c <= gc_neg ? {GINV_W{1'b0}} : (gc_high ? {GINV_W{1'b1}} : u2_gc[GINV_W-1:0]);
-            pend_sat    <= u2_sat | gs_neg | gs_high | gc_neg | gc_high;
+        if (ce && u_v[4] && u5_ok) begin
+            pend_off_s  <= u5_os;
+            pend_off_c  <= u5_oc;
+            pend_ginv_s <= gs_neg ? {GINV_W{1'b0}} : (gs_high ? {GINV_W{1'b1}} : u5_gs[GINV_W-1:0]);
+            pend_ginv_c <= gc_neg ? {GINV_W{1'b0}} : (gc_high ? {GINV_W{1'b1}} : u5_gc[GINV_W-1:0]);
+            pend_sat    <= u5_sat | gs_neg | gs_high | gc_neg | gc_high;
         end
     end
 
     // Bits that carry nothing: the rounded-off bits of the products and of the offset step.
-    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], o3_ps, o3_pc, u1_ps[KG_SHIFT-1:0], u1_pc[KG_SHIFT-1:0],
+    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], o3_ps, o3_pc, p_s, p_c, kgx_s, kgx_c, sx_s, sx_c,
                     snap_sweep[FINE_W-1:0], olast[5]};
 
 endmodule

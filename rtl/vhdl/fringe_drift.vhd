@@ -31,7 +31,7 @@
 -- NORM_LATENCY = 4 clock enables from in_valid to norm_valid:
 --   1 input registers (the state is taken at acceptance)   2 d = raw * 2^OFS_FRAC - OFF
 --   3 d * GINV + 2^(OFS_FRAC+GINV_W-3)                      4 >>> and saturate: y, norm_sat
--- OBS_LATENCY = 10 clock enables from obs_valid of a block's last sample to the pending update:
+-- OBS_LATENCY = 13 clock enables from obs_valid of a block's last sample to the pending update:
 --   1 input registers, table read at {bank, bin}            2 table RAM output register; phase delta;
 --                                                              y * 2^TABLE_FRAC - W0
 --   3 slope * frac + 2^(FB-1); |delta|                      4 a = value + (product >>> FB)
@@ -109,7 +109,7 @@ end entity fringe_drift;
 architecture rtl of fringe_drift is
 
     constant NORM_LATENCY : integer := 4;
-    constant OBS_LATENCY : integer := 10;
+    constant OBS_LATENCY : integer := 13;
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
@@ -282,13 +282,69 @@ architecture rtl of fringe_drift is
     signal sweep, snap_sweep : unsigned(SW_W - 1 downto 0);
     signal o7_go      : std_logic;
 
-    -- update
-    signal u1_ps, u1_pc : signed(PR_W - 1 downto 0);
+    -- update: SEA * KG as <= 18x18 partial products (see the Verilog twin)
+    constant L    : integer := 17;
+    constant NC   : integer := (SEA_W + L - 1) / L;                 -- SEA chunks, 2..5
+    constant SXW  : integer := 5 * L + 1;
+    constant KH_W : integer := maximum(KG_W - L, 1);
+    constant AH_W : integer := L + 1 + KH_W + 1;                    -- C * KH
+    constant RWD  : integer := KG_W + L + 2;                        -- C * KG
+    constant RHW  : integer := RWD - L;
+    constant PAW  : integer := RWD + L + 1;                         -- PA, PB
+    constant PX   : integer := RWD + 5 * L + 2;                     -- P (>= PR_W)
+    constant PHW  : integer := PX - 2 * L;
+    type ml_t is array (0 to 4) of signed(2 * L + 1 downto 0);
+    type mh_t is array (0 to 4) of signed(AH_W - 1 downto 0);
+    type r_t  is array (0 to 4) of signed(RWD - 1 downto 0);
+    signal m_ls, m_lc : ml_t;
+    signal m_hs, m_hc : mh_t;
+    signal r_s, r_c   : r_t;
+    signal pa_s, pb_s, pa_c, pb_c : signed(PAW - 1 downto 0);
+    signal r4_s, r4_c : signed(RWD - 1 downto 0);
+    signal p_s, p_c   : signed(PX - 1 downto 0);
     signal u1_os, u1_oc : signed(OS_W - 1 downto 0);
-    signal u1_ok, u1_v, u2_ok, u2_v : std_logic;
-    signal u2_gs, u2_gc : signed(GS_W - 1 downto 0);
-    signal u2_os, u2_oc : signed(OW - 1 downto 0);
-    signal u2_sat       : std_logic;
+    signal u_v          : std_logic_vector(1 to 5);
+    signal u1_ok, u2_ok, u3_ok, u4_ok, u5_ok : std_logic;
+    signal u2_os, u2_oc, u3_os, u3_oc, u4_os, u4_oc, u5_os, u5_oc : signed(OW - 1 downto 0);
+    signal u2_sat, u3_sat, u4_sat, u5_sat : std_logic;
+    signal u5_gs, u5_gc : signed(GS_W - 1 downto 0);
+
+    -- chunk c of SEA as s18: {0, 17 bits} below the top chunk, the signed top chunk, 0 above
+    function chunk(v : signed; c : integer) return signed is
+        constant X : signed(SXW - 1 downto 0) := resize(v, SXW);
+    begin
+        if c < NC - 1 then
+            return signed('0' & std_logic_vector(X(L * c + L - 1 downto L * c)));
+        elsif c = NC - 1 then
+            return X(L * c + L downto L * c);
+        else
+            return to_signed(0, L + 1);
+        end if;
+    end function chunk;
+
+    -- row = C * KH * 2^17 + C * KL (bit join below 2^17)
+    function row(ml : signed; mh : signed) return signed is
+        variable rf : signed(2 * L + 1 downto 0);
+    begin
+        rf := resize(mh, 2 * L + 2) + shift_right(ml, L);
+        return rf(RHW - 1 downto 0) & ml(L - 1 downto 0);
+    end function row;
+
+    -- pair = R_a + R_b * 2^17 (bit join below 2^17)
+    function pair(ra : signed; rb : signed) return signed is
+        variable h : signed(RWD downto 0);
+    begin
+        h := resize(ra(RWD - 1 downto L), RWD + 1) + resize(rb, RWD + 1);
+        return h & ra(L - 1 downto 0);
+    end function pair;
+
+    -- P = PA + PB * 2^34 + R_4 * 2^68 (bit join below 2^34)
+    function total(pa : signed; pb : signed; r4 : signed) return signed is
+        variable h : signed(PHW - 1 downto 0);
+    begin
+        h := resize(pa(PAW - 1 downto 2 * L), PHW) + resize(pb, PHW) + shift_left(resize(r4, PHW), 2 * L);
+        return h & pa(2 * L - 1 downto 0);
+    end function total;
 
 begin
 
@@ -536,71 +592,114 @@ begin
         end if;
     end process p_acc;
 
-    -- ---- the update: 8 SEA * KG, OFF + step, SWEEP test; 9 GINV - step, OFF saturated; 10 pending -----
+    -- ---- the update (stages 8..13): SEA * KG as <= 18x18 partial products, one carry chain per stage ----
+    -- 8 partial products C_c * KL, C_c * KH (bare); OFF + step; SWEEP test   9 rows; OFF saturated
+    -- 10 PA = R_0 + R_1 * 2^17, PB = R_2 + R_3 * 2^17   11 P = PA + PB * 2^34 + R_4 * 2^68
+    -- 12 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   13 GINV saturated: pending
     p_upd : process (clk)
+        variable kgx_s, kgx_c : unsigned(2 * L - 1 downto 0);
+        variable kl_s, kl_c   : signed(L downto 0);
+        variable kh_s, kh_c   : signed(KH_W downto 0);
         variable stp_s, stp_c : signed(XW - 1 downto 0);
         variable dg_s, dg_c   : signed(DG_W - 1 downto 0);
+        variable rbn_s, rbn_c : signed(GS_W - 1 downto 0);
         variable gs_neg, gc_neg, gs_high, gc_high, os_over, oc_over : boolean;
     begin
         if rising_edge(clk) then
             if rst = '1' then
-                u1_v <= '0';
-                u2_v <= '0';
+                u_v <= (others => '0');
             elsif ce = '1' then
-                u1_v <= o7_go;
-                u2_v <= u1_v;
+                u_v <= o7_go & u_v(1 to 4);
             end if;
             if ce = '1' then
-                -- 8
-                u1_ps <= resize(snap_sea_s * signed('0' & kg_hold_s), PR_W) + round_term(PR_W, KG_SHIFT);
-                u1_pc <= resize(snap_sea_c * signed('0' & kg_hold_c), PR_W) + round_term(PR_W, KG_SHIFT);
+                kgx_s := resize(kg_hold_s, 2 * L);
+                kgx_c := resize(kg_hold_c, 2 * L);
+                kl_s := signed('0' & kgx_s(L - 1 downto 0));
+                kl_c := signed('0' & kgx_c(L - 1 downto 0));
+                if KG_W > L then
+                    kh_s := signed('0' & kgx_s(L + KH_W - 1 downto L));
+                    kh_c := signed('0' & kgx_c(L + KH_W - 1 downto L));
+                else
+                    kh_s := (others => '0');
+                    kh_c := (others => '0');
+                end if;
+                for c in 0 to 4 loop
+                    -- 8: partial products (bare)
+                    m_ls(c) <= chunk(snap_sea_s, c) * kl_s;
+                    m_lc(c) <= chunk(snap_sea_c, c) * kl_c;
+                    m_hs(c) <= chunk(snap_sea_s, c) * kh_s;
+                    m_hc(c) <= chunk(snap_sea_c, c) * kh_c;
+                    -- 9: rows
+                    r_s(c) <= row(m_ls(c), m_hs(c));
+                    r_c(c) <= row(m_lc(c), m_hc(c));
+                end loop;
+                -- 10: row pairs
+                pa_s <= pair(r_s(0), r_s(1));
+                pb_s <= pair(r_s(2), r_s(3));
+                pa_c <= pair(r_c(0), r_c(1));
+                pb_c <= pair(r_c(2), r_c(3));
+                r4_s <= r_s(4);
+                r4_c <= r_c(4);
+                -- 11: P = SEA * KG
+                p_s <= total(pa_s, pb_s, r4_s);
+                p_c <= total(pa_c, pb_c, r4_c);
+                -- 8: OFF + step, SWEEP test
                 stp_s := shift_right(shift_left(resize(snap_se_s, XW), OFS_FRAC), SH_O);
                 stp_c := shift_right(shift_left(resize(snap_se_c, XW), OFS_FRAC), SH_O);
                 u1_os <= resize(off_s, OS_W) + resize(stp_s, OS_W);
                 u1_oc <= resize(off_c, OS_W) + resize(stp_c, OS_W);
                 u1_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
-                -- 9
-                dg_s := u1_ps(PR_W - 1 downto KG_SHIFT);
-                dg_c := u1_pc(PR_W - 1 downto KG_SHIFT);
-                u2_gs <= signed(resize(ginv_s, GS_W)) - resize(dg_s, GS_W);
-                u2_gc <= signed(resize(ginv_c, GS_W)) - resize(dg_c, GS_W);
+                -- 9: OFF saturated
                 os_over := out_of(u1_os, OW);
                 oc_over := out_of(u1_oc, OW);
                 u2_os  <= sat_s(u1_os, OW);
                 u2_oc  <= sat_s(u1_oc, OW);
                 u2_sat <= '1' when os_over or oc_over else '0';
                 u2_ok  <= u1_ok;
+                -- 10, 11: carried along
+                u3_os <= u2_os;  u3_oc <= u2_oc;  u3_sat <= u2_sat;  u3_ok <= u2_ok;
+                u4_os <= u3_os;  u4_oc <= u3_oc;  u4_sat <= u3_sat;  u4_ok <= u3_ok;
+                -- 12: GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] = GINV + not dg + not P[KG_SHIFT-1]
+                dg_s := p_s(PR_W - 1 downto KG_SHIFT);
+                dg_c := p_c(PR_W - 1 downto KG_SHIFT);
+                rbn_s := (others => '0');
+                rbn_c := (others => '0');
+                rbn_s(0) := not p_s(KG_SHIFT - 1);
+                rbn_c(0) := not p_c(KG_SHIFT - 1);
+                u5_gs <= signed(resize(ginv_s, GS_W)) + (not resize(dg_s, GS_W)) + rbn_s;
+                u5_gc <= signed(resize(ginv_c, GS_W)) + (not resize(dg_c, GS_W)) + rbn_c;
+                u5_os <= u4_os;  u5_oc <= u4_oc;  u5_sat <= u4_sat;  u5_ok <= u4_ok;
             end if;
-            -- 10: the pending update (taken by the normaliser at its application sample)
-            gs_neg  := u2_gs(GS_W - 1) = '1';
-            gc_neg  := u2_gc(GS_W - 1) = '1';
-            gs_high := not gs_neg and u2_gs(GS_W - 2 downto GINV_W) /= 0;
-            gc_high := not gc_neg and u2_gc(GS_W - 2 downto GINV_W) /= 0;
+            -- 13: the pending update (taken by the normaliser at its application sample)
+            gs_neg  := u5_gs(GS_W - 1) = '1';
+            gc_neg  := u5_gc(GS_W - 1) = '1';
+            gs_high := not gs_neg and u5_gs(GS_W - 2 downto GINV_W) /= 0;
+            gc_high := not gc_neg and u5_gc(GS_W - 2 downto GINV_W) /= 0;
             if rst = '1' then
                 pend_valid <= '0';
-            elsif ce = '1' and u2_v = '1' and u2_ok = '1' then
+            elsif ce = '1' and u_v(5) = '1' and u5_ok = '1' then
                 pend_valid <= '1';
             elsif take = '1' then
                 pend_valid <= '0';
             end if;
-            if ce = '1' and u2_v = '1' and u2_ok = '1' then
-                pend_off_s <= u2_os;
-                pend_off_c <= u2_oc;
+            if ce = '1' and u_v(5) = '1' and u5_ok = '1' then
+                pend_off_s <= u5_os;
+                pend_off_c <= u5_oc;
                 if gs_neg then
                     pend_ginv_s <= (others => '0');
                 elsif gs_high then
                     pend_ginv_s <= (others => '1');
                 else
-                    pend_ginv_s <= unsigned(u2_gs(GINV_W - 1 downto 0));
+                    pend_ginv_s <= unsigned(u5_gs(GINV_W - 1 downto 0));
                 end if;
                 if gc_neg then
                     pend_ginv_c <= (others => '0');
                 elsif gc_high then
                     pend_ginv_c <= (others => '1');
                 else
-                    pend_ginv_c <= unsigned(u2_gc(GINV_W - 1 downto 0));
+                    pend_ginv_c <= unsigned(u5_gc(GINV_W - 1 downto 0));
                 end if;
-                pend_sat <= '1' when u2_sat = '1' or gs_neg or gs_high or gc_neg or gc_high else '0';
+                pend_sat <= '1' when u5_sat = '1' or gs_neg or gs_high or gc_neg or gc_high else '0';
             end if;
         end if;
     end process p_upd;
