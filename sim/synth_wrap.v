@@ -11,7 +11,7 @@
 //     and s_ready, m_valid, active_bank are registered: every output bit is observed, so no
 //     logic in front of it can be removed;
 //   - all I/O is registered, so the timing report measures the core (register to register), not
-//     the pads. The wrapper adds S_W + 82 + 4 + 11 flip-flops and about M_W / 4 LUTs.
+//     the pads. The wrapper adds S_W + 84 + 4 + 11 flip-flops and about M_W / 4 LUTs.
 // The tables and registers stay writable (cfg_we), as in a real design: the ROM images (INIT files)
 // are initial contents, not constants.
 

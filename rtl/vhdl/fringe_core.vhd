@@ -9,8 +9,8 @@
 -- Formats, register map and status word: docs/architecture.md. Bit-exact model:
 -- model/fringe/fixed/core.py (run_core; run_core_banks for a bank swap in mid-stream).
 --
--- Register file: 2 banks x 16 words of 32 bits (model/fringe/fixed/regmap.py), initialised from
--- REGS_INIT (bank 0 words 0..15, then bank 1). Every sample takes the active bank when it is
+-- Register file: 2 banks x 32 words of 32 bits (model/fringe/fixed/regmap.py), initialised from
+-- REGS_INIT (bank 0 words 0..31, then bank 1). Every sample takes the active bank when it is
 -- accepted and carries the bank bit (and its early flags: clip, sat, magnitude) in the blocks'
 -- user sideband, so each stage reads the tables and registers of the sample's own bank:
 --   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, AMP_LOW/AMP_HIGH
