@@ -384,9 +384,9 @@ if cocotb is not None:
 # ============================================================================ pytest side
 
 PARAM_SETS = [
-    # (DriftParams, USER_W): PIPE_LATENCY at its limit (4 + 0 + 13 = D + 1)
-    (DriftParams(adc_w=12, fine_w=14, block_log2=5, mu_log2=2, ofs_frac=3, ginv_w=16, fwd_w=5, table_w=16,
-                 table_frac=2, kg_w=16, kg_shift=24, pipe_latency=0), 2),
+    # (DriftParams, USER_W): PIPE_LATENCY at its limit (4 + 14 + 15 = D + 1)
+    (DriftParams(adc_w=12, fine_w=14, block_log2=6, mu_log2=2, ofs_frac=3, ginv_w=16, fwd_w=5, table_w=16,
+                 table_frac=2, kg_w=16, kg_shift=24, pipe_latency=14), 2),
     (DriftParams(adc_w=16, fine_w=18, block_log2=6, mu_log2=3, ofs_frac=0, ginv_w=20, fwd_w=7, table_w=20,
                  table_frac=0, kg_w=20, kg_shift=30, pipe_latency=6), 1),
     # the widest words: ADC_W 24 + OFS_FRAC 8, GINV_W/TABLE_W/KG_W 24, FINE_W 30, FWD_W 10
@@ -428,12 +428,12 @@ def test_latency_constants_match_model():
         assert _latency_in_source(REPO / f, "OBS_LATENCY") == OBS_LATENCY
 
 
-BASE = PARAM_SETS[0][0].hdl_parameters()
+BASE = PARAM_SETS[0][0].hdl_parameters()       # at the limit: PIPE_LATENCY 15 is one over
 ILLEGAL = [
     {"ADC_W": 3}, {"ADC_W": 25}, {"FINE_W": 7, "FWD_W": 4}, {"FINE_W": 31}, {"BLOCK_LOG2": 13},
     {"MU_LOG2": 9}, {"OFS_FRAC": 9}, {"ADC_W": 24, "OFS_FRAC": 8, "PIPE_LATENCY": 0}, {"GINV_W": 7},
     {"GINV_W": 25}, {"FWD_W": 1}, {"FWD_W": 14}, {"TABLE_W": 7}, {"TABLE_W": 25}, {"TABLE_FRAC": 13},
-    {"KG_W": 7}, {"KG_W": 25}, {"KG_SHIFT": 0}, {"KG_SHIFT": 61}, {"PIPE_LATENCY": -1}, {"PIPE_LATENCY": 4},
+    {"KG_W": 7}, {"KG_W": 25}, {"KG_SHIFT": 0}, {"KG_SHIFT": 61}, {"PIPE_LATENCY": -1}, {"PIPE_LATENCY": 15},
     {"BLOCK_LOG2": 4, "PIPE_LATENCY": 0},
 ]
 

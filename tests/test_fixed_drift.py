@@ -27,8 +27,8 @@ REPO = Path(__file__).resolve().parent.parent
 
 P1 = DriftParams(adc_w=14, fine_w=16, block_log2=8, mu_log2=3, ofs_frac=4, ginv_w=18, fwd_w=6, table_w=18,
                  table_frac=2, kg_w=18, kg_shift=38)
-P2 = DriftParams(adc_w=10, fine_w=12, block_log2=5, mu_log2=1, ofs_frac=0, ginv_w=12, fwd_w=4, table_w=12,
-                 table_frac=0, kg_w=12, kg_shift=21)
+P2 = DriftParams(adc_w=10, fine_w=12, block_log2=6, mu_log2=1, ofs_frac=0, ginv_w=12, fwd_w=4, table_w=12,
+                 table_frac=0, kg_w=12, kg_shift=21, pipe_latency=14)   # at the limit: 4 + 14 + 15 = D + 1
 
 
 class Encoder:
@@ -129,7 +129,7 @@ def test_derived_constants():
     assert (p.b, p.d, p.fb, p.bins, p.ofs_w, p.unity, p.norm_shift, p.off_shift) == (256, 128, 10, 64, 18, 1 << 16,
                                                                                       20, 13)
     assert (p.e_w, p.se_w, p.sea_w, p.sweep_w, p.word_w) == (20, 28, 47, 24, 36)
-    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 13, 4, 13)
+    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 15, 4, 15)
     assert p.hdl_parameters()["PIPE_LATENCY"] == 0 and p.hdl_parameters()["KG_SHIFT"] == 38
 
 
@@ -163,9 +163,9 @@ KEYS = {k.lower(): k for k in BASE}
         ({"kg_shift": 0}, "fringe_drift: KG_SHIFT = 0 out of range 1..60"),
         ({"kg_shift": 61}, "fringe_drift: KG_SHIFT = 61 out of range 1..60"),
         ({"pipe_latency": -1}, "fringe_drift: PIPE_LATENCY = -1 must be >= 0"),
-        ({"pipe_latency": 113}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 113 + 13 = 130 "
+        ({"pipe_latency": 111}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 111 + 15 = 130 "
                                 "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = 129: the update would come too late"),
-        ({"block_log2": 4}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 13 = 17 exceeds "
+        ({"block_log2": 4}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 15 = 19 exceeds "
                             "D + 1 = 2^(BLOCK_LOG2-1) + 1 = 9: the update would come too late"),
         ({"table_w": 18.0}, "fringe_drift: TABLE_W must be an integer"),
     ],
@@ -181,7 +181,7 @@ def test_parameter_validation(over, msg):
 
 
 def test_pipe_latency_limit_is_exact():
-    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 112})   # 4 + 112 + 13 = 129 = D + 1
+    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 110})   # 4 + 110 + 15 = 129 = D + 1
 
 
 def test_hdl_messages_match_model():

@@ -29,19 +29,23 @@
 //
 // NORM_LATENCY = 4 clock enables from in_valid to norm_valid:
 //   1 input registers (the state is taken at acceptance)   2 d = raw * 2^OFS_FRAC - OFF
-//   3 d * GINV + 2^(OFS_FRAC+GINV_W-3)                      4 >>> and saturate: y, norm_sat
-// OBS_LATENCY = 13 clock enables from obs_valid of a block's last sample to the pending update:
+//   3 d * GINV                                              4 + 2^(OFS_FRAC+GINV_W-3) (the bit below the
+//                                                              shift as a carry), >>>, saturate: y, norm_sat
+// OBS_LATENCY = 15 clock enables from obs_valid of a block's last sample to the pending update:
 //   1 input registers, table read at {bank, bin}            2 table RAM output register; phase delta;
 //                                                              y * 2^TABLE_FRAC - W0
 //   3 slope * frac + 2^(FB-1); |delta|                      4 a = value + (product >>> FB)
-//   5 e = yw - a                                            6 e * a
-//   7 SE, SEA, SWEEP accumulated (last sample: snapshot, accumulators cleared)
-//   8 SEA * KG + 2^(KG_SHIFT-1); OFF + step; SWEEP test     9 GINV - (product >>> KG_SHIFT); OFF saturated
-//   10 GINV saturated: the pending update
-// One carry chain or one multiply (with its rounding constant) per stage; SEA * KG is a multi-DSP
-// product for wide configurations. ce = 0 freezes every register (and the RAM reads); rst
-// (synchronous, active high, wins over ce) clears the valid bits, the counters, the accumulators, the
-// pending update, track_sat and the state (OFF = 0, GINV = unity); never the data registers.
+//   5 e = yw - a                                            6 e * a partial products (<= 18x18)
+//   7 e * a rows (one per 17-bit chunk of e)                8 e * a (rows summed)
+//   9 SE, SEA, SWEEP accumulated (last sample: snapshot, accumulators cleared)
+//   10 SEA * KG partial products (<= 18x18); OFF + step; SWEEP test
+//   11 SEA * KG rows; OFF saturated                         12, 13 rows summed: P = SEA * KG
+//   14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1]              15 GINV saturated: the pending update
+// One carry chain or one multiply (with its rounding constant) per stage (the e * a row sum adds three
+// rows when e has three chunks, ADC_W + TABLE_FRAC >= 34). ce = 0 freezes every register (and the RAM
+// reads); rst (synchronous, active high, wins over ce) clears the valid bits, the counters, the
+// accumulators, the pending update, track_sat and the state (OFF = 0, GINV = unity); never the data
+// registers.
 // Tables: two two-bank fringe_table_ram (2 x 2^FWD_W words each), written through wr_en / wr_sel
 // (0 sin, 1 cos) / wr_addr {bank, bin} / wr_data {slope, value} whatever ce is; write only the bank
 // no sample in flight reads.
@@ -103,7 +107,7 @@ module fringe_drift #(
 );
 
     localparam integer NORM_LATENCY = 4;
-    localparam integer OBS_LATENCY = 13;
+    localparam integer OBS_LATENCY = 15;
     localparam integer D        = 1 << (BLOCK_LOG2 - 1);
     localparam integer FWD_MAX  = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
     localparam integer TOTAL    = NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY;
@@ -238,15 +242,15 @@ module fringe_drift #(
     assign norm_valid = nvalid[NORM_LATENCY-1];
     assign norm_user  = nuser[NORM_LATENCY*USER_W-1:(NORM_LATENCY-1)*USER_W];
 
-    localparam [PW-1:0] RND_N = {{(PW-1){1'b0}}, 1'b1} << (SHN - 1);
     reg  signed [ADC_W-1:0] n1_s, n1_c;
     reg  signed [OW:0]      n2_s, n2_c;
     reg         [GINV_W-1:0] n2_gs, n2_gc;
     reg  signed [PW-1:0]    n3_s, n3_c;
     wire signed [OW:0]      n1_sx = {{(OFS_FRAC+1){n1_s[ADC_W-1]}}, n1_s} <<< OFS_FRAC;
     wire signed [OW:0]      n1_cx = {{(OFS_FRAC+1){n1_c[ADC_W-1]}}, n1_c} <<< OFS_FRAC;
-    wire signed [QW-1:0]    q_s = n3_s[PW-1:SHN];
-    wire signed [QW-1:0]    q_c = n3_c[PW-1:SHN];
+    // (P + 2^(SHN-1)) >>> SHN = (P >>> SHN) + P[SHN-1]
+    wire signed [QW-1:0]    q_s = n3_s[PW-1:SHN] + {{(QW-1){1'b0}}, n3_s[SHN-1]};
+    wire signed [QW-1:0]    q_c = n3_c[PW-1:SHN] + {{(QW-1){1'b0}}, n3_c[SHN-1]};
     // in range of s(ADC_W) <=> bits QW-1 .. ADC_W-1 all equal the sign
     wire                    qs_over = q_s[QW-1] ? ~&q_s[QW-1:ADC_W-1] : |q_s[QW-1:ADC_W-1];
     wire                    qc_over = q_c[QW-1] ? ~&q_c[QW-1:ADC_W-1] : |q_c[QW-1:ADC_W-1];
@@ -263,10 +267,10 @@ module fringe_drift #(
             n2_c  <= n1_cx - {off_cos[OW-1], off_cos};
             n2_gs <= ginv_sin;
             n2_gc <= ginv_cos;
-            // 3: d * GINV + 2^(SHN-1)
-            n3_s <= n2_s * $signed({1'b0, n2_gs}) + $signed(RND_N);
-            n3_c <= n2_c * $signed({1'b0, n2_gc}) + $signed(RND_N);
-            // 4: >>> SHN, saturate
+            // 3: d * GINV
+            n3_s <= n2_s * $signed({1'b0, n2_gs});
+            n3_c <= n2_c * $signed({1'b0, n2_gc});
+            // 4: rounded (P[SHN-1] as a carry), >>> SHN, saturate
             y_sin    <= qs_over ? (q_s[QW-1] ? y_min : y_max) : q_s[ADC_W-1:0];
             y_cos    <= qc_over ? (q_c[QW-1] ? y_min : y_max) : q_c[ADC_W-1:0];
             norm_sat <= qs_over | qc_over;
@@ -321,20 +325,20 @@ module fringe_drift #(
     );
 
     // ---- observer: pipeline --------------------------------------------------------------------------
-    reg  [5:0] ovalid;                // stages 1..6 (7: o7_go)
-    reg  [5:0] olast;                 // the block's last sample, stages 1..6
+    reg  [7:0] ovalid;                // stages 1..8 (9: o9_go)
+    reg  [7:0] olast;                 // the block's last sample, stages 1..8
 
     always @(posedge clk) begin
         if (rst) begin
-            ovalid <= 6'd0;
+            ovalid <= 8'd0;
         end else if (ce) begin
-            ovalid <= {ovalid[4:0], obs_valid};
+            ovalid <= {ovalid[6:0], obs_valid};
         end
     end
 
     always @(posedge clk) begin
         if (ce) begin
-            olast <= {olast[4:0], ocnt == CNT_LAST};
+            olast <= {olast[6:0], ocnt == CNT_LAST};
         end
     end
 
@@ -362,10 +366,9 @@ module fringe_drift #(
     reg  signed [E_W-1:0]    o5_es, o5_ec;
     reg  signed [AW-1:0]     o5_as, o5_ac;
     reg  [FINE_W-1:0]        o5_abs;
-    // 6
-    reg  signed [EA_W-1:0]   o6_eas, o6_eac;
-    reg  signed [E_W-1:0]    o6_es, o6_ec;
-    reg  [FINE_W-1:0]        o6_abs;
+    // 6..8 (e * a in g_ea)
+    reg  signed [E_W-1:0]    o6_es, o6_ec, o7_es, o7_ec, o8_es, o8_ec;
+    reg  [FINE_W-1:0]        o6_abs, o7_abs, o8_abs;
 
     wire signed [YW-1:0] ys_x  = {{(TABLE_FRAC+1){o1_ys[ADC_W-1]}}, o1_ys} <<< TABLE_FRAC;
     wire signed [YW-1:0] yc_x  = {{(TABLE_FRAC+1){o1_yc[ADC_W-1]}}, o1_yc} <<< TABLE_FRAC;
@@ -413,26 +416,97 @@ module fringe_drift #(
             o5_as  <= o4_as;
             o5_ac  <= o4_ac;
             o5_abs <= o4_abs;
-            // 6: e * a
-            o6_eas <= o5_es * o5_as;
-            o6_eac <= o5_ec * o5_ac;
+            // 6..8: e * a (g_ea below); e and |delta| carried along
             o6_es  <= o5_es;
             o6_ec  <= o5_ec;
             o6_abs <= o5_abs;
+            o7_es  <= o6_es;
+            o7_ec  <= o6_ec;
+            o7_abs <= o6_abs;
+            o8_es  <= o7_es;
+            o8_ec  <= o7_ec;
+            o8_abs <= o7_abs;
         end
     end
 
-    // 7: accumulators; the block's last sample goes to the snapshot and clears them
+    // ---- e * a (stages 6..8) as <= 18x18 partial products, one carry chain per stage ----------------
+    // e = sum_i CE_i * 2^(17i), CE_i = {0, 17 bits} (i < NE-1) or the signed top chunk (i = NE-1), as s18;
+    // a = CA_1 * 2^17 + CA_0, CA_0 = {0, 17 bits} and CA_1 the signed top (NA = 2), or CA_0 = a (NA = 1).
+    // 6  partial products CE_i * CA_j (bare)          7  rows R_i = CE_i * a = CE_i*CA_1 * 2^17 + CE_i*CA_0
+    // 8  e * a = R_0 + R_1 * 2^17 + R_2 * 2^34 (bit join below 2^17; R_2 = 0 unless NE = 3)
+    localparam integer EL  = 17;
+    localparam integer NE  = (E_W + EL - 2) / EL;                     // e chunks, 1..3
+    localparam integer NA  = (AW + EL - 2) / EL;                      // a chunks, 1..2
+    localparam integer EXW = 3 * EL + 1;
+    localparam integer AXW = 2 * EL + 1;
+    localparam integer RW  = AW + EL + 1;                             // a row CE_i * a
+    localparam integer SFW = RW + EL + 1;                             // the row sum above 2^17
+    wire signed [E_W-1:0]  ea_e [0:1];
+    wire signed [AW-1:0]   ea_a [0:1];
+    wire signed [EA_W-1:0] ea_p [0:1];
+    assign ea_e[0] = o5_es;
+    assign ea_e[1] = o5_ec;
+    assign ea_a[0] = o5_as;
+    assign ea_a[1] = o5_ac;
+
+    genvar gk, gi;
+    generate
+        for (gk = 0; gk < 2; gk = gk + 1) begin : g_ea
+            wire [EXW-1:0]          ex = {{(EXW-E_W){ea_e[gk][E_W-1]}}, ea_e[gk]};
+            wire [AXW-1:0]          ax = {{(AXW-AW){ea_a[gk][AW-1]}}, ea_a[gk]};
+            wire signed [EL:0]      ca0 = (NA == 1) ? ax[EL:0] : {1'b0, ax[EL-1:0]};
+            wire signed [EL:0]      ca1 = (NA == 2) ? ax[EL +: EL+1] : {(EL+1){1'b0}};
+            wire                    unused_x = &{1'b0, ex, ax};
+            reg  signed [2*EL+1:0]  m0 [0:2];
+            reg  signed [2*EL+1:0]  m1 [0:2];
+            reg  [RW-1:0]           r [0:2];
+            reg  [EA_W-1:0]         p;
+            for (gi = 0; gi < 3; gi = gi + 1) begin : g_ch
+                wire signed [EL:0]     ce_i = (gi < NE - 1) ? {1'b0, ex[EL*gi +: EL]}
+                                            : ((gi == NE - 1) ? ex[EL*gi +: EL+1] : {(EL+1){1'b0}});
+                wire signed [2*EL+1:0] mq0 = m0[gi];
+                wire signed [2*EL+1:0] mq1 = m1[gi];
+                wire signed [2*EL+1:0] hf  = mq1 + (mq0 >>> EL);
+                wire                   unused_h = &{1'b0, hf};
+                always @(posedge clk) begin
+                    if (ce) begin
+                        // 6: partial products (bare)
+                        m0[gi] <= ce_i * ca0;
+                        m1[gi] <= ce_i * ca1;
+                        // 7: row (bit join below 2^17)
+                        r[gi]  <= {hf[AW:0], mq0[EL-1:0]};
+                    end
+                end
+            end
+            wire [RW-1:0]  r0 = r[0];
+            wire [RW-1:0]  r1 = r[1];
+            wire [RW-1:0]  r2 = r[2];
+            wire [SFW-1:0] sf = {{(EL+1+EL){r0[RW-1]}}, r0[RW-1:EL]} + {{(EL+1){r1[RW-1]}}, r1}
+                              + {r2[RW-1], r2, {EL{1'b0}}};
+            wire           unused_s = &{1'b0, sf};
+            always @(posedge clk) begin
+                if (ce) begin
+                    // 8: e * a (bit join below 2^17)
+                    p <= {sf[EA_W-EL-1:0], r0[EL-1:0]};
+                end
+            end
+            assign ea_p[gk] = p;
+        end
+    endgenerate
+
+    // 9: accumulators; the block's last sample goes to the snapshot and clears them
     reg  signed [SE_W-1:0]  se_s, se_c, snap_se_s, snap_se_c;
     reg  signed [SEA_W-1:0] sea_s, sea_c, snap_sea_s, snap_sea_c;
     reg  [SW_W-1:0]         sweep, snap_sweep;
-    reg                     o7_go;
-    wire signed [SE_W-1:0]  se_s_n  = se_s + {{BLOCK_LOG2{o6_es[E_W-1]}}, o6_es};
-    wire signed [SE_W-1:0]  se_c_n  = se_c + {{BLOCK_LOG2{o6_ec[E_W-1]}}, o6_ec};
-    wire signed [SEA_W-1:0] sea_s_n = sea_s + {{BLOCK_LOG2{o6_eas[EA_W-1]}}, o6_eas};
-    wire signed [SEA_W-1:0] sea_c_n = sea_c + {{BLOCK_LOG2{o6_eac[EA_W-1]}}, o6_eac};
-    wire [SW_W-1:0]         sweep_n = sweep + {{BLOCK_LOG2{1'b0}}, o6_abs};
-    wire                    blk_end = ovalid[5] & olast[5];
+    reg                     o9_go;
+    wire signed [EA_W-1:0]  o8_eas  = ea_p[0];
+    wire signed [EA_W-1:0]  o8_eac  = ea_p[1];
+    wire signed [SE_W-1:0]  se_s_n  = se_s + {{BLOCK_LOG2{o8_es[E_W-1]}}, o8_es};
+    wire signed [SE_W-1:0]  se_c_n  = se_c + {{BLOCK_LOG2{o8_ec[E_W-1]}}, o8_ec};
+    wire signed [SEA_W-1:0] sea_s_n = sea_s + {{BLOCK_LOG2{o8_eas[EA_W-1]}}, o8_eas};
+    wire signed [SEA_W-1:0] sea_c_n = sea_c + {{BLOCK_LOG2{o8_eac[EA_W-1]}}, o8_eac};
+    wire [SW_W-1:0]         sweep_n = sweep + {{BLOCK_LOG2{1'b0}}, o8_abs};
+    wire                    blk_end = ovalid[7] & olast[7];
 
     always @(posedge clk) begin
         if (rst) begin
@@ -441,16 +515,16 @@ module fringe_drift #(
             sea_s <= {SEA_W{1'b0}};
             sea_c <= {SEA_W{1'b0}};
             sweep <= {SW_W{1'b0}};
-            o7_go <= 1'b0;
+            o9_go <= 1'b0;
         end else if (ce) begin
-            o7_go <= blk_end;
+            o9_go <= blk_end;
             if (blk_end) begin
                 se_s  <= {SE_W{1'b0}};
                 se_c  <= {SE_W{1'b0}};
                 sea_s <= {SEA_W{1'b0}};
                 sea_c <= {SEA_W{1'b0}};
                 sweep <= {SW_W{1'b0}};
-            end else if (ovalid[5]) begin
+            end else if (ovalid[7]) begin
                 se_s  <= se_s_n;
                 se_c  <= se_c_n;
                 sea_s <= sea_s_n;
@@ -470,13 +544,13 @@ module fringe_drift #(
         end
     end
 
-    // ---- the update (stages 8..13): SEA * KG as <= 18x18 partial products, one carry chain per stage ----
+    // ---- the update (stages 10..15): SEA * KG as <= 18x18 partial products, one carry chain per stage ----
     // SEA = sum_c C_c * 2^(17c), C_c = {0, 17 bits} (c < NC-1) or the signed top chunk (c = NC-1), as s18;
     // KG = KH * 2^17 + KL, KL = {0, 17 bits}, KH = {0, KG_W-17 bits} (0 when KG_W <= 17).
-    // 8  partial products C_c * KL, C_c * KH (bare); OFF + step; SWEEP test
-    // 9  rows R_c = C_c * KG = C_c*KH * 2^17 + C_c*KL (bit join below 2^17); OFF saturated
-    // 10 PA = R_0 + R_1 * 2^17, PB = R_2 + R_3 * 2^17 (bit joins)      11 P = PA + PB * 2^34 + R_4 * 2^68
-    // 12 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   13 GINV saturated: pending
+    // 10 partial products C_c * KL, C_c * KH (bare); OFF + step; SWEEP test
+    // 11 rows R_c = C_c * KG = C_c*KH * 2^17 + C_c*KL (bit join below 2^17); OFF saturated
+    // 12 PA = R_0 + R_1 * 2^17, PB = R_2 + R_3 * 2^17 (bit joins)      13 P = PA + PB * 2^34 + R_4 * 2^68
+    // 14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   15 GINV saturated: pending
     localparam integer L    = 17;
     localparam integer NC   = (SEA_W + L - 1) / L;                    // SEA chunks, 2..5
     localparam integer SXW  = 5 * L + 1;
@@ -532,12 +606,12 @@ module fringe_drift #(
             wire unused_rc = &{1'b0, rf_c};
             always @(posedge clk) begin
                 if (ce) begin
-                    // 8: partial products (bare)
+                    // 10: partial products (bare)
                     m_ls[gc] <= ch_s[gc] * kl_s;
                     m_lc[gc] <= ch_c[gc] * kl_c;
                     m_hs[gc] <= ch_s[gc] * kh_s;
                     m_hc[gc] <= ch_c[gc] * kh_c;
-                    // 9: rows
+                    // 11: rows
                     r_s[gc] <= {rh_s, ml_s[L-1:0]};
                     r_c[gc] <= {rh_c, ml_c[L-1:0]};
                 end
@@ -556,14 +630,14 @@ module fringe_drift #(
 
     always @(posedge clk) begin
         if (ce) begin
-            // 10: row pairs (bit joins below 2^17)
+            // 12: row pairs (bit joins below 2^17)
             pa_s <= {pah_s, r_s[0][L-1:0]};
             pb_s <= {pbh_s, r_s[2][L-1:0]};
             pa_c <= {pah_c, r_c[0][L-1:0]};
             pb_c <= {pbh_c, r_c[2][L-1:0]};
             r4_s <= r_s[4];
             r4_c <= r_c[4];
-            // 11: P = SEA * KG (bit join below 2^34)
+            // 13: P = SEA * KG (bit join below 2^34)
             p_s <= {ph_s, pa_s[2*L-1:0]};
             p_c <= {ph_c, pa_c[2*L-1:0]};
         end
@@ -574,7 +648,7 @@ module fringe_drift #(
     wire signed [XW-1:0]   stp_s = (sex_s <<< OFS_FRAC) >>> SH_O;
     wire signed [XW-1:0]   stp_c = (sex_c <<< OFS_FRAC) >>> SH_O;
     reg  signed [OS_W-1:0] u1_os, u1_oc;
-    reg  [4:0]             u_v;             // stages 8..12 valid
+    reg  [4:0]             u_v;             // stages 10..14 valid
     reg                    u1_ok, u2_ok, u3_ok, u4_ok, u5_ok;
     reg  signed [OW-1:0]   u2_os, u2_oc, u3_os, u3_oc, u4_os, u4_oc, u5_os, u5_oc;
     reg                    u2_sat, u3_sat, u4_sat, u5_sat;
@@ -601,32 +675,32 @@ module fringe_drift #(
         if (rst) begin
             u_v <= 5'd0;
         end else if (ce) begin
-            u_v <= {u_v[3:0], o7_go};
+            u_v <= {u_v[3:0], o9_go};
         end
     end
 
     always @(posedge clk) begin
         if (ce) begin
-            // 8
+            // 10
             u1_os <= {{(OS_W-OW){off_sin[OW-1]}}, off_sin} + {stp_s[XW-1], stp_s};
             u1_oc <= {{(OS_W-OW){off_cos[OW-1]}}, off_cos} + {stp_c[XW-1], stp_c};
             u1_ok <= |snap_sweep[SW_W-1:FINE_W];
-            // 9
+            // 11
             u2_os  <= os_over ? (u1_os[OS_W-1] ? o_min : o_max) : u1_os[OW-1:0];
             u2_oc  <= oc_over ? (u1_oc[OS_W-1] ? o_min : o_max) : u1_oc[OW-1:0];
             u2_sat <= os_over | oc_over;
             u2_ok  <= u1_ok;
-            // 10, 11: carried along
+            // 12, 13: carried along
             u3_os <= u2_os;  u3_oc <= u2_oc;  u3_sat <= u2_sat;  u3_ok <= u2_ok;
             u4_os <= u3_os;  u4_oc <= u3_oc;  u4_sat <= u3_sat;  u4_ok <= u3_ok;
-            // 12: GINV - step
+            // 14: GINV - step
             u5_gs  <= {{(GS_W-GINV_W){1'b0}}, ginv_sin} + dgn_s + rbn_s;
             u5_gc  <= {{(GS_W-GINV_W){1'b0}}, ginv_cos} + dgn_c + rbn_c;
             u5_os  <= u4_os;  u5_oc <= u4_oc;  u5_sat <= u4_sat;  u5_ok <= u4_ok;
         end
     end
 
-    // 13: the pending update (taken by the normaliser at its application sample)
+    // 15: the pending update (taken by the normaliser at its application sample)
     always @(posedge clk) begin
         if (rst) begin
             pend_valid <= 1'b0;
@@ -649,7 +723,7 @@ module fringe_drift #(
 
     // Bits that carry nothing: the rounded-off bits of the products and of the offset step.
     wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], o3_ps, o3_pc, p_s, p_c, kgx_s, kgx_c, sx_s, sx_c,
-                    snap_sweep[FINE_W-1:0], olast[5]};
+                    snap_sweep[FINE_W-1:0], olast[7]};
 
 endmodule
 

@@ -30,16 +30,20 @@
 --
 -- NORM_LATENCY = 4 clock enables from in_valid to norm_valid:
 --   1 input registers (the state is taken at acceptance)   2 d = raw * 2^OFS_FRAC - OFF
---   3 d * GINV + 2^(OFS_FRAC+GINV_W-3)                      4 >>> and saturate: y, norm_sat
--- OBS_LATENCY = 13 clock enables from obs_valid of a block's last sample to the pending update:
+--   3 d * GINV                                              4 + 2^(OFS_FRAC+GINV_W-3) (the bit below the
+--                                                              shift as a carry), >>>, saturate: y, norm_sat
+-- OBS_LATENCY = 15 clock enables from obs_valid of a block's last sample to the pending update:
 --   1 input registers, table read at {bank, bin}            2 table RAM output register; phase delta;
 --                                                              y * 2^TABLE_FRAC - W0
 --   3 slope * frac + 2^(FB-1); |delta|                      4 a = value + (product >>> FB)
---   5 e = yw - a                                            6 e * a
---   7 SE, SEA, SWEEP accumulated (last sample: snapshot, accumulators cleared)
---   8 SEA * KG + 2^(KG_SHIFT-1); OFF + step; SWEEP test     9 GINV - (product >>> KG_SHIFT); OFF saturated
---   10 GINV saturated: the pending update
--- One carry chain or one multiply (with its rounding constant) per stage. ce = 0 freezes every
+--   5 e = yw - a                                            6 e * a partial products (<= 18x18)
+--   7 e * a rows (one per 17-bit chunk of e)                8 e * a (rows summed)
+--   9 SE, SEA, SWEEP accumulated (last sample: snapshot, accumulators cleared)
+--   10 SEA * KG partial products (<= 18x18); OFF + step; SWEEP test
+--   11 SEA * KG rows; OFF saturated                         12, 13 rows summed: P = SEA * KG
+--   14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1]              15 GINV saturated: the pending update
+-- One carry chain or one multiply (with its rounding constant) per stage (the e * a row sum adds three
+-- rows when e has three chunks, ADC_W + TABLE_FRAC >= 34). ce = 0 freezes every
 -- register (and the RAM reads); rst (synchronous, active high, wins over ce) clears the valid bits, the
 -- counters, the accumulators, the pending update, track_sat and the state; never the data registers.
 -- Tables: two two-bank fringe_table_ram (2 x 2^FWD_W words each), written through wr_en / wr_sel
@@ -109,7 +113,7 @@ end entity fringe_drift;
 architecture rtl of fringe_drift is
 
     constant NORM_LATENCY : integer := 4;
-    constant OBS_LATENCY : integer := 13;
+    constant OBS_LATENCY : integer := 15;
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
@@ -254,8 +258,8 @@ architecture rtl of fringe_drift is
     signal rd_addr    : std_logic_vector(FWD_W downto 0);
     signal wr_en_s, wr_en_c : std_logic;
     signal fs_q, fc_q : std_logic_vector(2 * TW - 1 downto 0);
-    signal ovalid     : std_logic_vector(1 to 6);
-    signal olast      : std_logic_vector(1 to 6);
+    signal ovalid     : std_logic_vector(1 to 8);
+    signal olast      : std_logic_vector(1 to 8);
     signal o1_phase, o1_prev : unsigned(FINE_W - 1 downto 0);
     signal o1_nz      : std_logic;
     signal o1_ys, o1_yc   : signed(ADC_W - 1 downto 0);
@@ -274,13 +278,73 @@ architecture rtl of fringe_drift is
     signal o5_es, o5_ec   : signed(E_W - 1 downto 0);
     signal o5_as, o5_ac   : signed(AW - 1 downto 0);
     signal o5_abs     : unsigned(FINE_W - 1 downto 0);
-    signal o6_eas, o6_eac : signed(EA_W - 1 downto 0);
-    signal o6_es, o6_ec   : signed(E_W - 1 downto 0);
-    signal o6_abs     : unsigned(FINE_W - 1 downto 0);
+    signal o6_es, o6_ec, o7_es, o7_ec, o8_es, o8_ec : signed(E_W - 1 downto 0);
+    signal o6_abs, o7_abs, o8_abs : unsigned(FINE_W - 1 downto 0);
+    signal o8_eas, o8_eac : signed(EA_W - 1 downto 0);
     signal se_s, se_c, snap_se_s, snap_se_c     : signed(SE_W - 1 downto 0);
     signal sea_s, sea_c, snap_sea_s, snap_sea_c : signed(SEA_W - 1 downto 0);
     signal sweep, snap_sweep : unsigned(SW_W - 1 downto 0);
-    signal o7_go      : std_logic;
+    signal o9_go      : std_logic;
+
+    -- e * a as <= 18x18 partial products (see the Verilog twin): e in 17-bit chunks (NE), a in a low
+    -- 17-bit part and a signed top (NA = 2) or whole (NA = 1)
+    constant EL  : integer := 17;
+    constant NE  : integer := (E_W + EL - 2) / EL;                  -- e chunks, 1..3
+    constant NA  : integer := (AW + EL - 2) / EL;                   -- a chunks, 1..2
+    constant EXW : integer := 3 * EL + 1;
+    constant AXW : integer := 2 * EL + 1;
+    constant RW  : integer := AW + EL + 1;                          -- a row CE_i * a
+    constant SFW : integer := RW + EL + 1;                          -- the row sum above 2^17
+    type em_t is array (0 to 2) of signed(2 * EL + 1 downto 0);
+    type er_t is array (0 to 2) of signed(RW - 1 downto 0);
+    signal em0_s, em1_s, em0_c, em1_c : em_t;
+    signal er_s, er_c : er_t;
+
+    -- chunk i of e as s18: {0, 17 bits} below the top chunk, the signed top chunk, 0 above
+    function e_chunk(v : signed; i : integer) return signed is
+        constant X : signed(EXW - 1 downto 0) := resize(v, EXW);
+    begin
+        if i < NE - 1 then
+            return signed('0' & std_logic_vector(X(EL * i + EL - 1 downto EL * i)));
+        elsif i = NE - 1 then
+            return X(EL * i + EL downto EL * i);
+        else
+            return to_signed(0, EL + 1);
+        end if;
+    end function e_chunk;
+
+    -- part j of a as s18: NA = 1: a itself (j = 0); NA = 2: {0, 17 bits} (j = 0), the signed top (j = 1)
+    function a_chunk(v : signed; j : integer) return signed is
+        constant X : signed(AXW - 1 downto 0) := resize(v, AXW);
+    begin
+        if NA = 1 then
+            if j = 0 then
+                return X(EL downto 0);
+            else
+                return to_signed(0, EL + 1);
+            end if;
+        elsif j = 0 then
+            return signed('0' & std_logic_vector(X(EL - 1 downto 0)));
+        else
+            return X(2 * EL downto EL);
+        end if;
+    end function a_chunk;
+
+    -- row CE_i * a = CE_i*CA_1 * 2^17 + CE_i*CA_0 (bit join below 2^17)
+    function ea_row(m0 : signed; m1 : signed) return signed is
+        variable hf : signed(2 * EL + 1 downto 0);
+    begin
+        hf := m1 + shift_right(m0, EL);
+        return hf(AW downto 0) & m0(EL - 1 downto 0);
+    end function ea_row;
+
+    -- e * a = R_0 + R_1 * 2^17 + R_2 * 2^34 (bit join below 2^17)
+    function ea_sum(r0 : signed; r1 : signed; r2 : signed) return signed is
+        variable sf : signed(SFW - 1 downto 0);
+    begin
+        sf := resize(r0(RW - 1 downto EL), SFW) + resize(r1, SFW) + shift_left(resize(r2, SFW), EL);
+        return sf(EA_W - EL - 1 downto 0) & r0(EL - 1 downto 0);
+    end function ea_sum;
 
     -- update: SEA * KG as <= 18x18 partial products (see the Verilog twin)
     constant L    : integer := 17;
@@ -405,6 +469,7 @@ begin
 
     p_norm : process (clk)
         variable q_s, q_c : signed(QW - 1 downto 0);
+        variable rb_s, rb_c : signed(QW - 1 downto 0);
         variable os, oc   : boolean;
     begin
         if rising_edge(clk) then
@@ -417,12 +482,16 @@ begin
                 n2_c  <= shift_left(resize(n1_c, OW + 1), OFS_FRAC) - resize(off_c, OW + 1);
                 n2_gs <= ginv_s;
                 n2_gc <= ginv_c;
-                -- 3: d * GINV + 2^(SHN-1)
-                n3_s <= n2_s * signed('0' & n2_gs) + round_term(PW, SHN);
-                n3_c <= n2_c * signed('0' & n2_gc) + round_term(PW, SHN);
-                -- 4: >>> SHN, saturate
-                q_s := n3_s(PW - 1 downto SHN);
-                q_c := n3_c(PW - 1 downto SHN);
+                -- 3: d * GINV
+                n3_s <= n2_s * signed('0' & n2_gs);
+                n3_c <= n2_c * signed('0' & n2_gc);
+                -- 4: rounded, >>> SHN, saturate: (P + 2^(SHN-1)) >>> SHN = (P >>> SHN) + P[SHN-1]
+                rb_s := (others => '0');
+                rb_c := (others => '0');
+                rb_s(0) := n3_s(SHN - 1);
+                rb_c(0) := n3_c(SHN - 1);
+                q_s := n3_s(PW - 1 downto SHN) + rb_s;
+                q_c := n3_c(PW - 1 downto SHN) + rb_c;
                 os := out_of(q_s, ADC_W);
                 oc := out_of(q_c, ADC_W);
                 y_sin <= std_logic_vector(sat_s(q_s, ADC_W));
@@ -480,13 +549,13 @@ begin
             if rst = '1' then
                 ovalid <= (others => '0');
             elsif ce = '1' then
-                ovalid <= obs_valid & ovalid(1 to 5);
+                ovalid <= obs_valid & ovalid(1 to 7);
             end if;
             if ce = '1' then
                 if ocnt = CNT_LAST then
-                    olast <= '1' & olast(1 to 5);
+                    olast <= '1' & olast(1 to 7);
                 else
-                    olast <= '0' & olast(1 to 5);
+                    olast <= '0' & olast(1 to 7);
                 end if;
                 -- 1: input registers (the table read is in the RAMs)
                 o1_phase <= unsigned(obs_phase);
@@ -535,17 +604,34 @@ begin
                 o5_as  <= o4_as;
                 o5_ac  <= o4_ac;
                 o5_abs <= o4_abs;
-                -- 6: e * a
-                o6_eas <= o5_es * o5_as;
-                o6_eac <= o5_ec * o5_ac;
+                -- 6..8: e * a; e and |delta| carried along
+                for i in 0 to 2 loop
+                    -- 6: partial products (bare)
+                    em0_s(i) <= e_chunk(o5_es, i) * a_chunk(o5_as, 0);
+                    em1_s(i) <= e_chunk(o5_es, i) * a_chunk(o5_as, 1);
+                    em0_c(i) <= e_chunk(o5_ec, i) * a_chunk(o5_ac, 0);
+                    em1_c(i) <= e_chunk(o5_ec, i) * a_chunk(o5_ac, 1);
+                    -- 7: rows
+                    er_s(i) <= ea_row(em0_s(i), em1_s(i));
+                    er_c(i) <= ea_row(em0_c(i), em1_c(i));
+                end loop;
+                -- 8: rows summed
+                o8_eas <= ea_sum(er_s(0), er_s(1), er_s(2));
+                o8_eac <= ea_sum(er_c(0), er_c(1), er_c(2));
                 o6_es  <= o5_es;
                 o6_ec  <= o5_ec;
                 o6_abs <= o5_abs;
+                o7_es  <= o6_es;
+                o7_ec  <= o6_ec;
+                o7_abs <= o6_abs;
+                o8_es  <= o7_es;
+                o8_ec  <= o7_ec;
+                o8_abs <= o7_abs;
             end if;
         end if;
     end process p_obs;
 
-    -- 7: accumulators; the block's last sample goes to the snapshot and clears them
+    -- 9: accumulators; the block's last sample goes to the snapshot and clears them
     p_acc : process (clk)
         variable se_s_n, se_c_n   : signed(SE_W - 1 downto 0);
         variable sea_s_n, sea_c_n : signed(SEA_W - 1 downto 0);
@@ -553,28 +639,28 @@ begin
         variable blk_end          : boolean;
     begin
         if rising_edge(clk) then
-            se_s_n  := se_s + resize(o6_es, SE_W);
-            se_c_n  := se_c + resize(o6_ec, SE_W);
-            sea_s_n := sea_s + resize(o6_eas, SEA_W);
-            sea_c_n := sea_c + resize(o6_eac, SEA_W);
-            sweep_n := sweep + resize(o6_abs, SW_W);
-            blk_end := ovalid(6) = '1' and olast(6) = '1';
+            se_s_n  := se_s + resize(o8_es, SE_W);
+            se_c_n  := se_c + resize(o8_ec, SE_W);
+            sea_s_n := sea_s + resize(o8_eas, SEA_W);
+            sea_c_n := sea_c + resize(o8_eac, SEA_W);
+            sweep_n := sweep + resize(o8_abs, SW_W);
+            blk_end := ovalid(8) = '1' and olast(8) = '1';
             if rst = '1' then
                 se_s  <= (others => '0');
                 se_c  <= (others => '0');
                 sea_s <= (others => '0');
                 sea_c <= (others => '0');
                 sweep <= (others => '0');
-                o7_go <= '0';
+                o9_go <= '0';
             elsif ce = '1' then
-                o7_go <= '1' when blk_end else '0';
+                o9_go <= '1' when blk_end else '0';
                 if blk_end then
                     se_s  <= (others => '0');
                     se_c  <= (others => '0');
                     sea_s <= (others => '0');
                     sea_c <= (others => '0');
                     sweep <= (others => '0');
-                elsif ovalid(6) = '1' then
+                elsif ovalid(8) = '1' then
                     se_s  <= se_s_n;
                     se_c  <= se_c_n;
                     sea_s <= sea_s_n;
@@ -592,10 +678,10 @@ begin
         end if;
     end process p_acc;
 
-    -- ---- the update (stages 8..13): SEA * KG as <= 18x18 partial products, one carry chain per stage ----
-    -- 8 partial products C_c * KL, C_c * KH (bare); OFF + step; SWEEP test   9 rows; OFF saturated
-    -- 10 PA = R_0 + R_1 * 2^17, PB = R_2 + R_3 * 2^17   11 P = PA + PB * 2^34 + R_4 * 2^68
-    -- 12 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   13 GINV saturated: pending
+    -- ---- the update (stages 10..15): SEA * KG as <= 18x18 partial products, one carry chain per stage ----
+    -- 10 partial products C_c * KL, C_c * KH (bare); OFF + step; SWEEP test   11 rows; OFF saturated
+    -- 12 PA = R_0 + R_1 * 2^17, PB = R_2 + R_3 * 2^17   13 P = PA + PB * 2^34 + R_4 * 2^68
+    -- 14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   15 GINV saturated: pending
     p_upd : process (clk)
         variable kgx_s, kgx_c : unsigned(2 * L - 1 downto 0);
         variable kl_s, kl_c   : signed(L downto 0);
@@ -609,7 +695,7 @@ begin
             if rst = '1' then
                 u_v <= (others => '0');
             elsif ce = '1' then
-                u_v <= o7_go & u_v(1 to 4);
+                u_v <= o9_go & u_v(1 to 4);
             end if;
             if ce = '1' then
                 kgx_s := resize(kg_hold_s, 2 * L);
@@ -624,42 +710,42 @@ begin
                     kh_c := (others => '0');
                 end if;
                 for c in 0 to 4 loop
-                    -- 8: partial products (bare)
+                    -- 10: partial products (bare)
                     m_ls(c) <= chunk(snap_sea_s, c) * kl_s;
                     m_lc(c) <= chunk(snap_sea_c, c) * kl_c;
                     m_hs(c) <= chunk(snap_sea_s, c) * kh_s;
                     m_hc(c) <= chunk(snap_sea_c, c) * kh_c;
-                    -- 9: rows
+                    -- 11: rows
                     r_s(c) <= row(m_ls(c), m_hs(c));
                     r_c(c) <= row(m_lc(c), m_hc(c));
                 end loop;
-                -- 10: row pairs
+                -- 12: row pairs
                 pa_s <= pair(r_s(0), r_s(1));
                 pb_s <= pair(r_s(2), r_s(3));
                 pa_c <= pair(r_c(0), r_c(1));
                 pb_c <= pair(r_c(2), r_c(3));
                 r4_s <= r_s(4);
                 r4_c <= r_c(4);
-                -- 11: P = SEA * KG
+                -- 13: P = SEA * KG
                 p_s <= total(pa_s, pb_s, r4_s);
                 p_c <= total(pa_c, pb_c, r4_c);
-                -- 8: OFF + step, SWEEP test
+                -- 10: OFF + step, SWEEP test
                 stp_s := shift_right(shift_left(resize(snap_se_s, XW), OFS_FRAC), SH_O);
                 stp_c := shift_right(shift_left(resize(snap_se_c, XW), OFS_FRAC), SH_O);
                 u1_os <= resize(off_s, OS_W) + resize(stp_s, OS_W);
                 u1_oc <= resize(off_c, OS_W) + resize(stp_c, OS_W);
                 u1_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
-                -- 9: OFF saturated
+                -- 11: OFF saturated
                 os_over := out_of(u1_os, OW);
                 oc_over := out_of(u1_oc, OW);
                 u2_os  <= sat_s(u1_os, OW);
                 u2_oc  <= sat_s(u1_oc, OW);
                 u2_sat <= '1' when os_over or oc_over else '0';
                 u2_ok  <= u1_ok;
-                -- 10, 11: carried along
+                -- 12, 13: carried along
                 u3_os <= u2_os;  u3_oc <= u2_oc;  u3_sat <= u2_sat;  u3_ok <= u2_ok;
                 u4_os <= u3_os;  u4_oc <= u3_oc;  u4_sat <= u3_sat;  u4_ok <= u3_ok;
-                -- 12: GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] = GINV + not dg + not P[KG_SHIFT-1]
+                -- 14: GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] = GINV + not dg + not P[KG_SHIFT-1]
                 dg_s := p_s(PR_W - 1 downto KG_SHIFT);
                 dg_c := p_c(PR_W - 1 downto KG_SHIFT);
                 rbn_s := (others => '0');
@@ -670,7 +756,7 @@ begin
                 u5_gc <= signed(resize(ginv_c, GS_W)) + (not resize(dg_c, GS_W)) + rbn_c;
                 u5_os <= u4_os;  u5_oc <= u4_oc;  u5_sat <= u4_sat;  u5_ok <= u4_ok;
             end if;
-            -- 13: the pending update (taken by the normaliser at its application sample)
+            -- 15: the pending update (taken by the normaliser at its application sample)
             gs_neg  := u5_gs(GS_W - 1) = '1';
             gc_neg  := u5_gc(GS_W - 1) = '1';
             gs_high := not gs_neg and u5_gs(GS_W - 2 downto GINV_W) /= 0;

@@ -55,7 +55,7 @@ NAME = "fringe_drift"
 NORM_LATENCY = 4
 #: Enabled clocks from obs_valid of a block's last sample (its own clock enable counted) until the
 #: block's update is pending (ready to be applied).
-OBS_LATENCY = 13
+OBS_LATENCY = 15
 
 
 def _check_int(name: str, v) -> None:
