@@ -241,8 +241,12 @@ def tracked_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
     scale = float(1 << cfg.fine_w)
     words = np.stack([drift_mod.pack_words(v, p) for v in t.fwd])
 
+    mags = []       # drift_float feeds every sample once, in order
+
     def phase_of(ys, yc):
-        return fine_phase(plain, ys, yc)[0] * scale
+        frac, mag = fine_phase(plain, ys, yc)
+        mags.append(mag)
+        return frac * scale
 
     r = drift_mod.drift_float(sin, cos, phase_of, p, words, t.w0, t.kg)
-    return fine_phase(plain, r["y_sin"], r["y_cos"])
+    return r["phase"] / scale, (np.concatenate(mags) if mags else np.zeros(0))

@@ -202,18 +202,21 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
         # CLIP_* stay flags of the raw ADC codes; a saturated normalised code is SATURATED.
         dp = cfg.drift_params(drift_pipe_latency(cfg))
         words = np.stack([[drift_mod.pack_words(v, dp) for v in t.drift.fwd] for t in banks])
-        cursor = [0]
+        parts, done = [], [0]     # drift_run feeds every sample once, in order: keep the chain's outputs
 
         def phase_of(ys, yc):
-            i = cursor[0]
-            cursor[0] = i + len(ys)
-            return front(ys, yc, bank[i:i + len(ys)])[3]
+            i = done[0]
+            done[0] = i + len(ys)
+            parts.append(front(ys, yc, bank[i:i + len(ys)]))
+            return parts[-1][3]
 
         r = drift_mod.drift_run(sin, cos, phase_of, dp, words, np.stack([t.drift.w0 for t in banks]),
                                 np.stack([t.drift.kg for t in banks]), bank=bank)
         half = 1 << (cfg.adc_w - 1)
         clip_s, clip_c = (sin <= -half) | (sin >= half - 1), (cos <= -half) | (cos >= half - 1)
-        _, _, sat, phase, mag = front(r.y_sin, r.y_cos, bank)
+        if not parts:
+            parts.append(front(r.y_sin, r.y_cos, bank))
+        _, _, sat, phase, mag = (np.concatenate([x[k] for x in parts]) for k in range(5))
         sat = sat | r.sat.astype(bool)
     else:
         clip_s, clip_c, sat, phase, mag = front(sin, cos, bank)

@@ -33,6 +33,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .table_ram import interpolate, periodic_slopes, split_words
+
 __all__ = [
     "NAME",
     "NORM_LATENCY",
@@ -236,7 +238,7 @@ def pack_words(values, params: DriftParams) -> np.ndarray:
     if v.shape != (p.bins,) or (v.size and not np.issubdtype(v.dtype, np.integer)):
         raise ValueError(f"{NAME}: table values must be {p.bins} integers, got {v.shape} {v.dtype}")
     v = v.astype(np.int64)
-    sl = np.roll(v, -1) - v
+    sl = periodic_slopes(v)
     lo, hi = _limits(p.table_w)
     for what, x in (("value", v), ("slope", sl)):
         bad = np.flatnonzero((x < lo) | (x > hi))
@@ -249,10 +251,7 @@ def pack_words(values, params: DriftParams) -> np.ndarray:
 
 def unpack_words(words, params: DriftParams) -> tuple[np.ndarray, np.ndarray]:
     """``(slope, value)`` as signed int64 from RAM words (any word is legal)."""
-    w = np.asarray(words).astype(np.int64)
-    tw = params.table_w
-    m, s = (1 << tw) - 1, 1 << (tw - 1)
-    return (((w >> tw) & m) ^ s) - s, ((w & m) ^ s) - s
+    return split_words(words, params.table_w)
 
 
 def kg_for(values, params: DriftParams) -> int:
@@ -307,8 +306,7 @@ def observe(phase, y_sin, y_cos, bank, tables, w0, params: DriftParams):
     frac = ph & ((1 << p.fb) - 1)
     res = []
     for k, y in ((0, y_sin), (1, y_cos)):
-        slope, value = unpack_words(tables[bank, k, b], p)
-        a = value + ((slope * frac + (1 << (p.fb - 1))) >> p.fb)
+        a = interpolate(*unpack_words(tables[bank, k, b], p), frac, p.fb)
         e = (np.asarray(y, dtype=np.int64) << p.table_frac) - w0[bank, k] - a
         res.append((e, a))
     return res[0][0], res[1][0], res[0][1], res[1][1]

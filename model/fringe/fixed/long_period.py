@@ -62,12 +62,24 @@ LP_SHIFT_MAX = 127
 NAME = "fringe_long_period"
 
 
-def _mapping_ok(rev: int, lp_addr_w: int, recip: int, shift: int) -> bool:
-    """The bound of `check_index_mapping` on Python integers (also what the HDL checks)."""
+def mapping_ok(rev: int, addr_w: int, recip: int, shift: int) -> bool:
+    """The bound of `check_index_mapping` on Python integers (also what the HDL checks): whether
+    ``(pos * recip) >> shift == floor(pos * 2^addr_w / rev)`` for every pos < rev. Shared with
+    fringe_trim's sector index (`trim.check_sector_mapping`)."""
     v2 = (rev & -rev).bit_length() - 1               # 2-adic valuation of REV
-    g_log = min(lp_addr_w, v2)                       # gcd(2^LP_ADDR_W, REV) = 2^g_log
-    e = recip * rev - (1 << (lp_addr_w + shift))     # g * (recip * b - a * 2^shift)
+    g_log = min(addr_w, v2)                          # gcd(2^addr_w, REV) = 2^g_log
+    e = recip * rev - (1 << (addr_w + shift))        # g * (recip * b - a * 2^shift)
     return recip >= 1 and e >= 0 and (rev - 1) * e < (1 << (g_log + shift))
+
+
+def smallest_mapping(rev: int, addr_w: int, min_shift: int, max_shift: int) -> tuple[int, int] | None:
+    """``(recip, shift)`` with the smallest shift in [min_shift, max_shift] whose reciprocal
+    ``ceil(2^(addr_w + shift) / rev)`` passes `mapping_ok`, or None."""
+    for shift in range(min_shift, max_shift + 1):
+        recip = -(-(1 << (addr_w + shift)) // rev)
+        if mapping_ok(rev, addr_w, recip, shift):
+            return recip, shift
+    return None
 
 
 def check_index_mapping(lines: int, fine_w: int, lp_addr_w: int, lp_if: int, recip: int, shift: int) -> None:
@@ -83,7 +95,7 @@ def check_index_mapping(lines: int, fine_w: int, lp_addr_w: int, lp_if: int, rec
     rev = rev_and_pos_w(lines, fine_w)[0]
     if not lp_if <= shift <= LP_SHIFT_MAX:
         raise ValueError(f"{NAME}: LP_SHIFT = {shift} out of range LP_IF = {lp_if} .. {LP_SHIFT_MAX}")
-    if not _mapping_ok(rev, lp_addr_w, recip, shift):
+    if not mapping_ok(rev, lp_addr_w, recip, shift):
         raise ValueError(f"{NAME}: LP_RECIP = {recip}, LP_SHIFT = {shift} do not map every position to "
                          "floor(pos * 2^LP_ADDR_W / REV); take them from index_mapping()")
 
@@ -98,10 +110,9 @@ def index_mapping(lines: int, fine_w: int, lp_addr_w: int, lp_if: int) -> tuple[
     gives ``e = 0`` at the first shift where the reciprocal is an integer: a power of two.
     """
     rev = rev_and_pos_w(lines, fine_w)[0]
-    for shift in range(lp_if, LP_SHIFT_MAX + 1):
-        recip = -(-(1 << (lp_addr_w + shift)) // rev)
-        if _mapping_ok(rev, lp_addr_w, recip, shift):
-            return recip, shift
+    found = smallest_mapping(rev, lp_addr_w, lp_if, LP_SHIFT_MAX)
+    if found:
+        return found
     raise ValueError(f"{NAME}: no index mapping with LP_SHIFT <= {LP_SHIFT_MAX} for REV = {rev}")
 
 

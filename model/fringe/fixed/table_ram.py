@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["format_hex", "read_hex", "write_hex"]
+__all__ = ["format_hex", "interpolate", "periodic_slopes", "read_hex", "split_words", "write_hex"]
 
 
 def _check_words(words, data_w: int) -> np.ndarray:
@@ -76,3 +76,27 @@ def read_hex(path, data_w: int) -> np.ndarray:
             raise ValueError(f"{path}:{n}: word {s} wider than {data_w} bits")
         out.append(v)
     return np.array(out, dtype=np.int64 if data_w < 64 else object)
+
+
+# ---------------------------------------------------------------------------- {slope, value} words
+# The interpolated tables (fringe_trim, fringe_drift) store a word {slope, value} per point, both
+# s(W), value in the low half; the interpolated value is value + ((slope * frac + 2^(FB-1)) >>> FB).
+
+
+def periodic_slopes(values) -> np.ndarray:
+    """``slope[k] = value[k+1] - value[k]`` along the last axis, periodic: the last point takes value[0]."""
+    v = np.asarray(values, dtype=np.int64)
+    return np.roll(v, -1, axis=-1) - v
+
+
+def split_words(words, w: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(slope, value)`` as signed int64 from words {slope, value} of two s(w) fields (w <= 31;
+    any word is legal)."""
+    x = np.asarray(words).astype(np.int64)
+    mask, sign = (1 << w) - 1, 1 << (w - 1)
+    return (((x >> w) & mask) ^ sign) - sign, ((x & mask) ^ sign) - sign
+
+
+def interpolate(slope, value, frac, fb: int) -> np.ndarray:
+    """``value + ((slope * frac + 2^(fb-1)) >>> fb)`` in int64, the RTL's rounding (fb >= 1)."""
+    return value + ((np.asarray(slope, dtype=np.int64) * frac + (1 << (fb - 1))) >> fb)

@@ -34,7 +34,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from .long_period import mapping_ok, smallest_mapping
 from .period_count import clog2
+from .table_ram import interpolate, periodic_slopes, split_words
 
 __all__ = [
     "LATENCY",
@@ -66,14 +68,6 @@ POS_W_MAX = 31
 # ---------------------------------------------------------------------------- sector mapping
 
 
-def _mapping_ok(rev: int, psi_w: int, recip: int, shift: int) -> bool:
-    """Granlund-Montgomery bound (as ``long_period.check_index_mapping``), also checked by the HDL."""
-    v2 = (rev & -rev).bit_length() - 1               # 2-adic valuation of REV
-    g_log = min(psi_w, v2)                           # gcd(2^MAP_PSI_W, REV) = 2^g_log
-    e = recip * rev - (1 << (psi_w + shift))
-    return recip >= 1 and e >= 0 and (rev - 1) * e < (1 << (g_log + shift))
-
-
 def check_sector_mapping(lines: int, fine_w: int, map_psi_w: int, recip: int, shift: int) -> None:
     """Raise ValueError unless ``(pos * recip) >> shift == floor(pos * 2^MAP_PSI_W / REV)`` is proven
     for every pos in [0, REV) (nothing to check when MAP_PSI_W = 0: the sector is 0).
@@ -88,7 +82,7 @@ def check_sector_mapping(lines: int, fine_w: int, map_psi_w: int, recip: int, sh
     rev = int(lines) << int(fine_w)
     if not 0 <= shift <= SECT_SHIFT_MAX:
         raise ValueError(f"{NAME}: SECT_SHIFT = {shift} out of range 0..{SECT_SHIFT_MAX}")
-    if not _mapping_ok(rev, map_psi_w, recip, shift):
+    if not mapping_ok(rev, map_psi_w, recip, shift):
         raise ValueError(f"{NAME}: SECT_RECIP = {recip}, SECT_SHIFT = {shift} do not map every position to "
                          "floor(pos * 2^MAP_PSI_W / REV); take them from sector_mapping()")
 
@@ -102,10 +96,9 @@ def sector_mapping(lines: int, fine_w: int, map_psi_w: int) -> tuple[int, int]:
     if map_psi_w == 0:
         return 0, 0
     rev = int(lines) << int(fine_w)
-    for shift in range(0, SECT_SHIFT_MAX + 1):
-        recip = -(-(1 << (map_psi_w + shift)) // rev)
-        if _mapping_ok(rev, map_psi_w, recip, shift):
-            return recip, shift
+    found = smallest_mapping(rev, map_psi_w, 0, SECT_SHIFT_MAX)
+    if found:
+        return found
     raise ValueError(f"{NAME}: no sector mapping with SECT_SHIFT <= {SECT_SHIFT_MAX} for REV = {rev}")
 
 
@@ -261,8 +254,7 @@ def _limits(w: int) -> tuple[int, int]:
 
 def slopes(values) -> np.ndarray:
     """``slope[k] = value[k+1] - value[k]`` along the last (bin) axis, periodic: the last bin takes value[0]."""
-    v = np.asarray(values, dtype=np.int64)
-    return np.roll(v, -1, axis=-1) - v
+    return periodic_slopes(values)
 
 
 def _round_check(raw: np.ndarray, scale: float, p: TrimParams, what: str) -> np.ndarray:
@@ -367,13 +359,7 @@ def pack_words(values, params: TrimParams) -> np.ndarray:
 
 def unpack_words(words, params: TrimParams) -> tuple[np.ndarray, np.ndarray]:
     """``(slope, value)`` as signed int64 from RAM words (any shape; any word is legal)."""
-    w = np.asarray(words).astype(np.int64)
-    tw = params.trim_w
-    mask = (1 << tw) - 1
-    sign = 1 << (tw - 1)
-    value = ((w & mask) ^ sign) - sign
-    slope = (((w >> tw) & mask) ^ sign) - sign
-    return slope, value
+    return split_words(words, params.trim_w)
 
 
 # ---------------------------------------------------------------------------- the datapath
@@ -435,12 +421,7 @@ def _banked(words: np.ndarray, addr: np.ndarray, bank, size: int, what: str) -> 
 
 def _interp(word: np.ndarray, frac: np.ndarray, p: TrimParams) -> np.ndarray:
     """value + ((slope * frac + 2^(FB-1)) >>> FB) from raw words."""
-    slope, value = unpack_words(word, p)
-    slope *= frac
-    slope += 1 << (p.fb - 1)
-    slope >>= p.fb
-    slope += value
-    return slope
+    return interpolate(*unpack_words(word, p), frac, p.fb)
 
 
 def trim_detail(pos, mag, map_words, speed_words, amp_words, params: TrimParams, bank=None,
