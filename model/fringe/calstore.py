@@ -6,10 +6,10 @@ import os
 import numpy as np
 
 from . import __version__
-from .dataio import atomic_dir
 from .encoder import encoder_from_dict
 from .errors import FringeInputError
 from .longperiod import FourierSeries
+from .outputs import atomic_dir, verify_dir
 from .pipeline import Calibration
 from .quadrature import QuadratureCorrection
 from .waveform import ChannelWaveform, WaveformInverse
@@ -23,7 +23,8 @@ VERSION = 1
 def to_json_dict(cal: Calibration) -> dict:
     wave = None
     if isinstance(cal.inv_sin, WaveformInverse) and isinstance(cal.inv_cos, WaveformInverse):
-        wave = {"table_file": WAVE_CSV, "interpolation": "linear between table points",
+        wave = {"table_file": WAVE_CSV, "points": int(cal.inv_sin.values.shape[1]),
+                "interpolation": "linear between table points",
                 "sin": {"model": cal.waves["sin"].to_dict(), "inverse": cal.inv_sin.to_dict()},
                 "cos": {"model": cal.waves["cos"].to_dict(), "inverse": cal.inv_cos.to_dict()}}
     lp = None
@@ -55,9 +56,10 @@ def to_json_dict(cal: Calibration) -> dict:
     }
 
 
-def save_calibration(cal: Calibration, out_dir: str, extra_files: dict | None = None):
+def save_calibration(cal: Calibration, out_dir: str, extra_files: dict | None = None, inputs=(),
+                     command: str = "fringe calibrate"):
     """Write everything into a temporary folder and move it into place only when complete."""
-    with atomic_dir(out_dir, ".tmp-cal-") as tmp:
+    with atomic_dir(out_dir, "calibration", inputs, command) as tmp:
         with open(os.path.join(tmp, CAL_JSON), "w", encoding="utf-8") as f:
             json.dump(to_json_dict(cal), f, indent=2, default=_jsonable)
             f.write("\n")
@@ -89,9 +91,9 @@ def write_wave_tables(path: str, inv_sin: WaveformInverse, inv_cos: WaveformInve
 
 
 def load_calibration(cal_dir: str) -> Calibration:
+    """Read CAL_DIR after checking it is complete and unedited (its manifest's checksums)."""
     path = os.path.join(cal_dir, CAL_JSON)
-    if not os.path.isdir(cal_dir):
-        raise FringeInputError("calibration folder not found", cal_dir)
+    verify_dir(cal_dir, "calibration")
     try:
         with open(path, encoding="utf-8") as f:
             d = json.load(f)
@@ -104,6 +106,8 @@ def load_calibration(cal_dir: str) -> Calibration:
     try:
         enc = encoder_from_dict(d["encoder"], path)
         st = d["stages"]
+        if st["output"]["direction"] not in (-1, 1):
+            raise ValueError(f"direction must be +1 or -1, not {st['output']['direction']!r}")
         cal = Calibration(encoder=enc, quad=QuadratureCorrection.from_dict(st["quadrature"]),
                           direction=int(st["output"]["direction"]), zero_deg=float(st["output"]["zero_deg"]),
                           amp_low=float(st["status"]["amp_low"]), amp_high=float(st["status"]["amp_high"]),
@@ -127,7 +131,12 @@ def load_calibration(cal_dir: str) -> Calibration:
         if st.get("waveform"):
             w = st["waveform"]
             cal.waves = {k: ChannelWaveform.from_dict(w[k]["model"]) for k in ("sin", "cos")}
-            table = _read_wave_tables(os.path.join(cal_dir, w["table_file"]))
+            if w["table_file"] != WAVE_CSV:
+                raise ValueError(f"the waveform table file must be {WAVE_CSV}")
+            table = _read_wave_tables(os.path.join(cal_dir, WAVE_CSV))
+            if len(table) != int(w["points"]):
+                raise FringeInputError(f"holds {len(table)} table rows, {CAL_JSON} says {w['points']}",
+                                       os.path.join(cal_dir, WAVE_CSV))
             for k, cols in (("sin", (1, 2)), ("cos", (3, 4))):
                 inv = w[k]["inverse"]
                 setattr(cal, f"inv_{k}", WaveformInverse(

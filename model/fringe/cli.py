@@ -3,7 +3,9 @@
 import argparse
 import json
 import os
+import signal
 import sys
+import warnings
 
 import numpy as np
 
@@ -27,6 +29,16 @@ def _positive_int(text):
     return v
 
 
+def _seed(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if not 0 <= v < 1 << 63:
+        raise argparse.ArgumentTypeError(f"must be from 0 to 2^63-1, got {v}")
+    return v
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="fringe", description="Signal correction for sin/cos (moire-fringe) encoders.")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -35,7 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--preset", required=True, help="encoder preset, e.g. seed-encoder")
     s.add_argument("--out", required=True, help="DATA.csv to write")
     s.add_argument("--encoder-out", help="also write the encoder description (JSON)")
-    s.add_argument("--seed", type=int, default=1, help="random seed (trajectory and noise)")
+    s.add_argument("--seed", type=_seed, default=1, help="random seed (trajectory and noise), 0 .. 2^63-1")
     s.add_argument("--samples", type=_positive_int, help="number of samples (default: the preset's)")
 
     c = sub.add_parser("calibrate", help="fit the correction")
@@ -71,46 +83,62 @@ def build_parser() -> argparse.ArgumentParser:
 
 def cmd_simulate(a) -> int:
     from . import simulate
-    from .dataio import write_csv
+    from .dataio import check_memory, write_csv
+    from .outputs import atomic_output, check_output_file
 
+    check_output_file(a.out, "simulate")
+    if a.encoder_out:
+        check_output_file(a.encoder_out, "simulate", inputs=(a.out,))
     cfg = simulate.preset(a.preset)
     if a.samples:
         cfg.samples = a.samples
+    check_memory(cfg.samples, SIMULATE_BYTES_PER_SAMPLE, "too many samples", "--samples")
     rec = simulate.simulate(cfg, seed=a.seed)
     cols = {k: rec.columns[k] for k in ("t_s", "sin", "cos", "coarse", "ref_deg") if k in rec.columns}
-    if a.encoder_out:
-        _check_writable(a.encoder_out)
     write_csv(a.out, cols, simulate.describe(cfg, a.seed), simulate.csv_formats())
     if a.encoder_out:
-        from .dataio import atomic_output
-        with atomic_output(a.encoder_out) as f:
-            json.dump(rec.encoder.to_dict(), f, indent=2)
+        with atomic_output(a.encoder_out, "simulate") as f:
+            json.dump({**rec.encoder.to_dict(), "written_by": f"fringe simulate --preset {a.preset} --seed {a.seed}"},
+                      f, indent=2)
             f.write("\n")
     print(f"wrote {a.out}: {cfg.samples} samples, preset {a.preset}, seed {a.seed}")
     return 0
 
 
-def _check_writable(path):
-    d = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(d):
-        raise FringeInputError("output folder does not exist", path)
+SIMULATE_BYTES_PER_SAMPLE = 400   # the simulator's arrays and the CSV text, per sample
+
+
+def _read_for_calibration(path, enc):
+    """The recording, refused early when its signals cannot be calibrated (too short, dead, clipped) or
+    when it disagrees with the encoder description (diagnose)."""
+    from .calibrate import check_recording as check_signals
+    from .dataio import read_measurement
+    from .diagnose import check_recording
+
+    meas = read_measurement(path, enc)
+    check_signals(meas, enc)
+    check_recording(meas, enc)
+    return meas
 
 
 def cmd_calibrate(a) -> int:
     from .calibrate import calibrate
     from .calstore import save_calibration
-    from .dataio import read_measurement
     from .encoder import load_encoder
     from .engines import core_files
+    from .outputs import check_output_dir
 
+    inputs = (a.data, a.encoder)
+    check_output_dir(a.out, "calibration", inputs)
     enc = load_encoder(a.encoder)
-    meas = read_measurement(a.data, enc)
+    meas = _read_for_calibration(a.data, enc)
     cal = calibrate(meas, enc)
-    extra = core_files(cal, f"fringe calibrate {a.data} --encoder {a.encoder} --out {a.out}")
+    command = f"fringe calibrate {a.data} --encoder {a.encoder} --out {a.out}"
+    extra = core_files(cal, command)
     if a.plots:
         from .report import calibration_plots
         extra.update(calibration_plots(cal, meas))
-    save_calibration(cal, a.out, extra)
+    save_calibration(cal, a.out, extra, inputs, command)
     print(summary_text(cal, meas))
     print(f"wrote {a.out}/")
     return 0
@@ -144,14 +172,19 @@ def cmd_correct(a) -> int:
     from .calstore import load_calibration
     from .dataio import read_measurement, write_csv
     from .engines import run_engine
+    from .outputs import check_output_file
 
+    inputs = (a.data, a.cal)
+    check_output_file(a.out, "correct", inputs)
     cal = load_calibration(a.cal)
     meas = read_measurement(a.data, cal.encoder)
-    _check_writable(a.out)
+    if cal.encoder.coarse_bits and meas.coarse is None:
+        raise FringeInputError(f"the calibration's encoder has a {cal.encoder.coarse_bits}-bit coarse code, but the "
+                               "recording has no 'coarse' column", a.data)
     res = run_engine(a.engine, cal, meas, a.cal)
     write_csv(a.out, {"angle_deg": res.angle_deg, "status": res.status},
               (f"fringe correct --engine {a.engine}: {a.data} with {a.cal}",),
-              {"angle_deg": "%.9f", "status": "%d"})
+              {"angle_deg": "%.9f", "status": "%d"}, inputs)
     msg = f"wrote {a.out}: {len(meas)} rows, engine {a.engine}"
     flagged = int(np.count_nonzero(res.status & 0x7F))
     if flagged:
@@ -165,13 +198,14 @@ def cmd_correct(a) -> int:
 
 
 def cmd_loop(a) -> int:
-    from .dataio import read_measurement
     from .encoder import load_encoder
     from .loop import run_loop, write_outputs
+    from .outputs import check_output_dir
 
+    check_output_dir(a.out, "loop", (a.data, a.encoder, a.validate))
     enc = load_encoder(a.encoder)
-    train = read_measurement(a.data, enc)
-    val = read_measurement(a.validate, enc) if a.validate else None
+    train = _read_for_calibration(a.data, enc)
+    val = _read_for_calibration(a.validate, enc) if a.validate else None
     base, state, report = run_loop(train, enc, val)
     write_outputs(base, state, report, train, val, a.out)
     b, f = report["before"], report["after"]
@@ -186,18 +220,27 @@ def cmd_loop(a) -> int:
     return 0
 
 
+ROM_OPTIONS = ("wave_addr_w", "wave_w", "fine_w", "cordic_stages", "lp_addr_w")
+
+
 def cmd_rom(a) -> int:
     from .calstore import load_calibration
     from .engines import core_config, write_core_roms
+    from .outputs import check_output_dir
+    from .rom import FORMATS
 
-    cal = load_calibration(a.cal)
     formats = [f.strip() for f in a.format.split(",") if f.strip()]
-    overrides = {k: getattr(a, k) for k in ("wave_addr_w", "wave_w", "fine_w", "cordic_stages", "lp_addr_w")
-                 if getattr(a, k) is not None}
+    unknown = [f for f in formats if f not in FORMATS]
+    if not formats or unknown:
+        raise FringeInputError(f"{'unknown format ' + repr(unknown[0]) if unknown else 'no format given'} "
+                               f"(choose from {','.join(FORMATS)})", "--format")
+    check_output_dir(a.out, "rom", (a.cal,))
+    cal = load_calibration(a.cal)
+    overrides = {k: getattr(a, k) for k in ROM_OPTIONS if getattr(a, k) is not None}
+    options = " ".join(f"--{k.replace('_', '-')} {v}" for k, v in overrides.items())
     cfg = core_config(cal, a.cal, **overrides)
-    command = f"fringe rom {a.cal} --out {a.out} --format {','.join(formats)}" + "".join(
-        f" --{k.replace('_', '-')} {v}" for k, v in overrides.items())
-    files = write_core_roms(cal, cfg, a.out, formats, command)
+    command = f"fringe rom {a.cal} --out {a.out} --format {','.join(formats)}" + (" " + options if options else "")
+    files = write_core_roms(cal, cfg, a.out, formats, command, (a.cal,), where=options or a.cal)
     print(f"wrote {a.out}/: {', '.join(files)}")
     return 0
 
@@ -206,16 +249,42 @@ COMMANDS = {"simulate": cmd_simulate, "calibrate": cmd_calibrate, "correct": cmd
             "loop": cmd_loop}
 
 
+def _interrupted(signum, frame):
+    raise KeyboardInterrupt(signum)
+
+
 def main(argv=None) -> int:
+    """Every failure is one line on stderr and exit status 2 (130 and up for signals); nothing half-written."""
+    for sig in (signal.SIGTERM, signal.SIGHUP):     # clean up as for Ctrl-C: temporary outputs are removed
+        signal.signal(sig, _interrupted)
+    debug = bool(os.environ.get("FRINGE_DEBUG"))
     try:
-        args = build_parser().parse_args(argv)
-        return COMMANDS[args.command](args)
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            if not debug:
+                warnings.simplefilter("ignore")
+            args = build_parser().parse_args(argv)
+            return COMMANDS[args.command](args)
     except FringeInputError as e:
         print(f"fringe: {e}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("fringe: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as e:
+        signum = e.args[0] if e.args and isinstance(e.args[0], int) else signal.SIGINT
+        print(f"fringe: interrupted by {signal.Signals(signum).name}; nothing was written", file=sys.stderr)
+        return 128 + signum
+    except MemoryError:
+        print("fringe: out of memory: the recording is too large for this machine (split it)", file=sys.stderr)
+        return 2
+    except OSError as e:
+        where = e.filename or "output"
+        print(f"fringe: {where}: {e.strerror or e}", file=sys.stderr)
+        return 2
+    except Exception as e:   # a fault of fringe itself: still one line, and no partial output (see FRINGE_DEBUG)
+        if debug:
+            raise
+        first = str(e).splitlines()[0] if str(e) else ""
+        print(f"fringe: internal error ({type(e).__name__}: {first}); set FRINGE_DEBUG=1 for the details",
+              file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

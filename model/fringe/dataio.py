@@ -1,10 +1,7 @@
-"""Measured-data CSV (spec section 1): strict reading, atomic writing."""
+"""Measured data (spec section 1): strict, fast reading (pyarrow's CSV reader), atomic writing."""
 
 import csv
-import io
 import os
-import tempfile
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,9 +24,14 @@ class Measurement:
     ref_deg: np.ndarray | None = None
     t_s: np.ndarray | None = None
     comments: tuple[str, ...] = ()
+    row_lines: object = None           # where row r stands in the file: a callable, an array of line numbers
 
     def __len__(self) -> int:
         return len(self.sin)
+
+    def row_line(self, r: int) -> str:
+        """'line N' (or 'row N') of row r, for messages."""
+        return _row_line(self.row_lines, r) if self.row_lines is not None else f"row {r + 1}"
 
     def subset(self, mask_or_index) -> "Measurement":
         pick = lambda a: None if a is None else a[mask_or_index]  # noqa: E731
@@ -37,62 +39,69 @@ class Measurement:
                            pick(self.coarse), pick(self.ref_deg), pick(self.t_s), self.comments)
 
 
-def read_measurement(path: str, encoder: Encoder | None = None, min_samples: int = 1) -> Measurement:
-    """Read and check a recording; every problem is a FringeInputError naming file and line."""
+def available_memory() -> int:
+    """Bytes the system can still give (MemAvailable), or a large number where it cannot tell."""
     try:
-        with open(path, encoding="utf-8", newline="") as f:
-            text = f.read()
-    except OSError as e:
-        raise FringeInputError(f"cannot read data file: {e.strerror}", path) from None
-    except UnicodeDecodeError:
-        raise FringeInputError("not a text (UTF-8) CSV file", path) from None
+        with open("/proc/meminfo", encoding="ascii") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return 1 << 62
 
-    lines = text.splitlines()
-    comments, header_line = [], None
-    for i, line in enumerate(lines):
-        if line.lstrip().startswith("#"):
-            comments.append(line.lstrip()[1:].strip())
-            continue
-        if line.strip():
-            header_line = i
-            break
-    if header_line is None:
-        raise FringeInputError("empty file: no header row", path)
 
-    header = [h.strip() for h in next(csv.reader([lines[header_line]]))]
-    missing = [c for c in REQUIRED if c not in header]
-    if missing:
-        hint = _close_names(missing, header)
-        raise FringeInputError(f"missing required column(s) {', '.join(missing)}{hint} "
-                               f"(header has: {', '.join(header)})", path, f"line {header_line + 1}")
-    if len(set(header)) != len(header):
-        dup = sorted({h for h in header if header.count(h) > 1})
-        raise FringeInputError(f"duplicate column(s) {', '.join(dup)}", path, f"line {header_line + 1}")
+def check_memory(rows: float, bytes_per_row: int, what: str, where: str):
+    """Refuse work that will not fit in memory before allocating for it."""
+    need, free = rows * bytes_per_row, available_memory()
+    if need > 0.8 * free:
+        raise FringeInputError(f"{what}: about {rows:.3g} rows need about {need / 2**30:.1f} GiB of memory, "
+                               f"{free / 2**30:.1f} GiB are free", where)
 
-    wanted = [c for c in REQUIRED + OPTIONAL if c in header]
-    col_index = [header.index(c) for c in wanted]
-    body = [(i + 1, ln) for i, ln in enumerate(lines[header_line + 1:], start=header_line + 1)
-            if ln.strip() and not ln.lstrip().startswith("#")]
-    if not body:
-        raise FringeInputError("no data rows after the header", path, f"line {header_line + 1}")
 
-    line_of = np.array([b[0] for b in body])
-    try:  # fast path: numpy's C parser; on any failure the slow path finds the line
-        values = np.loadtxt(io.StringIO("\n".join(b[1] for b in body)), delimiter=",",
-                            usecols=col_index, ndmin=2, comments=None)
-        if values.shape[1] != len(wanted) or not all(b[1].count(",") == len(header) - 1 for b in body):
-            raise ValueError
-    except ValueError:
-        values = _parse_slowly(body, header, wanted, col_index, path)
-    finite = np.isfinite(values)
-    if not finite.all():
-        r, k = np.argwhere(~finite)[0]
-        raise FringeInputError(f"column '{wanted[k]}': {values[r, k]} is not a finite number", path,
-                               f"line {line_of[r]}")
+def read_measurement(path: str, encoder: Encoder | None = None, min_samples: int = 1) -> Measurement:
+    """Read and check a recording (CSV, or .npy/.parquet with the same column names); every problem
+    is a FringeInputError naming the file and line."""
+    if not os.path.isfile(path):
+        raise FringeInputError("data file not found" if not os.path.exists(path) else "is not a regular file",
+                               path)
+    ext = os.path.splitext(path)[1].lower()
+    if ext in (".npy", ".parquet"):
+        cols, line_of, comments = _read_binary(path, ext)
+    else:
+        cols, line_of, comments = _read_csv(path)
+    n = len(cols["sin"])
+    if n < min_samples:
+        raise FringeInputError(f"too few samples: {n} (need at least {min_samples})", path)
+    return _checked(path, cols, line_of, comments, encoder)
 
-    cols = {name: values[:, k] for k, name in enumerate(wanted)}
-    if len(body) < min_samples:
-        raise FringeInputError(f"too few samples: {len(body)} (need at least {min_samples})", path)
+
+def _row_line(line_of, r) -> str:
+    return line_of(r) if callable(line_of) else f"line {int(line_of[r])}"
+
+
+def _checked(path, cols, line_of, comments, encoder):
+    for name, v in cols.items():
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            raise FringeInputError(f"column '{name}': {v[bad[0]]} is not a finite number", path,
+                                   _row_line(line_of, bad[0]))
+    t = cols.get("t_s")
+    if t is not None and len(t) > 1:
+        back = np.flatnonzero(np.diff(t) <= 0)
+        if back.size:
+            r = back[0] + 1
+            what = "repeats" if t[r] == t[r - 1] else "goes back from"
+            raise FringeInputError(f"column 't_s': {float(t[r]):.10g} {what} {float(t[r - 1]):.10g} on the row before "
+                                   "(time stamps must increase)", path, _row_line(line_of, r))
+        if np.ptp(t) > MAX_SPAN_S:
+            raise FringeInputError(f"column 't_s': spans {np.ptp(t):.3g} s; time stamps must be seconds", path)
+    ref = cols.get("ref_deg")
+    if ref is not None:
+        big = np.flatnonzero(np.abs(ref) > MAX_REF_DEG)
+        if big.size:
+            raise FringeInputError(f"column 'ref_deg': {ref[big[0]]:g} is not a plausible angle in degrees", path,
+                                   _row_line(line_of, big[0]))
 
     coarse = None
     if "coarse" in cols:
@@ -100,33 +109,162 @@ def read_measurement(path: str, encoder: Encoder | None = None, min_samples: int
         bad = np.flatnonzero((c != np.round(c)) | (c < 0))
         if bad.size:
             raise FringeInputError(f"column 'coarse': {c[bad[0]]!r} is not an unsigned integer", path,
-                                   f"line {line_of[bad[0]]}")
+                                   _row_line(line_of, bad[0]))
         if encoder is not None and encoder.coarse_bits:
             over = np.flatnonzero(c >= (1 << encoder.coarse_bits))
             if over.size:
                 raise FringeInputError(f"column 'coarse': {int(c[over[0]])} does not fit coarse_bits = "
-                                       f"{encoder.coarse_bits}", path, f"line {line_of[over[0]]}")
+                                       f"{encoder.coarse_bits}", path, _row_line(line_of, over[0]))
         coarse = c.astype(np.int64)
 
     sin, cos = cols["sin"], cols["cos"]
     if encoder is not None:
         sin, cos = _to_counts(sin, cos, encoder, path, line_of)
-    return Measurement(path, sin, cos, coarse, cols.get("ref_deg"), cols.get("t_s"), tuple(comments))
+    return Measurement(path, sin, cos, coarse, ref, t, tuple(comments), line_of)
+
+
+MAX_SPAN_S = 1e9          # about 30 years: beyond that the column is not seconds
+MAX_REF_DEG = 1e9         # about 2.8 million turns
+MIN_RANGE_USED = 1 / 256  # a signal swinging less than this fraction of the ADC's range: wrong adc_bits?
 
 
 def _to_counts(sin, cos, enc: Encoder, path, line_of):
-    """Float readings are scaled by full_scale; integer counts must fit the ADC."""
+    """Float readings are scaled by full_scale; offset-binary codes are centred; counts must fit the ADC."""
     lo, hi = -enc.adc_half_range, enc.adc_half_range - 1
     if enc.full_scale is not None:
         scale = enc.adc_half_range / enc.full_scale
         sin, cos = sin * scale, cos * scale
+    else:
+        peak = max(np.max(np.abs(sin)), np.max(np.abs(cos)))
+        fractional = np.any(sin != np.round(sin)) or np.any(cos != np.round(cos))
+        if fractional and peak <= 2.0:
+            raise FringeInputError(f"the readings are fractions within +-{peak:.3g}: normalised floats? give "
+                                   "'full_scale' (the reading that means ADC full scale) in the encoder "
+                                   "description", path)
+        if enc.offset_binary:
+            sin, cos = sin - enc.adc_half_range, cos - enc.adc_half_range
     for name, v in (("sin", sin), ("cos", cos)):
         out = np.flatnonzero((v < lo - 0.5) | (v > hi + 0.5))
         if out.size:
+            hint = "offset_binary, " if not enc.offset_binary and v[out[0]] > 0 and np.min(v) >= 0 else ""
             raise FringeInputError(f"column '{name}': {v[out[0]]:g} counts is outside the {enc.adc_bits}-bit "
-                                   f"ADC range [{lo}, {hi}] (wrong adc_bits or full_scale?)", path,
-                                   f"line {line_of[out[0]]}")
+                                   f"ADC range [{lo}, {hi}] (wrong {hint}adc_bits or full_scale?)", path,
+                                   _row_line(line_of, out[0]))
+    swing = max(np.ptp(sin), np.ptp(cos)) / 2
+    if 2.0 < swing < MIN_RANGE_USED * enc.adc_half_range:
+        raise FringeInputError(f"the signals swing only +-{swing:.4g} counts of the declared {enc.adc_bits}-bit "
+                               f"ADC's +-{enc.adc_half_range}: wrong adc_bits or full_scale?", path)
     return sin, cos
+
+
+def _header(path):
+    """(byte offset of the header row, its line number, its column names, the comment lines before it)."""
+    comments, offset, line_no = [], 0, 0
+    try:
+        with open(path, "rb") as f:
+            first = True
+            for raw in f:
+                line_no += 1
+                if first and raw.startswith(BOM):   # Excel writes one before the header
+                    offset, raw = len(BOM), raw[len(BOM):]
+                first = False
+                text = raw.decode("utf-8").strip()
+                if text.startswith("#"):
+                    comments.append(text[1:].strip())
+                elif text:
+                    header = [h.strip() for h in next(csv.reader([text]))]
+                    return offset, line_no, header, comments
+                offset += len(raw)
+    except OSError as e:
+        raise FringeInputError(f"cannot read data file: {e.strerror}", path) from None
+    except UnicodeDecodeError:
+        raise FringeInputError("not a text (UTF-8) CSV file", path, f"line {line_no}") from None
+    raise FringeInputError("empty file: no header row", path)
+
+
+BOM = b"\xef\xbb\xbf"
+
+
+def _wanted_columns(header, path, line_no):
+    missing = [c for c in REQUIRED if c not in header]
+    if missing:
+        hint = _close_names(missing, header)
+        raise FringeInputError(f"missing required column(s) {', '.join(missing)}{hint} "
+                               f"(header has: {', '.join(header)})", path, f"line {line_no}")
+    if len(set(header)) != len(header):
+        dup = sorted({h for h in header if header.count(h) > 1})
+        raise FringeInputError(f"duplicate column(s) {', '.join(dup)}", path, f"line {line_no}")
+    return [c for c in REQUIRED + OPTIONAL if c in header]
+
+
+def _read_csv(path):
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    offset, header_line, header, comments = _header(path)
+    wanted = _wanted_columns(header, path, header_line)
+    size = os.path.getsize(path)
+    check_memory(size / 12, BYTES_PER_ROW, "the recording is too large", path)
+    try:
+        src = pa.memory_map(path, "r")
+        src.seek(offset)
+        table = pacsv.read_csv(
+            src, read_options=pacsv.ReadOptions(column_names=header, skip_rows=1),
+            parse_options=pacsv.ParseOptions(ignore_empty_lines=False),
+            convert_options=pacsv.ConvertOptions(include_columns=wanted,
+                                                 column_types={c: pa.float64() for c in wanted},
+                                                 null_values=[], strings_can_be_null=False,
+                                                 quoted_strings_can_be_null=False))
+        cols = {c: table.column(c).to_numpy() for c in wanted}
+        del table
+        if not len(cols["sin"]):
+            raise FringeInputError("no data rows after the header", path, f"line {header_line}")
+        return cols, lambda r: f"line {header_line + 1 + r}", comments
+    except (pa.ArrowInvalid, ValueError):   # the slow path finds the line and says what is wrong
+        return _read_csv_slowly(path, header_line, header, wanted), None, comments
+
+
+def _read_csv_slowly(path, header_line, header, wanted):
+    with open(path, encoding="utf-8-sig", newline="") as f:
+        lines = f.read().splitlines()
+    body = [(i + 1, ln) for i, ln in enumerate(lines[header_line:], start=header_line)
+            if ln.strip() and not ln.lstrip().startswith("#")]
+    if not body:
+        raise FringeInputError("no data rows after the header", path, f"line {header_line}")
+    values = _parse_slowly(body, header, wanted, [header.index(c) for c in wanted], path)
+    cols = {name: values[:, k] for k, name in enumerate(wanted)}
+    line_of = np.array([b[0] for b in body])
+    return cols, line_of
+
+
+BYTES_PER_ROW = 400   # what calibrate and loop hold per input row at most, with margin
+
+
+def _read_binary(path, ext):
+    """A .npy structured array or a Parquet table with the CSV's column names."""
+    try:
+        if ext == ".npy":
+            arr = np.load(path, allow_pickle=False, mmap_mode="r")
+            names = list(arr.dtype.names or ())
+            get = lambda c: np.asarray(arr[c], dtype=float)  # noqa: E731
+        else:
+            import pyarrow.parquet as pq
+            table = pq.read_table(path)
+            names = table.column_names
+            get = lambda c: table.column(c).to_numpy().astype(float)  # noqa: E731
+    except (OSError, ValueError) as e:
+        raise FringeInputError(f"cannot read {ext[1:]} recording: {str(e).splitlines()[0]}", path) from None
+    if ext == ".npy" and not names:
+        raise FringeInputError("a .npy recording must be a structured array with named fields (sin, cos, ...)",
+                               path)
+    wanted = _wanted_columns(names, path, "columns")
+    try:
+        cols = {c: get(c) for c in wanted}
+    except (TypeError, ValueError) as e:
+        raise FringeInputError(f"columns must be numeric ({e})", path) from None
+    if not len(cols["sin"]):
+        raise FringeInputError("no data rows", path)
+    return cols, lambda r: f"row {r + 1}", ()
 
 
 def _close_names(missing, header):
@@ -139,54 +277,38 @@ def _close_names(missing, header):
     return f" ({'; '.join(hints)})" if hints else ""
 
 
-@contextmanager
-def atomic_output(path: str, mode: str = "w"):
-    """Write to a temporary file beside `path` and rename it into place only on success."""
-    directory = os.path.dirname(os.path.abspath(path))
-    os.makedirs(directory, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".tmp-", suffix=os.path.basename(path))
-    try:
-        with os.fdopen(fd, mode, encoding=None if "b" in mode else "utf-8", newline="" if "b" not in mode
-                       else None) as f:
-            yield f
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+def write_csv(path: str, columns: dict, comments: tuple[str, ...], formats: dict | None = None, inputs=()):
+    """Write equal-length columns as the spec's CSV, atomically; comments[0] names the writing command
+    ('fringe <kind> ...'), which marks the file as fringe's. Formats: '%d' writes integers, '%.Nf' rounds
+    to N decimals, anything else writes the shortest exact decimal."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
 
+    from .outputs import atomic_output
 
-@contextmanager
-def atomic_dir(out_dir: str, prefix: str = ".tmp-"):
-    """Build a folder under a temporary name beside `out_dir`; it replaces `out_dir` only on success."""
-    import shutil
-
-    parent = os.path.dirname(os.path.abspath(out_dir))
-    os.makedirs(parent, exist_ok=True)
-    if os.path.exists(out_dir) and not os.path.isdir(out_dir):
-        raise FringeInputError("exists and is not a directory", out_dir)
-    tmp = tempfile.mkdtemp(dir=parent, prefix=prefix)
-    try:
-        yield tmp
-        if os.path.isdir(out_dir):
-            shutil.rmtree(out_dir)
-        os.replace(tmp, out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-
-
-def write_csv(path: str, columns: dict, comments: tuple[str, ...] = (), formats: dict | None = None):
-    """Write columns (equal-length arrays) as the spec's CSV, atomically."""
-    names = list(columns)
+    kind = comments[0].split()[1].rstrip(":")
     formats = formats or {}
-    fmt = [formats.get(n, "%.10g") for n in names]
-    data = np.column_stack([np.asarray(columns[n]) for n in names])
-    with atomic_output(path) as f:
+    arrays = {}
+    for name, values in columns.items():
+        v, fmt = np.asarray(values), formats.get(name, "")
+        if fmt == "%d":
+            v = v.astype(np.int64)
+        elif fmt.startswith("%.") and fmt.endswith("f"):
+            v = np.round(v.astype(float), int(fmt[2:-1]))
+        arrays[name] = v
+    table = pa.table(arrays)
+    options = pacsv.WriteOptions(include_header=False, quoting_style="none")
+    with atomic_output(path, kind, inputs, mode="wb") as f:
         for c in comments:
-            f.write(f"# {c}\n")
-        f.write(",".join(names) + "\n")
-        np.savetxt(f, data, fmt=fmt, delimiter=",")
+            f.write(f"# {c}\n".encode())
+        f.write((",".join(columns) + "\n").encode())
+        for start in range(0, table.num_rows, WRITE_ROWS):   # bounded memory: one chunk of text at a time
+            buf = pa.BufferOutputStream()
+            pacsv.write_csv(table.slice(start, WRITE_ROWS), buf, options)
+            f.write(buf.getvalue().to_pybytes())
+
+
+WRITE_ROWS = 1 << 17
 
 
 def _parse_slowly(body, header, wanted, col_index, path):

@@ -15,6 +15,7 @@ class Encoder:
     adc_bits: int                # ADC width; codes -2^(adc_bits-1) .. 2^(adc_bits-1)-1
     coarse_bits: int = 0         # coarse (absolute) code width; 0 = none, count periods
     full_scale: float | None = None  # reading that means ADC full scale, for float data
+    offset_binary: bool = False      # codes are unsigned 0 .. 2^adc_bits-1 (mid-scale = zero), as loggers write
 
     @property
     def adc_half_range(self) -> int:
@@ -32,6 +33,8 @@ class Encoder:
         d = asdict(self)
         if d["full_scale"] is None:
             del d["full_scale"]
+        if not d["offset_binary"]:
+            del d["offset_binary"]
         return d
 
     def validate(self, where: str = "encoder") -> "Encoder":
@@ -53,6 +56,10 @@ class Encoder:
             fs = self.full_scale
             if isinstance(fs, bool) or not isinstance(fs, (int, float)) or not math.isfinite(fs) or fs <= 0:
                 bad("full_scale", f"must be a positive finite number, got {fs!r}")
+        if not isinstance(self.offset_binary, bool):
+            bad("offset_binary", f"must be true or false, got {self.offset_binary!r}")
+        if self.offset_binary and self.full_scale is not None:
+            bad("offset_binary", "applies to integer ADC codes and cannot be combined with full_scale")
         return self
 
 
@@ -60,7 +67,8 @@ def _is_int(v) -> bool:
     return isinstance(v, int) and not isinstance(v, bool)
 
 
-KNOWN_KEYS = {"lines_per_rev", "adc_bits", "coarse_bits", "full_scale"}
+KNOWN_KEYS = {"lines_per_rev", "adc_bits", "coarse_bits", "full_scale", "offset_binary"}
+IGNORED_KEYS = {"written_by", "comment"}   # information for people: which command wrote the file
 
 
 def encoder_from_dict(d: dict, where: str = "encoder") -> Encoder:
@@ -69,12 +77,13 @@ def encoder_from_dict(d: dict, where: str = "encoder") -> Encoder:
     for key in ("lines_per_rev", "adc_bits"):
         if key not in d:
             raise FringeInputError(f"missing required key '{key}'", where)
-    unknown = set(d) - KNOWN_KEYS
+    unknown = set(d) - KNOWN_KEYS - IGNORED_KEYS
     if unknown:
         raise FringeInputError(f"unknown key(s) {', '.join(sorted(unknown))} "
                                f"(known: {', '.join(sorted(KNOWN_KEYS))})", where)
     return Encoder(lines_per_rev=d["lines_per_rev"], adc_bits=d["adc_bits"],
-                   coarse_bits=d.get("coarse_bits", 0), full_scale=d.get("full_scale")).validate(where)
+                   coarse_bits=d.get("coarse_bits", 0), full_scale=d.get("full_scale"),
+                   offset_binary=d.get("offset_binary", False)).validate(where)
 
 
 def load_encoder(path: str) -> Encoder:

@@ -23,6 +23,11 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
                 base = json.load(f)["config"]
         except (OSError, ValueError, KeyError) as e:
             raise FringeInputError(f"core configuration damaged ({e})", path) from None
+        enc = cal.encoder    # the encoder's description is the one source of these
+        for key, value in (("adc_w", enc.adc_bits), ("lines", enc.lines_per_rev), ("coarse_w", enc.coarse_bits)):
+            if key in base and base[key] != value:
+                raise FringeInputError(f"'{key}' = {base[key]!r} disagrees with the calibration's encoder "
+                                       f"({value}): the folder is mixed", path)
     base.update(overrides)
     try:
         cfg = CoreConfig.for_encoder(cal.encoder, **base)
@@ -31,19 +36,36 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
             cfg = trim_config(cal, cfg)
         if "drift" not in base:    # and the drift tracker fringe_drift
             cfg = drift_config(cal, cfg)
+        check_limits(cfg)
         return cfg
     except (TypeError, ValueError) as e:
-        raise FringeInputError(f"core configuration not possible: {e}", path or "core configuration") from None
+        where = " ".join(f"--{k.replace('_', '-')} {v}" for k, v in overrides.items()) or path
+        raise FringeInputError(f"core configuration not possible: {e}", where or "core configuration") from None
 
 
-def write_core_roms(cal: Calibration, cfg, out_dir: str, formats, command: str) -> list[str]:
+def check_limits(cfg):
+    """ValueError unless every block accepts its parameters (the limits the HDL checks at elaboration)."""
+    from .fixed.core import long_period_params, period_count_params
+
+    cfg.wave_lut(), cfg.quadrature(), cfg.cordic(), long_period_params(cfg), period_count_params(cfg)
+    if cfg.trim:
+        cfg.trim_params()
+    if cfg.drift:
+        cfg.drift_params()
+
+
+def write_core_roms(cal: Calibration, cfg, out_dir: str, formats, command: str, inputs=(),
+                    where: str = "core configuration") -> list[str]:
+    """ROM images; a table that does not fit the configuration is named against `where` (its source)."""
     from .fixed.core import build_tables
-    from .rom import write_roms
+    from .rom import render_roms, write_rendered
 
     try:
-        return write_roms(build_tables(cal, cfg), cfg, out_dir, formats, command)
+        tables = build_tables(cal, cfg)
+        images = render_roms(tables, cfg, formats, command)
     except ValueError as e:
-        raise FringeInputError(str(e), out_dir) from None
+        raise FringeInputError(str(e), where) from None
+    return write_rendered(images, out_dir, command, inputs)
 
 
 def core_files(cal: Calibration, command: str) -> dict:
@@ -59,7 +81,7 @@ def core_files(cal: Calibration, command: str) -> dict:
 
     files = {CORE_JSON: write_json}
     if not unsupported(cal):      # a correction the core does not carry: no ROM images (float engine only)
-        files[ROM_DIR] = lambda path: write_core_roms(cal, cfg, path, ("mem",), command)
+        files[ROM_DIR] = lambda path: write_core_roms(cal, cfg, path, ("mem",), command, where="the calibration")
     return files
 
 
@@ -73,9 +95,15 @@ def run_engine(name: str, cal: Calibration, meas: Measurement, cal_dir: str) -> 
         raise FringeInputError("this calibration carries closed-loop corrections that the bit-exact core does not "
                                f"implement ({', '.join(unsupported(cal))}): use --engine float", cal_dir)
     cfg = core_config(cal, cal_dir)
+    from .fixed.core import build_tables
+
+    try:                       # a calibration the core cannot hold is the calibration's fault, not the data's
+        tables = build_tables(cal, cfg)
+    except ValueError as e:
+        raise FringeInputError(str(e), cal_dir) from None
     try:
         if name == "model":
-            return run_model(cal, cfg, meas.sin, meas.cos, meas.coarse)
+            return run_model(cal, cfg, meas.sin, meas.cos, meas.coarse, tables=tables)
     except ValueError as e:
         raise FringeInputError(str(e), meas.path) from None
     from .rtlsim import RtlSimulationError, run_rtl_result

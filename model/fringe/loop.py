@@ -20,7 +20,7 @@ import numpy as np
 from scipy import stats
 
 from .calibrate import calibrate
-from .dataio import Measurement, atomic_dir
+from .dataio import Measurement
 from .effects import LIBRARY, SPEED_LOG2, Context, FittedEffect, make_context, tone_columns
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
@@ -387,8 +387,11 @@ def write_outputs(base: LoopState, state: LoopState, report: dict, train: Measur
     from .engines import core_files
     from .loopreport import write_markdown, write_plots
 
-    with atomic_dir(out_dir, ".tmp-loop-") as tmp:
-        save_calibration(state.cal, os.path.join(tmp, "cal"), core_files(state.cal, "fringe loop"))
+    from .outputs import atomic_dir
+
+    with atomic_dir(out_dir, "loop", command="fringe loop") as tmp:
+        save_calibration(state.cal, os.path.join(tmp, "cal"), core_files(state.cal, "fringe loop"),
+                         command="fringe loop")
         plots = write_plots(base, state, train if validate is None else validate, tmp)
         with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
             json.dump(report, f, indent=2, default=float)

@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import __version__
-from .dataio import atomic_dir
 from .fixed import drift as drift_mod
 from .fixed import long_period as lp_mod
 from .fixed import trim as trim_mod
@@ -23,6 +22,7 @@ from .fixed.config import CoreConfig
 from .fixed.core import CoreTables, long_period_params
 from .fixed.regmap import REG_W, REGISTERS, register_words
 from .fixed.table_ram import format_hex
+from .outputs import atomic_dir
 
 FORMATS = ("mem", "mif", "coe", "vhdl")
 
@@ -138,8 +138,8 @@ def vhdl_package(imgs: list[Image], cfg: CoreConfig, command: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_roms(t: CoreTables, cfg: CoreConfig, out_dir: str, formats=("mem",), command: str = "fringe rom"):
-    """Render everything first (so a range error leaves nothing behind), then move into place."""
+def render_roms(t: CoreTables, cfg: CoreConfig, formats=("mem",), command: str = "fringe rom") -> dict[str, str]:
+    """Every file's text, rendered before anything is written (a range error leaves nothing behind)."""
     imgs = images(t, cfg)
     files = {}
     for fmt in formats:
@@ -152,7 +152,17 @@ def write_roms(t: CoreTables, cfg: CoreConfig, out_dir: str, formats=("mem",), c
                 files[f"{im.name}.{fmt}"] = render(im, fmt, cfg, command)
     files["core.json"] = json.dumps({"config": cfg.to_dict(), "hdl_parameters": cfg.hdl_parameters(),
                                      "command": command}, indent=2, sort_keys=True) + "\n"
-    with atomic_dir(out_dir, ".tmp-rom-") as tmp:
+    return files
+
+
+def write_roms(t: CoreTables, cfg: CoreConfig, out_dir: str, formats=("mem",), command: str = "fringe rom",
+               inputs=()) -> list[str]:
+    return write_rendered(render_roms(t, cfg, formats, command), out_dir, command, inputs)
+
+
+def write_rendered(files: dict[str, str], out_dir: str, command: str = "fringe rom", inputs=()) -> list[str]:
+    """The rendered files as one ROM folder, moved into place when complete."""
+    with atomic_dir(out_dir, "rom", inputs, command) as tmp:
         for name, text in files.items():
             with open(os.path.join(tmp, name), "w", encoding="ascii", newline="\n") as f:
                 f.write(text)

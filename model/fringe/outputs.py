@@ -1,0 +1,270 @@
+"""Output safety: fringe replaces only what it wrote itself, atomically, and never one of its inputs.
+
+Every output folder carries `fringe-manifest.json` (its kind, the command that wrote it and a
+SHA-256 of every file), so that a later run can tell its own folders from a user's, and a reader
+can tell a complete folder from a mixed, truncated or edited one. Single output files carry a
+first line (CSV `# fringe <kind>...`) or key (JSON `written_by`) that says the same.
+
+Outputs are checked before any work starts (`check_output_dir`, `check_output_file`), built under
+a hidden temporary name beside their target, given the permissions the umask allows, and swapped
+in at the end: the new folder takes the old one's name in one rename, then the old one is removed.
+"""
+
+import ctypes
+import hashlib
+import json
+import os
+import shutil
+import stat
+import tempfile
+from contextlib import contextmanager
+
+from . import __version__
+from .errors import FringeInputError
+
+MANIFEST = "fringe-manifest.json"
+FORMAT = "fringe-output"
+VERSION = 1
+TMP_PREFIX = ".fringe-incomplete-"
+
+
+def current_umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _fail(problem: str, path: str):
+    raise FringeInputError(problem, path or "''")
+
+
+def _real(path: str) -> str:
+    return os.path.realpath(os.path.abspath(path))
+
+
+def _check_parent(path: str):
+    """The nearest existing folder above `path` must be a writable folder."""
+    parent = os.path.dirname(os.path.abspath(path))
+    while not os.path.lexists(parent):
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent):
+        _fail(f"cannot be created: {parent} is a file, not a folder", path)
+    if not os.access(parent, os.W_OK | os.X_OK):
+        _fail(f"cannot be written: the folder {parent} is not writable", path)
+
+
+def _check_not_an_input(path: str, inputs, is_dir: bool):
+    out = _real(path)
+    for given in inputs:
+        if not given:
+            continue
+        src = _real(given)
+        if out == src:
+            _fail(f"is also an input of this command ({given}): refusing to overwrite it", path)
+        if is_dir and src.startswith(out + os.sep):
+            _fail(f"holds an input of this command ({given}): refusing to replace it", path)
+        if os.path.isdir(src) and out.startswith(src + os.sep):
+            _fail(f"lies inside the folder {given}, which this command reads: refusing to write there", path)
+
+
+def files_in(folder: str) -> set[str]:
+    """Every file below `folder`, as relative paths with '/'."""
+    found = set()
+    for dirpath, _, names in os.walk(folder):
+        for n in names:
+            found.add(os.path.relpath(os.path.join(dirpath, n), folder).replace(os.sep, "/"))
+    return found
+
+
+def read_manifest(folder: str) -> dict | None:
+    """The folder's manifest, or None when it has none or it is not fringe's."""
+    try:
+        with open(os.path.join(folder, MANIFEST), encoding="utf-8") as f:
+            d = json.load(f)
+    except (OSError, ValueError):
+        return None
+    if not isinstance(d, dict) or d.get("format") != FORMAT or not isinstance(d.get("files"), dict):
+        return None
+    return d
+
+
+def check_output_dir(path: str, kind: str, inputs=()) -> None:
+    """Refuse, before any work: an empty name, a link, a file, a folder fringe did not write as
+    `kind`, a folder holding an input, a folder inside an input folder, an unwritable place."""
+    if not path:
+        _fail("the output folder name is empty", path)
+    if os.path.islink(path):
+        _fail("is a symbolic link: give the folder itself", path)
+    if os.path.lexists(path):
+        if not os.path.isdir(path):
+            _fail("exists and is not a folder: refusing to replace it", path)
+        _check_replaceable(path, kind)
+    _check_parent(path)
+    _check_not_an_input(path, inputs, is_dir=True)
+
+
+def _check_replaceable(path: str, kind: str):
+    try:
+        present = files_in(path)
+        entries = os.listdir(path)
+    except OSError as e:
+        _fail(f"cannot be read: {e.strerror}", path)
+    if not entries:
+        return
+    man = read_manifest(path)
+    if man is None:
+        _fail(f"exists and is not a fringe {kind} folder (no {MANIFEST}): fringe replaces only its own "
+              "outputs; choose another --out or remove it yourself", path)
+    if man.get("kind") != kind:
+        _fail(f"is a fringe {man.get('kind')} folder, not a {kind} folder: refusing to replace it", path)
+    extra = sorted(present - set(man["files"]) - {MANIFEST})
+    if extra:
+        _fail(f"holds {extra[0]}, which fringe did not write: refusing to replace the folder", path)
+
+
+def written_by_fringe(path: str, kind: str) -> bool:
+    """A file fringe wrote as `kind`: CSV whose first line is '# fringe <kind>', or JSON with written_by."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(65536)
+    except OSError:
+        return False
+    text = head.decode("utf-8", "replace")
+    if text.startswith(f"# fringe {kind}"):
+        return True
+    try:
+        d = json.loads(text)
+    except ValueError:
+        return False
+    return isinstance(d, dict) and str(d.get("written_by", "")).startswith(f"fringe {kind}")
+
+
+def check_output_file(path: str, kind: str, inputs=()) -> None:
+    """Refuse, before any work: an empty name, a folder, a link, a special file, a file fringe did not
+    write as `kind`, an input, a file inside an input folder, a missing or unwritable folder."""
+    if not path:
+        _fail("the output file name is empty", path)
+    if path.endswith(("/", os.sep)) or os.path.isdir(path):
+        _fail("is a folder: give a file name", path)
+    if os.path.islink(path):
+        _fail("is a symbolic link: give the file itself", path)
+    if os.path.lexists(path):
+        if not stat.S_ISREG(os.lstat(path).st_mode):
+            _fail("is not a regular file (a device, FIFO or socket): refusing to write to it", path)
+        if not written_by_fringe(path, kind):
+            _fail(f"exists and was not written by fringe {kind}: refusing to overwrite it", path)
+    _check_parent(path)
+    if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
+        _fail("cannot be written: its folder does not exist", path)
+    _check_not_an_input(path, inputs, is_dir=False)
+
+
+def _permissions(root: str, mask: int):
+    """What the umask allows (mkstemp/mkdtemp create 0600/0700)."""
+    for dirpath, _, names in os.walk(root):
+        os.chmod(dirpath, 0o777 & ~mask)
+        for n in names:
+            os.chmod(os.path.join(dirpath, n), 0o666 & ~mask)
+
+
+def sha256(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def write_manifest(folder: str, kind: str, command: str):
+    files = {rel: {"sha256": sha256(os.path.join(folder, rel)), "bytes": os.path.getsize(os.path.join(folder, rel))}
+             for rel in sorted(files_in(folder)) if rel != MANIFEST}
+    with open(os.path.join(folder, MANIFEST), "w", encoding="utf-8") as f:
+        json.dump({"format": FORMAT, "version": VERSION, "kind": kind, "fringe_version": __version__,
+                   "command": command, "files": files}, f, indent=2)
+        f.write("\n")
+
+
+def verify_dir(folder: str, kind: str) -> dict:
+    """Refuse a folder that is not a complete, unedited fringe `kind` folder, naming the file."""
+    if not os.path.isdir(folder):
+        _fail(f"{kind} folder not found", folder)
+    man = read_manifest(folder)
+    if man is None:
+        _fail(f"not a fringe {kind} folder: {MANIFEST} is missing or damaged (written by an older fringe? "
+              "run fringe again to write it anew)", folder)
+    if man.get("kind") != kind:
+        _fail(f"is a fringe {man.get('kind')} folder, not a {kind} folder", folder)
+    for rel, entry in man["files"].items():
+        path = os.path.join(folder, rel)
+        if not os.path.isfile(path):
+            _fail(f"missing from the {kind} folder (listed in its {MANIFEST})", path)
+        try:
+            ok = isinstance(entry, dict) and sha256(path) == entry.get("sha256")
+        except OSError as e:
+            _fail(f"cannot be read: {e.strerror}", path)
+        if not ok:
+            _fail(f"changed since fringe wrote it (checksum differs from {MANIFEST}): the folder is mixed, "
+                  "truncated or edited; write it anew", path)
+    return man
+
+
+_RENAME_EXCHANGE = 2
+
+
+def _exchange(a: str, b: str) -> bool:
+    """Swap two paths in one step (Linux renameat2); False where the system cannot."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        fn = libc.renameat2
+    except (OSError, AttributeError):
+        return False
+    at_fdcwd = -100
+    return fn(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), _RENAME_EXCHANGE) == 0
+
+
+@contextmanager
+def atomic_dir(out_dir: str, kind: str, inputs=(), command: str = ""):
+    """Build a `kind` folder under a temporary name; it takes `out_dir`'s place only when complete."""
+    check_output_dir(out_dir, kind, inputs)
+    mask = current_umask()
+    parent = os.path.dirname(os.path.abspath(out_dir))
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(dir=parent, prefix=TMP_PREFIX + kind + "-")
+    try:
+        yield tmp
+        write_manifest(tmp, kind, command or f"fringe {kind}")
+        _permissions(tmp, mask)
+        check_output_dir(out_dir, kind, inputs)      # again: it may have changed while we worked
+        if os.path.isdir(out_dir) and os.listdir(out_dir):
+            if _exchange(tmp, out_dir):               # tmp now holds the previous output
+                shutil.rmtree(tmp)
+            else:
+                old = tempfile.mkdtemp(dir=parent, prefix=TMP_PREFIX + "old-")
+                os.rename(out_dir, os.path.join(old, "previous"))
+                os.rename(tmp, out_dir)
+                shutil.rmtree(old)
+        else:
+            os.replace(tmp, out_dir)                  # onto nothing or an empty folder
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+@contextmanager
+def atomic_output(path: str, kind: str, inputs=(), mode: str = "w"):
+    """Write a file under a temporary name beside `path`; it replaces `path` in one rename on success."""
+    check_output_file(path, kind, inputs)
+    mask = current_umask()
+    directory = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=TMP_PREFIX, suffix="-" + os.path.basename(path))
+    try:
+        binary = "b" in mode
+        with os.fdopen(fd, mode, encoding=None if binary else "utf-8", newline=None if binary else "") as f:
+            yield f
+        os.chmod(tmp, 0o666 & ~mask)
+        check_output_file(path, kind, inputs)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
