@@ -249,13 +249,18 @@ COMMANDS = {"simulate": cmd_simulate, "calibrate": cmd_calibrate, "correct": cmd
             "loop": cmd_loop}
 
 
+class Interrupted(BaseException):
+    """A signal asked fringe to stop: raised where it runs, so every temporary output is removed on the way out
+    (not KeyboardInterrupt, which makes Python re-kill itself with SIGINT when it arrives during an import)."""
+
+
 def _interrupted(signum, frame):
-    raise KeyboardInterrupt(signum)
+    raise Interrupted(signum)
 
 
 def main(argv=None) -> int:
     """Every failure is one line on stderr and exit status 2 (130 and up for signals); nothing half-written."""
-    for sig in (signal.SIGTERM, signal.SIGHUP):     # clean up as for Ctrl-C: temporary outputs are removed
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         signal.signal(sig, _interrupted)
     debug = bool(os.environ.get("FRINGE_DEBUG"))
     try:
@@ -267,7 +272,7 @@ def main(argv=None) -> int:
     except FringeInputError as e:
         print(f"fringe: {e}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt as e:
+    except (Interrupted, KeyboardInterrupt) as e:
         signum = e.args[0] if e.args and isinstance(e.args[0], int) else signal.SIGINT
         print(f"fringe: interrupted by {signal.Signals(signum).name}; nothing was written", file=sys.stderr)
         return 128 + signum

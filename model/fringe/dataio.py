@@ -221,12 +221,18 @@ def _read_csv(path):
             raise FringeInputError("no data rows after the header", path, f"line {header_line}")
         return cols, lambda r: f"line {header_line + 1 + r}", comments
     except (pa.ArrowInvalid, ValueError):   # the slow path finds the line and says what is wrong
-        return _read_csv_slowly(path, header_line, header, wanted), None, comments
+        cols, line_of = _read_csv_slowly(path, header_line, header, wanted)
+        return cols, line_of, comments
 
 
 def _read_csv_slowly(path, header_line, header, wanted):
-    with open(path, encoding="utf-8-sig", newline="") as f:
-        lines = f.read().splitlines()
+    with open(path, "rb") as f:
+        raw = f.read()
+    try:
+        lines = raw.decode("utf-8-sig").splitlines()
+    except UnicodeDecodeError as e:
+        line = raw[: e.start].count(b"\n") + 1
+        raise FringeInputError("not a text (UTF-8) CSV file", path, f"line {line}") from None
     body = [(i + 1, ln) for i, ln in enumerate(lines[header_line:], start=header_line)
             if ln.strip() and not ln.lstrip().startswith("#")]
     if not body:

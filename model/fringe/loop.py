@@ -386,7 +386,6 @@ def write_outputs(base: LoopState, state: LoopState, report: dict, train: Measur
     from .calstore import save_calibration
     from .engines import core_files
     from .loopreport import write_markdown, write_plots
-
     from .outputs import atomic_dir
 
     with atomic_dir(out_dir, "loop", command="fringe loop") as tmp:
