@@ -193,7 +193,8 @@ def verify_dir(folder: str, kind: str) -> dict:
         _fail(f"not a fringe {kind} folder: {MANIFEST} is missing or damaged (written by an older fringe? "
               "run fringe again to write it anew)", folder)
     if man.get("kind") != kind:
-        _fail(f"is a fringe {man.get('kind')} folder, not a {kind} folder", folder)
+        inner = " (its calibration is the cal/ folder inside)" if man.get("kind") == "loop" else ""
+        _fail(f"is a fringe {man.get('kind')} folder, not a {kind} folder{inner}", folder)
     for rel, entry in man["files"].items():
         path = os.path.join(folder, rel)
         if not os.path.isfile(path):
