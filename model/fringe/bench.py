@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from . import __version__
+from .bench_io import io_and_memory
 from .calibrate import calibrate, ellipse_only, seed_method, uncorrected
 from .datasets import RM44_ENCODER, halves, read_rm44
 from .evaluate import figures, float_engine, measurement_of, noise_floor_arcsec
@@ -228,7 +229,13 @@ def markdown(results: dict) -> str:
                                                                         "target_mhz", "meets_target", "latency_cycles")]
             lines.append("| " + " | ".join(str(c) for c in cells) + " |")
     lines.append("")
+    for name in OTHER_SECTIONS:     # sections that render themselves as JSON
+        if name in results:
+            lines += [f"## {name}", "", "```json", json.dumps(results[name], indent=1, default=str), "```", ""]
     return "\n".join(lines)
+
+
+OTHER_SECTIONS = ("io_and_memory",)
 
 
 def main(argv=None) -> int:
@@ -245,6 +252,7 @@ def main(argv=None) -> int:
              ("loop_scenarios", lambda: loop_scenarios(40_000 if a.quick else 100_000)),
              ("loop_rm44", lambda: loop_rm44(SHARED_DATA)),
              ("de_vs_desa", de_vs_desa),
+             ("io_and_memory", lambda: io_and_memory(a.quick)),
              ("synthesis", lambda: synthesis(a.out))]
     for name, fn in steps:
         t0 = time.perf_counter()
