@@ -6,43 +6,152 @@ unwrapped phase is a smooth function of time (a cubic spline with knots a couple
 periods apart) plus a periodic error of the phase (the interpolation error, a Fourier series
 in the phase). The spline is too stiff to follow an error that repeats every period, so
 alternating the two fits separates them. Samples too slow for that separation (near
-reversals) are left out of the periodic fit.
+reversals and stops) are left out of the periodic fit.
+
+Real loggers pause, sample unevenly and restart. The recording is cut into gap-free runs
+(`motion_segments`): a new run starts where the time step is much longer than usual, where time
+does not advance, or where the phase jumps too far between two samples to be unwrapped. Each run
+gets its own spline; its phase offset is free, because the waveform fit only needs the phase
+within a period. The periodic error is one function of the phase for all runs.
 """
+
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import LSQUnivariateSpline
 
 from .fourierfit import fit_select
 
-KNOT_PERIODS = 2.0      # knot spacing, in signal periods passed at the median speed
+KNOT_PERIODS = 2.0        # knot spacing, in signal periods passed at the run's typical speed
+GAP_FACTOR = 4.0          # a time step this many times the median one is a pause: a new run starts
+MAX_STEP_PERIODS = 0.25   # a larger phase step between two samples cannot be unwrapped safely
+MIN_RUN_PERIODS = 8 * KNOT_PERIODS   # a run must pass this many periods to separate motion from error
+MIN_RUN_SAMPLES = 32
+SLOW_FRACTION = 0.5       # samples slower than this fraction of the run's speed stay out of the periodic fit
+MIN_KNOT_SAMPLES = 6      # samples between two knots (a cubic spline needs more than 4)
 
 
 class MotionTooSlow(ValueError):
-    pass
+    """The motion gives no phase reference (too slow, too short, too irregular); the message says why."""
+
+
+@dataclass
+class Run:
+    start: int      # first sample
+    stop: int       # one past the last sample
+    periods: float  # signal periods travelled (forward and back)
+    reason: str = ""    # why it is not used ("" = used)
+
+
+def motion_segments(total: np.ndarray, t: np.ndarray) -> tuple[list[Run], dict]:
+    """Cut the recording into gap-free runs; `total` is the measured phase in periods (wrapped or not)."""
+    dt = np.diff(t)
+    step = np.diff(total)
+    step = step - np.round(step)                      # the shortest way round, in periods
+    positive = dt[dt > 0]
+    dt_med = float(np.median(positive)) if len(positive) else 0.0
+    pause = dt > GAP_FACTOR * dt_med
+    backwards = dt <= 0
+    jump = np.abs(step) > MAX_STEP_PERIODS
+    cut = np.flatnonzero(pause | backwards | jump) + 1
+    edges = np.r_[0, cut, len(t)]
+    runs = []
+    for a, b in zip(edges[:-1], edges[1:], strict=True):
+        travelled = float(np.abs(step[a:b - 1]).sum()) if b - a > 1 else 0.0
+        run = Run(int(a), int(b), travelled)
+        if b - a < MIN_RUN_SAMPLES:
+            run.reason = f"only {b - a} samples"
+        elif travelled < MIN_RUN_PERIODS:
+            run.reason = f"passes only {travelled:.1f} signal periods"
+        runs.append(run)
+    counts = {"pauses": int(pause.sum()), "time_not_advancing": int(backwards.sum()),
+              "phase_jumps": int((jump & ~pause & ~backwards).sum()), "median_step_s": dt_med}
+    return runs, counts
+
+
+def _knots(t: np.ndarray, h: float) -> np.ndarray:
+    """Interior knots about h apart, thinned so that every interval holds enough samples."""
+    candidates = np.arange(t[0] + h, t[-1] - h / 2, h)
+    knots, last = [], 0
+    for k in candidates:
+        i = int(np.searchsorted(t, k))
+        if i - last >= MIN_KNOT_SAMPLES and len(t) - i >= MIN_KNOT_SAMPLES:
+            knots.append(k)
+            last = i
+    return np.asarray(knots)
+
+
+def _describe(runs: list[Run], counts: dict, n: int) -> str:
+    parts = []
+    if counts["pauses"]:
+        parts.append(f"the recording pauses {counts['pauses']} times")
+    if counts["time_not_advancing"]:
+        parts.append(f"its time stamps stand still or go back {counts['time_not_advancing']} times")
+    if counts["phase_jumps"]:
+        parts.append(f"the phase jumps by more than {MAX_STEP_PERIODS} of a period between two samples "
+                     f"{counts['phase_jumps']} times (too fast for the sample rate)")
+    head = "; ".join(parts) + "; " if parts else ""
+    best = max(runs, key=lambda r: r.periods)
+    return (f"{head}none of its {len(runs)} gap-free run(s) passes the {MIN_RUN_PERIODS:.0f} signal periods "
+            f"needed to separate the motion from the interpolation error (the longest passes "
+            f"{best.periods:.1f} in {best.stop - best.start} samples)")
 
 
 def smooth_motion_phase(theta_rad: np.ndarray, t: np.ndarray, harmonics: int = 31,
-                        iterations: int = 3) -> tuple[np.ndarray, dict]:
-    """Estimate the true (unwrapped) phase from a measured one with a periodic error."""
-    total = np.unwrap(np.asarray(theta_rad, float)) / (2 * np.pi)     # periods
+                        iterations: int = 3) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Estimate the true phase from a measured one with a periodic error, run by run.
+
+    Returns the phase (rad; NaN outside the runs used), the mask of samples it is valid for,
+    and a summary (runs, pauses, how much of the recording was used).
+    """
+    theta = np.asarray(theta_rad, float)
     t = np.asarray(t, float)
-    if np.any(np.diff(t) <= 0):
-        raise ValueError("time stamps must increase strictly")
-    speed = np.abs(np.gradient(total, t))
-    v_med = float(np.median(speed))
-    if not v_med > 0 or (t[-1] - t[0]) * v_med < 8 * KNOT_PERIODS:
-        raise MotionTooSlow("the recording passes too few signal periods to separate the motion from "
-                            "the interpolation error")
-    h = KNOT_PERIODS / v_med
-    knots = np.arange(t[0] + h, t[-1] - h / 2, h)
-    fast = speed >= 0.5 * v_med
-    warp = np.zeros_like(total)
-    info = {"knot_spacing_s": h, "median_speed_periods_s": v_med, "samples_used": int(fast.sum())}
+    runs, counts = motion_segments(theta / (2 * np.pi), t)
+    used = [r for r in runs if not r.reason]
+    if not used:
+        raise MotionTooSlow(_describe(runs, counts, len(t)))
+    # per run: unwrapped phase (periods), time, speed, knots
+    parts = []
+    for r in used:
+        sl = slice(r.start, r.stop)
+        total = np.unwrap(theta[sl]) / (2 * np.pi)
+        tr = t[sl]
+        speed = np.abs(np.gradient(total, tr))
+        v_run = float(np.median(speed[speed > 0])) if np.any(speed > 0) else 0.0
+        moving = speed >= SLOW_FRACTION * v_run
+        v_typ = float(np.median(speed[moving])) if moving.any() else v_run
+        parts.append({"run": r, "total": total, "t": tr, "fast": speed >= SLOW_FRACTION * v_typ,
+                      "knots": _knots(tr, KNOT_PERIODS / v_typ), "v": v_typ})
+    warps = [np.zeros_like(p["total"]) for p in parts]
+    info = {}
     for _ in range(iterations):
-        spline = LSQUnivariateSpline(t, total - warp, knots, k=3)
-        resid = total - spline(t)
-        series, n, rms = fit_select(2 * np.pi * total[fast], resid[fast], harmonics)
+        resid = []
+        for p, w in zip(parts, warps, strict=True):
+            try:
+                spline = LSQUnivariateSpline(p["t"], p["total"] - w, p["knots"], k=3)
+            except ValueError:      # scipy's own words would mean nothing to the user
+                r = p["run"]
+                raise MotionTooSlow(f"the run of rows {r.start + 1}-{r.stop} cannot be fitted by a smooth "
+                                    "motion (time stamps too uneven)") from None
+            resid.append(p["total"] - spline(p["t"]))
+        x = np.concatenate([2 * np.pi * p["total"][p["fast"]] for p in parts])
+        y = np.concatenate([r[p["fast"]] for p, r in zip(parts, resid, strict=True)])
+        series, n, rms = fit_select(x, y, harmonics)
         series.weights[0] = 0.0          # a constant belongs to the motion, not to the phase error
-        warp = series(2 * np.pi * total)
+        warps = [series(2 * np.pi * p["total"]) for p in parts]
         info.update(harmonics=n, residual_rms_periods=rms)
-    return 2 * np.pi * (total - warp), info
+    phi = np.full(len(t), np.nan)
+    valid = np.zeros(len(t), bool)
+    for p, w in zip(parts, warps, strict=True):
+        r = p["run"]
+        phi[r.start:r.stop] = 2 * np.pi * (p["total"] - w)
+        valid[r.start:r.stop] = p["fast"]
+    skipped_runs = [{"first_row": r.start + 1, "samples": r.stop - r.start, "why": r.reason}
+                    for r in runs if r.reason]
+    info.update(runs=len(runs), runs_used=len(used), samples_used=int(valid.sum()),
+                fraction_used=float(valid.mean()), periods_used=float(sum(r.periods for r in used)),
+                pauses=counts["pauses"], time_not_advancing=counts["time_not_advancing"],
+                phase_jumps=counts["phase_jumps"], median_step_s=counts["median_step_s"],
+                knot_spacing_periods=KNOT_PERIODS, median_speed_periods_s=float(np.median([p["v"] for p in parts])),
+                runs_skipped=skipped_runs[:20])
+    return phi, valid, info
