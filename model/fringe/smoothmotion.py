@@ -155,3 +155,22 @@ def smooth_motion_phase(theta_rad: np.ndarray, t: np.ndarray, harmonics: int = 3
                 knot_spacing_periods=KNOT_PERIODS, median_speed_periods_s=float(np.median([p["v"] for p in parts])),
                 runs_skipped=skipped_runs[:20])
     return phi, valid, info
+
+
+def motion_roughness(theta_rad: np.ndarray, t: np.ndarray) -> dict:
+    """How far a corrected phase strays from smooth motion: per gap-free run, the RMS of the
+    unwrapped phase about the same cubic spline as the reference uses (no periodic term), over the
+    samples fast enough for the spline not to follow a periodic error. Periods."""
+    theta = np.asarray(theta_rad, float)
+    runs, _ = motion_segments(theta / (2 * np.pi), np.asarray(t, float))
+    sq, n = 0.0, 0
+    for r in (r for r in runs if not r.reason):
+        total = np.unwrap(theta[r.start:r.stop]) / (2 * np.pi)
+        tr = np.asarray(t[r.start:r.stop], float)
+        speed = np.abs(np.gradient(total, tr))
+        v = float(np.median(speed[speed >= SLOW_FRACTION * np.median(speed)]))
+        spline = LSQUnivariateSpline(tr, total, _knots(tr, KNOT_PERIODS / v), k=3)
+        fast = speed >= SLOW_FRACTION * v
+        resid = (total - spline(tr))[fast]
+        sq, n = sq + float(resid @ resid), n + len(resid)
+    return {"rms_periods": float(np.sqrt(sq / n)) if n else float("nan"), "samples": n}
