@@ -92,8 +92,8 @@ def _describe(runs: list[Run], counts: dict, n: int) -> str:
                      f"{counts['phase_jumps']} times (too fast for the sample rate)")
     head = "; ".join(parts) + "; " if parts else ""
     best = max(runs, key=lambda r: r.periods)
-    return (f"{head}none of its {len(runs)} gap-free run(s) passes the {MIN_RUN_PERIODS:.0f} signal periods "
-            f"needed to separate the motion from the interpolation error (the longest passes "
+    return (f"{head}each of its {len(runs)} gap-free run(s) passes too few signal periods to separate the motion "
+            f"from the interpolation error (at least {MIN_RUN_PERIODS:.0f} are needed; the longest passes "
             f"{best.periods:.1f} in {best.stop - best.start} samples)")
 
 
