@@ -22,7 +22,7 @@ from .fourierfit import fit_select
 from .pipeline import Calibration, encoder_position, fine_phase
 from .position import circular_mean, fit_coarse_offset, wrap
 from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
-from .smoothmotion import MotionTooSlow, smooth_motion_phase
+from .smoothmotion import MotionTooSlow, smooth_motion_phase, times
 from .waveform import ChannelWaveform, PaperChannel, build_inverse
 
 MIN_SAMPLES = 64
@@ -135,11 +135,11 @@ def motion_usage_text(info: dict, n: int) -> str:
     """What the smooth-motion reference left out of the waveform fit, and why."""
     why = []
     if info["pauses"]:
-        why.append(f"the recording pauses {info['pauses']} times")
+        why.append(f"the recording pauses {times(info['pauses'])}")
     if info["time_not_advancing"]:
-        why.append(f"its time stamps stand still or go back {info['time_not_advancing']} times")
+        why.append(f"its time stamps stand still or go back {times(info['time_not_advancing'])}")
     if info["phase_jumps"]:
-        why.append(f"the phase jumps by more than a quarter period between samples {info['phase_jumps']} times")
+        why.append(f"the phase jumps by more than a quarter period between samples {times(info['phase_jumps'])}")
     short = info["runs"] - info["runs_used"]
     if short:
         why.append(f"{short} of its {info['runs']} gap-free runs are too short")

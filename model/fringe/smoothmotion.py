@@ -27,7 +27,9 @@ GAP_FACTOR = 4.0          # a time step this many times the median one is a paus
 MAX_STEP_PERIODS = 0.25   # a larger phase step between two samples cannot be unwrapped safely
 MIN_RUN_PERIODS = 8 * KNOT_PERIODS   # a run must pass this many periods to separate motion from error
 MIN_RUN_SAMPLES = 32
+TYPICAL_SPEED_PERCENTILE = 90   # the run's speed that sets the knots (a run may start or end slowly)
 SLOW_FRACTION = 0.5       # samples slower than this fraction of the run's speed stay out of the periodic fit
+MAX_ROUGHNESS_PERIODS = 0.02   # a reference scattering more blurs the 3rd harmonic by > 7 %
 MIN_KNOT_SAMPLES = 6      # samples between two knots (a cubic spline needs more than 4)
 
 
@@ -81,20 +83,27 @@ def _knots(t: np.ndarray, h: float) -> np.ndarray:
     return np.asarray(knots)
 
 
-def _describe(runs: list[Run], counts: dict, n: int) -> str:
+def times(n: int) -> str:
+    return {1: "once", 2: "twice"}.get(n, f"{n} times")
+
+
+def _interruptions(counts: dict) -> str:
     parts = []
     if counts["pauses"]:
-        parts.append(f"the recording pauses {counts['pauses']} times")
+        parts.append(f"the recording pauses {times(counts['pauses'])}")
     if counts["time_not_advancing"]:
-        parts.append(f"its time stamps stand still or go back {counts['time_not_advancing']} times")
+        parts.append(f"its time stamps stand still or go back {times(counts['time_not_advancing'])}")
     if counts["phase_jumps"]:
         parts.append(f"the phase jumps by more than {MAX_STEP_PERIODS} of a period between two samples "
-                     f"{counts['phase_jumps']} times (too fast for the sample rate)")
-    head = "; ".join(parts) + "; " if parts else ""
+                     f"{times(counts['phase_jumps'])} (too fast for the sample rate)")
+    return "; ".join(parts) + "; " if parts else ""
+
+
+def _too_short(runs: list[Run], counts: dict) -> str:
     best = max(runs, key=lambda r: r.periods)
-    return (f"{head}each of its {len(runs)} gap-free run(s) passes too few signal periods to separate the motion "
-            f"from the interpolation error (at least {MIN_RUN_PERIODS:.0f} are needed; the longest passes "
-            f"{best.periods:.1f} in {best.stop - best.start} samples)")
+    return (f"{_interruptions(counts)}each of its {len(runs)} gap-free run(s) passes too few signal periods to "
+            f"separate the motion from the interpolation error (at least {MIN_RUN_PERIODS:.0f} are needed; the "
+            f"longest passes {best.periods:.1f} in {best.stop - best.start} samples)")
 
 
 def smooth_motion_phase(theta_rad: np.ndarray, t: np.ndarray, harmonics: int = 31,
@@ -109,7 +118,7 @@ def smooth_motion_phase(theta_rad: np.ndarray, t: np.ndarray, harmonics: int = 3
     runs, counts = motion_segments(theta / (2 * np.pi), t)
     used = [r for r in runs if not r.reason]
     if not used:
-        raise MotionTooSlow(_describe(runs, counts, len(t)))
+        raise MotionTooSlow(_too_short(runs, counts))
     # per run: unwrapped phase (periods), time, speed, knots
     parts = []
     for r in used:
@@ -117,11 +126,41 @@ def smooth_motion_phase(theta_rad: np.ndarray, t: np.ndarray, harmonics: int = 3
         total = np.unwrap(theta[sl]) / (2 * np.pi)
         tr = t[sl]
         speed = np.abs(np.gradient(total, tr))
-        v_run = float(np.median(speed[speed > 0])) if np.any(speed > 0) else 0.0
-        moving = speed >= SLOW_FRACTION * v_run
-        v_typ = float(np.median(speed[moving])) if moving.any() else v_run
+        v_typ = float(np.percentile(speed, TYPICAL_SPEED_PERCENTILE))
         parts.append({"run": r, "total": total, "t": tr, "fast": speed >= SLOW_FRACTION * v_typ,
                       "knots": _knots(tr, KNOT_PERIODS / v_typ), "v": v_typ})
+    while True:           # drop the runs that do not move smoothly, and fit again without them
+        warps, resid, info = _separate(parts, harmonics, iterations)
+        rough = [float(np.sqrt(np.mean((e - w)[p["fast"]] ** 2))) for p, w, e in zip(parts, warps, resid, strict=True)]
+        for p, r in zip(parts, rough, strict=True):
+            if r > MAX_ROUGHNESS_PERIODS:
+                p["run"].reason = f"the motion strays {r:.2f} signal periods RMS from a smooth curve"
+        if all(r <= MAX_ROUGHNESS_PERIODS for r in rough):
+            break
+        parts = [p for p in parts if not p["run"].reason]
+        if not parts:
+            raise MotionTooSlow(f"{_interruptions(counts)}the motion is too irregular: no gap-free run follows a "
+                                f"smooth curve in time to within {MAX_ROUGHNESS_PERIODS} of a signal period")
+    used = [p["run"] for p in parts]
+    phi = np.full(len(t), np.nan)
+    valid = np.zeros(len(t), bool)
+    for p, w in zip(parts, warps, strict=True):
+        r = p["run"]
+        phi[r.start:r.stop] = 2 * np.pi * (p["total"] - w)
+        valid[r.start:r.stop] = p["fast"]
+    skipped_runs = [{"first_row": r.start + 1, "samples": r.stop - r.start, "why": r.reason}
+                    for r in runs if r.reason]
+    info.update(runs=len(runs), runs_used=len(used), samples_used=int(valid.sum()),
+                fraction_used=float(valid.mean()), periods_used=float(sum(r.periods for r in used)),
+                pauses=counts["pauses"], time_not_advancing=counts["time_not_advancing"],
+                phase_jumps=counts["phase_jumps"], median_step_s=counts["median_step_s"],
+                knot_spacing_periods=KNOT_PERIODS, typical_speed_periods_s=float(np.median([p["v"] for p in parts])),
+                runs_skipped=skipped_runs[:20])
+    return phi, valid, info
+
+
+def _separate(parts: list[dict], harmonics: int, iterations: int):
+    """Alternate the splines of the runs and the one periodic error they share."""
     warps = [np.zeros_like(p["total"]) for p in parts]
     info = {}
     for _ in range(iterations):
@@ -140,21 +179,7 @@ def smooth_motion_phase(theta_rad: np.ndarray, t: np.ndarray, harmonics: int = 3
         series.weights[0] = 0.0          # a constant belongs to the motion, not to the phase error
         warps = [series(2 * np.pi * p["total"]) for p in parts]
         info.update(harmonics=n, residual_rms_periods=rms)
-    phi = np.full(len(t), np.nan)
-    valid = np.zeros(len(t), bool)
-    for p, w in zip(parts, warps, strict=True):
-        r = p["run"]
-        phi[r.start:r.stop] = 2 * np.pi * (p["total"] - w)
-        valid[r.start:r.stop] = p["fast"]
-    skipped_runs = [{"first_row": r.start + 1, "samples": r.stop - r.start, "why": r.reason}
-                    for r in runs if r.reason]
-    info.update(runs=len(runs), runs_used=len(used), samples_used=int(valid.sum()),
-                fraction_used=float(valid.mean()), periods_used=float(sum(r.periods for r in used)),
-                pauses=counts["pauses"], time_not_advancing=counts["time_not_advancing"],
-                phase_jumps=counts["phase_jumps"], median_step_s=counts["median_step_s"],
-                knot_spacing_periods=KNOT_PERIODS, median_speed_periods_s=float(np.median([p["v"] for p in parts])),
-                runs_skipped=skipped_runs[:20])
-    return phi, valid, info
+    return warps, resid, info
 
 
 def motion_roughness(theta_rad: np.ndarray, t: np.ndarray) -> dict:
@@ -168,7 +193,7 @@ def motion_roughness(theta_rad: np.ndarray, t: np.ndarray) -> dict:
         total = np.unwrap(theta[r.start:r.stop]) / (2 * np.pi)
         tr = np.asarray(t[r.start:r.stop], float)
         speed = np.abs(np.gradient(total, tr))
-        v = float(np.median(speed[speed >= SLOW_FRACTION * np.median(speed)]))
+        v = float(np.percentile(speed, TYPICAL_SPEED_PERCENTILE))
         spline = LSQUnivariateSpline(tr, total, _knots(tr, KNOT_PERIODS / v), k=3)
         fast = speed >= SLOW_FRACTION * v
         resid = (total - spline(tr))[fast]
