@@ -185,3 +185,16 @@ def test_bad_input_still_gets_one_line_and_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "no signal" in err
     assert not (tmp_path / "cal").exists()
+
+
+def test_shape_path_helps_a_real_sensor_with_its_reference_hidden(shared_data):
+    """RM44 (one period per revolution, no t_s): calibrated with ref_deg hidden, the shape path must
+    never be worse than the ellipse alone against the hidden reference, on every xs recording."""
+    from fringe.bench_reference_free import RM44, rm44_without_reference
+    files = sorted((shared_data / RM44).glob("*_xs_*.csv"))
+    assert files
+    for f in files:
+        r = rm44_without_reference(str(f))
+        print(f.name, r)
+        assert r["phase_reference"] == "shape of the Lissajous figure"
+        assert r["rms_shape_corrected_deg"] <= r["rms_ellipse_only_deg"]

@@ -6,6 +6,7 @@ Without a reference instrument the error cannot be measured directly; two figure
   smooth motion, run by run (`smoothmotion.motion_roughness`), on held-out runs: the calibration is
   fitted on alternate pairs of gap-free runs (each pair holds both directions) and judged on the
   others. Before: the ellipse (conic) alone; after: the full reference-free calibration.
+- with the reference hidden, the RM44 recordings check the shape path against their reference.
 - a recording sorted by phase (nmm_interferometer): the harmonics of the corrected Lissajous
   figure's radius, on held-out rows (odd rows, calibrated on even ones), and the phase correction the
   figure's shape implied.
@@ -30,6 +31,9 @@ NMM = "nmm_interferometer"
 NMM_FRINGE_NM = 316.4          # one signal period: lambda / 2 of the NMM-1's HeNe laser
 ENCODER_16BIT = Encoder(lines_per_rev=1, adc_bits=16)
 RADIUS_HARMONICS = 16
+RM44 = "rm44_hall_vs_tonic"
+RM44_SCALE = 4096              # stored as (ADC - 2048) / 4096 of a 12-bit ADC
+RM44_ENCODER = Encoder(lines_per_rev=1, adc_bits=12)
 
 
 def servo_measurement(path: str) -> Measurement:
@@ -113,11 +117,38 @@ def nmm_figures(path: str) -> dict:
                        "cannot be inverted by its own table)"}
 
 
+def _rms_against(cal, meas: Measurement, ref_rad: np.ndarray) -> float:
+    """RMS angle error against a reference (deg), after its zero and, as the encoder does not know
+    it, its direction."""
+    frac, _ = fine_phase(cal, meas.sin, meas.cos)
+    best = np.inf
+    for direction in (1, -1):
+        e = np.angle(np.exp(1j * (direction * 2 * np.pi * frac - ref_rad)))
+        e -= np.angle(np.mean(np.exp(1j * e)))
+        best = min(best, float(np.degrees(np.sqrt(np.mean(e * e)))))
+    return best
+
+
+def rm44_without_reference(path: str) -> dict:
+    """A check of the shape reference on a sensor with a reference: the RM44 file calibrated with its
+    reference column hidden (one period per revolution, no t_s: the shape path), then judged against it.
+    The error left is mostly mechanical (eccentricity), which no signal-only correction can see."""
+    d = np.genfromtxt(path, delimiter=",", names=True)
+    meas = Measurement(path, d["bsin"] * RM44_SCALE, d["bcos"] * RM44_SCALE)
+    ref = 2 * np.pi * d["ref_angle_rev"]
+    cal = calibrate(meas, RM44_ENCODER)
+    return {"recording": os.path.join(RM44, os.path.basename(path)),
+            "phase_reference": cal.fit["phase_reference"]["method"],
+            "rms_ellipse_only_deg": _rms_against(ellipse_only(cal, meas), meas, ref),
+            "rms_shape_corrected_deg": _rms_against(cal, meas, ref)}
+
+
 def reference_free_bench(shared_data_dir: str) -> dict:
     """Every shared real recording without a reference; recordings absent from the folder are left out."""
     out = {"servo": None, "nmm": [], "not_applicable": {
         "mechaduino_as5047": "angle readings only, no sin/cos channels",
-        "rm44_hall_vs_tonic": "has a reference (bench_real)"}}
+        "rm44_hall_vs_tonic": "has a reference (bench_real); here only as a check of the shape path with the "
+                              "reference hidden"}, "rm44_reference_hidden": []}
     servo = os.path.join(shared_data_dir, SERVO)
     if os.path.exists(servo):
         out["servo"] = servo_figures(servo)
@@ -125,6 +156,10 @@ def reference_free_bench(shared_data_dir: str) -> dict:
     if os.path.isdir(nmm_dir):
         out["nmm"] = [nmm_figures(os.path.join(nmm_dir, f)) for f in sorted(os.listdir(nmm_dir))
                       if f.endswith("_sincos.csv")]
+    rm44_dir = os.path.join(shared_data_dir, RM44)
+    if os.path.isdir(rm44_dir):
+        out["rm44_reference_hidden"] = [rm44_without_reference(os.path.join(rm44_dir, f))
+                                        for f in sorted(os.listdir(rm44_dir)) if "_xs_" in f]
     return out
 
 
