@@ -90,15 +90,19 @@ def test_nmm_without_time_gets_a_calibration_from_the_shape(tmp_path, shared_dat
     assert len(rows) == len(d) and not (rows[:, 1].astype(int) & 0x7F).any()
 
 
-@pytest.mark.parametrize("axis", ["X", "Z"])
+@pytest.mark.parametrize("axis", ["X", "Y", "Z"])
 def test_nmm_shape_correction_rounds_the_figure(shared_data, axis):
-    """X and Z: the 4th harmonic of the radius (0.5-0.7 %) must go down to the quantisation's level
-    (one count on a radius of 500 is 0.2 %; its harmonics, averaged over 8000 held-out rows, ~0.01 %)."""
+    """The 4th harmonic of the radius (0.5-2.9 %) must go down to the quantisation's level: one count
+    on a radius of 500 is 0.2 %, its harmonics averaged over 8000 held-out rows ~0.01 %; the 2.2 %
+    radial scatter of Y makes that ~0.03 %. X and Z have nothing else; Y's higher harmonics need
+    channel harmonics that fold the channels' halves (not invertible by their tables), see the bench."""
     from fringe.bench_reference_free import NMM, nmm_figures
     fig = nmm_figures(str(shared_data / NMM / f"nmm_test01_{axis}_sincos.csv"))
     print(fig)
     assert fig["radius_harmonics_ellipse_only_pct"][4] > 0.4
-    assert fig["largest_residual_harmonic_pct"] < 0.05
+    assert fig["radius_harmonics_corrected_pct"][4] < 0.05
+    if axis != "Y":
+        assert fig["largest_residual_harmonic_pct"] < 0.05
 
 
 # ---------------------------------------------------------------- randomised logger recordings

@@ -23,7 +23,7 @@ from .pipeline import Calibration, encoder_position, fine_phase
 from .position import circular_mean, fit_coarse_offset, wrap
 from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
 from .smoothmotion import MotionTooSlow, smooth_motion_phase, times
-from .waveform import ChannelWaveform, PaperChannel, build_inverse
+from .waveform import ChannelWaveform, PaperChannel, build_inverse, is_invertible
 
 MIN_SAMPLES = 64
 MAX_CLIPPED_FRACTION = 0.005
@@ -90,14 +90,20 @@ def _fit_quadrature(cal: Calibration, meas: Measurement, use: np.ndarray, seed_f
 
 
 def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: np.ndarray,
-                     opts: CalibrationOptions):
-    """Fit both channels against a phase reference `phi` (rad, per sample), invert, re-fit quadrature."""
+                     opts: CalibrationOptions, invertible: bool = False):
+    """Fit both channels against a phase reference `phi` (rad, per sample), invert, re-fit quadrature.
+
+    `invertible`: fewer harmonics than BIC chose where needed, so that each channel keeps one rising
+    and one falling half per period, which its two tables can invert."""
     hmax = max(1, min(opts.wave_harmonics_max, int(use.sum()) // 16))
     fits = {}
     for kind, y in (("sin", meas.sin), ("cos", meas.cos)):
         series, n, _ = fit_select(phi[use], y[use], hmax)
         if n < 1:
             _fail(meas, f"the {kind} channel does not follow the phase: no signal?")
+        while invertible and n > 1 and not is_invertible(ChannelWaveform(kind, series.weights)):
+            n -= 1
+            series, _, _ = fit_select(phi[use], y[use], hmax, n_fixed=n)
         fits[kind] = ChannelWaveform(kind, series.weights)
     _set_waveforms(cal, fits["sin"], fits["cos"], cal.encoder, opts)
     _fit_quadrature(cal, meas, use)
@@ -119,7 +125,7 @@ def reference_free(meas: Measurement, enc: Encoder, use: np.ndarray, opts: Calib
                 shape_reference(cal, meas, use, opts, str(e))
                 return cal
             break          # the first pass had a reference: keep its waveforms
-        _refit_waveforms(cal, meas, use & valid, phi, opts)
+        _refit_waveforms(cal, meas, use & valid, phi, opts, invertible=True)
         info["time"] = "t_s" if meas.t_s is not None else "row index (no t_s column)"
         cal.fit["smooth_motion"] = info
     info = cal.fit["smooth_motion"]
@@ -160,7 +166,7 @@ def shape_reference(cal: Calibration, meas: Measurement, use: np.ndarray, opts: 
         delta, found = shape_phase_error(theta[use], mag[use]) if opts.shape_correction else (0.0, {})
         phi = np.full(len(meas), np.nan)
         phi[use] = theta[use] - delta
-        _refit_waveforms(cal, meas, use, phi, opts)
+        _refit_waveforms(cal, meas, use, phi, opts, invertible=True)
         for m, v in found.items():
             harmonics[m] = harmonics.get(m, 0.0) + v
     orders = sorted(m for m, v in harmonics.items() if v > 0)
