@@ -163,8 +163,41 @@ def reference_free_bench(shared_data_dir: str) -> dict:
     return out
 
 
+def reference_free_markdown(result: dict) -> str:
+    """The bench's figures as markdown tables (for results/bench.md)."""
+    lines = []
+    sv = result.get("servo")
+    if sv:
+        met = "met" if sv["meets_target"] else "NOT met"
+        lines += ["| servo (held-out runs) | ellipse only | corrected | improvement | target |",
+                  "|---|---|---|---|---|",
+                  f"| roughness about smooth motion (deg el, RMS) | {sv['roughness_ellipse_only_deg_el']:.3f} | "
+                  f"{sv['roughness_corrected_deg_el']:.3f} | {sv['improvement']:.2f}x | "
+                  f"{sv['target_improvement']:.0f}x {met} |", ""]
+    if result.get("nmm"):
+        lines += ["| NMM axis (held-out rows) | radius 4th: ellipse -> corrected (%) | 8th (%) | largest left (%) "
+                  "| phase correction (nm p-p) | tables' own error (nm p-p) |", "|---|---|---|---|---|---|"]
+        for f in result["nmm"]:
+            b, a = f["radius_harmonics_ellipse_only_pct"], f["radius_harmonics_corrected_pct"]
+            lines.append(f"| {os.path.basename(f['recording'])} | {b[4]:.3f} -> {a[4]:.3f} | "
+                         f"{b[8]:.3f} -> {a[8]:.3f} | {f['largest_residual_harmonic_pct']:.3f} | "
+                         f"{f['phase_correction_pp_nm']:.2f} | {f['tables_own_curve_error_pp_nm']:.3f} |")
+        lines.append("")
+    rm = result.get("rm44_reference_hidden")
+    if rm:
+        better = sum(r["rms_shape_corrected_deg"] <= r["rms_ellipse_only_deg"] for r in rm)
+        shape = [r["rms_shape_corrected_deg"] for r in rm]
+        ellipse = [r["rms_ellipse_only_deg"] for r in rm]
+        lines += [f"RM44 with the reference hidden (shape path): better than the ellipse alone on {better} of "
+                  f"{len(rm)}; RMS error {min(shape):.3f}-{max(shape):.3f} deg (ellipse alone "
+                  f"{min(ellipse):.3f}-{max(ellipse):.3f})", ""]
+    return "\n".join(lines)
+
+
 if __name__ == "__main__":
     import json
     import sys
 
-    print(json.dumps(reference_free_bench(sys.argv[1] if len(sys.argv) > 1 else "../shared/data"), indent=2))
+    result = reference_free_bench(sys.argv[1] if len(sys.argv) > 1 else "../shared/data")
+    print(json.dumps(result, indent=2))
+    print(reference_free_markdown(result))

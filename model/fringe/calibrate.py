@@ -22,7 +22,7 @@ from .fourierfit import fit_select
 from .pipeline import Calibration, encoder_position, fine_phase
 from .position import circular_mean, fit_coarse_offset, wrap
 from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
-from .smoothmotion import MotionTooSlow, smooth_motion_phase, times
+from .smoothmotion import MAX_STEP_PERIODS, MotionTooSlow, smooth_motion_phase, times
 from .waveform import ChannelWaveform, PaperChannel, build_inverse, is_invertible
 
 MIN_SAMPLES = 64
@@ -122,7 +122,8 @@ def reference_free(meas: Measurement, enc: Encoder, use: np.ndarray, opts: Calib
             phi, valid, info = smooth_motion_phase(theta, t)
         except MotionTooSlow as e:
             if i == 0:
-                shape_reference(cal, meas, use, opts, str(e))
+                timing = "" if meas.t_s is not None else "no t_s column, so rows are taken as equally spaced in time: "
+                shape_reference(cal, meas, use, opts, timing + str(e))
                 return cal
             break          # the first pass had a reference: keep its waveforms
         _refit_waveforms(cal, meas, use & valid, phi, opts, invertible=True)
@@ -145,10 +146,14 @@ def motion_usage_text(info: dict, n: int) -> str:
     if info["time_not_advancing"]:
         why.append(f"its time stamps stand still or go back {times(info['time_not_advancing'])}")
     if info["phase_jumps"]:
-        why.append(f"the phase jumps by more than a quarter period between samples {times(info['phase_jumps'])}")
-    short = info["runs"] - info["runs_used"]
+        why.append(f"the phase jumps by more than {MAX_STEP_PERIODS} of a period between samples "
+                   f"{times(info['phase_jumps'])}")
+    rough = info["runs_not_smooth"]
+    short = info["runs"] - info["runs_used"] - rough
     if short:
         why.append(f"{short} of its {info['runs']} gap-free runs are too short")
+    if rough:
+        why.append(f"{rough} of its {info['runs']} gap-free runs do not move smoothly")
     why.append("samples near stops and reversals move too slowly")
     return (f"waveform fit: {n - info['samples_used']} of {n} samples ({100 * (1 - info['fraction_used']):.0f} %) "
             f"left out of the smooth-motion phase reference ({'; '.join(why)}); it used "
@@ -160,26 +165,26 @@ def shape_reference(cal: Calibration, meas: Measurement, use: np.ndarray, opts: 
     radius's harmonics (`quadrature.shape_phase_error`). Both go into waveform tables the core runs:
     the channels are fitted against the phase the shape implies, so with a round figure the tables
     are those of the conic-corrected channels."""
-    harmonics = {}
+    harmonics = None      # the radius's harmonics after the conic alone: what the shape corrects
     for _ in range(opts.shape_iterations):
         theta, mag = _phase(cal, meas)
         delta, found = shape_phase_error(theta[use], mag[use]) if opts.shape_correction else (0.0, {})
         phi = np.full(len(meas), np.nan)
         phi[use] = theta[use] - delta
         _refit_waveforms(cal, meas, use, phi, opts, invertible=True)
-        for m, v in found.items():
-            harmonics[m] = harmonics.get(m, 0.0) + v
-    orders = sorted(m for m, v in harmonics.items() if v > 0)
-    shape = (f"the radius's harmonics {', '.join(map(str, orders))} ({max(harmonics.values()) * 100:.2g} % at most) "
-             "are corrected as the channel harmonics one order below (the order above, which bends the radius alike "
-             "but moves the angle the other way, cannot be told apart without a reference)"
-             if orders else "the figure's shape shows no radius harmonic above the conic's")
+        harmonics = found if harmonics is None else harmonics
+    largest = sorted((m for m, v in harmonics.items() if v > 0), key=lambda m: -harmonics[m])
+    named = ", ".join(f"{m}: {100 * harmonics[m]:.2g} %" for m in largest[:4])
+    shape = (f"the radius's harmonics ({len(largest)} orders; largest {named}) are corrected as the channel "
+             "harmonics one order below (the order above, which bends the radius alike but moves the angle the "
+             "other way, cannot be told apart without a reference)"
+             if largest else "the figure's shape shows no radius harmonic above the conic's")
     cal.skipped.append(f"waveform fit against the motion: {why}. The phase reference comes from the Lissajous "
                        f"figure's shape instead: offsets, gains and phase (conic) are corrected, and {shape}; a "
                        "waveform error that keeps the figure round needs t_s with smooth motion or ref_deg")
     cal.fit["phase_reference"] = {"method": "shape of the Lissajous figure", "samples_used": int(use.sum()),
                                   "fraction_used": float(use.mean()),
-                                  "radius_harmonics": {str(m): harmonics[m] for m in orders}}
+                                  "radius_harmonics_after_conic": {str(m): harmonics[m] for m in largest}}
 
 
 def sync_coarse(cal: Calibration, meas: Measurement):

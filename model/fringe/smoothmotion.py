@@ -30,6 +30,7 @@ MIN_RUN_SAMPLES = 32
 TYPICAL_SPEED_PERCENTILE = 90   # the run's speed that sets the knots (a run may start or end slowly)
 SLOW_FRACTION = 0.5       # samples slower than this fraction of the run's speed stay out of the periodic fit
 MAX_ROUGHNESS_PERIODS = 0.02   # a reference scattering more blurs the 3rd harmonic by > 7 %
+NOT_SMOOTH = "the motion strays"
 MIN_KNOT_SAMPLES = 6      # samples between two knots (a cubic spline needs more than 4)
 
 
@@ -134,7 +135,7 @@ def smooth_motion_phase(theta_rad: np.ndarray, t: np.ndarray, harmonics: int = 3
         rough = [float(np.sqrt(np.mean((e - w)[p["fast"]] ** 2))) for p, w, e in zip(parts, warps, resid, strict=True)]
         for p, r in zip(parts, rough, strict=True):
             if r > MAX_ROUGHNESS_PERIODS:
-                p["run"].reason = f"the motion strays {r:.2f} signal periods RMS from a smooth curve"
+                p["run"].reason = f"{NOT_SMOOTH} {r:.2f} signal periods RMS from a smooth curve"
         if all(r <= MAX_ROUGHNESS_PERIODS for r in rough):
             break
         parts = [p for p in parts if not p["run"].reason]
@@ -150,7 +151,8 @@ def smooth_motion_phase(theta_rad: np.ndarray, t: np.ndarray, harmonics: int = 3
         valid[r.start:r.stop] = p["fast"]
     skipped_runs = [{"first_row": r.start + 1, "samples": r.stop - r.start, "why": r.reason}
                     for r in runs if r.reason]
-    info.update(runs=len(runs), runs_used=len(used), samples_used=int(valid.sum()),
+    info.update(runs=len(runs), runs_used=len(used), runs_not_smooth=sum(r.reason.startswith(NOT_SMOOTH) for r in runs),
+                samples_used=int(valid.sum()),
                 fraction_used=float(valid.mean()), periods_used=float(sum(r.periods for r in used)),
                 pauses=counts["pauses"], time_not_advancing=counts["time_not_advancing"],
                 phase_jumps=counts["phase_jumps"], median_step_s=counts["median_step_s"],
