@@ -120,8 +120,9 @@ def _logger_recording(g: np.random.Generator, samples: int):
     v0 = 1.0 / (samples_per_period * dt0)                                  # periods per second
     swings = [g.uniform(0, 1.2) * np.sin(2 * np.pi * t / g.uniform(0.5, 5) + g.uniform(0, 6)) for _ in range(2)]
     speed = v0 * (g.uniform(0.3, 1.0) + sum(swings))                       # reversals where the swing wins
-    for start in g.uniform(0, t[-1], int(g.integers(0, 4))):              # slows down to a stop, restarts
-        speed *= 1 - np.exp(-((t - start) / g.uniform(0.05, 0.5)) ** 2)
+    for start in g.uniform(0, t[-1], int(g.integers(0, 4))):              # slows down, stands still, restarts
+        x = np.clip((np.abs(t - start) - g.uniform(0.05, 1.0)) / g.uniform(0.05, 0.3), 0, 1)
+        speed *= x * x * (3 - 2 * x)
     phase = 2 * np.pi * np.concatenate([[0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))])
     noise = g.uniform(2e-4, 2e-3)
     ch = {}
@@ -143,7 +144,7 @@ def _curve_rms(cal, meas, phase):
     return float(np.sqrt(np.mean(curve ** 2)))
 
 
-@pytest.mark.parametrize("case", range(6))
+@pytest.mark.parametrize("case", range(12))
 def test_random_logger_recordings(case):
     seed = 1200 + case
     g = rng(seed)
