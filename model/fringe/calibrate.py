@@ -21,9 +21,9 @@ from .errors import FringeInputError
 from .fourierfit import fit_select
 from .pipeline import Calibration, encoder_position, fine_phase
 from .position import circular_mean, fit_coarse_offset, wrap
-from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse
-from .smoothmotion import MotionTooSlow, smooth_motion_phase
-from .waveform import ChannelWaveform, PaperChannel, build_inverse
+from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
+from .smoothmotion import MAX_STEP_PERIODS, MotionTooSlow, smooth_motion_phase, times
+from .waveform import ChannelWaveform, PaperChannel, build_inverse, is_invertible
 
 MIN_SAMPLES = 64
 MAX_CLIPPED_FRACTION = 0.005
@@ -32,6 +32,8 @@ MAX_CLIPPED_FRACTION = 0.005
 @dataclass
 class CalibrationOptions:
     motion_iterations: int = 2
+    shape_iterations: int = 3        # without motion: passes of the Lissajous-shape phase reference
+    shape_correction: bool = True    # False: without motion, correct the conic only
     ref_iterations: int = 2
     wave_harmonics_max: int = 31     # general model: BIC chooses up to this many
     lp_harmonics_max: int = 64       # BIC chooses up to this many
@@ -88,14 +90,20 @@ def _fit_quadrature(cal: Calibration, meas: Measurement, use: np.ndarray, seed_f
 
 
 def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: np.ndarray,
-                     opts: CalibrationOptions):
-    """Fit both channels against a phase reference `phi` (rad, per sample), invert, re-fit quadrature."""
+                     opts: CalibrationOptions, invertible: bool = False):
+    """Fit both channels against a phase reference `phi` (rad, per sample), invert, re-fit quadrature.
+
+    `invertible`: fewer harmonics than BIC chose where needed, so that each channel keeps one rising
+    and one falling half per period, which its two tables can invert."""
     hmax = max(1, min(opts.wave_harmonics_max, int(use.sum()) // 16))
     fits = {}
     for kind, y in (("sin", meas.sin), ("cos", meas.cos)):
         series, n, _ = fit_select(phi[use], y[use], hmax)
         if n < 1:
             _fail(meas, f"the {kind} channel does not follow the phase: no signal?")
+        while invertible and n > 1 and not is_invertible(ChannelWaveform(kind, series.weights)):
+            n -= 1
+            series, _, _ = fit_select(phi[use], y[use], hmax, n_fixed=n)
         fits[kind] = ChannelWaveform(kind, series.weights)
     _set_waveforms(cal, fits["sin"], fits["cos"], cal.encoder, opts)
     _fit_quadrature(cal, meas, use)
@@ -103,23 +111,80 @@ def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: 
 
 
 def reference_free(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions) -> Calibration:
-    """Conic, then waveforms against the smooth-motion phase reference."""
+    """Conic, then waveforms against a phase reference that needs no instrument: the motion being
+    smooth in time where it is, else the shape of the Lissajous figure (`shape_reference`)."""
     cal = Calibration(encoder=enc)
     _fit_quadrature(cal, meas, use)
-    t = meas.t_s if meas.t_s is not None else np.arange(len(meas), dtype=float)
-    for _ in range(opts.motion_iterations):
+    t = meas.t_s if meas.t_s is not None else np.arange(len(meas), dtype=float)   # no t_s: rows equally spaced
+    for i in range(max(1, opts.motion_iterations)):
         theta, _ = _phase(cal, meas)
         try:
-            phi, info = smooth_motion_phase(theta, t)
+            phi, valid, info = smooth_motion_phase(theta, t)
         except MotionTooSlow as e:
-            cal.skipped.append(f"waveform inversion without a reference: {e}; only the conic "
-                               "(offsets, gains, phase) is corrected")
-            break
-        except ValueError as e:
-            _fail(meas, f"column 't_s': {e}")
-        _refit_waveforms(cal, meas, use, phi, opts)
+            if i == 0:
+                timing = "" if meas.t_s is not None else "no t_s column, so rows are taken as equally spaced in time: "
+                shape_reference(cal, meas, use, opts, timing + str(e))
+                return cal
+            break          # the first pass had a reference: keep its waveforms
+        _refit_waveforms(cal, meas, use & valid, phi, opts, invertible=True)
+        info["time"] = "t_s" if meas.t_s is not None else "row index (no t_s column)"
         cal.fit["smooth_motion"] = info
+    info = cal.fit["smooth_motion"]
+    cal.fit["phase_reference"] = {"method": "smooth motion in time", "samples_used": info["samples_used"],
+                                  "fraction_used": info["fraction_used"], "runs_used": info["runs_used"],
+                                  "runs": info["runs"]}
+    if info["fraction_used"] < 0.99:
+        cal.skipped.append(motion_usage_text(info, len(meas)))
     return cal
+
+
+def motion_usage_text(info: dict, n: int) -> str:
+    """What the smooth-motion reference left out of the waveform fit, and why."""
+    why = []
+    if info["pauses"]:
+        why.append(f"the recording pauses {times(info['pauses'])}")
+    if info["time_not_advancing"]:
+        why.append(f"its time stamps stand still or go back {times(info['time_not_advancing'])}")
+    if info["phase_jumps"]:
+        why.append(f"the phase jumps by more than {MAX_STEP_PERIODS} of a period between samples "
+                   f"{times(info['phase_jumps'])}")
+    rough = info["runs_not_smooth"]
+    short = info["runs"] - info["runs_used"] - rough
+    if short:
+        why.append(f"{short} of its {info['runs']} gap-free runs are too short")
+    if rough:
+        why.append(f"{rough} of its {info['runs']} gap-free runs do not move smoothly")
+    why.append("samples near stops and reversals move too slowly")
+    return (f"waveform fit: {n - info['samples_used']} of {n} samples ({100 * (1 - info['fraction_used']):.0f} %) "
+            f"left out of the smooth-motion phase reference ({'; '.join(why)}); it used "
+            f"{info['runs_used']} run(s), {info['periods_used']:.0f} signal periods")
+
+
+def shape_reference(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions, why: str):
+    """Without a phase reference from the motion: the conic, and from the figure's shape alone the
+    radius's harmonics (`quadrature.shape_phase_error`). Both go into waveform tables the core runs:
+    the channels are fitted against the phase the shape implies, so with a round figure the tables
+    are those of the conic-corrected channels."""
+    harmonics = None      # the radius's harmonics after the conic alone: what the shape corrects
+    for _ in range(opts.shape_iterations):
+        theta, mag = _phase(cal, meas)
+        delta, found = shape_phase_error(theta[use], mag[use]) if opts.shape_correction else (0.0, {})
+        phi = np.full(len(meas), np.nan)
+        phi[use] = theta[use] - delta
+        _refit_waveforms(cal, meas, use, phi, opts, invertible=True)
+        harmonics = found if harmonics is None else harmonics
+    largest = sorted((m for m, v in harmonics.items() if v > 0), key=lambda m: -harmonics[m])
+    named = ", ".join(f"{m}: {100 * harmonics[m]:.2g} %" for m in largest[:4])
+    shape = (f"the radius's harmonics ({len(largest)} orders; largest {named}) are corrected as the channel "
+             "harmonics one order below (the order above, which bends the radius alike but moves the angle the "
+             "other way, cannot be told apart without a reference)"
+             if largest else "the figure's shape shows no radius harmonic above the conic's")
+    cal.skipped.append(f"waveform fit against the motion: {why}. The phase reference comes from the Lissajous "
+                       f"figure's shape instead: offsets, gains and phase (conic) are corrected, and {shape}; a "
+                       "waveform error that keeps the figure round needs t_s with smooth motion or ref_deg")
+    cal.fit["phase_reference"] = {"method": "shape of the Lissajous figure", "samples_used": int(use.sum()),
+                                  "fraction_used": float(use.mean()),
+                                  "radius_harmonics_after_conic": {str(m): harmonics[m] for m in largest}}
 
 
 def sync_coarse(cal: Calibration, meas: Measurement):
@@ -231,6 +296,8 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
     cal.provenance = {"data": meas.path, "samples": len(meas), "samples_used": int(use.sum()),
                       "sample_interval_s": float(np.median(dt)),
                       "encoder": enc.to_dict(), "method": "fringe calibrate"}
+    if "phase_reference" in cal.fit:   # reference-free: which phase reference the waveforms rest on, on how much
+        cal.provenance["phase_reference"] = cal.fit["phase_reference"]
     return cal
 
 

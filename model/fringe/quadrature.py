@@ -112,3 +112,38 @@ def fit_conic(s: np.ndarray, c: np.ndarray) -> QuadratureCorrection:
     return _check_fit(QuadratureCorrection(ofs_s=float(s0 + centre[0] * scale), ofs_c=float(c0 + centre[1] * scale),
                                            k_ss=float(1 / (g_s * cos_a)), k_sc=float(np.tan(alpha) / g_c),
                                            k_cc=float(1 / g_c), alpha_rad=alpha, gain_ratio=float(g_s / g_c)), s, c)
+
+
+# ---------------------------------------------------------------- the figure's shape alone
+
+SHAPE_HARMONICS_MAX = 16
+SHAPE_PASSES = 4          # fixed-point passes from the measured to the true phase
+CONIC_ORDERS = 2          # radius harmonics 1 and 2 are the conic's (offsets, gains, phase)
+
+
+def shape_phase_error(theta: np.ndarray, radius: np.ndarray, harmonics_max: int = SHAPE_HARMONICS_MAX):
+    """The phase error that the shape of a corrected Lissajous figure implies, without any time.
+
+    Write the corrected figure as z = exp(i*theta) * (1 + eps_m * exp(-i*m*theta)): the term bends the
+    radius, ln r = Re(eps_m exp(-i m theta)), and moves the angle by Im(eps_m exp(-i m theta)), the
+    same size a quarter of a harmonic later. That is the channels' harmonic of order m-1 (for
+    m = 4: the 3rd harmonic two quadrature channels of the same shape have; interferometer software
+    corrects it this way). The other cause of the same radius harmonic, order m+1, moves the angle
+    the opposite way and cannot be told apart without a time or angle reference: the lower order is
+    taken. Radius harmonics 1 and 2 belong to the conic. Returns the phase error (rad, per sample,
+    measured minus true) and the radius's harmonics (relative amplitude per order, for reports).
+    """
+    from .fourierfit import fit_select
+
+    theta = np.asarray(theta, float)
+    log_r = np.log(radius / np.median(radius))
+    true = theta
+    for _ in range(SHAPE_PASSES):    # ln r and the angle error are series in the true phase: fixed point
+        series, _, _ = fit_select(true, log_r, harmonics_max)
+        h = (len(series.weights) - 1) // 2
+        orders = np.arange(1, h + 1)
+        keep = orders > CONIC_ORDERS
+        a, b, orders = series.weights[1:h + 1][keep], series.weights[h + 1:][keep], orders[keep]
+        arg = true[:, None] * orders
+        true = theta - (b * np.cos(arg) - a * np.sin(arg)).sum(axis=1)
+    return theta - true, {int(m): float(np.hypot(x, y)) for m, x, y in zip(orders, a, b, strict=True)}

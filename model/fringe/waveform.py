@@ -234,3 +234,11 @@ def build_inverse(wave: ChannelWaveform, other: ChannelWaveform, lo: float, hi: 
 def _interval(start: float, end: float, n: int = 8192) -> np.ndarray:
     span = (end - start) % (2 * np.pi)
     return start + np.linspace(0, span, n)
+
+
+def is_invertible(wave: ChannelWaveform, points: int = 8192) -> bool:
+    """One rising and one falling half per period: only then do the two tables of `build_inverse`
+    invert the channel everywhere (a wiggle near an extreme folds a half onto itself)."""
+    slope = wave.derivative(np.linspace(0, 2 * np.pi, points, endpoint=False))
+    signs = np.sign(slope[slope != 0])
+    return len(signs) > 0 and int(np.count_nonzero(signs != np.roll(signs, 1))) == 2
