@@ -16,6 +16,7 @@ import numpy as np
 
 from . import __version__
 from .bench_io import io_and_memory
+from .bench_reference_free import reference_free_bench, reference_free_markdown
 from .calibrate import calibrate, ellipse_only, seed_method, uncorrected
 from .datasets import RM44_ENCODER, halves, read_rm44
 from .evaluate import figures, float_engine, measurement_of, noise_floor_arcsec
@@ -229,13 +230,17 @@ def markdown(results: dict) -> str:
                                                                         "target_mhz", "meets_target", "latency_cycles")]
             lines.append("| " + " | ".join(str(c) for c in cells) + " |")
     lines.append("")
-    for name in OTHER_SECTIONS:     # sections that render themselves as JSON
-        if name in results:
+    for name, render in OTHER_SECTIONS.items():     # sections with their own renderer, else JSON
+        if name not in results:
+            continue
+        if render is not None and not isinstance(results[name], str):
+            lines += [render(results[name]), ""]
+        else:
             lines += [f"## {name}", "", "```json", json.dumps(results[name], indent=1, default=str), "```", ""]
     return "\n".join(lines)
 
 
-OTHER_SECTIONS = ("io_and_memory",)
+OTHER_SECTIONS = {"reference_free": reference_free_markdown, "io_and_memory": None}
 
 
 def main(argv=None) -> int:
@@ -252,6 +257,7 @@ def main(argv=None) -> int:
              ("loop_scenarios", lambda: loop_scenarios(40_000 if a.quick else 100_000)),
              ("loop_rm44", lambda: loop_rm44(SHARED_DATA)),
              ("de_vs_desa", de_vs_desa),
+             ("reference_free", lambda: reference_free_bench(SHARED_DATA)),
              ("io_and_memory", lambda: io_and_memory(a.quick)),
              ("synthesis", lambda: synthesis(a.out))]
     for name, fn in steps:
