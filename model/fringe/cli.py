@@ -202,31 +202,67 @@ def summary_text(cal, meas) -> str:
 
 def cmd_correct(a) -> int:
     from .calstore import load_calibration
-    from .dataio import read_measurement, write_csv
-    from .engines import run_engine
+    from .dataio import csv_writer, iter_measurement, read_measurement
+    from .engines import run_engine, streamable
     from .outputs import check_output_file
 
     inputs = (a.data, a.cal)
     check_output_file(a.out, "correct", inputs)
     cal = load_calibration(a.cal)
-    meas = read_measurement(a.data, cal.encoder)
-    if cal.encoder.coarse_bits and meas.coarse is None:
-        raise FringeInputError(f"the calibration's encoder has a {cal.encoder.coarse_bits}-bit coarse code, but the "
-                               "recording has no 'coarse' column", a.data)
-    res = run_engine(a.engine, cal, meas, a.cal)
-    write_csv(a.out, {"angle_deg": res.angle_deg, "status": res.status},
-              (f"fringe correct --engine {a.engine}: {a.data} with {a.cal}",),
-              {"angle_deg": "%.9f", "status": "%d"}, inputs)
-    msg = f"wrote {a.out}: {len(meas)} rows, engine {a.engine}"
-    flagged = int(np.count_nonzero(res.status & 0x7F))
-    if flagged:
-        msg += f"; {flagged} samples carry fault flags"
-    if meas.ref_deg is not None:
-        from .metrics import error_arcsec
-        err = error_arcsec(res.angle_deg, meas.ref_deg)
-        msg += f"; error against ref_deg: RMS {np.sqrt(np.mean(err ** 2)):.3f}\", p-p {np.ptp(err):.3f}\""
-    print(msg)
+    comments = (f"fringe correct --engine {a.engine}: {a.data} with {a.cal}",)
+    formats = {"angle_deg": "%.9f", "status": "%d"}
+    summary = CorrectSummary()
+    with csv_writer(a.out, ("angle_deg", "status"), comments, formats, inputs) as w:
+        step = streamable(a.engine, cal, a.cal)       # pieces of bounded size, or the whole recording
+        pieces = iter_measurement(a.data, cal.encoder) if step else [read_measurement(a.data, cal.encoder)]
+        for meas in pieces:
+            if cal.encoder.coarse_bits and meas.coarse is None:
+                raise FringeInputError(f"the calibration's encoder has a {cal.encoder.coarse_bits}-bit coarse code, "
+                                       "but the recording has no 'coarse' column", a.data)
+            if step:
+                angle, status = step(meas)
+            else:
+                res = run_engine(a.engine, cal, meas, a.cal)
+                angle, status = res.angle_deg, res.status
+            w.write({"angle_deg": angle, "status": status})
+            summary.add(angle, status, meas.ref_deg)
+    print(f"wrote {a.out}: {summary.rows} rows, engine {a.engine}{summary.text()}")
     return 0
+
+
+class CorrectSummary:
+    """Rows, flagged samples and the error against ref_deg, gathered piece by piece (the constant zero
+    offset removed as metrics.error_arcsec does, about the first piece's mean)."""
+
+    def __init__(self):
+        self.rows = self.flagged = 0
+        self.centre = None
+        self.sum = self.sumsq = 0.0
+        self.lo, self.hi = np.inf, -np.inf
+        self.has_ref = True
+
+    def add(self, angle, status, ref):
+        from .position import circular_mean, wrap
+
+        self.rows += len(angle)
+        self.flagged += int(np.count_nonzero(status & 0x7F))
+        if ref is None:
+            self.has_ref = False
+            return
+        d = wrap(angle / 360.0 - ref / 360.0)
+        if self.centre is None:
+            self.centre = circular_mean(d)
+        e = wrap(d - self.centre) * 1296000.0
+        self.sum, self.sumsq = self.sum + e.sum(), self.sumsq + np.dot(e, e)
+        self.lo, self.hi = min(self.lo, e.min()), max(self.hi, e.max())
+
+    def text(self) -> str:
+        msg = f"; {self.flagged} samples carry fault flags" if self.flagged else ""
+        if self.has_ref and self.rows:
+            mean = self.sum / self.rows
+            rms = np.sqrt(max(self.sumsq / self.rows - mean ** 2, 0.0))
+            msg += f"; error against ref_deg: RMS {rms:.3f}\", p-p {self.hi - self.lo:.3f}\""
+        return msg
 
 
 def cmd_loop(a) -> int:

@@ -2,6 +2,7 @@
 
 import csv
 import os
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -80,13 +81,17 @@ def _row_line(line_of, r) -> str:
     return line_of(r) if callable(line_of) else f"line {int(line_of[r])}"
 
 
-def _checked(path, cols, line_of, comments, encoder):
+def _checked(path, cols, line_of, comments, encoder, t_before=None):
     for name, v in cols.items():
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:
             raise FringeInputError(f"column '{name}': {v[bad[0]]} is not a finite number", path,
                                    _row_line(line_of, bad[0]))
     t = cols.get("t_s")
+    if t is not None and t_before is not None and len(t) and t[0] <= t_before:
+        what = "repeats" if t[0] == t_before else "goes back from"
+        raise FringeInputError(f"column 't_s': {float(t[0]):.10g} {what} {float(t_before):.10g} on the row before "
+                               "(time stamps must increase)", path, _row_line(line_of, 0))
     if t is not None and len(t) > 1:
         back = np.flatnonzero(np.diff(t) <= 0)
         if back.size:
@@ -94,7 +99,7 @@ def _checked(path, cols, line_of, comments, encoder):
             what = "repeats" if t[r] == t[r - 1] else "goes back from"
             raise FringeInputError(f"column 't_s': {float(t[r]):.10g} {what} {float(t[r - 1]):.10g} on the row before "
                                    "(time stamps must increase)", path, _row_line(line_of, r))
-        if np.ptp(t) > MAX_SPAN_S:
+        if np.ptp(t) > MAX_SPAN_S or np.abs(t).max() > MAX_SPAN_S:
             raise FringeInputError(f"column 't_s': spans {np.ptp(t):.3g} s; time stamps must be seconds", path)
     ref = cols.get("ref_deg")
     if ref is not None:
@@ -150,11 +155,16 @@ def _to_counts(sin, cos, enc: Encoder, path, line_of):
             raise FringeInputError(f"column '{name}': {v[out[0]]:g} counts is outside the {enc.adc_bits}-bit "
                                    f"ADC range [{lo}, {hi}] (wrong {hint}adc_bits or full_scale?)", path,
                                    _row_line(line_of, out[0]))
-    swing = max(np.ptp(sin), np.ptp(cos)) / 2
+    return sin, cos
+
+
+def check_signal_scale(meas: Measurement, enc: Encoder):
+    """For calibration: a signal far below the declared ADC range means a wrong adc_bits or full_scale
+    (a recording to correct may rest, and then only its noise swings)."""
+    swing = max(np.ptp(meas.sin), np.ptp(meas.cos)) / 2
     if 2.0 < swing < MIN_RANGE_USED * enc.adc_half_range:
         raise FringeInputError(f"the signals swing only +-{swing:.4g} counts of the declared {enc.adc_bits}-bit "
-                               f"ADC's +-{enc.adc_half_range}: wrong adc_bits or full_scale?", path)
-    return sin, cos
+                               f"ADC's +-{enc.adc_half_range}: wrong adc_bits or full_scale?", meas.path)
 
 
 def _header(path):
@@ -225,6 +235,48 @@ def _read_csv(path):
         return cols, line_of, comments
 
 
+def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18):
+    """The recording in pieces of about `rows` rows, each checked as `read_measurement` checks the whole
+    (time stamps across the pieces too): memory bounded by a piece. A CSV that pyarrow's streaming reader
+    cannot take row by row (comment lines among the rows, a broken row) is read whole, which finds and
+    names the line; binary recordings are read whole."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    if os.path.splitext(path)[1].lower() in (".npy", ".parquet") or not os.path.isfile(path):
+        yield read_measurement(path, encoder)
+        return
+    offset, header_line, header, comments = _header(path)
+    wanted = _wanted_columns(header, path, header_line)
+    done, t_last = 0, None
+    try:
+        src = pa.memory_map(path, "r")
+        src.seek(offset)
+        reader = pacsv.open_csv(
+            src, read_options=pacsv.ReadOptions(column_names=header, skip_rows=1, block_size=rows * 48,
+                                                use_threads=False),
+            parse_options=pacsv.ParseOptions(ignore_empty_lines=False),
+            convert_options=pacsv.ConvertOptions(include_columns=wanted, column_types={c: pa.float64() for c in wanted},
+                                                 null_values=[], strings_can_be_null=False,
+                                                 quoted_strings_can_be_null=False))
+        for batch in reader:
+            cols = {c: batch.column(c).to_numpy(zero_copy_only=False) for c in wanted}
+            first = header_line + 1 + done
+            m = _checked(path, cols, lambda r, first=first: f"line {first + r}", comments, encoder, t_last)
+            done += len(m)
+            if m.t_s is not None and len(m):
+                t_last = m.t_s[-1]
+            if len(m):
+                yield m
+    except (pa.ArrowInvalid, ValueError):
+        whole = read_measurement(path, encoder)     # names the line, or reads what pyarrow could not
+        if done < len(whole):
+            yield whole.subset(slice(done, None))
+        return
+    if not done:
+        raise FringeInputError("no data rows after the header", path, f"line {header_line}")
+
+
 def _read_csv_slowly(path, header_line, header, wanted):
     with open(path, "rb") as f:
         raw = f.read()
@@ -283,35 +335,51 @@ def _close_names(missing, header):
     return f" ({'; '.join(hints)})" if hints else ""
 
 
-def write_csv(path: str, columns: dict, comments: tuple[str, ...], formats: dict | None = None, inputs=()):
-    """Write equal-length columns as the spec's CSV, atomically; comments[0] names the writing command
-    ('fringe <kind> ...'), which marks the file as fringe's. Formats: '%d' writes integers, '%.Nf' rounds
-    to N decimals, anything else writes the shortest exact decimal."""
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
+class CsvWriter:
+    """Rows of the spec's CSV, written in pieces into a temporary file that replaces `path` when complete
+    (`outputs.atomic_output`); comments[0] names the writing command ('fringe <kind> ...'), which marks
+    the file as fringe's. Formats: '%d' writes integers, '%.Nf' rounds to N decimals, anything else
+    writes the shortest exact decimal."""
 
+    def __init__(self, f, names, formats):
+        self.f, self.names, self.formats = f, list(names), formats or {}
+
+    def write(self, columns: dict):
+        import pyarrow as pa
+        import pyarrow.csv as pacsv
+
+        arrays = {}
+        for name in self.names:
+            v, fmt = np.asarray(columns[name]), self.formats.get(name, "")
+            if fmt == "%d":
+                v = v.astype(np.int64)
+            elif fmt.startswith("%.") and fmt.endswith("f"):
+                v = np.round(v.astype(float), int(fmt[2:-1]))
+            arrays[name] = v
+        table = pa.table(arrays)
+        options = pacsv.WriteOptions(include_header=False, quoting_style="none")
+        for start in range(0, table.num_rows, WRITE_ROWS):   # one chunk of text at a time
+            buf = pa.BufferOutputStream()
+            pacsv.write_csv(table.slice(start, WRITE_ROWS), buf, options)
+            self.f.write(buf.getvalue().to_pybytes())
+
+
+@contextmanager
+def csv_writer(path: str, names, comments: tuple[str, ...], formats: dict | None = None, inputs=()):
     from .outputs import atomic_output
 
     kind = comments[0].split()[1].rstrip(":")
-    formats = formats or {}
-    arrays = {}
-    for name, values in columns.items():
-        v, fmt = np.asarray(values), formats.get(name, "")
-        if fmt == "%d":
-            v = v.astype(np.int64)
-        elif fmt.startswith("%.") and fmt.endswith("f"):
-            v = np.round(v.astype(float), int(fmt[2:-1]))
-        arrays[name] = v
-    table = pa.table(arrays)
-    options = pacsv.WriteOptions(include_header=False, quoting_style="none")
     with atomic_output(path, kind, inputs, mode="wb") as f:
         for c in comments:
             f.write(f"# {c}\n".encode())
-        f.write((",".join(columns) + "\n").encode())
-        for start in range(0, table.num_rows, WRITE_ROWS):   # bounded memory: one chunk of text at a time
-            buf = pa.BufferOutputStream()
-            pacsv.write_csv(table.slice(start, WRITE_ROWS), buf, options)
-            f.write(buf.getvalue().to_pybytes())
+        f.write((",".join(names) + "\n").encode())
+        yield CsvWriter(f, names, formats)
+
+
+def write_csv(path: str, columns: dict, comments: tuple[str, ...], formats: dict | None = None, inputs=()):
+    """Write equal-length columns as the spec's CSV, atomically (see CsvWriter)."""
+    with csv_writer(path, list(columns), comments, formats, inputs) as w:
+        w.write(columns)
 
 
 WRITE_ROWS = 1 << 17

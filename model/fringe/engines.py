@@ -85,6 +85,35 @@ def core_files(cal: Calibration, command: str) -> dict:
     return files
 
 
+def streamable(name: str, cal: Calibration, cal_dir: str):
+    """For the bit-exact model without fringe_drift: a function from one piece of the recording to its
+    (angle_deg, status), bit-exact with one run over the whole recording (`fixed.core.CoreStream`);
+    else None (the engine runs on the whole recording at once)."""
+    from .fixed.closed_loop import unsupported
+
+    if name != "model" or unsupported(cal):
+        return None
+    cfg = core_config(cal, cal_dir)
+    if cfg.drift:
+        return None
+    from .fixed.core import CoreStream, build_tables, to_adc_codes
+
+    try:
+        stream = CoreStream(build_tables(cal, cfg), cfg)
+    except ValueError as e:
+        raise FringeInputError(str(e), cal_dir) from None
+
+    def step(m: Measurement):
+        try:
+            pos, status = stream.run(to_adc_codes(m.sin, cfg.adc_w, "sin"), to_adc_codes(m.cos, cfg.adc_w, "cos"),
+                                     m.coarse)
+        except ValueError as e:
+            raise FringeInputError(str(e), m.path) from None
+        return pos * (360.0 / cfg.rev), status
+
+    return step
+
+
 def run_engine(name: str, cal: Calibration, meas: Measurement, cal_dir: str) -> Result:
     if name == "float":
         return run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)

@@ -124,9 +124,10 @@ class CoreOutput:
 
 
 def run_core(t: CoreTables, cfg: CoreConfig, sin: np.ndarray, cos: np.ndarray,
-             coarse: np.ndarray | None = None) -> CoreOutput:
-    """One stream of samples from reset; every output word as the RTL produces it."""
-    return run_core_banks([t], cfg, sin, cos, coarse, np.zeros(len(sin), dtype=np.int64))
+             coarse: np.ndarray | None = None, start_pos: int | None = None) -> CoreOutput:
+    """One stream of samples from reset; every output word as the RTL produces it (start_pos: see
+    `run_core_banks`)."""
+    return run_core_banks([t], cfg, sin, cos, coarse, np.zeros(len(sin), dtype=np.int64), start_pos)
 
 
 #: Clock enables of fringe_core's own input registers (bank thresholds, branch select), see core_latency().
@@ -151,7 +152,8 @@ def drift_pipe_latency(cfg: CoreConfig) -> int:
 
 
 def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreConfig, sin: np.ndarray,
-                   cos: np.ndarray, coarse: np.ndarray | None, bank: np.ndarray) -> CoreOutput:
+                   cos: np.ndarray, coarse: np.ndarray | None, bank: np.ndarray,
+                   start_pos: int | None = None) -> CoreOutput:
     """One stream from reset in which sample i is served by ``banks[bank[i]]`` (bank swaps in
     mid-stream, as fringe_core does: every sample carries its bank through the pipeline).
 
@@ -159,6 +161,9 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
     sample in bank 0 the result equals ``run_core(banks[0], ...)``. The only state of the core
     (the period counter and the previous phase of the overspeed flag) follows the stream, not
     the bank, so each stateless stage is evaluated per bank and selected per sample.
+
+    start_pos resumes a stream in the middle (`CoreStream`): the period counter's position at the
+    first sample (COARSE_W = 0; ignored otherwise).
     """
     sin = np.asarray(sin, dtype=np.int64)
     cos = np.asarray(cos, dtype=np.int64)
@@ -221,7 +226,8 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
     else:
         clip_s, clip_c, sat, phase, mag = front(sin, cos, bank)
     pcp = period_count_params(cfg)
-    per = [pc_mod.period_count(phase, coarse, t.coarse_ofs, pcp) for t in banks]
+    start = start_pos if cfg.coarse_w == 0 else None
+    per = [pc_mod.period_count(phase, coarse, t.coarse_ofs, pcp, start) for t in banks]
     pos, overspeed, coarse_err = (pick([p[k] for p in per]) for k in range(3))
     trimmed = pos
     if cfg.trim:    # the speed history follows the stream; the tables follow each sample's bank
@@ -256,6 +262,33 @@ def run_model(cal: Calibration, cfg: CoreConfig, sin, cos, coarse=None, tables: 
     mag_unit = cordic_mod.cordic_gain(cfg.cordic_stages) * (1 << (cfg.wave_w - 2))
     return Result(angle_deg=o.pos * (360.0 / cfg.rev), status=o.status, frac=o.phase / float(1 << cfg.fine_w),
                   position=o.count_pos / float(1 << cfg.fine_w), magnitude=o.mag / mag_unit)
+
+
+class CoreStream:
+    """`run_core` over a stream given in pieces, with the same output words as one run over the whole
+    stream and memory bounded by the largest piece: each piece runs after the last rows of the one
+    before (enough for the overspeed flag and fringe_trim's speed window), the period counter resumed
+    where they stood. fringe_drift's tracker carries state over the whole stream: DRIFT = 1 is not streamed."""
+
+    def __init__(self, t: CoreTables, cfg: CoreConfig):
+        if cfg.drift:
+            raise ValueError("fringe_drift's tracker state spans the whole stream: run it in one piece")
+        self.t, self.cfg = t, cfg
+        self.keep = 1 + (cfg.trim_params().window if cfg.trim else 0)
+        self.tail = None          # (sin, cos, coarse) of the last rows, the counter position of the first
+
+    def run(self, sin, cos, coarse=None) -> tuple[np.ndarray, np.ndarray]:
+        """(pos, status) of the next piece (ADC codes)."""
+        sin, cos = np.asarray(sin, np.int64), np.asarray(cos, np.int64)
+        coarse = np.zeros(len(sin), np.int64) if coarse is None else np.asarray(coarse, np.int64)
+        k, start = 0, None
+        if self.tail is not None:
+            k, start = len(self.tail[0]), self.tail[3]
+            sin, cos, coarse = (np.concatenate([a, b]) for a, b in zip(self.tail[:3], (sin, cos, coarse), strict=True))
+        o = run_core(self.t, self.cfg, sin, cos, coarse, start_pos=start)
+        m = min(self.keep, len(sin))
+        self.tail = (sin[-m:], cos[-m:], coarse[-m:], int(o.count_pos[-m]))
+        return o.pos[k:], o.status[k:]
 
 
 def error_budget(t: CoreTables, cfg: CoreConfig, quad_float=None) -> dict:

@@ -158,7 +158,7 @@ def _int_array(name: str, v, lo: int, hi: int) -> np.ndarray:
     return a
 
 
-def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams
+def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos: int | None = None
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Position and flags for a stream of valid samples that starts right after reset.
 
@@ -169,6 +169,8 @@ def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams
             sample (the register value each sample saw); |coarse_ofs| <= 2^FINE_W. Ignored when
             COARSE_W = 0.
         params: the block parameters.
+        start_pos: COARSE_W = 0 only: the counter's position at the first sample, for a stream resumed
+            in the middle (its low FINE_W bits must equal the first phase); default: as after reset.
 
     Returns:
         ``(pos, overspeed, coarse_err)``: int64 positions in [0, REV) and two bool arrays.
@@ -198,7 +200,9 @@ def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams
             return ph.copy(), overspeed, np.zeros(0, dtype=bool)
         # |running sum| < n * 2^(FINE_W-1): int64 holds 2^34 samples of the widest phase
         pos = np.cumsum(delta)
-        pos += ph[0]
+        if start_pos is not None and (start_pos & mask) != ph[0]:
+            raise ValueError(f"{NAME}: start_pos {start_pos} does not hold the first phase {ph[0]}")
+        pos += ph[0] if start_pos is None else start_pos
         pos %= p.rev
         return pos, overspeed, np.zeros(n, dtype=bool)
 
