@@ -6,11 +6,19 @@
    (all harmonics), inverted, the quadrature re-fitted and the phase recomputed, twice.
 2. Coarse/fine synchronisation from the fine phase at the coarse code's edges.
 3. With `ref_deg`: direction and zero, the long-period error (seed 000's Fourier network,
-   solved in closed form by least squares, its size chosen by BIC), and then the waveform
-   refitted against the reference's phase with all harmonics (odd, even, both phases),
+   solved in closed form by least squares, its size chosen on held-out data), and then the
+   waveform refitted against the reference's phase with all harmonics (odd, even, both phases),
    alternating with the long-period fit until both settle.
+
+With one signal period per revolution (lines_per_rev = 1) the long-period table after the
+arctan is itself a table over the fine phase, and can carry the whole phase error instead of
+the per-channel waveform inverse. The per-channel inverse assumes a fixed amplitude: a common
+gain change leaves atan2 untouched but moves every table lookup, so where the amplitude
+changes the phase-domain table holds and the inverse does not. Which of the two structures
+serves is decided on held-out data (cross-validation over interleaved blocks of the recording).
 """
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,15 +26,19 @@ import numpy as np
 from .dataio import Measurement
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
-from .fourierfit import fit_select
-from .pipeline import Calibration, encoder_position, fine_phase
+from .fourierfit import cv_folds, cv_harmonics, fit_select
+from .metrics import error_arcsec
+from .pipeline import Calibration, encoder_position, fine_phase, run_float
 from .position import circular_mean, fit_coarse_offset, wrap
 from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse
 from .smoothmotion import MotionTooSlow, smooth_motion_phase
-from .waveform import ChannelWaveform, PaperChannel, build_inverse
+from .waveform import ChannelWaveform, PaperChannel, WaveformInverse, build_inverse
 
 MIN_SAMPLES = 64
 MAX_CLIPPED_FRACTION = 0.005
+WAVEFORM, PHASE_TABLE = "waveform", "phase_table"   # structures of the reference calibration
+STRUCTURE_FOLDS = 2       # full calibrations per structure to compare them on held-out data
+LP_ORDER_FOLDS = 5        # folds of the long-period order selection (cheap: binned data)
 
 
 @dataclass
@@ -34,7 +46,11 @@ class CalibrationOptions:
     motion_iterations: int = 2
     ref_iterations: int = 2
     wave_harmonics_max: int = 31     # general model: BIC chooses up to this many
-    lp_harmonics_max: int = 64       # BIC chooses up to this many
+    lp_harmonics_max: int = 64       # cross-validation chooses up to this many
+    lp_order_selection: str = "cv"   # "cv": held-out error; "bic": in-sample BIC
+    # WAVEFORM (per-channel inverse) or PHASE_TABLE (lines_per_rev = 1: the long-period table
+    # carries the phase error); None: chosen on held-out data where both apply
+    structure: str | None = None
     table_points: int | None = None  # None: one point per ADC code, at most 2^16 + 1
     # closed loop: error already explained by other terms (arcsec, encoder frame, per sample), kept
     # out of the long-period fit and added to the reference phase of the waveform fit
@@ -87,9 +103,8 @@ def _fit_quadrature(cal: Calibration, meas: Measurement, use: np.ndarray, seed_f
         _fail(meas, str(e))
 
 
-def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: np.ndarray,
-                     opts: CalibrationOptions):
-    """Fit both channels against a phase reference `phi` (rad, per sample), invert, re-fit quadrature."""
+def _fit_waveforms(meas: Measurement, use: np.ndarray, phi: np.ndarray, opts: CalibrationOptions) -> dict:
+    """Both channels' models against a phase reference `phi` (rad, per sample)."""
     hmax = max(1, min(opts.wave_harmonics_max, int(use.sum()) // 16))
     fits = {}
     for kind, y in (("sin", meas.sin), ("cos", meas.cos)):
@@ -97,9 +112,24 @@ def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: 
         if n < 1:
             _fail(meas, f"the {kind} channel does not follow the phase: no signal?")
         fits[kind] = ChannelWaveform(kind, series.weights)
+    return fits
+
+
+def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: np.ndarray,
+                     opts: CalibrationOptions):
+    """Fit both channels against a phase reference `phi` (rad, per sample), invert, re-fit quadrature."""
+    fits = _fit_waveforms(meas, use, phi, opts)
     _set_waveforms(cal, fits["sin"], fits["cos"], cal.encoder, opts)
     _fit_quadrature(cal, meas, use)
     cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in fits.items()}
+
+
+def linear_inverse(kind: str, enc: Encoder, opts: CalibrationOptions) -> WaveformInverse:
+    """The waveform stage as a straight line (reading / half the ADC range, both branches): the
+    core keeps its tables, and the conic and the long-period table do the correcting."""
+    lo, hi, n = _table_grid(enc, opts.table_points)
+    line = np.linspace(lo, hi, n) / enc.adc_half_range
+    return WaveformInverse(kind, lo, (hi - lo) / (n - 1), np.vstack([line, line]), 0.0, 0.0, 0.0)
 
 
 def reference_free(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions) -> Calibration:
@@ -171,9 +201,18 @@ def fit_long_period(cal: Calibration, meas: Measurement, use: np.ndarray, opts: 
     if opts.known_error_arcsec is not None:
         err = err - opts.known_error_arcsec
     x = 2 * np.pi * (rev[use] % 1.0)
-    # harmonics L, 2L, ... of the revolution are functions of the fine phase: the waveform tables own them
-    cal.long_period, n, rms = fit_select(x, err[use], opts.lp_harmonics_max,
-                                         skip_multiples_of=cal.encoder.lines_per_rev)
+    # harmonics L, 2L, ... of the revolution are functions of the fine phase: the waveform tables own
+    # them, unless the long-period table is the phase-domain table (lines_per_rev = 1)
+    skip = 0 if cal.fit.get("structure") == PHASE_TABLE else cal.encoder.lines_per_rev
+    n_fixed, n_max = None, opts.lp_harmonics_max
+    if opts.lp_order_selection == "cv":
+        # at least 16 samples a harmonic, as for the waveforms: held-out folds of a short recording
+        # cannot expose a fit to structured noise (a tone at a fixed sample pattern) otherwise
+        n_max = max(1, min(n_max, int(use.sum()) // 16))
+        n_fixed, held_out = cv_harmonics(x, err[use], n_max, cv_folds(len(meas), LP_ORDER_FOLDS)[use],
+                                         skip_multiples_of=skip)
+        cal.fit["lp_held_out_rms_arcsec"] = float(np.nanmin(held_out))
+    cal.long_period, n, rms = fit_select(x, err[use], n_max, n_fixed=n_fixed, skip_multiples_of=skip)
     cal.fit["lp_harmonics"] = n
     cal.fit["lp_residual_rms_arcsec"] = rms
 
@@ -202,13 +241,78 @@ def refine_with_reference(cal: Calibration, meas: Measurement, use: np.ndarray, 
         fit_long_period(cal, meas, use, opts)
 
 
+def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions,
+                          structure: str) -> Calibration:
+    """Conic, long period and (WAVEFORM) the per-channel inverse, all against the reference.
+
+    PHASE_TABLE keeps the waveform stage a straight line and lets the long-period table carry
+    every harmonic; the channel models are still fitted (against the reference's phase) for the
+    reports and the closed loop, but not inverted.
+    """
+    cal = Calibration(encoder=enc)   # the reference gives the phase: only the conic is needed to start
+    cal.fit["structure"] = structure
+    if structure == PHASE_TABLE:
+        cal.inv_sin, cal.inv_cos = linear_inverse("sin", enc, opts), linear_inverse("cos", enc, opts)
+    _fit_quadrature(cal, meas, use)
+    sync_coarse(cal, meas)
+    check_revolution_coverage(meas, encoder_rev(cal, meas))
+    fit_long_period(cal, meas, use, opts)
+    if structure == PHASE_TABLE:
+        cal.waves = _fit_waveforms(meas, use, reference_phase(cal, meas, encoder_rev(cal, meas),
+                                                              opts.known_error_arcsec), opts)
+        cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in cal.waves.items()}
+    else:
+        refine_with_reference(cal, meas, use, opts)
+    return cal
+
+
+def held_out_error_arcsec(cal: Calibration, meas: Measurement, known_error_arcsec: np.ndarray | None = None):
+    """Output error of `cal` on `meas` against its reference (float engine), less the known error."""
+    res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
+    err = error_arcsec(res.angle_deg, meas.ref_deg)
+    if known_error_arcsec is not None:    # encoder frame -> output frame
+        err = err - cal.direction * known_error_arcsec
+    return err - np.mean(err)
+
+
+def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions) -> tuple[str, dict]:
+    """The structure with the least held-out RMS: each is calibrated on all folds but one and
+    scored on that one (the folds interleave blocks of the recording, as an even/odd split does)."""
+    if enc.lines_per_rev != 1:
+        return WAVEFORM, {}       # the long-period table cannot hold the harmonics of the fine phase
+    folds = cv_folds(len(meas), STRUCTURE_FOLDS)
+    known = opts.known_error_arcsec
+    scores = {}
+    for structure in (WAVEFORM, PHASE_TABLE):
+        sq, count = 0.0, 0
+        for f in range(STRUCTURE_FOLDS):
+            train, test = folds != f, folds == f
+            sub = dataclasses.replace(opts, structure=structure, known_error_arcsec=None if known is None else known[train])
+            try:
+                cal = calibrate(meas.subset(train), enc, sub)
+            except FringeInputError:
+                sq = np.inf
+                break
+            err = held_out_error_arcsec(cal, meas.subset(test), None if known is None else known[test])[use[test]]
+            sq, count = sq + float(err @ err), count + len(err)
+        scores[structure] = float(np.sqrt(sq / max(count, 1)))
+    best = min(scores, key=scores.get) if np.isfinite(min(scores.values())) else WAVEFORM
+    return best, {"structure": best, "held_out_rms_arcsec": {k: round(v, 4) for k, v in scores.items()},
+                  "folds": STRUCTURE_FOLDS}
+
+
 def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None = None) -> Calibration:
     opts = opts or CalibrationOptions()
     use = check_recording(meas, enc)
     has_lp = meas.ref_deg is not None and (enc.coarse_bits > 0 or enc.lines_per_rev == 1)
-    if has_lp:   # the reference gives the phase: only the conic is needed to start
-        cal = Calibration(encoder=enc)
-        _fit_quadrature(cal, meas, use)
+    if has_lp:   # the reference gives the phase
+        choice = {}
+        structure = opts.structure
+        if structure is None:
+            structure, choice = choose_structure(meas, enc, use, opts)
+        cal = reference_calibration(meas, enc, use, opts, structure)
+        if choice:
+            cal.fit["model_choice"] = choice
     else:
         cal = reference_free(meas, enc, use, opts)
     sync_coarse(cal, meas)
@@ -222,10 +326,6 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
         cal.skipped.append("long-period correction: an incremental encoder (lines_per_rev > 1, no coarse code) "
                            "does not know where it is in the revolution after power-up")
         find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
-    else:
-        check_revolution_coverage(meas, encoder_rev(cal, meas))
-        fit_long_period(cal, meas, use, opts)
-        refine_with_reference(cal, meas, use, opts)
     cal.amp_low, cal.amp_high = amplitude_thresholds(cal, meas, use)
     dt = np.diff(meas.t_s) if meas.t_s is not None and len(meas) > 1 else np.ones(1)   # no t_s: time = index
     cal.provenance = {"data": meas.path, "samples": len(meas), "samples_used": int(use.sum()),

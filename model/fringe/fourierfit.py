@@ -1,4 +1,5 @@
-"""Fast Fourier-series least squares on binned data, with the number of harmonics chosen by BIC.
+"""Fast Fourier-series least squares on binned data, with the number of harmonics chosen by BIC
+or by cross-validation (held-out data).
 
 Calibration fits Fourier series to a million samples several times. Averaging the samples in
 fine angle bins first (count, mean angle, mean value) leaves the least-squares problem the
@@ -52,6 +53,15 @@ def bin_by_angle(x: np.ndarray, y: np.ndarray, bins: int):
     return xm, ym, c, max(within, 0.0)
 
 
+def _orders(top: int, skip_multiples_of: int) -> list[int]:
+    return [l for l in range(1, top + 1) if not (skip_multiples_of and l % skip_multiples_of == 0)]
+
+
+def _coverage_cap(n_bins_with_data: int) -> int:
+    """At least about twice as many distinct angles as weights."""
+    return max(0, (n_bins_with_data - 1) // 2 - 1)
+
+
 def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
                n_fixed: int | None = None, skip_multiples_of: int = 0) -> tuple[FourierSeries, int, float]:
     """Least-squares Fourier series of y against angle x; n by BIC over 0..n_max unless n_fixed.
@@ -61,9 +71,9 @@ def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
     """
     n_samples = len(y)
     xm, ym, c, within = bin_by_angle(x, y, bins)
-    n_max = int(min(n_max, max(0, (len(xm) - 1) // 2 - 1)))
+    n_max = int(min(n_max, _coverage_cap(len(xm))))
     top = n_max if n_fixed is None else min(n_fixed, n_max)
-    orders = [l for l in range(1, top + 1) if not (skip_multiples_of and l % skip_multiples_of == 0)]
+    orders = _orders(top, skip_multiples_of)
     m = _design_interleaved(xm, orders)
     sw = np.sqrt(c)
     mw, yw = m * sw[:, None], ym * sw
@@ -83,3 +93,46 @@ def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
     w = solve_triangular(lower[:k, :k].T, u[:k], lower=False)
     used = orders[:(k - 1) // 2]
     return FourierSeries(_to_paper_order(w, used)), max(used, default=0), float(np.sqrt(rss[best] / n_samples))
+
+
+def cv_folds(n: int, k: int = 5, blocks_per_fold: int = 64) -> np.ndarray:
+    """Fold label per sample: runs of consecutive samples dealt round-robin to k folds.
+
+    Runs are as short as possible while each fold still gets at least `blocks_per_fold` of them,
+    so every fold spreads over the whole recording (and, at any steady motion, the revolution),
+    while noise correlated over a few samples stays within one fold.
+    """
+    run = max(1, n // (k * blocks_per_fold))
+    return (np.arange(n) // run) % k
+
+
+def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bins: int = 8192,
+                 skip_multiples_of: int = 0) -> tuple[int, np.ndarray]:
+    """Number of harmonics (0..n_max) with the least held-out squared error, summed over the folds.
+
+    Each fold is predicted by the series fitted on the other folds, for every candidate size at
+    once (prefix models share one Cholesky factor, as in `fit_select`). Returns the chosen n and
+    the held-out RMS of each candidate size (index = number of harmonics used, NaN where skipped).
+    """
+    x, y, folds = np.ravel(np.asarray(x, float)), np.ravel(np.asarray(y, float)), np.ravel(folds)
+    labels = np.unique(folds)
+    train_bins = [bin_by_angle(x[folds != f], y[folds != f], bins) for f in labels]
+    cap = min([int(n_max)] + [_coverage_cap(len(b[0])) for b in train_bins])
+    orders = _orders(cap, skip_multiples_of)
+    ks = np.arange(1, 2 * len(orders) + 2, 2)
+    press = np.zeros(len(ks))
+    for f, (xm, ym, c, _) in zip(labels, train_bins, strict=True):
+        m = _design_interleaved(xm, orders) * np.sqrt(c)[:, None]
+        try:
+            lower = cholesky(m.T @ m, lower=True)
+        except LinAlgError:
+            raise ValueError("the angles do not determine the Fourier series (too little coverage)") from None
+        u = solve_triangular(lower, m.T @ (ym * np.sqrt(c)), lower=True)
+        xt, yt, ct, within = bin_by_angle(x[folds == f], y[folds == f], bins)
+        mt = _design_interleaved(xt, orders)
+        for j, k in enumerate(ks):
+            w = solve_triangular(lower[:k, :k].T, u[:k], lower=False)
+            press[j] += float(ct @ (yt - mt[:, :k] @ w) ** 2) + within
+    rms = np.full(cap + 1, np.nan)
+    rms[[0] + orders] = np.sqrt(press / len(y))
+    return ([0] + orders)[int(np.argmin(press))], rms
