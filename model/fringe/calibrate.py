@@ -124,11 +124,15 @@ def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: 
     cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in fits.items()}
 
 
-def linear_inverse(kind: str, enc: Encoder, opts: CalibrationOptions) -> WaveformInverse:
-    """The waveform stage as a straight line (reading / half the ADC range, both branches): the
-    core keeps its tables, and the conic and the long-period table do the correcting."""
+LINEAR_LIMIT = 1.99    # the core's table values lie in [-2, 2)
+
+
+def linear_inverse(kind: str, peak: float, enc: Encoder, opts: CalibrationOptions) -> WaveformInverse:
+    """The waveform stage as a straight line, reading / peak (both branches, clipped to the table
+    format beyond twice the largest reading seen): the core keeps its tables, and the conic and
+    the long-period table do the correcting."""
     lo, hi, n = _table_grid(enc, opts.table_points)
-    line = np.linspace(lo, hi, n) / enc.adc_half_range
+    line = np.clip(np.linspace(lo, hi, n) / peak, -LINEAR_LIMIT, LINEAR_LIMIT)
     return WaveformInverse(kind, lo, (hi - lo) / (n - 1), np.vstack([line, line]), 0.0, 0.0, 0.0)
 
 
@@ -252,7 +256,8 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     cal = Calibration(encoder=enc)   # the reference gives the phase: only the conic is needed to start
     cal.fit["structure"] = structure
     if structure == PHASE_TABLE:
-        cal.inv_sin, cal.inv_cos = linear_inverse("sin", enc, opts), linear_inverse("cos", enc, opts)
+        cal.inv_sin, cal.inv_cos = (linear_inverse(k, max(float(np.max(np.abs(y[use]))), 1.0), enc, opts)
+                                    for k, y in (("sin", meas.sin), ("cos", meas.cos)))
     _fit_quadrature(cal, meas, use)
     sync_coarse(cal, meas)
     check_revolution_coverage(meas, encoder_rev(cal, meas))
@@ -287,7 +292,8 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray, opts: Cal
         sq, count = 0.0, 0
         for f in range(STRUCTURE_FOLDS):
             train, test = folds != f, folds == f
-            sub = dataclasses.replace(opts, structure=structure, known_error_arcsec=None if known is None else known[train])
+            sub = dataclasses.replace(opts, structure=structure,
+                                      known_error_arcsec=None if known is None else known[train])
             try:
                 cal = calibrate(meas.subset(train), enc, sub)
             except FringeInputError:
