@@ -22,6 +22,7 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
 
 from .dataio import Measurement
 from .encoder import ARCSEC_PER_REV, Encoder
@@ -51,6 +52,9 @@ class CalibrationOptions:
     # WAVEFORM (per-channel inverse) or PHASE_TABLE (lines_per_rev = 1: the long-period table
     # carries the phase error); None: chosen on held-out data where both apply
     structure: str | None = None
+    # PHASE_TABLE: move the centre to where gain changes move no angle (centre_from_gain_changes);
+    # None: chosen on held-out data together with the structure
+    gain_centre: bool | None = None
     table_points: int | None = None  # None: one point per ADC code, at most 2^16 + 1
     # closed loop: error already explained by other terms (arcsec, encoder frame, per sample), kept
     # out of the long-period fit and added to the reference phase of the waveform fit
@@ -263,12 +267,60 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     check_revolution_coverage(meas, encoder_rev(cal, meas))
     fit_long_period(cal, meas, use, opts)
     if structure == PHASE_TABLE:
+        if opts.gain_centre:
+            centre_from_gain_changes(cal, meas, use, opts)
         cal.waves = _fit_waveforms(meas, use, reference_phase(cal, meas, encoder_rev(cal, meas),
                                                               opts.known_error_arcsec), opts)
         cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in cal.waves.items()}
     else:
         refine_with_reference(cal, meas, use, opts)
     return cal
+
+
+CENTRE_ITERATIONS = 3
+CENTRE_T_MIN = 3.0        # a centre shift must be this many standard errors from zero
+GAIN_WINDOW_MIN = 16      # samples averaged at least for the slow gain (1/256 of the recording if longer)
+
+
+def centre_from_gain_changes(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+    """Move the quadrature centre to where a common gain change moves no angle (PHASE_TABLE).
+
+    atan2 ignores a common gain only around the true centre. A conic fitted to a family of scaled
+    ellipses (field strength, air gap or temperature changing during the recording) misplaces it,
+    and an error (dx, dy) of the corrected components moves the angle by (dx cos phi - dy sin phi)/g,
+    g the relative gain: the phase table takes the part at g = 1, the rest follows the gain. The
+    residual after the table is regressed on a cos(phi), a sin(phi), the centre moved by the fitted
+    (dx, dy) and the table refitted. a = g - 1 is the slow part of the magnitude that its mean shape
+    along the phase does not explain: the magnitude over that shape, averaged over GAIN_WINDOW
+    samples, so that noise and interference (which move magnitude and angle together, sample by
+    sample) do not pass for a gain change. Without a gain change the regressors are noise and
+    nothing significant is found (nor needed: the table absorbs a fixed centre error).
+    """
+    q = cal.quad
+    shifts = 0
+    for _ in range(CENTRE_ITERATIONS):
+        frac, mag = fine_phase(cal, meas.sin, meas.cos)
+        rev = encoder_rev(cal, meas)
+        err = (lp_error_arcsec(cal, meas, rev) - cal.long_period(2 * np.pi * (rev % 1.0))) / ARCSEC_PER_REV * 2 * np.pi
+        if opts.known_error_arcsec is not None:
+            err = err - opts.known_error_arcsec / ARCSEC_PER_REV * 2 * np.pi
+        phi = 2 * np.pi * frac[use]
+        shape, _, _ = fit_select(phi, mag[use], max(8, min(64, len(phi) // 16)))
+        a = uniform_filter1d(mag[use] / shape(phi), max(GAIN_WINDOW_MIN, len(phi) // 256), mode="nearest") - 1.0
+        m = np.column_stack([a * np.cos(phi), a * np.sin(phi)])
+        w, rss, rank, _ = np.linalg.lstsq(m, err[use], rcond=None)
+        if rank < 2 or len(phi) <= 2:
+            break
+        sigma2 = float(np.sum((err[use] - m @ w) ** 2)) / (len(phi) - 2)
+        se = np.sqrt(np.diag(np.linalg.inv(m.T @ m)) * sigma2)
+        if not np.any(np.abs(w) > CENTRE_T_MIN * se):
+            break
+        dx, dy = -w[0], w[1]       # the a-part of the error is -a (dx cos phi - dy sin phi)
+        q.ofs_c += dy / q.k_cc
+        q.ofs_s += (dx - q.k_sc * dy / q.k_cc) / q.k_ss
+        shifts += 1
+        fit_long_period(cal, meas, use, opts)
+    cal.fit["centre_shifts"] = shifts
 
 
 def held_out_error_arcsec(cal: Calibration, meas: Measurement, known_error_arcsec: np.ndarray | None = None):
@@ -280,19 +332,27 @@ def held_out_error_arcsec(cal: Calibration, meas: Measurement, known_error_arcse
     return err - np.mean(err)
 
 
-def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions) -> tuple[str, dict]:
-    """The structure with the least held-out RMS: each is calibrated on all folds but one and
-    scored on that one (the folds interleave blocks of the recording, as an even/odd split does)."""
+CANDIDATES = {WAVEFORM: (WAVEFORM, False), PHASE_TABLE: (PHASE_TABLE, False),
+              PHASE_TABLE + "+gain_centre": (PHASE_TABLE, True)}
+
+
+def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
+                     opts: CalibrationOptions) -> tuple[str, bool, dict]:
+    """The structure (and, for the phase table, whether to centre it on the gain changes) with the
+    least held-out RMS: each candidate is calibrated on all folds but one and scored on that one
+    (the folds interleave blocks of the recording, as an even/odd split does)."""
     if enc.lines_per_rev != 1:
-        return WAVEFORM, {}       # the long-period table cannot hold the harmonics of the fine phase
+        return WAVEFORM, False, {}   # the long-period table cannot hold the harmonics of the fine phase
     folds = cv_folds(len(meas), STRUCTURE_FOLDS)
     known = opts.known_error_arcsec
     scores = {}
-    for structure in (WAVEFORM, PHASE_TABLE):
+    for name, (structure, centre) in CANDIDATES.items():
+        if opts.structure not in (None, structure) or opts.gain_centre not in (None, centre):
+            continue
         sq, count = 0.0, 0
         for f in range(STRUCTURE_FOLDS):
             train, test = folds != f, folds == f
-            sub = dataclasses.replace(opts, structure=structure,
+            sub = dataclasses.replace(opts, structure=structure, gain_centre=centre,
                                       known_error_arcsec=None if known is None else known[train])
             try:
                 cal = calibrate(meas.subset(train), enc, sub)
@@ -301,10 +361,10 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray, opts: Cal
                 break
             err = held_out_error_arcsec(cal, meas.subset(test), None if known is None else known[test])[use[test]]
             sq, count = sq + float(err @ err), count + len(err)
-        scores[structure] = float(np.sqrt(sq / max(count, 1)))
+        scores[name] = float(np.sqrt(sq / max(count, 1)))
     best = min(scores, key=scores.get) if np.isfinite(min(scores.values())) else WAVEFORM
-    return best, {"structure": best, "held_out_rms_arcsec": {k: round(v, 4) for k, v in scores.items()},
-                  "folds": STRUCTURE_FOLDS}
+    return (*CANDIDATES[best], {"chosen": best, "held_out_rms_arcsec": {k: round(v, 4) for k, v in scores.items()},
+                                "folds": STRUCTURE_FOLDS})
 
 
 def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None = None) -> Calibration:
@@ -313,10 +373,10 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
     has_lp = meas.ref_deg is not None and (enc.coarse_bits > 0 or enc.lines_per_rev == 1)
     if has_lp:   # the reference gives the phase
         choice = {}
-        structure = opts.structure
-        if structure is None:
-            structure, choice = choose_structure(meas, enc, use, opts)
-        cal = reference_calibration(meas, enc, use, opts, structure)
+        structure, centre = opts.structure, opts.gain_centre
+        if structure is None or (structure == PHASE_TABLE and centre is None):
+            structure, centre, choice = choose_structure(meas, enc, use, opts)
+        cal = reference_calibration(meas, enc, use, dataclasses.replace(opts, gain_centre=centre), structure)
         if choice:
             cal.fit["model_choice"] = choice
     else:
