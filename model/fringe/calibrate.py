@@ -39,6 +39,7 @@ MIN_SAMPLES = 64
 MAX_CLIPPED_FRACTION = 0.005
 WAVEFORM, PHASE_TABLE = "waveform", "phase_table"   # structures of the reference calibration
 STRUCTURE_FOLDS = 2       # full calibrations per structure to compare them on held-out data
+STRUCTURE_SAMPLES = 100_000   # the comparison runs on every k-th sample of longer recordings
 LP_ORDER_FOLDS = 5        # folds of the long-period order selection (cheap: binned data)
 
 
@@ -343,8 +344,12 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
     (the folds interleave blocks of the recording, as an even/odd split does)."""
     if enc.lines_per_rev != 1:
         return WAVEFORM, False, {}   # the long-period table cannot hold the harmonics of the fine phase
-    folds = cv_folds(len(meas), STRUCTURE_FOLDS)
+    step = -(-len(meas) // STRUCTURE_SAMPLES)      # ceil: a structure shows at any sampling of the recording
     known = opts.known_error_arcsec
+    if step > 1:
+        pick = np.arange(0, len(meas), step)
+        meas, use, known = meas.subset(pick), use[pick], None if known is None else known[pick]
+    folds = cv_folds(len(meas), STRUCTURE_FOLDS)
     scores = {}
     for name, (structure, centre) in CANDIDATES.items():
         if opts.structure not in (None, structure) or opts.gain_centre not in (None, centre):
@@ -364,7 +369,7 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
         scores[name] = float(np.sqrt(sq / max(count, 1)))
     best = min(scores, key=scores.get) if np.isfinite(min(scores.values())) else WAVEFORM
     return (*CANDIDATES[best], {"chosen": best, "held_out_rms_arcsec": {k: round(v, 4) for k, v in scores.items()},
-                                "folds": STRUCTURE_FOLDS})
+                                "folds": STRUCTURE_FOLDS, "every_nth_sample": step})
 
 
 def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None = None) -> Calibration:

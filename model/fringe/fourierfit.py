@@ -106,33 +106,44 @@ def cv_folds(n: int, k: int = 5, blocks_per_fold: int = 64) -> np.ndarray:
     return (np.arange(n) // run) % k
 
 
-def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bins: int = 8192,
+def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bins: int = 4096,
                  skip_multiples_of: int = 0) -> tuple[int, np.ndarray]:
     """Number of harmonics (0..n_max) with the least held-out squared error, summed over the folds.
 
     Each fold is predicted by the series fitted on the other folds, for every candidate size at
-    once (prefix models share one Cholesky factor, as in `fit_select`). Returns the chosen n and
-    the held-out RMS of each candidate size (index = number of harmonics used, NaN where skipped).
+    once: per fold and angle bin, counts and sums in one pass; the training fold's normal
+    equations share one Cholesky factor among the prefix models (as in `fit_select`), and the
+    held-out error of each is y.y - 2 w.b + w.G w from the held-out fold's own moments. Angles are
+    taken at the bin centres (2*pi/bins apart: 32 or more a period of the highest harmonic, 64).
+    Returns the chosen n and the held-out RMS of each candidate size (index = number of
+    harmonics, NaN where skipped).
     """
     x, y, folds = np.ravel(np.asarray(x, float)), np.ravel(np.asarray(y, float)), np.ravel(folds)
-    labels = np.unique(folds)
-    train_bins = [bin_by_angle(x[folds != f], y[folds != f], bins) for f in labels]
-    cap = min([int(n_max)] + [_coverage_cap(len(b[0])) for b in train_bins])
+    labels, fold_of = np.unique(folds, return_inverse=True)
+    k_folds = len(labels)
+    frac = np.mod(x / (2 * np.pi), 1.0)
+    cell = fold_of * bins + np.minimum((frac * bins).astype(np.int64), bins - 1)
+    count, sy, syy = (np.bincount(cell, w, minlength=k_folds * bins).reshape(k_folds, bins)
+                      for w in (None, y, y * y))
+    train_count = count.sum(0) - count
+    cap = min([int(n_max)] + [_coverage_cap(int(np.count_nonzero(c))) for c in train_count])
     orders = _orders(cap, skip_multiples_of)
+    m = _design_interleaved(2 * np.pi * (np.arange(bins) + 0.5) / bins, orders)
     ks = np.arange(1, 2 * len(orders) + 2, 2)
     press = np.zeros(len(ks))
-    for f, (xm, ym, c, _) in zip(labels, train_bins, strict=True):
-        m = _design_interleaved(xm, orders) * np.sqrt(c)[:, None]
+    g_fold = [m.T @ (m * c[:, None]) for c in count]      # each fold's normal equations
+    b_fold = sy @ m
+    g_all, b_all = sum(g_fold), b_fold.sum(0)
+    for f in range(k_folds):
         try:
-            lower = cholesky(m.T @ m, lower=True)
+            lower = cholesky(g_all - g_fold[f], lower=True)
         except LinAlgError:
             raise ValueError("the angles do not determine the Fourier series (too little coverage)") from None
-        u = solve_triangular(lower, m.T @ (ym * np.sqrt(c)), lower=True)
-        xt, yt, ct, within = bin_by_angle(x[folds == f], y[folds == f], bins)
-        mt = _design_interleaved(xt, orders)
+        u = solve_triangular(lower, b_all - b_fold[f], lower=True)
+        g_te, b_te, yy_te = g_fold[f], b_fold[f], float(syy[f].sum())
         for j, k in enumerate(ks):
             w = solve_triangular(lower[:k, :k].T, u[:k], lower=False)
-            press[j] += float(ct @ (yt - mt[:, :k] @ w) ** 2) + within
+            press[j] += yy_te - 2 * float(w @ b_te[:k]) + float(w @ g_te[:k, :k] @ w)
     rms = np.full(cap + 1, np.nan)
-    rms[[0] + orders] = np.sqrt(press / len(y))
+    rms[[0] + orders] = np.sqrt(np.maximum(press, 0.0) / len(y))
     return ([0] + orders)[int(np.argmin(press))], rms
