@@ -38,9 +38,12 @@ from .waveform import ChannelWaveform, PaperChannel, WaveformInverse, build_inve
 MIN_SAMPLES = 64
 MAX_CLIPPED_FRACTION = 0.005
 WAVEFORM, PHASE_TABLE = "waveform", "phase_table"   # structures of the reference calibration
-STRUCTURE_FOLDS = 2       # full calibrations per structure to compare them on held-out data
-STRUCTURE_SAMPLES = 100_000   # the comparison runs on every k-th sample of longer recordings
-LP_ORDER_FOLDS = 5        # folds of the long-period order selection (cheap: binned data)
+# comparing structures on held-out data: 2..5 folds, as many as keep the calibrated samples per
+# candidate within STRUCTURE_BUDGET (short recordings get more folds, hence steadier scores);
+# longer recordings than STRUCTURE_SAMPLES are compared on every k-th sample
+STRUCTURE_BUDGET = 50_000
+STRUCTURE_SAMPLES = 100_000
+LP_ORDER_FOLDS = 10       # folds of the long-period order selection (cheap: binned data)
 
 
 @dataclass
@@ -349,13 +352,14 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
     if step > 1:
         pick = np.arange(0, len(meas), step)
         meas, use, known = meas.subset(pick), use[pick], None if known is None else known[pick]
-    folds = cv_folds(len(meas), STRUCTURE_FOLDS)
+    k = int(np.clip(STRUCTURE_BUDGET // len(meas), 2, 5))
+    folds = cv_folds(len(meas), k)
     scores = {}
     for name, (structure, centre) in CANDIDATES.items():
         if opts.structure not in (None, structure) or opts.gain_centre not in (None, centre):
             continue
         sq, count = 0.0, 0
-        for f in range(STRUCTURE_FOLDS):
+        for f in range(k):
             train, test = folds != f, folds == f
             sub = dataclasses.replace(opts, structure=structure, gain_centre=centre,
                                       known_error_arcsec=None if known is None else known[train])
@@ -369,7 +373,7 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
         scores[name] = float(np.sqrt(sq / max(count, 1)))
     best = min(scores, key=scores.get) if np.isfinite(min(scores.values())) else WAVEFORM
     return (*CANDIDATES[best], {"chosen": best, "held_out_rms_arcsec": {k: round(v, 4) for k, v in scores.items()},
-                                "folds": STRUCTURE_FOLDS, "every_nth_sample": step})
+                                "folds": k, "every_nth_sample": step})
 
 
 def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None = None) -> Calibration:

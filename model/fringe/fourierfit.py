@@ -96,14 +96,20 @@ def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
 
 
 def cv_folds(n: int, k: int = 5, blocks_per_fold: int = 64) -> np.ndarray:
-    """Fold label per sample: runs of consecutive samples dealt round-robin to k folds.
+    """Fold label per sample: runs of consecutive samples, each group of k runs dealt to the k folds
+    in a random order (fixed seed).
 
-    Runs are as short as possible while each fold still gets at least `blocks_per_fold` of them,
-    so every fold spreads over the whole recording (and, at any steady motion, the revolution),
-    while noise correlated over a few samples stays within one fold.
+    Runs are as short as possible while each fold still gets `blocks_per_fold` of them, so every
+    fold spreads over the whole recording (every k consecutive runs hold every fold), while noise
+    correlated over a few samples stays within one fold. The order is shuffled within each group:
+    a fixed round-robin can be commensurate with a steady motion and leave a sector of the
+    revolution out of a fold.
     """
     run = max(1, n // (k * blocks_per_fold))
-    return (np.arange(n) // run) % k
+    groups = -(-n // (run * k))
+    rng = np.random.default_rng(n)
+    labels = np.argsort(rng.random((groups, k)), axis=1).ravel()
+    return labels[np.arange(n) // run]
 
 
 def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bins: int = 4096,
