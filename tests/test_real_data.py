@@ -43,9 +43,10 @@ def test_rm44_declared_model_against_the_plain_fit(rm44_against_plain):
     Tolerances: two least-squares fits of 500 samples differing by about 20 weights differ in
     held-out RMS by about sqrt(2 * 20) / 500 / 2 = 0.6 % (one sigma) from the noise alone, so
     the median over the files must lie within 1 % of the plain fit. Single files may be worse by
-    up to 10 %: in some of them an interference tone near 478 Hz aliases, in the even rows
-    (500 Hz), onto a revolution harmonic (22), which no held-out fold drawn from the even rows
-    can tell from the sensor's own error (before this mechanism the worst file was 26 % worse).
+    up to 10 %: the choices are made on folds of 100 to 250 samples, and in some files an
+    interference tone near 478 Hz aliases, in the even rows (500 Hz), onto a revolution harmonic
+    (22), which no held-out fold drawn from the even rows can tell from the sensor's own error
+    (before this mechanism the worst file was 26 % worse, the median 4 %).
     The bit-exact core runs the configuration `fringe calibrate` writes; with one period per
     revolution its default widths add up to about 20" RMS (it is within 4 % of the float engine)."""
     rows = rm44_against_plain["files"]

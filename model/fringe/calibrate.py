@@ -214,8 +214,8 @@ def fit_long_period(cal: Calibration, meas: Measurement, use: np.ndarray, opts: 
         err = err - opts.known_error_arcsec
     x = 2 * np.pi * (rev[use] % 1.0)
     # harmonics L, 2L, ... of the revolution are functions of the fine phase: the waveform tables own
-    # them, unless the long-period table is the phase-domain table (lines_per_rev = 1)
-    skip = 0 if cal.fit.get("structure") == PHASE_TABLE else cal.encoder.lines_per_rev
+    # them, unless the long-period table is itself a table over the fine phase (lines_per_rev = 1)
+    skip = 0 if cal.encoder.lines_per_rev == 1 else cal.encoder.lines_per_rev
     n_fixed, n_max = None, opts.lp_harmonics_max
     if opts.lp_order_selection == "cv":
         # at least 16 samples a harmonic, as for the waveforms: held-out folds of a short recording
@@ -240,6 +240,14 @@ def reference_phase(cal: Calibration, meas: Measurement, rev: np.ndarray,
     return 2 * np.pi * cal.encoder.lines_per_rev * disc
 
 
+def true_phase(cal: Calibration, meas: Measurement, known_error_arcsec: np.ndarray | None = None) -> np.ndarray:
+    """The fine phase of the reference angle alone (rad)."""
+    truth = cal.direction * (meas.ref_deg / 360.0 - cal.zero_deg / 360.0)
+    if known_error_arcsec is not None:
+        truth = truth + known_error_arcsec / ARCSEC_PER_REV
+    return 2 * np.pi * cal.encoder.lines_per_rev * truth
+
+
 def refine_with_reference(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
     """Fit each channel against the reference's phase (all harmonics), then the long period again.
 
@@ -247,8 +255,11 @@ def refine_with_reference(cal: Calibration, meas: Measurement, use: np.ndarray, 
     graduation error moves the fringes): 2*pi*lines*(truth + e(rev)).
     """
     for _ in range(opts.ref_iterations):
-        _refit_waveforms(cal, meas, use, reference_phase(cal, meas, encoder_rev(cal, meas), opts.known_error_arcsec),
-                         opts)
+        # one period a revolution: the disc's phase error is a function of the phase, the channel models
+        # take it against the reference angle alone and the long-period table what the inverse leaves
+        phi = (true_phase(cal, meas, opts.known_error_arcsec) if cal.encoder.lines_per_rev == 1 else
+               reference_phase(cal, meas, encoder_rev(cal, meas), opts.known_error_arcsec))
+        _refit_waveforms(cal, meas, use, phi, opts)
         sync_coarse(cal, meas)
         fit_long_period(cal, meas, use, opts)
 
