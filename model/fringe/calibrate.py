@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
+from scipy.stats import f as f_dist
 
 from .dataio import Measurement
 from .encoder import ARCSEC_PER_REV, Encoder
@@ -284,6 +285,7 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     if structure == PHASE_TABLE:
         if opts.gain_centre:
             centre_from_gain_changes(cal, meas, use, opts)
+        report_amplitude_dependence(cal, meas, use, opts)
         cal.waves = _fit_waveforms(meas, use, reference_phase(cal, meas, encoder_rev(cal, meas),
                                                               opts.known_error_arcsec), opts)
         cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in cal.waves.items()}
@@ -314,19 +316,12 @@ def centre_from_gain_changes(cal: Calibration, meas: Measurement, use: np.ndarra
     q = cal.quad
     shifts = 0
     for _ in range(CENTRE_ITERATIONS):
-        frac, mag = fine_phase(cal, meas.sin, meas.cos)
-        rev = encoder_rev(cal, meas)
-        err = (lp_error_arcsec(cal, meas, rev) - cal.long_period(2 * np.pi * (rev % 1.0))) / ARCSEC_PER_REV * 2 * np.pi
-        if opts.known_error_arcsec is not None:
-            err = err - opts.known_error_arcsec / ARCSEC_PER_REV * 2 * np.pi
-        phi = 2 * np.pi * frac[use]
-        shape, _, _ = fit_select(phi, mag[use], max(8, min(64, len(phi) // 16)))
-        a = uniform_filter1d(mag[use] / shape(phi), max(GAIN_WINDOW_MIN, len(phi) // 256), mode="nearest") - 1.0
+        phi, a, err = _slow_gain_and_residual(cal, meas, use, opts)
         m = np.column_stack([a * np.cos(phi), a * np.sin(phi)])
-        w, rss, rank, _ = np.linalg.lstsq(m, err[use], rcond=None)
+        w, rss, rank, _ = np.linalg.lstsq(m, err, rcond=None)
         if rank < 2 or len(phi) <= 2:
             break
-        sigma2 = float(np.sum((err[use] - m @ w) ** 2)) / (len(phi) - 2)
+        sigma2 = float(np.sum((err - m @ w) ** 2)) / (len(phi) - 2)
         se = np.sqrt(np.diag(np.linalg.inv(m.T @ m)) * sigma2)
         if not np.any(np.abs(w) > CENTRE_T_MIN * se):
             break
@@ -336,6 +331,52 @@ def centre_from_gain_changes(cal: Calibration, meas: Measurement, use: np.ndarra
         shifts += 1
         fit_long_period(cal, meas, use, opts)
     cal.fit["centre_shifts"] = shifts
+
+
+AMPLITUDE_ORDERS = 4     # fine-phase harmonics of the amplitude-dependence test
+AMPLITUDE_P_MAX = 1e-3   # significance of that test
+
+
+def _slow_gain_and_residual(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+    """Fine phase (rad), slow relative gain - 1 and the residual angle error (rad, encoder frame) of
+    the used samples: see centre_from_gain_changes."""
+    frac, mag = fine_phase(cal, meas.sin, meas.cos)
+    rev = encoder_rev(cal, meas)
+    err = (lp_error_arcsec(cal, meas, rev) - cal.long_period(2 * np.pi * (rev % 1.0))) / ARCSEC_PER_REV * 2 * np.pi
+    if opts.known_error_arcsec is not None:
+        err = err - opts.known_error_arcsec / ARCSEC_PER_REV * 2 * np.pi
+    phi = 2 * np.pi * frac[use]
+    shape, _, _ = fit_select(phi, mag[use], max(8, min(64, len(phi) // 16)))
+    a = uniform_filter1d(mag[use] / shape(phi), max(GAIN_WINDOW_MIN, len(phi) // 256), mode="nearest") - 1.0
+    return phi, a, err[use]
+
+
+def report_amplitude_dependence(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+    """Say so when the error left still follows the amplitude (PHASE_TABLE).
+
+    A waveform whose shape changes with the field leaves an error of (g - 1) x f(phase), which no
+    table of the open-loop core can hold. F test of the slow gain x harmonics 0..AMPLITUDE_ORDERS
+    of the phase against the residual; significant and at least 1 % of the residual RMS: skipped.
+    """
+    phi, a, err = _slow_gain_and_residual(cal, meas, use, opts)
+    cols = [a] + [a * f(k * phi) for k in range(1, AMPLITUDE_ORDERS + 1) for f in (np.cos, np.sin)]
+    m = np.column_stack(cols)
+    dof = len(err) - m.shape[1]
+    if dof <= 0:
+        return
+    w, *_ = np.linalg.lstsq(m, err, rcond=None)
+    fitted = m @ w
+    rss1 = float(np.sum((err - fitted) ** 2))
+    explained = float(np.sum(err ** 2)) - rss1
+    if rss1 <= 0 or explained <= 0:
+        return
+    p = float(f_dist.sf(explained / m.shape[1] / (rss1 / dof), m.shape[1], dof))
+    rms = float(np.sqrt(np.mean(fitted ** 2))) * ARCSEC_PER_REV / (2 * np.pi)
+    cal.fit["amplitude_dependent_rms_arcsec"] = round(rms, 4)
+    if p < AMPLITUDE_P_MAX and rms >= 0.01 * float(np.sqrt(np.mean(err ** 2))) * ARCSEC_PER_REV / (2 * np.pi):
+        cal.skipped.append(f"amplitude-dependent error: {rms:.3g}\" RMS of the calibration residual follows the "
+                           f"signal magnitude (p = {p:.1e}; a waveform whose shape changes with the field or air "
+                           "gap); the core's open-loop tables do not carry it")
 
 
 def held_out_error_arcsec(cal: Calibration, meas: Measurement, known_error_arcsec: np.ndarray | None = None):
