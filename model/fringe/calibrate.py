@@ -6,27 +6,45 @@
    (all harmonics), inverted, the quadrature re-fitted and the phase recomputed, twice.
 2. Coarse/fine synchronisation from the fine phase at the coarse code's edges.
 3. With `ref_deg`: direction and zero, the long-period error (seed 000's Fourier network,
-   solved in closed form by least squares, its size chosen by BIC), and then the waveform
-   refitted against the reference's phase with all harmonics (odd, even, both phases),
+   solved in closed form by least squares, its size chosen on held-out data), and then the
+   waveform refitted against the reference's phase with all harmonics (odd, even, both phases),
    alternating with the long-period fit until both settle.
+
+With one signal period per revolution (lines_per_rev = 1) the long-period table after the
+arctan is itself a table over the fine phase, and can carry the whole phase error instead of
+the per-channel waveform inverse. The per-channel inverse assumes a fixed amplitude: a common
+gain change leaves atan2 untouched but moves every table lookup, so where the amplitude
+changes the phase-domain table holds and the inverse does not. Which of the two structures
+serves is decided on held-out data (cross-validation over interleaved blocks of the recording).
 """
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
+from scipy.stats import f as f_dist
 
 from .dataio import Measurement
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
-from .fourierfit import fit_select
-from .pipeline import Calibration, encoder_position, fine_phase
+from .fourierfit import cv_folds, cv_harmonics, fit_select
+from .metrics import error_arcsec
+from .pipeline import Calibration, encoder_position, fine_phase, run_float
 from .position import circular_mean, fit_coarse_offset, wrap
 from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
 from .smoothmotion import MAX_STEP_PERIODS, MotionTooSlow, smooth_motion_phase, times
-from .waveform import ChannelWaveform, PaperChannel, build_inverse, is_invertible
+from .waveform import ChannelWaveform, PaperChannel, WaveformInverse, build_inverse, is_invertible
 
 MIN_SAMPLES = 64
 MAX_CLIPPED_FRACTION = 0.005
+WAVEFORM, PHASE_TABLE = "waveform", "phase_table"   # structures of the reference calibration
+# comparing structures on held-out data: 2..5 folds, as many as keep the calibrated samples per
+# candidate within STRUCTURE_BUDGET (short recordings get more folds, hence steadier scores);
+# longer recordings than STRUCTURE_SAMPLES are compared on every k-th sample
+STRUCTURE_BUDGET = 50_000
+STRUCTURE_SAMPLES = 100_000
+LP_ORDER_FOLDS = 10       # folds of the long-period order selection (cheap: binned data)
 
 
 @dataclass
@@ -36,7 +54,14 @@ class CalibrationOptions:
     shape_correction: bool = True    # False: without motion, correct the conic only
     ref_iterations: int = 2
     wave_harmonics_max: int = 31     # general model: BIC chooses up to this many
-    lp_harmonics_max: int = 64       # BIC chooses up to this many
+    lp_harmonics_max: int = 64       # cross-validation chooses up to this many
+    lp_order_selection: str = "cv"   # "cv": held-out error; "bic": in-sample BIC
+    # WAVEFORM (per-channel inverse) or PHASE_TABLE (lines_per_rev = 1: the long-period table
+    # carries the phase error); None: chosen on held-out data where both apply
+    structure: str | None = None
+    # PHASE_TABLE: move the centre to where gain changes move no angle (centre_from_gain_changes);
+    # None: chosen on held-out data together with the structure
+    gain_centre: bool | None = None
     table_points: int | None = None  # None: one point per ADC code, at most 2^16 + 1
     # closed loop: error already explained by other terms (arcsec, encoder frame, per sample), kept
     # out of the long-period fit and added to the reference phase of the waveform fit
@@ -89,9 +114,9 @@ def _fit_quadrature(cal: Calibration, meas: Measurement, use: np.ndarray, seed_f
         _fail(meas, str(e))
 
 
-def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: np.ndarray,
-                     opts: CalibrationOptions, invertible: bool = False):
-    """Fit both channels against a phase reference `phi` (rad, per sample), invert, re-fit quadrature.
+def _fit_waveforms(meas: Measurement, use: np.ndarray, phi: np.ndarray, opts: CalibrationOptions,
+                   invertible: bool = False) -> dict:
+    """Both channels' models against a phase reference `phi` (rad, per sample).
 
     `invertible`: fewer harmonics than BIC chose where needed, so that each channel keeps one rising
     and one falling half per period, which its two tables can invert."""
@@ -105,9 +130,28 @@ def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: 
             n -= 1
             series, _, _ = fit_select(phi[use], y[use], hmax, n_fixed=n)
         fits[kind] = ChannelWaveform(kind, series.weights)
+    return fits
+
+
+def _refit_waveforms(cal: Calibration, meas: Measurement, use: np.ndarray, phi: np.ndarray,
+                     opts: CalibrationOptions, invertible: bool = False):
+    """Fit both channels against a phase reference `phi` (rad, per sample), invert, re-fit quadrature."""
+    fits = _fit_waveforms(meas, use, phi, opts, invertible)
     _set_waveforms(cal, fits["sin"], fits["cos"], cal.encoder, opts)
     _fit_quadrature(cal, meas, use)
     cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in fits.items()}
+
+
+LINEAR_LIMIT = 1.99    # the core's table values lie in [-2, 2)
+
+
+def linear_inverse(kind: str, peak: float, enc: Encoder, opts: CalibrationOptions) -> WaveformInverse:
+    """The waveform stage as a straight line, reading / peak (both branches, clipped to the table
+    format beyond twice the largest reading seen): the core keeps its tables, and the conic and
+    the long-period table do the correcting."""
+    lo, hi, n = _table_grid(enc, opts.table_points)
+    line = np.clip(np.linspace(lo, hi, n) / peak, -LINEAR_LIMIT, LINEAR_LIMIT)
+    return WaveformInverse(kind, lo, (hi - lo) / (n - 1), np.vstack([line, line]), 0.0, 0.0, 0.0)
 
 
 def reference_free(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions) -> Calibration:
@@ -236,9 +280,18 @@ def fit_long_period(cal: Calibration, meas: Measurement, use: np.ndarray, opts: 
     if opts.known_error_arcsec is not None:
         err = err - opts.known_error_arcsec
     x = 2 * np.pi * (rev[use] % 1.0)
-    # harmonics L, 2L, ... of the revolution are functions of the fine phase: the waveform tables own them
-    cal.long_period, n, rms = fit_select(x, err[use], opts.lp_harmonics_max,
-                                         skip_multiples_of=cal.encoder.lines_per_rev)
+    # harmonics L, 2L, ... of the revolution are functions of the fine phase: the waveform tables own
+    # them, unless the long-period table is itself a table over the fine phase (lines_per_rev = 1)
+    skip = 0 if cal.encoder.lines_per_rev == 1 else cal.encoder.lines_per_rev
+    n_fixed, n_max = None, opts.lp_harmonics_max
+    if opts.lp_order_selection == "cv":
+        # at least 16 samples a harmonic, as for the waveforms: held-out folds of a short recording
+        # cannot expose a fit to structured noise (a tone at a fixed sample pattern) otherwise
+        n_max = max(1, min(n_max, int(use.sum()) // 16))
+        n_fixed, held_out = cv_harmonics(x, err[use], n_max, cv_folds(len(meas), LP_ORDER_FOLDS)[use],
+                                         skip_multiples_of=skip)
+        cal.fit["lp_held_out_rms_arcsec"] = float(np.nanmin(held_out))
+    cal.long_period, n, rms = fit_select(x, err[use], n_max, n_fixed=n_fixed, skip_multiples_of=skip)
     cal.fit["lp_harmonics"] = n
     cal.fit["lp_residual_rms_arcsec"] = rms
 
@@ -254,6 +307,14 @@ def reference_phase(cal: Calibration, meas: Measurement, rev: np.ndarray,
     return 2 * np.pi * cal.encoder.lines_per_rev * disc
 
 
+def true_phase(cal: Calibration, meas: Measurement, known_error_arcsec: np.ndarray | None = None) -> np.ndarray:
+    """The fine phase of the reference angle alone (rad)."""
+    truth = cal.direction * (meas.ref_deg / 360.0 - cal.zero_deg / 360.0)
+    if known_error_arcsec is not None:
+        truth = truth + known_error_arcsec / ARCSEC_PER_REV
+    return 2 * np.pi * cal.encoder.lines_per_rev * truth
+
+
 def refine_with_reference(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
     """Fit each channel against the reference's phase (all harmonics), then the long period again.
 
@@ -261,19 +322,190 @@ def refine_with_reference(cal: Calibration, meas: Measurement, use: np.ndarray, 
     graduation error moves the fringes): 2*pi*lines*(truth + e(rev)).
     """
     for _ in range(opts.ref_iterations):
-        _refit_waveforms(cal, meas, use, reference_phase(cal, meas, encoder_rev(cal, meas), opts.known_error_arcsec),
-                         opts)
+        # one period a revolution: the disc's phase error is a function of the phase, the channel models
+        # take it against the reference angle alone and the long-period table what the inverse leaves
+        phi = (true_phase(cal, meas, opts.known_error_arcsec) if cal.encoder.lines_per_rev == 1 else
+               reference_phase(cal, meas, encoder_rev(cal, meas), opts.known_error_arcsec))
+        _refit_waveforms(cal, meas, use, phi, opts)
         sync_coarse(cal, meas)
         fit_long_period(cal, meas, use, opts)
+
+
+def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions,
+                          structure: str) -> Calibration:
+    """Conic, long period and (WAVEFORM) the per-channel inverse, all against the reference.
+
+    PHASE_TABLE keeps the waveform stage a straight line and lets the long-period table carry
+    every harmonic; the channel models are still fitted (against the reference's phase) for the
+    reports and the closed loop, but not inverted.
+    """
+    cal = Calibration(encoder=enc)   # the reference gives the phase: only the conic is needed to start
+    cal.fit["structure"] = structure
+    if structure == PHASE_TABLE:
+        cal.inv_sin, cal.inv_cos = (linear_inverse(k, max(float(np.max(np.abs(y[use]))), 1.0), enc, opts)
+                                    for k, y in (("sin", meas.sin), ("cos", meas.cos)))
+    _fit_quadrature(cal, meas, use)
+    sync_coarse(cal, meas)
+    check_revolution_coverage(meas, encoder_rev(cal, meas))
+    fit_long_period(cal, meas, use, opts)
+    if structure == PHASE_TABLE:
+        if opts.gain_centre:
+            centre_from_gain_changes(cal, meas, use, opts)
+        report_amplitude_dependence(cal, meas, use, opts)
+        cal.waves = _fit_waveforms(meas, use, reference_phase(cal, meas, encoder_rev(cal, meas),
+                                                              opts.known_error_arcsec), opts)
+        cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in cal.waves.items()}
+    else:
+        refine_with_reference(cal, meas, use, opts)
+    return cal
+
+
+CENTRE_ITERATIONS = 3
+CENTRE_T_MIN = 3.0        # a centre shift must be this many standard errors from zero
+GAIN_WINDOW_MIN = 16      # samples averaged at least for the slow gain (1/256 of the recording if longer)
+
+
+def centre_from_gain_changes(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+    """Move the quadrature centre to where a common gain change moves no angle (PHASE_TABLE).
+
+    atan2 ignores a common gain only around the true centre. A conic fitted to a family of scaled
+    ellipses (field strength, air gap or temperature changing during the recording) misplaces it,
+    and an error (dx, dy) of the corrected components moves the angle by (dx cos phi - dy sin phi)/g,
+    g the relative gain: the phase table takes the part at g = 1, the rest follows the gain. The
+    residual after the table is regressed on a cos(phi), a sin(phi), the centre moved by the fitted
+    (dx, dy) and the table refitted. a = g - 1 is the slow part of the magnitude that its mean shape
+    along the phase does not explain: the magnitude over that shape, averaged over GAIN_WINDOW
+    samples, so that noise and interference (which move magnitude and angle together, sample by
+    sample) do not pass for a gain change. Without a gain change the regressors are noise and
+    nothing significant is found (nor needed: the table absorbs a fixed centre error).
+    """
+    q = cal.quad
+    shifts = 0
+    for _ in range(CENTRE_ITERATIONS):
+        phi, a, err = _slow_gain_and_residual(cal, meas, use, opts)
+        m = np.column_stack([a * np.cos(phi), a * np.sin(phi)])
+        w, rss, rank, _ = np.linalg.lstsq(m, err, rcond=None)
+        if rank < 2 or len(phi) <= 2:
+            break
+        sigma2 = float(np.sum((err - m @ w) ** 2)) / (len(phi) - 2)
+        se = np.sqrt(np.diag(np.linalg.inv(m.T @ m)) * sigma2)
+        if not np.any(np.abs(w) > CENTRE_T_MIN * se):
+            break
+        dx, dy = -w[0], w[1]       # the a-part of the error is -a (dx cos phi - dy sin phi)
+        q.ofs_c += dy / q.k_cc
+        q.ofs_s += (dx - q.k_sc * dy / q.k_cc) / q.k_ss
+        shifts += 1
+        fit_long_period(cal, meas, use, opts)
+    cal.fit["centre_shifts"] = shifts
+
+
+AMPLITUDE_ORDERS = 4     # fine-phase harmonics of the amplitude-dependence test
+AMPLITUDE_P_MAX = 1e-3   # significance of that test
+
+
+def _slow_gain_and_residual(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+    """Fine phase (rad), slow relative gain - 1 and the residual angle error (rad, encoder frame) of
+    the used samples: see centre_from_gain_changes."""
+    frac, mag = fine_phase(cal, meas.sin, meas.cos)
+    rev = encoder_rev(cal, meas)
+    err = (lp_error_arcsec(cal, meas, rev) - cal.long_period(2 * np.pi * (rev % 1.0))) / ARCSEC_PER_REV * 2 * np.pi
+    if opts.known_error_arcsec is not None:
+        err = err - opts.known_error_arcsec / ARCSEC_PER_REV * 2 * np.pi
+    phi = 2 * np.pi * frac[use]
+    shape, _, _ = fit_select(phi, mag[use], max(8, min(64, len(phi) // 16)))
+    a = uniform_filter1d(mag[use] / shape(phi), max(GAIN_WINDOW_MIN, len(phi) // 256), mode="nearest") - 1.0
+    return phi, a, err[use]
+
+
+def report_amplitude_dependence(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+    """Say so when the error left still follows the amplitude (PHASE_TABLE).
+
+    A waveform whose shape changes with the field leaves an error of (g - 1) x f(phase), which no
+    table of the open-loop core can hold. F test of the slow gain x harmonics 0..AMPLITUDE_ORDERS
+    of the phase against the residual; significant and at least 1 % of the residual RMS: skipped.
+    """
+    phi, a, err = _slow_gain_and_residual(cal, meas, use, opts)
+    cols = [a] + [a * f(k * phi) for k in range(1, AMPLITUDE_ORDERS + 1) for f in (np.cos, np.sin)]
+    m = np.column_stack(cols)
+    dof = len(err) - m.shape[1]
+    if dof <= 0:
+        return
+    w, *_ = np.linalg.lstsq(m, err, rcond=None)
+    fitted = m @ w
+    rss1 = float(np.sum((err - fitted) ** 2))
+    explained = float(np.sum(err ** 2)) - rss1
+    if rss1 <= 0 or explained <= 0:
+        return
+    p = float(f_dist.sf(explained / m.shape[1] / (rss1 / dof), m.shape[1], dof))
+    rms = float(np.sqrt(np.mean(fitted ** 2))) * ARCSEC_PER_REV / (2 * np.pi)
+    cal.fit["amplitude_dependent_rms_arcsec"] = round(rms, 4)
+    if p < AMPLITUDE_P_MAX and rms >= 0.01 * float(np.sqrt(np.mean(err ** 2))) * ARCSEC_PER_REV / (2 * np.pi):
+        cal.skipped.append(f"amplitude-dependent error: {rms:.3g}\" RMS of the calibration residual follows the "
+                           f"signal magnitude (p = {p:.1e}; a waveform whose shape changes with the field or air "
+                           "gap); the core's open-loop tables do not carry it")
+
+
+def held_out_error_arcsec(cal: Calibration, meas: Measurement, known_error_arcsec: np.ndarray | None = None):
+    """Output error of `cal` on `meas` against its reference (float engine), less the known error."""
+    res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
+    err = error_arcsec(res.angle_deg, meas.ref_deg)
+    if known_error_arcsec is not None:    # encoder frame -> output frame
+        err = err - cal.direction * known_error_arcsec
+    return err - np.mean(err)
+
+
+CANDIDATES = {WAVEFORM: (WAVEFORM, False), PHASE_TABLE: (PHASE_TABLE, False),
+              PHASE_TABLE + "+gain_centre": (PHASE_TABLE, True)}
+
+
+def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
+                     opts: CalibrationOptions) -> tuple[str, bool, dict]:
+    """The structure (and, for the phase table, whether to centre it on the gain changes) with the
+    least held-out RMS: each candidate is calibrated on all folds but one and scored on that one
+    (the folds interleave blocks of the recording, as an even/odd split does)."""
+    if enc.lines_per_rev != 1:
+        return WAVEFORM, False, {}   # the long-period table cannot hold the harmonics of the fine phase
+    step = -(-len(meas) // STRUCTURE_SAMPLES)      # ceil: a structure shows at any sampling of the recording
+    known = opts.known_error_arcsec
+    if step > 1:
+        pick = np.arange(0, len(meas), step)
+        meas, use, known = meas.subset(pick), use[pick], None if known is None else known[pick]
+    k = int(np.clip(STRUCTURE_BUDGET // len(meas), 2, 5))
+    folds = cv_folds(len(meas), k)
+    scores = {}
+    for name, (structure, centre) in CANDIDATES.items():
+        if opts.structure not in (None, structure) or opts.gain_centre not in (None, centre):
+            continue
+        sq, count = 0.0, 0
+        for f in range(k):
+            train, test = folds != f, folds == f
+            sub = dataclasses.replace(opts, structure=structure, gain_centre=centre,
+                                      known_error_arcsec=None if known is None else known[train])
+            try:
+                cal = calibrate(meas.subset(train), enc, sub)
+            except FringeInputError:
+                sq = np.inf
+                break
+            err = held_out_error_arcsec(cal, meas.subset(test), None if known is None else known[test])[use[test]]
+            sq, count = sq + float(err @ err), count + len(err)
+        scores[name] = float(np.sqrt(sq / max(count, 1)))
+    best = min(scores, key=scores.get) if np.isfinite(min(scores.values())) else WAVEFORM
+    return (*CANDIDATES[best], {"chosen": best, "held_out_rms_arcsec": {k: round(v, 4) for k, v in scores.items()},
+                                "folds": k, "every_nth_sample": step})
 
 
 def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None = None) -> Calibration:
     opts = opts or CalibrationOptions()
     use = check_recording(meas, enc)
     has_lp = meas.ref_deg is not None and (enc.coarse_bits > 0 or enc.lines_per_rev == 1)
-    if has_lp:   # the reference gives the phase: only the conic is needed to start
-        cal = Calibration(encoder=enc)
-        _fit_quadrature(cal, meas, use)
+    if has_lp:   # the reference gives the phase
+        choice = {}
+        structure, centre = opts.structure, opts.gain_centre
+        if structure is None or (structure == PHASE_TABLE and centre is None):
+            structure, centre, choice = choose_structure(meas, enc, use, opts)
+        cal = reference_calibration(meas, enc, use, dataclasses.replace(opts, gain_centre=centre), structure)
+        if choice:
+            cal.fit["model_choice"] = choice
     else:
         cal = reference_free(meas, enc, use, opts)
     sync_coarse(cal, meas)
@@ -287,10 +519,6 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
         cal.skipped.append("long-period correction: an incremental encoder (lines_per_rev > 1, no coarse code) "
                            "does not know where it is in the revolution after power-up")
         find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
-    else:
-        check_revolution_coverage(meas, encoder_rev(cal, meas))
-        fit_long_period(cal, meas, use, opts)
-        refine_with_reference(cal, meas, use, opts)
     cal.amp_low, cal.amp_high = amplitude_thresholds(cal, meas, use)
     dt = np.diff(meas.t_s) if meas.t_s is not None and len(meas) > 1 else np.ones(1)   # no t_s: time = index
     cal.provenance = {"data": meas.path, "samples": len(meas), "samples_used": int(use.sum()),

@@ -1,4 +1,5 @@
-"""Fast Fourier-series least squares on binned data, with the number of harmonics chosen by BIC.
+"""Fast Fourier-series least squares on binned data, with the number of harmonics chosen by BIC
+or by cross-validation (held-out data).
 
 Calibration fits Fourier series to a million samples several times. Averaging the samples in
 fine angle bins first (count, mean angle, mean value) leaves the least-squares problem the
@@ -52,6 +53,15 @@ def bin_by_angle(x: np.ndarray, y: np.ndarray, bins: int):
     return xm, ym, c, max(within, 0.0)
 
 
+def _orders(top: int, skip_multiples_of: int) -> list[int]:
+    return [l for l in range(1, top + 1) if not (skip_multiples_of and l % skip_multiples_of == 0)]
+
+
+def _coverage_cap(n_bins_with_data: int) -> int:
+    """At least about twice as many distinct angles as weights."""
+    return max(0, (n_bins_with_data - 1) // 2 - 1)
+
+
 def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
                n_fixed: int | None = None, skip_multiples_of: int = 0) -> tuple[FourierSeries, int, float]:
     """Least-squares Fourier series of y against angle x; n by BIC over 0..n_max unless n_fixed.
@@ -61,9 +71,9 @@ def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
     """
     n_samples = len(y)
     xm, ym, c, within = bin_by_angle(x, y, bins)
-    n_max = int(min(n_max, max(0, (len(xm) - 1) // 2 - 1)))
+    n_max = int(min(n_max, _coverage_cap(len(xm))))
     top = n_max if n_fixed is None else min(n_fixed, n_max)
-    orders = [l for l in range(1, top + 1) if not (skip_multiples_of and l % skip_multiples_of == 0)]
+    orders = _orders(top, skip_multiples_of)
     m = _design_interleaved(xm, orders)
     sw = np.sqrt(c)
     mw, yw = m * sw[:, None], ym * sw
@@ -83,3 +93,63 @@ def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
     w = solve_triangular(lower[:k, :k].T, u[:k], lower=False)
     used = orders[:(k - 1) // 2]
     return FourierSeries(_to_paper_order(w, used)), max(used, default=0), float(np.sqrt(rss[best] / n_samples))
+
+
+def cv_folds(n: int, k: int = 5, blocks_per_fold: int = 64) -> np.ndarray:
+    """Fold label per sample: runs of consecutive samples, each group of k runs dealt to the k folds
+    in a random order (fixed seed).
+
+    Runs are as short as possible while each fold still gets `blocks_per_fold` of them, so every
+    fold spreads over the whole recording (every k consecutive runs hold every fold), while noise
+    correlated over a few samples stays within one fold. The order is shuffled within each group:
+    a fixed round-robin can be commensurate with a steady motion and leave a sector of the
+    revolution out of a fold.
+    """
+    run = max(1, n // (k * blocks_per_fold))
+    groups = -(-n // (run * k))
+    rng = np.random.default_rng(n)
+    labels = np.argsort(rng.random((groups, k)), axis=1).ravel()
+    return labels[np.arange(n) // run]
+
+
+def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bins: int = 4096,
+                 skip_multiples_of: int = 0) -> tuple[int, np.ndarray]:
+    """Number of harmonics (0..n_max) with the least held-out squared error, summed over the folds.
+
+    Each fold is predicted by the series fitted on the other folds, for every candidate size at
+    once: per fold and angle bin, counts and sums in one pass; the training fold's normal
+    equations share one Cholesky factor among the prefix models (as in `fit_select`), and the
+    held-out error of each is y.y - 2 w.b + w.G w from the held-out fold's own moments. Angles are
+    taken at the bin centres (2*pi/bins apart: 32 or more a period of the highest harmonic, 64).
+    Returns the chosen n and the held-out RMS of each candidate size (index = number of
+    harmonics, NaN where skipped).
+    """
+    x, y, folds = np.ravel(np.asarray(x, float)), np.ravel(np.asarray(y, float)), np.ravel(folds)
+    labels, fold_of = np.unique(folds, return_inverse=True)
+    k_folds = len(labels)
+    frac = np.mod(x / (2 * np.pi), 1.0)
+    cell = fold_of * bins + np.minimum((frac * bins).astype(np.int64), bins - 1)
+    count, sy, syy = (np.bincount(cell, w, minlength=k_folds * bins).reshape(k_folds, bins)
+                      for w in (None, y, y * y))
+    train_count = count.sum(0) - count
+    cap = min([int(n_max)] + [_coverage_cap(int(np.count_nonzero(c))) for c in train_count])
+    orders = _orders(cap, skip_multiples_of)
+    m = _design_interleaved(2 * np.pi * (np.arange(bins) + 0.5) / bins, orders)
+    ks = np.arange(1, 2 * len(orders) + 2, 2)
+    press = np.zeros(len(ks))
+    g_fold = [m.T @ (m * c[:, None]) for c in count]      # each fold's normal equations
+    b_fold = sy @ m
+    g_all, b_all = sum(g_fold), b_fold.sum(0)
+    for f in range(k_folds):
+        try:
+            lower = cholesky(g_all - g_fold[f], lower=True)
+        except LinAlgError:
+            raise ValueError("the angles do not determine the Fourier series (too little coverage)") from None
+        u = solve_triangular(lower, b_all - b_fold[f], lower=True)
+        g_te, b_te, yy_te = g_fold[f], b_fold[f], float(syy[f].sum())
+        for j, k in enumerate(ks):
+            w = solve_triangular(lower[:k, :k].T, u[:k], lower=False)
+            press[j] += yy_te - 2 * float(w @ b_te[:k]) + float(w @ g_te[:k, :k] @ w)
+    rms = np.full(cap + 1, np.nan)
+    rms[[0] + orders] = np.sqrt(np.maximum(press, 0.0) / len(y))
+    return ([0] + orders)[int(np.argmin(press))], rms

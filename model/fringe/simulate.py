@@ -82,6 +82,11 @@ class SimulationConfig:
     ref_lag_s: float = 0.0                # the reference is sampled this much earlier than the ADC
     vibration_arcsec: float = 0.0         # amplitude of a vibration between encoder and reference
     vibration_hz: float = 0.0
+    # ---- amplitude that changes (field strength, air gap, temperature): both channels together
+    common_gain_rms: float = 0.0          # slow random wander of the common gain (relative, RMS), drift timescale
+    # harmonics 2, 3, ... of both waveforms scale with (common gain)^this (rev_gain_mod and common_gain_rms):
+    # a sensor whose distortion grows with the field (0: the waveform's shape does not change)
+    harmonics_gain_exponent: float = 0.0
 
     def encoder(self) -> Encoder:
         full_scale = None
@@ -179,10 +184,12 @@ def simulate(cfg: SimulationConfig, seed: int = 1) -> Recording:
     gain_mod = 1.0 + fourier_arcsec(cfg.rev_gain_mod, psi)
     half = enc.adc_half_range
 
+    common = gain_mod * (1.0 + _drift(t, cfg.common_gain_rms, cfg, effects_rng))
+
     def channel(ch: ChannelConfig, ph: np.ndarray, offset_mod: dict):
         offset = ch.offset + fourier_arcsec(offset_mod, psi) + _drift(t, cfg.drift_offset_rms, cfg, effects_rng)
-        gain = ch.gain * gain_mod * (1.0 + _drift(t, cfg.drift_gain_rms, cfg, effects_rng))
-        clean = (offset + gain * ch.waveform(ph + ch.phase_rad)) * half
+        gain = ch.gain * common * (1.0 + _drift(t, cfg.drift_gain_rms, cfg, effects_rng))
+        clean = (offset + gain * _shape(ch, ph + ch.phase_rad, common, cfg.harmonics_gain_exponent)) * half
         noisy = clean + rng.normal(0.0, cfg.noise_rms * half, clean.shape)
         return clean, np.clip(np.round(noisy), -half, half - 1).astype(np.int64)
 
@@ -201,6 +208,14 @@ def simulate(cfg: SimulationConfig, seed: int = 1) -> Recording:
     ref_rev = np.floor(np.mod(ref_rev, 1.0) * counts) / counts
     cols["ref_deg"] = ref_rev * 360.0
     return Recording(cols, theta, phase, clean_s, clean_c, enc)
+
+
+def _shape(ch: ChannelConfig, psi: np.ndarray, common_gain: np.ndarray, exponent: float) -> np.ndarray:
+    """The channel's normalised waveform, its harmonics above the fundamental scaled by common_gain^exponent."""
+    if not exponent:
+        return ch.waveform(psi)
+    fundamental = ch.sin_h.get(1, 0.0) * np.sin(psi) + ch.cos_h.get(1, 0.0) * np.cos(psi)
+    return fundamental + (ch.waveform(psi) - fundamental) * np.power(common_gain, exponent)
 
 
 def _direction(theta: np.ndarray) -> np.ndarray:
