@@ -43,7 +43,7 @@ lint: $(STAMP)
 	$(BIN)/python sim/lint.py
 
 bench: synth
-	$(BIN)/python -m fringe.bench --out results
+	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m fringe.bench --out results
 
 $(SYNTH_STAMP): $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[test,synth]'

@@ -16,6 +16,7 @@ import numpy as np
 
 from . import __version__
 from .bench_io import io_and_memory
+from .bench_real import real_vs_plain_bench, simulated_bench
 from .bench_reference_free import reference_free_bench, reference_free_markdown
 from .calibrate import calibrate, ellipse_only, seed_method, uncorrected
 from .datasets import RM44_ENCODER, halves, read_rm44
@@ -240,7 +241,8 @@ def markdown(results: dict) -> str:
     return "\n".join(lines)
 
 
-OTHER_SECTIONS = {"reference_free": reference_free_markdown, "io_and_memory": None}
+OTHER_SECTIONS = {"reference_free": reference_free_markdown, "real_vs_plain_fit": None, "one_line_population": None,
+                  "io_and_memory": None}
 
 
 def main(argv=None) -> int:
@@ -258,6 +260,8 @@ def main(argv=None) -> int:
              ("loop_rm44", lambda: loop_rm44(SHARED_DATA)),
              ("de_vs_desa", de_vs_desa),
              ("reference_free", lambda: reference_free_bench(SHARED_DATA)),
+             ("real_vs_plain_fit", lambda: real_vs_plain_bench(SHARED_DATA)),
+             ("one_line_population", lambda: simulated_bench(6 if a.quick else 24, 2000)),
              ("io_and_memory", lambda: io_and_memory(a.quick)),
              ("synthesis", lambda: synthesis(a.out))]
     for name, fn in steps:
