@@ -328,8 +328,19 @@ def _interrupted(signum, frame):
 
 def main(argv=None) -> int:
     """Every failure is one line on stderr and exit status 2 (130 and up for signals); nothing half-written."""
-    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-        signal.signal(sig, _interrupted)
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():   # only the main thread may set handlers
+        return _main(argv)
+    previous = {sig: signal.signal(sig, _interrupted) for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    try:
+        return _main(argv)
+    finally:                                        # main() called from Python: give the caller its handlers back
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _main(argv) -> int:
     debug = bool(os.environ.get("FRINGE_DEBUG"))
     try:
         with warnings.catch_warnings(), np.errstate(all="ignore"):

@@ -136,9 +136,9 @@ MIN_RANGE_USED = 1 / 256  # a signal swinging less than this fraction of the ADC
 def _to_counts(sin, cos, enc: Encoder, path, line_of):
     """Float readings are scaled by full_scale; offset-binary codes are centred; counts must fit the ADC."""
     lo, hi = -enc.adc_half_range, enc.adc_half_range - 1
-    if enc.full_scale is not None:
+    if enc.full_scale is not None:   # to the codes the core's ADC input holds: calibrate on what it will see
         scale = enc.adc_half_range / enc.full_scale
-        sin, cos = sin * scale, cos * scale
+        sin, cos = np.round(sin * scale), np.round(cos * scale)
     else:
         peak = max(np.max(np.abs(sin)), np.max(np.abs(cos)))
         fractional = np.any(sin != np.round(sin)) or np.any(cos != np.round(cos))
