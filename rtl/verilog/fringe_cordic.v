@@ -45,7 +45,9 @@ module fringe_cordic #(
     output wire [USER_W-1:0]    out_user
 );
 
-    localparam integer LATENCY = STAGES + 2;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY = STAGES + CORDIC_LATENCY_BASE;
     localparam integer ACC_W   = FINE_W + GUARD;   // angle accumulator, one turn = 2^ACC_W
     localparam integer DP_W    = IN_W + 2 + GUARD; // x/y datapath
     localparam [ACC_W-1:0] HALF_TURN = {1'b1, {(ACC_W-1){1'b0}}};
@@ -196,25 +198,10 @@ module fringe_cordic #(
     wire unused_sign = &{1'b0, x_rnd[DP_W-1]};
 
     // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
 endmodule
 

@@ -107,13 +107,14 @@ module fringe_core #(
     output wire             active_bank
 );
 
+    `include "fringe_pkg.vh"
+
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 12 : 0) + ((DRIFT != 0) ? 4 : 0);
+    localparam integer LATENCY = fringe_core_latency(CORDIC_STAGES, TRIM, DRIFT);
     /* verilator lint_on UNUSEDPARAM */
     localparam integer POS_W   = $clog2(LINES) + FINE_W;        // clog2(LINES * 2^FINE_W)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width
-    localparam integer REG_W   = 32;
     localparam integer AMP_W   = WAVE_W + 1;   // CORDIC magnitude u(WAVE_W+1)
     localparam integer BR_W    = ADC_W + 1;    // branch thresholds s(ADC_W+1)
 
@@ -155,14 +156,9 @@ module fringe_core #(
 
     // ---- register file and bank control (configuration, not reset) ----------------------------
     // regs[{bank, index}], index as in model/fringe/fixed/regmap.py
-    localparam [4:0] R_K_SS = 5'd0, R_K_SC = 5'd1, R_K_CC = 5'd2, R_OFS_S = 5'd3, R_OFS_C = 5'd4;
-    localparam [4:0] R_MID_S = 5'd5, R_THR_HI_S = 5'd6, R_THR_LO_S = 5'd7;
-    localparam [4:0] R_MID_C = 5'd8, R_THR_HI_C = 5'd9, R_THR_LO_C = 5'd10;
-    localparam [4:0] R_COARSE_OFS = 5'd11, R_ZERO = 5'd12, R_DIR = 5'd13, R_AMP_LOW = 5'd14, R_AMP_HIGH = 5'd15;
-    localparam [4:0] R_W0_S = 5'd16, R_W0_C = 5'd17, R_KG_S = 5'd18, R_KG_C = 5'd19;
-    localparam [15:0] CTRL_WORD = 16'h0080;
+    // register indices REG_*, CTRL_WORD: fringe_pkg.vh (generated from model/fringe/fixed/regmap.py)
 
-    reg [REG_W-1:0] regs [0:63];
+    reg [REG_W-1:0] regs [0:2*N_REGS-1];
     reg             bank_r;
 
     initial bank_r = 1'b0;   // power-up value (configuration: rst does not touch it)
@@ -280,7 +276,8 @@ module fringe_core #(
     // the normalisation (a saturated normalised code) travel with it, with the normalised codes the
     // tracker's observer needs at the CORDIC output: dx = {y_sin, y_cos, norm_sat, clip_c, clip_s}.
     localparam integer DX_W   = 2 * ADC_W + 3;
-    localparam integer PIPE_D = 2 + 4 + 5 + CORDIC_STAGES + 2;   // normaliser outputs -> CORDIC outputs
+    localparam integer PIPE_D = CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + CORDIC_STAGES
+                                + CORDIC_LATENCY_BASE;   // normaliser outputs -> CORDIC outputs
     localparam [ADC_W-1:0] ADC_MIN = {1'b1, {(ADC_W-1){1'b0}}}, ADC_MAX = {1'b0, {(ADC_W-1){1'b1}}};
     wire             raw_clip_s = (sin == ADC_MIN) || (sin == ADC_MAX);
     wire             raw_clip_c = (cos == ADC_MIN) || (cos == ADC_MAX);
@@ -307,9 +304,9 @@ module fringe_core #(
                 .norm_valid(n_valid), .y_sin(n_sin), .y_cos(n_cos), .norm_sat(n_sat), .norm_user(nu),
                 .obs_valid(c_valid), .obs_phase(phase), .obs_y_sin(c_dx[DX_W-1 -: ADC_W]),
                 .obs_y_cos(c_dx[ADC_W+2:3]), .obs_bank(c_bank),
-                .w0_sin(regs[{c_bank, R_W0_S}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
-                .w0_cos(regs[{c_bank, R_W0_C}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
-                .kg_sin(regs[{c_bank, R_KG_S}][DRIFT_KG_W-1:0]), .kg_cos(regs[{c_bank, R_KG_C}][DRIFT_KG_W-1:0]),
+                .w0_sin(regs[{c_bank, REG_W0_S}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
+                .w0_cos(regs[{c_bank, REG_W0_C}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
+                .kg_sin(regs[{c_bank, REG_KG_S}][DRIFT_KG_W-1:0]), .kg_cos(regs[{c_bank, REG_KG_C}][DRIFT_KG_W-1:0]),
                 .wr_en(wr_fwd), .wr_sel(wr_fwd_sel), .wr_addr({wr_bank_r, wr_word[DRIFT_FWD_W-1:0]}),
                 .wr_data(wr_data[2*DRIFT_TABLE_W-1:0]),
                 .off_sin(off_s), .off_cos(off_c), .ginv_sin(ginv_s), .ginv_cos(ginv_c), .track_sat(track_sat)
@@ -355,12 +352,12 @@ module fringe_core #(
             coarse0 <= n_coarse;
             bank0   <= n_bank;
             flags0  <= {n_sat, n_clip_c, n_clip_s};
-            mid_s   <= regs[{n_bank, R_MID_S}][BR_W-1:0];
-            hi_s    <= regs[{n_bank, R_THR_HI_S}][BR_W-1:0];
-            lo_s    <= regs[{n_bank, R_THR_LO_S}][BR_W-1:0];
-            mid_c   <= regs[{n_bank, R_MID_C}][BR_W-1:0];
-            hi_c    <= regs[{n_bank, R_THR_HI_C}][BR_W-1:0];
-            lo_c    <= regs[{n_bank, R_THR_LO_C}][BR_W-1:0];
+            mid_s   <= regs[{n_bank, REG_MID_S}][BR_W-1:0];
+            hi_s    <= regs[{n_bank, REG_THR_HI_S}][BR_W-1:0];
+            lo_s    <= regs[{n_bank, REG_THR_LO_S}][BR_W-1:0];
+            mid_c   <= regs[{n_bank, REG_MID_C}][BR_W-1:0];
+            hi_c    <= regs[{n_bank, REG_THR_HI_C}][BR_W-1:0];
+            lo_c    <= regs[{n_bank, REG_THR_LO_C}][BR_W-1:0];
         end
     end
 
@@ -402,11 +399,11 @@ module fringe_core #(
     // (the sum of the latencies before it) sees the sample's bank in bank_d[N-1]; one clock enable
     // ahead it is in bank_d[N-2], which selects the registers it takes with the sample. The
     // latencies must equal the blocks' LATENCY constants.
-    localparam integer LAT_WL = 4;                      // fringe_wave_lut
-    localparam integer LAT_Q  = 5;                      // fringe_quadrature
-    localparam integer LAT_C  = CORDIC_STAGES + 2;      // fringe_cordic
-    localparam integer LAT_P  = 3;                      // fringe_period_count
-    localparam integer LAT_T  = (TRIM != 0) ? 12 : 0;   // fringe_trim (TRIM = 1)
+    localparam integer LAT_WL = WAVE_LUT_LATENCY;
+    localparam integer LAT_Q  = QUADRATURE_LATENCY;
+    localparam integer LAT_C  = CORDIC_STAGES + CORDIC_LATENCY_BASE;
+    localparam integer LAT_P  = PERIOD_COUNT_LATENCY;
+    localparam integer LAT_T  = TRIM * TRIM_LATENCY;    // fringe_trim (TRIM = 1)
     localparam integer TAP_Q  = LAT_WL - 2;             // quadrature coefficients
     localparam integer TAP_C  = LAT_WL + LAT_Q + LAT_C - 2;          // magnitude thresholds, COARSE_OFS
     localparam integer TAP_P  = LAT_WL + LAT_Q + LAT_C + LAT_P + LAT_T - 2;  // ZERO, DIR
@@ -430,16 +427,16 @@ module fringe_core #(
 
     always @(posedge clk) begin
         if (ce) begin
-            ofs_s_r      <= regs[{bank_q, R_OFS_S}][WAVE_W-1:0];
-            ofs_c_r      <= regs[{bank_q, R_OFS_C}][WAVE_W-1:0];
-            k_ss_r       <= regs[{bank_q, R_K_SS}][COEF_W-1:0];
-            k_sc_r       <= regs[{bank_q, R_K_SC}][COEF_W-1:0];
-            k_cc_r       <= regs[{bank_q, R_K_CC}][COEF_W-1:0];
-            amp_low      <= regs[{bank_c, R_AMP_LOW}][AMP_W-1:0];
-            amp_high     <= regs[{bank_c, R_AMP_HIGH}][AMP_W-1:0];
-            coarse_ofs_r <= regs[{bank_c, R_COARSE_OFS}][POS_W:0];
-            zero_r       <= regs[{bank_p, R_ZERO}][POS_W-1:0];
-            dir_r        <= regs[{bank_p, R_DIR}][0];
+            ofs_s_r      <= regs[{bank_q, REG_OFS_S}][WAVE_W-1:0];
+            ofs_c_r      <= regs[{bank_q, REG_OFS_C}][WAVE_W-1:0];
+            k_ss_r       <= regs[{bank_q, REG_K_SS}][COEF_W-1:0];
+            k_sc_r       <= regs[{bank_q, REG_K_SC}][COEF_W-1:0];
+            k_cc_r       <= regs[{bank_q, REG_K_CC}][COEF_W-1:0];
+            amp_low      <= regs[{bank_c, REG_AMP_LOW}][AMP_W-1:0];
+            amp_high     <= regs[{bank_c, REG_AMP_HIGH}][AMP_W-1:0];
+            coarse_ofs_r <= regs[{bank_c, REG_COARSE_OFS}][POS_W:0];
+            zero_r       <= regs[{bank_p, REG_ZERO}][POS_W-1:0];
+            dir_r        <= regs[{bank_p, REG_DIR}][0];
         end
     end
 

@@ -63,7 +63,7 @@ module fringe_drift #(
     parameter integer TABLE_W      = 18,   // forward table value and slope width, 8..24
     parameter integer TABLE_FRAC   = 2,    // fraction bits of the table values and of W0 (ADC codes), 0..12
     parameter integer KG_W         = 18,   // KG width (unsigned), 8..24
-    parameter integer KG_SHIFT     = 38,   // right shift of SEA * KG, 1..60
+    parameter integer KG_SHIFT     = 40,   // right shift of SEA * KG, 1..60
     parameter integer PIPE_LATENCY = 0,    // clock enables from the norm outputs to the obs inputs in the core, >= 0
     parameter         FWD_SIN_INIT = "",   // $readmemh image of the sine table, 2 banks x 2^FWD_W words; "" = zeros
     parameter         FWD_COS_INIT = "",   // $readmemh image of the cosine table, 2 banks x 2^FWD_W words; "" = zeros
@@ -106,8 +106,10 @@ module fringe_drift #(
     output reg                               track_sat   // the last applied update saturated
 );
 
-    localparam integer NORM_LATENCY = 4;
-    localparam integer OBS_LATENCY = 15;
+    `include "fringe_pkg.vh"
+
+    localparam integer NORM_LATENCY = DRIFT_NORM_LATENCY;
+    localparam integer OBS_LATENCY  = DRIFT_OBS_LATENCY;
     localparam integer D        = 1 << (BLOCK_LOG2 - 1);
     localparam integer FWD_MAX  = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
     localparam integer TOTAL    = NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY;
@@ -222,25 +224,10 @@ module fringe_drift #(
     end
 
     // ---- normaliser ------------------------------------------------------------------------------------
-    reg  [NORM_LATENCY-1:0]        nvalid;
-    reg  [NORM_LATENCY*USER_W-1:0] nuser;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            nvalid <= {NORM_LATENCY{1'b0}};
-        end else if (ce) begin
-            nvalid <= {nvalid[NORM_LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            nuser <= {nuser[(NORM_LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign norm_valid = nvalid[NORM_LATENCY-1];
-    assign norm_user  = nuser[NORM_LATENCY*USER_W-1:(NORM_LATENCY-1)*USER_W];
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(NORM_LATENCY)) u_norm_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(norm_valid), .out_data(norm_user)
+    );
 
     reg  signed [ADC_W-1:0] n1_s, n1_c;
     reg  signed [OW:0]      n2_s, n2_c;

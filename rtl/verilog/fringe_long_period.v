@@ -74,38 +74,16 @@ module fringe_long_period #(
     output wire [USER_W-1:0]                 out_user
 );
 
-    localparam integer LATENCY = 8;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY = LONG_PERIOD_LATENCY;
     localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
     localparam [63:0]  LINES64 = LINES * 64'd1;
     localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^48 when legal
 
     // ---- parameter checks -------------------------------------------------------------------------
-    // 2-adic valuation of LINES (trailing zero bits), LINES in 1..2^20
-    function integer tz;
-        input integer v;
-        integer k;
-        begin
-            tz = 0;
-            for (k = 1; k <= 20; k = k + 1) begin
-                if (v % (1 << k) == 0) begin
-                    tz = k;
-                end
-            end
-        end
-    endfunction
-
-    // Granlund-Montgomery bound (see check_index_mapping in the model), on 256-bit constants:
-    // E = LP_RECIP * REV - 2^(LP_ADDR_W + LP_SHIFT) >= 0 and (REV - 1) * E < 2^(G + LP_SHIFT),
-    // 2^G = gcd(2^LP_ADDR_W, REV).
-    localparam integer   V2      = FINE_W + tz(LINES);
-    localparam integer   G_LOG   = (LP_ADDR_W < V2) ? LP_ADDR_W : V2;
-    localparam [255:0]   REV_X   = {192'd0, REV64};
-    localparam [255:0]   PROD_X  = {192'd0, LP_RECIP} * REV_X;
-    localparam [255:0]   POW_X   = 256'd1 << (LP_ADDR_W + LP_SHIFT);
-    localparam [255:0]   E_X     = PROD_X - POW_X;
-    localparam [255:0]   LHS_X   = (REV_X - 256'd1) * E_X;
-    localparam [255:0]   RHS_X   = 256'd1 << (G_LOG + LP_SHIFT);
-    localparam           MAP_OK  = (LP_RECIP != 64'd0) && (PROD_X >= POW_X) && (LHS_X < RHS_X);
+    // the index mapping is exact for every position (check_index_mapping in the model)
+    localparam           MAP_OK  = fringe_mapping_exact(LP_RECIP, LP_SHIFT, LP_ADDR_W, LINES, FINE_W);
 
     generate
         if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
@@ -162,26 +140,11 @@ module fringe_long_period #(
     localparam [T_W-1:0] RECIP_T = RECIP_X[T_W-1:0];   // T_W >= RECIP_W: no bit lost
     localparam [WW-1:0]  REV_W   = REV64[WW-1:0];
 
-    // ---- valid (reset) and sideband, LATENCY stages ----------------------------------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
     // ---- 1: index product ----------------------------------------------------------------------------
     wire [T_W-1:0] t = {{(T_W-POS_W){1'b0}}, pos} * RECIP_T;

@@ -57,7 +57,9 @@ module fringe_period_count #(
     output wire [USER_W-1:0]                  out_user
 );
 
-    localparam integer LATENCY = 3;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY = PERIOD_COUNT_LATENCY;
     localparam integer POS_W   = FINE_W + $clog2(LINES);   // clog2(REV)
     localparam integer N_W     = POS_W - FINE_W;           // period number bits (0 when LINES = 1)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;
@@ -84,29 +86,21 @@ module fringe_period_count #(
         end
     endgenerate
 
-    // ---- valid (reset) and sideband, LATENCY stages ---------------------------------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
+    // ---- valid (the only reset registers) and sideband: stages 1-2, then stage 3 -------------------
+    wire              s2_valid;      // the sample in stage 2 (it reaches the output at the next clock enable)
+    wire [USER_W-1:0] s2_user;
 
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY - 1)) u_valid_12 (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(s2_valid), .out_data(s2_user)
+    );
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(1)) u_valid_3 (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(s2_valid), .in_data(s2_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
     wire take = ce & in_valid;       // stage 1 takes a sample
-    wire done = ce & valid_sr[1];    // stage 3 produces an output
+    wire done = ce & s2_valid;       // stage 3 produces an output
 
     // ---- stage 1: delta to the previous valid sample -------------------------------------------
     reg  [FINE_W-1:0] phase_prev;    // data: the previous valid sample's phase

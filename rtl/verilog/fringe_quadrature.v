@@ -50,7 +50,9 @@ module fringe_quadrature #(
     output wire [USER_W-1:0] out_user
 );
 
-    localparam integer LATENCY   = 5;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY   = QUADRATURE_LATENCY;
     localparam integer COEF_FRAC = COEF_W - 2;
     localparam integer D_W       = WAVE_W + 1;       // x - ofs, exact
     localparam integer P_W       = COEF_W + D_W;     // k * (x - ofs), exact
@@ -181,26 +183,11 @@ module fringe_quadrature #(
         end
     end
 
-    // ---- valid (the only reset registers) and sideband, LATENCY stages ----------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
     // The low COEF_FRAC bits of the sums are the fraction dropped by the shift.
     wire unused_ok = &{1'b0, sum_s3[COEF_FRAC-1:0], sum_c3[COEF_FRAC-1:0]};

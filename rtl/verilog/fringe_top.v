@@ -83,9 +83,11 @@ module fringe_top #(
     output wire                active_bank
 );
 
+    `include "fringe_pkg.vh"
+
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 12 : 0) + ((DRIFT != 0) ? 4 : 0);
+    localparam integer LATENCY = fringe_core_latency(CORDIC_STAGES, TRIM, DRIFT);
     /* verilator lint_on UNUSEDPARAM */
     localparam integer CW          = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width of the core
     localparam integer POS_W       = $clog2(LINES) + FINE_W;         // position bits

@@ -85,38 +85,16 @@ module fringe_trim #(
     output wire [USER_W-1:0]                     out_user
 );
 
-    localparam integer LATENCY = 12;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY = TRIM_LATENCY;
     localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
     localparam [63:0]  LINES64 = LINES * 64'd1;
     localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^31 when legal
 
     // ---- parameter checks -------------------------------------------------------------------------
-    // 2-adic valuation of LINES (trailing zero bits), LINES in 1..2^20
-    function integer tz;
-        input integer v;
-        integer k;
-        begin
-            tz = 0;
-            for (k = 1; k <= 20; k = k + 1) begin
-                if (v % (1 << k) == 0) begin
-                    tz = k;
-                end
-            end
-        end
-    endfunction
-
-    // Granlund-Montgomery bound (check_sector_mapping in the model), on 256-bit constants:
-    // E = SECT_RECIP * REV - 2^(MAP_PSI_W + SECT_SHIFT) >= 0 and (REV - 1) * E < 2^(G + SECT_SHIFT),
-    // 2^G = gcd(2^MAP_PSI_W, REV).
-    localparam integer   V2      = FINE_W + tz(LINES);
-    localparam integer   G_LOG   = (MAP_PSI_W < V2) ? MAP_PSI_W : V2;
-    localparam [255:0]   REV_X   = {192'd0, REV64};
-    localparam [255:0]   PROD_X  = {192'd0, SECT_RECIP} * REV_X;
-    localparam [255:0]   POW_X   = 256'd1 << (MAP_PSI_W + SECT_SHIFT);
-    localparam [255:0]   E_X     = PROD_X - POW_X;
-    localparam [255:0]   LHS_X   = (REV_X - 256'd1) * E_X;
-    localparam [255:0]   RHS_X   = 256'd1 << (G_LOG + SECT_SHIFT);
-    localparam           MAP_OK  = (SECT_RECIP != 64'd0) && (PROD_X >= POW_X) && (LHS_X < RHS_X);
+    // the index mapping is exact for every position (check_sector_mapping in the model)
+    localparam           MAP_OK  = fringe_mapping_exact(SECT_RECIP, SECT_SHIFT, MAP_PSI_W, LINES, FINE_W);
     localparam integer   PHI_MAX = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
 
     generate
@@ -191,26 +169,11 @@ module fringe_trim #(
     localparam [WW-1:0]  REV_W   = REV64[WW-1:0];
     localparam [SPEED_LOG2:0] N_HA = N[SPEED_LOG2:0];         // N as a history address (bit SPEED_LOG2)
 
-    // ---- valid (reset) and sideband, LATENCY stages ----------------------------------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
     // ---- speed history: 2N words, written at wp, read at wp ^ N (N accepted samples earlier) ------
     wire accept = ce & in_valid & ~rst;

@@ -54,7 +54,9 @@ module fringe_wave_lut #(
     output wire [USER_W-1:0]         out_user
 );
 
-    localparam integer LATENCY = 4;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY = WAVE_LUT_LATENCY;
     localparam integer FB      = ADC_W - WAVE_ADDR_W;  // fraction bits of the index, >= 1
     localparam integer PROD_W  = WAVE_W + FB;           // s(WAVE_W) * s(FB)
     localparam [FB:0]   RND_X = {1'b1, {FB{1'b0}}} >> 1;
@@ -146,26 +148,11 @@ module fringe_wave_lut #(
         end
     end
 
-    // ---- valid (the only reset registers) and sideband, LATENCY stages ----------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
     // The sum's low bits are rounded off.
     wire unused_ok = &{1'b0, sum2[FB-1:0]};

@@ -52,6 +52,7 @@
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
+use work.fringe_pkg.all;
 
 entity fringe_drift is
     generic (
@@ -65,7 +66,7 @@ entity fringe_drift is
         TABLE_W      : integer := 18;   -- forward table value and slope width, 8..24
         TABLE_FRAC   : integer := 2;    -- fraction bits of the table values and of W0 (ADC codes), 0..12
         KG_W         : integer := 18;   -- KG width (unsigned), 8..24
-        KG_SHIFT     : integer := 38;   -- right shift of SEA * KG, 1..60
+        KG_SHIFT     : integer := 40;   -- right shift of SEA * KG, 1..60
         PIPE_LATENCY : integer := 0;    -- clock enables from the norm outputs to the obs inputs in the core, >= 0
         FWD_SIN_INIT : string  := "";   -- hex image of the sine table, 2 banks x 2^FWD_W words; "" = zeros
         FWD_COS_INIT : string  := "";   -- hex image of the cosine table, 2 banks x 2^FWD_W words; "" = zeros
@@ -112,8 +113,8 @@ end entity fringe_drift;
 
 architecture rtl of fringe_drift is
 
-    constant NORM_LATENCY : integer := 4;
-    constant OBS_LATENCY : integer := 15;
+    constant NORM_LATENCY : integer := DRIFT_NORM_LATENCY;
+    constant OBS_LATENCY  : integer := DRIFT_OBS_LATENCY;
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
@@ -200,33 +201,6 @@ architecture rtl of fringe_drift is
     constant CNT_D  : unsigned(BLOCK_LOG2 - 1 downto 0) := to_unsigned(D, BLOCK_LOG2);
     constant CNT_LAST : unsigned(BLOCK_LOG2 - 1 downto 0) := (others => '1');
 
-    -- 2^(k-1) in a w-bit signed word
-    function round_term(w, k : integer) return signed is
-    begin
-        return shift_left(to_signed(1, w), k - 1);
-    end function round_term;
-
-    -- v saturated to s(w) (v wider than w)
-    function sat_s(v : signed; w : integer) return signed is
-        constant MX : signed(w - 1 downto 0) := '0' & (w - 2 downto 0 => '1');
-        constant MN : signed(w - 1 downto 0) := '1' & (w - 2 downto 0 => '0');
-    begin
-        if v > resize(MX, v'length) then
-            return MX;
-        elsif v < resize(MN, v'length) then
-            return MN;
-        end if;
-        return resize(v, w);
-    end function sat_s;
-
-    -- v outside s(w) (v wider than w): the bits from w-1 up are not all equal to the sign
-    function out_of(v : signed; w : integer) return boolean is
-        variable top : signed(v'length - w downto 0);
-    begin
-        top := v(v'high downto v'low + w - 1);
-        return not (top = (top'range => '0') or top = (top'range => '1'));
-    end function out_of;
-
     -- application
     signal acc_n      : std_logic;
     signal take       : std_logic;
@@ -241,9 +215,6 @@ architecture rtl of fringe_drift is
     signal pend_sat   : std_logic;
 
     -- normaliser
-    signal nvalid : std_logic_vector(1 to NORM_LATENCY);
-    type nuser_t is array (1 to NORM_LATENCY) of std_logic_vector(USER_W - 1 downto 0);
-    signal nuser  : nuser_t;
     signal n1_s, n1_c   : signed(ADC_W - 1 downto 0);
     signal n2_s, n2_c   : signed(OW downto 0);
     signal n2_gs, n2_gc : unsigned(GINV_W - 1 downto 0);
@@ -450,22 +421,10 @@ begin
     track_sat <= tsat;
 
     -- ---- normaliser ------------------------------------------------------------------------------------
-    p_nvalid : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                nvalid <= (others => '0');
-            elsif ce = '1' then
-                nvalid <= in_valid & nvalid(1 to NORM_LATENCY - 1);
-            end if;
-            if ce = '1' then
-                nuser <= in_user & nuser(1 to NORM_LATENCY - 1);
-            end if;
-        end if;
-    end process p_nvalid;
-
-    norm_valid <= nvalid(NORM_LATENCY);
-    norm_user  <= nuser(NORM_LATENCY);
+    u_norm_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => NORM_LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => norm_valid, out_data => norm_user);
 
     p_norm : process (clk)
         variable q_s, q_c : signed(QW - 1 downto 0);
@@ -492,10 +451,10 @@ begin
                 rb_c(0) := n3_c(SHN - 1);
                 q_s := n3_s(PW - 1 downto SHN) + rb_s;
                 q_c := n3_c(PW - 1 downto SHN) + rb_c;
-                os := out_of(q_s, ADC_W);
-                oc := out_of(q_c, ADC_W);
-                y_sin <= std_logic_vector(sat_s(q_s, ADC_W));
-                y_cos <= std_logic_vector(sat_s(q_c, ADC_W));
+                os := outside(q_s, ADC_W);
+                oc := outside(q_c, ADC_W);
+                y_sin <= std_logic_vector(saturate(q_s, ADC_W));
+                y_cos <= std_logic_vector(saturate(q_c, ADC_W));
                 norm_sat <= '1' when os or oc else '0';
             end if;
         end if;
@@ -578,8 +537,8 @@ begin
                 o2_ywc <= shift_left(resize(o1_yc, YW), TABLE_FRAC) - resize(o1_w0c, YW);
                 -- 3: slope * frac + 2^(FB-1); |delta|
                 frac_s := signed('0' & o2_frac);
-                o3_ps  <= signed(o2_ws(2 * TW - 1 downto TW)) * frac_s + round_term(IP_W, FB);
-                o3_pc  <= signed(o2_wc(2 * TW - 1 downto TW)) * frac_s + round_term(IP_W, FB);
+                o3_ps  <= signed(o2_ws(2 * TW - 1 downto TW)) * frac_s + round_half(IP_W, FB);
+                o3_pc  <= signed(o2_wc(2 * TW - 1 downto TW)) * frac_s + round_half(IP_W, FB);
                 o3_vs  <= signed(o2_ws(TW - 1 downto 0));
                 o3_vc  <= signed(o2_wc(TW - 1 downto 0));
                 o3_yws <= o2_yws;
@@ -736,10 +695,10 @@ begin
                 u1_oc <= resize(off_c, OS_W) + resize(stp_c, OS_W);
                 u1_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
                 -- 11: OFF saturated
-                os_over := out_of(u1_os, OW);
-                oc_over := out_of(u1_oc, OW);
-                u2_os  <= sat_s(u1_os, OW);
-                u2_oc  <= sat_s(u1_oc, OW);
+                os_over := outside(u1_os, OW);
+                oc_over := outside(u1_oc, OW);
+                u2_os  <= saturate(u1_os, OW);
+                u2_oc  <= saturate(u1_oc, OW);
                 u2_sat <= '1' when os_over or oc_over else '0';
                 u2_ok  <= u1_ok;
                 -- 12, 13: carried along

@@ -27,6 +27,7 @@
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
+use work.fringe_pkg.all;
 
 entity fringe_quadrature is
     generic (
@@ -76,7 +77,7 @@ architecture rtl of fringe_quadrature is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY   : integer := 5;
+    constant LATENCY   : integer := QUADRATURE_LATENCY;
     constant COEF_FRAC : integer := COEF_W - 2;
     constant D_W       : integer := WAVE_W + 1;        -- x - ofs, exact
     constant P_W       : integer := COEF_W + D_W;      -- k * (x - ofs), exact
@@ -109,9 +110,6 @@ architecture rtl of fringe_quadrature is
     signal pss3, psc3, pcc3   : signed(S_W - 1 downto 0);   -- k_ss*ds + RND, k_sc*dc, k_cc*dc + RND
     signal sum_s3, sum_c3     : signed(S_W - 1 downto 0);
 
-    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
-    signal valid_sr : std_logic_vector(1 to LATENCY);
-    signal user_sr  : user_sr_t;
 
 begin
 
@@ -191,27 +189,9 @@ begin
     end generate g_narrow;
 
     -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
-    p_valid : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                valid_sr <= (others => '0');
-            elsif ce = '1' then
-                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_valid;
-
-    p_user : process (clk)
-    begin
-        if rising_edge(clk) then
-            if ce = '1' then
-                user_sr <= in_user & user_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_user;
-
-    out_valid <= valid_sr(LATENCY);
-    out_user  <= user_sr(LATENCY);
+    u_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => out_valid, out_data => out_user);
 
 end architecture rtl;

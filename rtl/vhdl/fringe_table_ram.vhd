@@ -18,7 +18,7 @@
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
-use std.textio.all;
+use work.fringe_pkg.all;
 
 entity fringe_table_ram is
     generic (
@@ -55,58 +55,9 @@ architecture rtl of fringe_table_ram is
     constant GENERICS_CHECKED : boolean := generics_ok;
 
     constant DEPTH  : integer := 2 * 2 ** ADDR_W;          -- both banks
-    constant HEX_W  : integer := 4 * ((DATA_W + 3) / 4);   -- word rounded up to hex digits
+    subtype mem_t is word_array(0 to DEPTH - 1)(DATA_W - 1 downto 0);
 
-    type mem_t is array (0 to DEPTH - 1) of std_logic_vector(DATA_W - 1 downto 0);
-    type mem_ptr_t is access mem_t;
-
-    -- Reads a $readmemh image: one word per line, "//" comment lines and empty lines skipped.
-    impure function init_mem(fname : string) return mem_t is
-        file     f    : text;
-        variable l    : line;
-        -- On the heap: a large table as a plain variable exceeds GHDL's stack limit.
-        variable m    : mem_ptr_t := new mem_t'(others => (others => '0'));
-        variable w    : std_logic_vector(HEX_W - 1 downto 0);
-        variable good : boolean;
-        variable n    : integer := 0;
-        variable ch   : character;
-        variable stat : file_open_status;
-    begin
-        if fname'length = 0 then
-            return m.all;
-        end if;
-        file_open(stat, f, fname, read_mode);
-        assert stat = open_ok
-            report "fringe_table_ram: cannot open INIT_FILE """ & fname & """"
-            severity failure;
-        while not endfile(f) and n < DEPTH loop
-            readline(f, l);
-            -- skip leading blanks
-            while l'length > 0 loop
-                exit when l(l'left) /= ' ' and l(l'left) /= HT;
-                read(l, ch);
-            end loop;
-            if l'length = 0 then
-                next;
-            end if;
-            if l'length >= 2 then
-                if l(l'left to l'left + 1) = "//" then
-                    next;
-                end if;
-            end if;
-            hread(l, w, good);
-            assert good
-                report "fringe_table_ram: INIT_FILE """ & fname & """ word " & integer'image(n)
-                       & " is not a hex number of " & integer'image(HEX_W / 4) & " digits"
-                severity failure;
-            m(n) := w(DATA_W - 1 downto 0);
-            n    := n + 1;
-        end loop;
-        file_close(f);
-        return m.all;
-    end function init_mem;
-
-    signal mem : mem_t := init_mem(INIT_FILE);
+    signal mem : mem_t := read_memh(INIT_FILE, DEPTH, DATA_W, "fringe_table_ram: INIT_FILE");
 
 begin
 

@@ -22,7 +22,7 @@
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
-use ieee.math_real.all;
+use work.fringe_pkg.all;
 
 entity fringe_top is
     generic (
@@ -80,7 +80,7 @@ entity fringe_top is
         s_axis_tready : out std_logic;
         -- AXI4-Stream positions out
         -- M_DATA_W = POS_LANE + 8 bits
-        m_axis_tdata  : out std_logic_vector(8 * ((integer(ceil(log2(real(LINES)))) + FINE_W + 7) / 8) + 8 - 1
+        m_axis_tdata  : out std_logic_vector(8 * ((clog2(LINES) + FINE_W + 7) / 8) + 8 - 1
                                              downto 0);
         m_axis_tvalid : out std_logic;
         m_axis_tready : in  std_logic;
@@ -94,30 +94,7 @@ end entity fringe_top;
 
 architecture rtl of fringe_top is
 
-    function clog2(n : integer) return integer is
-        variable r : integer := 0;
-    begin
-        while 2 ** r < n loop
-            r := r + 1;
-        end loop;
-        return r;
-    end function clog2;
-
-    function trim_latency return integer is
-    begin
-        if TRIM /= 0 then
-            return 12;
-        end if;
-        return 0;
-    end function trim_latency;
-    function drift_latency return integer is
-    begin
-        if DRIFT /= 0 then
-            return 4;
-        end if;
-        return 0;
-    end function drift_latency;
-    constant LATENCY  : integer := CORDIC_STAGES + 24 + trim_latency + drift_latency;
+    constant LATENCY  : integer := core_latency(CORDIC_STAGES, TRIM, DRIFT);
     constant CW       : integer := maximum(COARSE_W, 1);      -- coarse port width of the core
     constant POS_W    : integer := clog2(LINES) + FINE_W;     -- position bits
     constant ADC_LANE : integer := 8 * ((ADC_W + 7) / 8);     -- bits of the sin and cos lanes

@@ -26,6 +26,7 @@
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
+use work.fringe_pkg.all;
 
 entity fringe_wave_lut is
     generic (
@@ -79,7 +80,7 @@ architecture rtl of fringe_wave_lut is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := 4;
+    constant LATENCY : integer := WAVE_LUT_LATENCY;
     constant FB      : integer := ADC_W - WAVE_ADDR_W;   -- fraction bits of the index, >= 1
     constant PROD_W  : integer := WAVE_W + FB + 1;        -- s(WAVE_W) * u(FB+1)
     constant RND_X   : signed(FB downto 0) := shift_left(to_signed(1, FB + 1), FB - 1);  -- 2^(FB-1)
@@ -100,9 +101,6 @@ architecture rtl of fringe_wave_lut is
     signal word1r  : std_logic_vector(2 * WAVE_W - 1 downto 0);
     signal clip2   : std_logic;
     -- valid and sideband
-    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
-    signal valid_sr : std_logic_vector(1 to LATENCY);
-    signal user_sr  : user_sr_t;
 
 begin
 
@@ -153,27 +151,9 @@ begin
     end process p_data;
 
     -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
-    p_valid : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                valid_sr <= (others => '0');
-            elsif ce = '1' then
-                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_valid;
-
-    p_user : process (clk)
-    begin
-        if rising_edge(clk) then
-            if ce = '1' then
-                user_sr <= in_user & user_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_user;
-
-    out_valid <= valid_sr(LATENCY);
-    out_user  <= user_sr(LATENCY);
+    u_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => out_valid, out_data => out_user);
 
 end architecture rtl;

@@ -2,7 +2,8 @@
 
 One register file per bank, REG_W = 32 bits per word, two's complement for signed values
 (sign-extended to 32 bits in the image). The same list drives the ROM image (`regs.mem`),
-the HDL's register decode (fringe_core) and the documentation.
+the HDL's register decode (fringe_core, through the constants `sim/hdlgen.py` writes into
+rtl/*/fringe_pkg.*) and the documentation.
 """
 
 from __future__ import annotations
@@ -49,6 +50,14 @@ REGISTERS = (
     Reg(19, "KG_C", False, "DRIFT_KG_W", "drift tracker: cosine gain-loop constant"),
 )
 N_REGS = 32       # words per bank (20..31 reserved, written as 0)
+
+#: configuration write port: cfg_wr_addr[19:16] selects the address space (the ROM image written there),
+#: cfg_wr_addr[15:0] the word within one bank; spaces 4..6 exist with TRIM = 1, 7 and 8 with DRIFT = 1
+SPACES = {"regs": 0, "wave_sin": 1, "wave_cos": 2, "long_period": 3, "trim_map": 4, "trim_speed": 5,
+          "trim_amp": 6, "drift_fwd_sin": 7, "drift_fwd_cos": 8}
+SPACE_LSB = 16    # cfg_wr_addr bit where the space number starts
+CTRL_WORD = 0x80  # word of the register space: writing bit CTRL_SWAP = 1 swaps the banks
+CTRL_SWAP = 0
 
 
 def widths(cfg: CoreConfig) -> dict[str, int]:

@@ -1,0 +1,136 @@
+"""Write the HDL's shared constants from the Python single source into marked regions.
+
+The register map (``model/fringe/fixed/regmap.py``), the status bits (``fringe.pipeline``) and the
+block latencies (the ``LATENCY`` constants of the bit-exact block models) are typed once, in Python;
+this generator writes them into ``rtl/vhdl/fringe_pkg.vhd`` and ``rtl/verilog/fringe_pkg.vh``
+between the lines
+
+    -- BEGIN generated constants (...)          // BEGIN generated constants (...)
+    -- END generated constants                  // END generated constants
+
+Each region's first line records the command that wrote it. ``tb/test_hdlgen.py`` fails when the
+committed text differs from what this writes.
+
+Usage: ``.venv/bin/python sim/hdlgen.py`` (rewrite the regions) or ``... --check`` (exit 1 and
+name the stale regions, write nothing).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from fringe import pipeline
+from fringe.fixed import drift, long_period, period_count, quadrature, regmap, trim, wave_lut
+from fringe.fixed.config import CoreConfig
+from fringe.fixed.core import INPUT_LATENCY
+
+REPO = Path(__file__).resolve().parent.parent
+COMMAND = "python sim/hdlgen.py"
+STATUS_NAMES = ("CLIP_SIN", "CLIP_COS", "AMP_LOW", "AMP_HIGH", "OVERSPEED", "COARSE_ERR", "SATURATED", "BANK")
+
+
+@dataclass(frozen=True)
+class Const:
+    name: str
+    value: int
+    comment: str
+    verilog_w: int = 0   # > 0: a sized Verilog constant (an index concatenated with a bank bit), else integer
+
+
+def constants() -> list[Const]:
+    """Every shared constant, in the order the packages list them."""
+    out = [Const("REG_W", regmap.REG_W, "bits per register word"),
+           Const("N_REGS", regmap.N_REGS, "register words per bank")]
+    reg_addr_w = (regmap.N_REGS - 1).bit_length()
+    out += [Const(f"REG_{r.name}", r.index, f"{'s' if r.signed else 'u'}({r.width})", reg_addr_w)
+            for r in regmap.REGISTERS]
+    out += [Const("CTRL_WORD", regmap.CTRL_WORD, "register-space word of CTRL", regmap.SPACE_LSB),
+            Const("CTRL_SWAP", regmap.CTRL_SWAP, "CTRL bit: 1 swaps the banks"),
+            Const("SPACE_LSB", regmap.SPACE_LSB, "cfg_wr_addr bit where the address space starts")]
+    out += [Const(f"SPACE_{name.upper()}", v, f"cfg_wr_addr[19:{regmap.SPACE_LSB}] of the {name} image")
+            for name, v in regmap.SPACES.items()]
+    out.append(Const("STATUS_W", len(STATUS_NAMES), "bits of the status word"))
+    for name in STATUS_NAMES:
+        mask = getattr(pipeline, name)
+        out.append(Const(f"STATUS_{name}", mask.bit_length() - 1, "status bit"))
+    cp = CoreConfig().cordic()
+    out += [Const("CORE_INPUT_LATENCY", INPUT_LATENCY, "fringe_core input registers"),
+            Const("WAVE_LUT_LATENCY", wave_lut.LATENCY, "fringe_wave_lut"),
+            Const("QUADRATURE_LATENCY", quadrature.LATENCY, "fringe_quadrature"),
+            Const("CORDIC_LATENCY_BASE", cp.latency - cp.stages, "fringe_cordic: STAGES + this"),
+            Const("PERIOD_COUNT_LATENCY", period_count.LATENCY, "fringe_period_count"),
+            Const("TRIM_LATENCY", trim.LATENCY, "fringe_trim"),
+            Const("LONG_PERIOD_LATENCY", long_period.LATENCY, "fringe_long_period"),
+            Const("DRIFT_NORM_LATENCY", drift.NORM_LATENCY, "fringe_drift normaliser"),
+            Const("DRIFT_OBS_LATENCY", drift.OBS_LATENCY, "fringe_drift observer")]
+    return out
+
+
+def vhdl_constants() -> list[str]:
+    w = max(len(c.name) for c in constants())
+    return [f"    constant {c.name:<{w}} : integer := {c.value};  -- {c.comment}" for c in constants()]
+
+
+def verilog_constants() -> list[str]:
+    w = max(len(c.name) for c in constants())
+
+    def decl(c: Const) -> str:
+        kind = f"[{c.verilog_w - 1}:0]" if c.verilog_w else "integer"
+        value = f"{c.verilog_w}'d{c.value}" if c.verilog_w else str(c.value)
+        return f"localparam {kind:<7} {c.name:<{w}} = {value};"
+    return [f"{decl(c)}  // {c.comment}" for c in constants()]
+
+
+#: file -> (comment leader, {region: body lines})
+REGIONS: dict[str, tuple[str, dict[str, Callable[[], list[str]]]]] = {
+    "rtl/vhdl/fringe_pkg.vhd": ("--", {"constants": vhdl_constants}),
+    "rtl/verilog/fringe_pkg.vh": ("//", {"constants": verilog_constants}),
+}
+
+
+def render(text: str, leader: str, region: str, body: list[str], where: str) -> str:
+    """``text`` with the lines between the region's BEGIN and END markers replaced by ``body``."""
+    pat = re.compile(rf"^([ \t]*){re.escape(leader)} BEGIN generated {region}\b[^\n]*\n.*?"
+                     rf"^[ \t]*{re.escape(leader)} END generated {region}[^\n]*$", re.S | re.M)
+    m = pat.search(text)
+    if m is None:
+        raise ValueError(f"{where}: no '{leader} BEGIN generated {region}' ... '{leader} END generated {region}'")
+    ind = m.group(1)
+    block = "\n".join([f"{ind}{leader} BEGIN generated {region} (written by {COMMAND}; do not edit)", *body,
+                       f"{ind}{leader} END generated {region}"])
+    return text[:m.start()] + block + text[m.end():]
+
+
+def generated(rel: str, text: str | None = None) -> str:
+    """The text ``rel`` should have: its committed text with every region regenerated."""
+    leader, regions = REGIONS[rel]
+    out = (REPO / rel).read_text() if text is None else text
+    for region, body in regions.items():
+        out = render(out, leader, region, body(), rel)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--check", action="store_true", help="exit 1 if a region is stale; write nothing")
+    args = ap.parse_args(argv)
+    stale = []
+    for rel in REGIONS:
+        old = (REPO / rel).read_text()
+        new = generated(rel, old)
+        if new != old:
+            stale.append(rel)
+            if not args.check:
+                (REPO / rel).write_text(new)
+    verb = "stale" if args.check else "rewrote"
+    print(f"hdlgen: {verb} {', '.join(stale)}" if stale else "hdlgen: every region up to date")
+    return 1 if stale and args.check else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
