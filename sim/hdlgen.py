@@ -1,12 +1,14 @@
-"""Write the HDL's shared constants from the Python single source into marked regions.
+"""Write what the HDL repeats from the Python single source into marked regions.
 
-The register map (``model/fringe/fixed/regmap.py``), the status bits (``fringe.pipeline``) and the
-block latencies (the ``LATENCY`` constants of the bit-exact block models) are typed once, in Python;
-this generator writes them into ``rtl/vhdl/fringe_pkg.vhd`` and ``rtl/verilog/fringe_pkg.vh``
-between the lines
+- constants: the register map (``model/fringe/fixed/regmap.py``), the status bits (``fringe.pipeline``)
+  and the block latencies (the ``LATENCY`` constants of the bit-exact block models), into
+  ``rtl/vhdl/fringe_pkg.vhd`` and ``rtl/verilog/fringe_pkg.vh``;
+- parameters/generics and the maps that pass them on: fringe_core, fringe_top (both HDLs) and
+  ``sim/synth_wrap.v``, from ``CoreConfig`` (``fixed/config.py``: HDL_PARAMETER_DOCS, the defaults of
+  CoreConfig()).
 
-    -- BEGIN generated constants (...)          // BEGIN generated constants (...)
-    -- END generated constants                  // END generated constants
+A region lies between the lines ``-- BEGIN generated <region> ...`` and ``-- END generated <region>``
+(``//`` in Verilog); the body is indented as the BEGIN line.
 
 Each region's first line records the command that wrote it. ``tb/test_hdlgen.py`` fails when the
 committed text differs from what this writes.
@@ -26,7 +28,7 @@ from pathlib import Path
 
 from fringe import pipeline
 from fringe.fixed import drift, long_period, period_count, quadrature, regmap, trim, wave_lut
-from fringe.fixed.config import CoreConfig
+from fringe.fixed.config import HDL_PARAMETER_DOCS, HDL_WIDE_PARAMETERS, CoreConfig
 from fringe.fixed.core import INPUT_LATENCY
 
 REPO = Path(__file__).resolve().parent.parent
@@ -73,7 +75,7 @@ def constants() -> list[Const]:
 
 def vhdl_constants() -> list[str]:
     w = max(len(c.name) for c in constants())
-    return [f"    constant {c.name:<{w}} : integer := {c.value};  -- {c.comment}" for c in constants()]
+    return [f"constant {c.name:<{w}} : integer := {c.value};  -- {c.comment}" for c in constants()]
 
 
 def verilog_constants() -> list[str]:
@@ -86,10 +88,81 @@ def verilog_constants() -> list[str]:
     return [f"{decl(c)}  // {c.comment}" for c in constants()]
 
 
+# --------------------------------------------------------------------------- core parameter lists
+
+#: a comment line before the parameter that opens a group
+GROUPS = {"TRIM": "fringe_trim (closed-loop corrections): built only with TRIM = 1",
+          "DRIFT": "fringe_drift (the online offset/gain tracker): built only with DRIFT = 1",
+          "REGS_INIT": 'initial contents: $readmemh images, "" = zeros'}
+
+
+def parameters() -> list[tuple[str, int | str, str]]:
+    """(name, default, meaning) of every fringe_core / fringe_top parameter, in declaration order."""
+    d = CoreConfig().hdl_parameter_defaults()
+    return [(name, d[name], doc) for name, doc in HDL_PARAMETER_DOCS.items()]
+
+
+def _declarations(decl, leader: str, sep: str, last: str) -> list[str]:
+    ps = parameters()
+    texts = [decl(name, v) for name, v, _ in ps]
+    w = max(len(t) for t in texts) + 1
+    out = []
+    for i, ((name, _, doc), t) in enumerate(zip(ps, texts, strict=True)):
+        if name in GROUPS:
+            out.append(f"{leader} {GROUPS[name]}")
+        out.append(f"{t + (sep if i < len(ps) - 1 else last):<{w}} {leader} {doc}")
+    return out
+
+
+def verilog_parameters() -> list[str]:
+    def decl(name: str, v: int | str) -> str:
+        if isinstance(v, str):
+            return f'parameter         {name:<16} = "{v}"'
+        if name in HDL_WIDE_PARAMETERS:
+            return f"parameter [63:0]  {name:<16} = 64'd{v}"
+        return f"parameter integer {name:<16} = {v}"
+    return _declarations(decl, "//", ",", "")
+
+
+def vhdl_generics() -> list[str]:
+    def decl(name: str, v: int | str) -> str:
+        if isinstance(v, str):
+            return f'{name:<16} : string  := "{v}"'
+        return f"{name:<16} : {'natural' if name in HDL_WIDE_PARAMETERS else 'integer'} := {v}"
+    return _declarations(decl, "--", ";", "")
+
+
+def _map(item, width: int = 104) -> list[str]:
+    """Every parameter passed on under its own name, wrapped into lines of at most ``width``."""
+    names = [name for name, _, _ in parameters()]
+    lines, cur = [], ""
+    for i, name in enumerate(names):
+        piece = item(name) + ("," if i < len(names) - 1 else "")
+        if cur and len(cur) + 1 + len(piece) > width:
+            lines.append(cur)
+            cur = piece
+        else:
+            cur = f"{cur} {piece}" if cur else piece
+    return lines + [cur]
+
+
+def verilog_map() -> list[str]:
+    return _map(lambda n: f".{n}({n})")
+
+
+def vhdl_map() -> list[str]:
+    return _map(lambda n: f"{n} => {n}")
+
+
 #: file -> (comment leader, {region: body lines})
 REGIONS: dict[str, tuple[str, dict[str, Callable[[], list[str]]]]] = {
     "rtl/vhdl/fringe_pkg.vhd": ("--", {"constants": vhdl_constants}),
     "rtl/verilog/fringe_pkg.vh": ("//", {"constants": verilog_constants}),
+    "rtl/verilog/fringe_core.v": ("//", {"parameters": verilog_parameters}),
+    "rtl/verilog/fringe_top.v": ("//", {"parameters": verilog_parameters, "core map": verilog_map}),
+    "rtl/vhdl/fringe_core.vhd": ("--", {"generics": vhdl_generics}),
+    "rtl/vhdl/fringe_top.vhd": ("--", {"generics": vhdl_generics, "core map": vhdl_map}),
+    "sim/synth_wrap.v": ("//", {"parameters": verilog_parameters, "top map": verilog_map}),
 }
 
 
@@ -101,8 +174,8 @@ def render(text: str, leader: str, region: str, body: list[str], where: str) -> 
     if m is None:
         raise ValueError(f"{where}: no '{leader} BEGIN generated {region}' ... '{leader} END generated {region}'")
     ind = m.group(1)
-    block = "\n".join([f"{ind}{leader} BEGIN generated {region} (written by {COMMAND}; do not edit)", *body,
-                       f"{ind}{leader} END generated {region}"])
+    block = "\n".join([f"{ind}{leader} BEGIN generated {region} (written by {COMMAND}; do not edit)",
+                       *[f"{ind}{line}" for line in body], f"{ind}{leader} END generated {region}"])
     return text[:m.start()] + block + text[m.end():]
 
 

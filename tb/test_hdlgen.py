@@ -38,3 +38,15 @@ def test_packages_hold_the_model_constants():
     model = {c.name: c.value for c in hdlgen.constants()}
     assert package_constants("vhdl") == model
     assert package_constants("verilog") == model
+
+
+def test_every_core_parameter_is_declared():
+    """Every CoreConfig field and every derived parameter the model passes has a declaration."""
+    import dataclasses
+
+    from fringe.fixed.config import HDL_PARAMETER_DOCS, CoreConfig
+
+    cfg = CoreConfig(trim=1, drift=1)
+    names = {f.name.upper() for f in dataclasses.fields(cfg)} | set(cfg.hdl_parameters())
+    assert names <= set(HDL_PARAMETER_DOCS), names - set(HDL_PARAMETER_DOCS)
+    assert set(cfg.hdl_parameter_defaults()) == set(HDL_PARAMETER_DOCS)
