@@ -154,6 +154,36 @@ def vhdl_map() -> list[str]:
     return _map(lambda n: f"{n} => {n}")
 
 
+# --------------------------------------------------------------------------- documentation tables
+
+STATUS_MEANINGS = {
+    "CLIP_SIN": "sine ADC code at either end of its range",
+    "CLIP_COS": "cosine ADC code at either end of its range",
+    "AMP_LOW": "vector magnitude below the low threshold (loss of signal)",
+    "AMP_HIGH": "vector magnitude above the high threshold",
+    "OVERSPEED": "fine phase moved a quarter period or more since the last sample",
+    "COARSE_ERR": "coarse code disagrees with the fine phase",
+    "SATURATED": "an internal value saturated (quadrature stage, drift normaliser) or the trim was clipped",
+    "BANK": "which table bank served this sample (information, not a fault)",
+}
+
+
+def status_table() -> list[str]:
+    rows = ["| bit | name | meaning |", "|---|---|---|"]
+    rows += [f"| {getattr(pipeline, n).bit_length() - 1} | {n} | {STATUS_MEANINGS[n]} |" for n in STATUS_NAMES]
+    return rows
+
+
+def register_table() -> list[str]:
+    rows = ["| index | name | format | meaning |", "|---|---|---|---|"]
+    rows += [f"| {r.index} | {r.name} | {'s' if r.signed else 'u'}({r.width}) | {r.meaning} |"
+             for r in regmap.REGISTERS]
+    rows.append(f"| {len(regmap.REGISTERS)}..{regmap.N_REGS - 1} | - | - | reserved (0) |")
+    rows.append(f"| {regmap.CTRL_WORD:#x} | CTRL | - | write bit {regmap.CTRL_SWAP} = 1: swap the banks "
+                "(a command, not a register) |")
+    return rows
+
+
 #: file -> (comment leader, {region: body lines})
 REGIONS: dict[str, tuple[str, dict[str, Callable[[], list[str]]]]] = {
     "rtl/vhdl/fringe_pkg.vhd": ("--", {"constants": vhdl_constants}),
@@ -163,6 +193,7 @@ REGIONS: dict[str, tuple[str, dict[str, Callable[[], list[str]]]]] = {
     "rtl/vhdl/fringe_core.vhd": ("--", {"generics": vhdl_generics}),
     "rtl/vhdl/fringe_top.vhd": ("--", {"generics": vhdl_generics, "core map": vhdl_map}),
     "sim/synth_wrap.v": ("//", {"parameters": verilog_parameters, "top map": verilog_map}),
+    "docs/architecture.md": ("<!--", {"status": status_table, "registers": register_table}),
 }
 
 
@@ -174,8 +205,9 @@ def render(text: str, leader: str, region: str, body: list[str], where: str) -> 
     if m is None:
         raise ValueError(f"{where}: no '{leader} BEGIN generated {region}' ... '{leader} END generated {region}'")
     ind = m.group(1)
-    block = "\n".join([f"{ind}{leader} BEGIN generated {region} (written by {COMMAND}; do not edit)",
-                       *[f"{ind}{line}" for line in body], f"{ind}{leader} END generated {region}"])
+    close = " -->" if leader == "<!--" else ""   # Markdown comments
+    block = "\n".join([f"{ind}{leader} BEGIN generated {region} (written by {COMMAND}; do not edit){close}",
+                       *[f"{ind}{line}" for line in body], f"{ind}{leader} END generated {region}{close}"])
     return text[:m.start()] + block + text[m.end():]
 
 

@@ -1,9 +1,9 @@
 // fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock.
 //
-//   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1: the online offset/gain tracker, docs/drift.md]
+//   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1: the online offset/gain tracker, docs/blocks/fringe_drift.md]
 //   -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
 //   -> fringe_cordic -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W))
-//   [-> fringe_trim, TRIM = 1: the closed loop's corrections, docs/trim.md]
+//   [-> fringe_trim, TRIM = 1: the closed loop's corrections, docs/blocks/fringe_trim.md]
 //   -> fringe_long_period -> pos u(POS_W), status (8 bits)
 // Formats, register map and status word: docs/architecture.md. Bit-exact model:
 // model/fringe/fixed/core.py (run_core; run_core_banks for a bank swap in mid-stream).
@@ -59,7 +59,7 @@ module fringe_core #(
     parameter [63:0]  LP_RECIP         = 64'd1, // long-period index multiplier (long_period.index_mapping; < 2^31 in VHDL)
     parameter integer LP_SHIFT         = 16,    // long-period index shift (long_period.index_mapping)
     // fringe_trim (closed-loop corrections): built only with TRIM = 1
-    parameter integer TRIM             = 0,     // 1 = fringe_trim between the period count and the long-period table (docs/trim.md)
+    parameter integer TRIM             = 0,     // 1 = fringe_trim between the period count and the long-period table (docs/blocks/fringe_trim.md)
     parameter integer SPEED_LOG2       = 5,     // speed window 2^SPEED_LOG2 samples, 0..8
     parameter integer MAP_PSI_W        = 6,     // 2^MAP_PSI_W error-map sectors per revolution, 0..8
     parameter integer MAP_PHI_W        = 5,     // 2^MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); MAP_PSI_W + MAP_PHI_W <= 15
@@ -69,7 +69,7 @@ module fringe_core #(
     parameter [63:0]  SECT_RECIP       = 64'd1, // sector multiplier (trim.sector_mapping; < 2^31 in VHDL)
     parameter integer SECT_SHIFT       = 18,    // sector shift (trim.sector_mapping)
     // fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
-    parameter integer DRIFT            = 0,     // 1 = fringe_drift normalises the ADC codes in front of everything (docs/drift.md)
+    parameter integer DRIFT            = 0,     // 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
     parameter integer DRIFT_BLOCK_LOG2 = 8,     // samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)
     parameter integer DRIFT_MU_LOG2    = 1,     // tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
     parameter integer DRIFT_OFS_FRAC   = 4,     // fraction bits of the tracked offsets, 0..8

@@ -1,36 +1,10 @@
 // fringe_period_count: coarse/fine combination (absolute position from a coarse code), or period
 // counting without one; overspeed and coarse-code checks.
 //
-// Formats (docs/architecture.md, "fringe_period_count"); REV = LINES * 2^FINE_W fine counts per
-// revolution, POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 48):
-//   phase       u(FINE_W)    fine phase, a fraction of a signal period
-//   coarse      u(COARSE_W)  coarse code, 2^COARSE_W codes per revolution (1 unused bit when COARSE_W = 0)
-//   coarse_ofs  s(POS_W+1)   calibrated middle of coarse code 0, fine counts; |coarse_ofs| <= 2^FINE_W;
-//                            a register the top holds stable, taken with each sample
-//   delta       s(FINE_W)    = phase - phase_prev modulo 2^FINE_W, phase_prev the previous valid sample's
-//   overspeed   |delta| >= 2^(FINE_W-2) (a quarter period); never on the first valid sample after reset
-//   COARSE_W > 0:
-//     centre    = ((coarse * LINES) << (FINE_W - COARSE_W)) + coarse_ofs
-//     d         = centre - phase;  n = (d + 2^(FINE_W-1)) >>> FINE_W;  r = d - n * 2^FINE_W
-//     coarse_err = |r| > COARSE_TOL = (LINES << (FINE_W-COARSE_W-2)) + 2^(FINE_W-2), the midpoint
-//                 between half a coarse code and half a period
-//     pos       = (n mod LINES) * 2^FINE_W + phase; |coarse_ofs| <= 2^FINE_W keeps n in [-2, LINES+1],
-//                 so one add or subtract of LINES wraps it (LINES = 1: n mod 1 = 0). Outside that
-//                 range pos is not defined (the model refuses it).
-//   COARSE_W = 0:
-//     pos       = (pos_prev + delta) mod REV, pos_prev the previous valid output; the first valid
-//                 sample after reset gives pos = phase. coarse_err = 0; coarse and coarse_ofs unused.
-//   pos u(POS_W) in [0, REV).
+// LATENCY = 3 clock enables, one sample per clock; ce = 0 freezes
+// every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+// Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_period_count.md.
 // Bit-exact model: model/fringe/fixed/period_count.py.
-//
-// LATENCY = 3 clock enables (ce = 1 cycles) from in_valid to out_valid, one carry chain per stage:
-//   1: delta, coarse centre   2: overspeed test; d + half (period number n and residual r), or the
-//   counter's delta with its two wrapped alternatives   3: |r| > tol, the wrap of n and the position,
-//   or the counter (three sums in parallel, chosen by sign bits)
-// One sample per clock. ce = 0 freezes every register. rst (synchronous, active high, wins over ce)
-// clears the valid pipeline and the "previous sample seen" state, so the next valid sample is the
-// first again; the data registers (phase_prev, the position) are never reset. The outputs update
-// on valid samples only.
 
 `default_nettype none
 

@@ -63,7 +63,7 @@ entity fringe_core is
         LP_RECIP         : natural := 1;   -- long-period index multiplier (long_period.index_mapping; < 2^31 in VHDL)
         LP_SHIFT         : integer := 16;  -- long-period index shift (long_period.index_mapping)
         -- fringe_trim (closed-loop corrections): built only with TRIM = 1
-        TRIM             : integer := 0;   -- 1 = fringe_trim between the period count and the long-period table (docs/trim.md)
+        TRIM             : integer := 0;   -- 1 = fringe_trim between the period count and the long-period table (docs/blocks/fringe_trim.md)
         SPEED_LOG2       : integer := 5;   -- speed window 2^SPEED_LOG2 samples, 0..8
         MAP_PSI_W        : integer := 6;   -- 2^MAP_PSI_W error-map sectors per revolution, 0..8
         MAP_PHI_W        : integer := 5;   -- 2^MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); MAP_PSI_W + MAP_PHI_W <= 15
@@ -73,7 +73,7 @@ entity fringe_core is
         SECT_RECIP       : natural := 1;   -- sector multiplier (trim.sector_mapping; < 2^31 in VHDL)
         SECT_SHIFT       : integer := 18;  -- sector shift (trim.sector_mapping)
         -- fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
-        DRIFT            : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/drift.md)
+        DRIFT            : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
         DRIFT_BLOCK_LOG2 : integer := 8;   -- samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)
         DRIFT_MU_LOG2    : integer := 1;   -- tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
         DRIFT_OFS_FRAC   : integer := 4;   -- fraction bits of the tracked offsets, 0..8

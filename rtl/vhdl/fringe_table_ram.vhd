@@ -1,19 +1,9 @@
 -- fringe_table_ram: two-bank table RAM, one write port, one registered read port.
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_table_ram.v (same generics, ports and behaviour).
--- Simple dual-port RAM of 2 * 2^ADDR_W words of DATA_W bits, one clock. The address MSB
--- selects the bank: software writes the inactive bank while samples read the active one; the
--- top flips the bank between samples, so a sample never sees a mix of old and new tables.
---
--- Read:  rd_data <= mem(rd_addr) when rd_en (tie rd_en to the pipeline's ce). LATENCY = 1.
--- Write: mem(wr_addr) <= wr_data when wr_en (independent of rd_en).
--- A read of the word written in the same clock returns the old word in simulation; real
--- block RAMs differ by device, so callers never read the bank they write.
---
--- No reset on the array or on the read register (block-RAM inference). Initial contents:
--- INIT_FILE, the same $readmemh image as the Verilog (2 * 2^ADDR_W words, bank 0 then bank 1,
--- one hex word of ceil(DATA_W/4) digits per line, lines starting with "//" and empty lines
--- skipped), read with std.textio at elaboration; all zeros when INIT_FILE is "".
+-- LATENCY = 1 clock (rd_en); no rst/ce ports (rd_en plays the role of ce).
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_table_ram.md.
+-- Bit-exact model: model/fringe/fixed/table_ram.py (the image format).
 
 library ieee;
 use ieee.std_logic_1164.all;

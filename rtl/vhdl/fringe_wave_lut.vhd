@@ -1,27 +1,10 @@
 -- fringe_wave_lut: waveform inverse of one channel as an interpolated table (seed 001).
 --
--- VHDL-2008 twin of rtl/verilog/fringe_wave_lut.v (same generics, ports, latency and
--- bit-exact behaviour).
---
--- Formats (docs/architecture.md, "fringe_wave_lut"):
---   adc    s(ADC_W)  ADC code
---   index  u = adc + 2^(ADC_W-1), FB = ADC_W - WAVE_ADDR_W, addr = u >> FB, frac = u mod 2^FB
---   table  word {slope, value}, both s(WAVE_W), value in [WAVE_W-1:0], slope in [2*WAVE_W-1:WAVE_W],
---          read at {bank, branch, addr}; slope[k] = value[k+1] - value[k]
---   x      s(WAVE_W) with WAVE_FRAC = WAVE_W - 2 fractional bits:
---          x = value + ((slope * frac + 2^(FB-1)) >>> FB)
---          (lies between two table values, so it cannot overflow for a range-checked table)
---   clip   adc is the most negative or the most positive code
+-- VHDL-2008 twin of rtl/verilog/fringe_wave_lut.v (same generics, ports and behaviour).
+-- LATENCY = 4 clock enables, one sample per clock; ce = 0 freezes
+-- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_wave_lut.md.
 -- Bit-exact model: model/fringe/fixed/wave_lut.py.
---
--- LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
---   1: table RAM read (fringe_table_ram, registered)   2: the RAM's output register
---   3: slope * frac (the bare product: a DSP registered on both sides)
---   4: ({value, 2^(FB-1)} + product) >>> FB, the rounding constant concatenated below value (one add)
--- ce = 0 freezes every register (including the RAM read); rst (synchronous, active high,
--- wins over ce) clears only the valid pipeline, never the data registers. The table write port
--- is independent of ce: write the bank that no sample in flight carries, then switch `bank`;
--- each sample reads the bank it carries, at the clock enable that accepts it.
 
 library ieee;
 use ieee.std_logic_1164.all;

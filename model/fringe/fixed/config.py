@@ -39,7 +39,7 @@ HDL_PARAMETER_DOCS = {
     "LP_IF": "interpolation fraction bits of the long-period table",
     "LP_RECIP": "long-period index multiplier (long_period.index_mapping; < 2^31 in VHDL)",
     "LP_SHIFT": "long-period index shift (long_period.index_mapping)",
-    "TRIM": "1 = fringe_trim between the period count and the long-period table (docs/trim.md)",
+    "TRIM": "1 = fringe_trim between the period count and the long-period table (docs/blocks/fringe_trim.md)",
     "SPEED_LOG2": "speed window 2^SPEED_LOG2 samples, 0..8",
     "MAP_PSI_W": "2^MAP_PSI_W error-map sectors per revolution, 0..8",
     "MAP_PHI_W": "2^MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); MAP_PSI_W + MAP_PHI_W <= 15",
@@ -48,7 +48,7 @@ HDL_PARAMETER_DOCS = {
     "G_SHIFT": "right shift of the speed and magnitude products, 1..48",
     "SECT_RECIP": "sector multiplier (trim.sector_mapping; < 2^31 in VHDL)",
     "SECT_SHIFT": "sector shift (trim.sector_mapping)",
-    "DRIFT": "1 = fringe_drift normalises the ADC codes in front of everything (docs/drift.md)",
+    "DRIFT": "1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)",
     "DRIFT_BLOCK_LOG2": "samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)",
     "DRIFT_MU_LOG2": "tracker step 2^-DRIFT_MU_LOG2 per block, 0..8",
     "DRIFT_OFS_FRAC": "fraction bits of the tracked offsets, 0..8",
@@ -87,7 +87,7 @@ class CoreConfig:
     lp_w: int = 18             # LP_W: long-period table value/slope width
     lp_frac: int = 4           # LP_FRAC: fraction bits of the long-period correction (fine counts)
     lp_if: int = 8             # LP_IF: interpolation fraction bits of the long-period table
-    # fringe_trim (closed-loop corrections, docs/trim.md); TRIM = 0: not built, no latency
+    # fringe_trim (closed-loop corrections, docs/blocks/fringe_trim.md); TRIM = 0: not built, no latency
     trim: int = 0              # TRIM: 1 = fringe_trim between the period count and the long-period table
     speed_log2: int = 5        # SPEED_LOG2: speed = position change over 2^SPEED_LOG2 samples (effects.SPEED_LOG2)
     map_psi_w: int = 6         # MAP_PSI_W: 2^MAP_PSI_W error-map sectors per revolution
@@ -95,7 +95,7 @@ class CoreConfig:
     trim_w: int = 18           # TRIM_W: trim table value/slope width
     trim_frac: int = 4         # TRIM_FRAC: fraction bits of the trim (fine counts)
     g_shift: int = 24          # G_SHIFT: right shift of the speed and magnitude products
-    # fringe_drift (the closed loop's online offset/gain tracker, docs/drift.md); DRIFT = 0: not built
+    # fringe_drift (the closed loop's online offset/gain tracker, docs/blocks/fringe_drift.md); DRIFT = 0: not built
     drift: int = 0             # DRIFT: 1 = fringe_drift normalises the ADC codes in front of everything
     drift_block_log2: int = 8  # DRIFT_BLOCK_LOG2: samples per tracker update = 2^DRIFT_BLOCK_LOG2 (>= 7 in the core)
     drift_mu_log2: int = 1     # DRIFT_MU_LOG2: tracker step 2^-DRIFT_MU_LOG2 per block
