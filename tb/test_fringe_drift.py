@@ -480,5 +480,5 @@ def test_fringe_drift(sim, ps):
     env = {"FRINGE_DRIFT_PARAMS": json.dumps(hdl),
            "FRINGE_SEED": os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))}
     for k, path in _init_files(p).items():
-        hdl[k] = f'"{path}"' if sim == "verilator" else str(path)
+        hdl[k] = path
     run_block(TOPLEVEL, "test_fringe_drift", hdl, sim=sim, timeout_s=600, extra_env=env)

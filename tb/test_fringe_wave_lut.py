@@ -260,7 +260,7 @@ def test_fringe_wave_lut(sim, ps):
                      [f"tb/test_fringe_wave_lut.py initial tables: ADC_W={adc_w} WAVE_ADDR_W={wave_addr_w} "
                       f"WAVE_W={wave_w}", "bank 0 then bank 1; word {slope, value}, address {branch, addr}"])
     params = {"ADC_W": adc_w, "WAVE_ADDR_W": wave_addr_w, "WAVE_W": wave_w, "USER_W": user_w,
-              "INIT_FILE": f'"{path}"' if sim == "verilator" else str(path)}
+              "INIT_FILE": path}
     cfg = {"ADC_W": adc_w, "WAVE_ADDR_W": wave_addr_w, "WAVE_W": wave_w, "USER_W": user_w,
            "seed": seed, "latency": LATENCY}
     print(f"fringe_wave_lut {sim} {params} seed {seed}")
