@@ -63,6 +63,7 @@ __all__ = [
     "run_block",
     "setup_path",
     "simulator_parameters",
+    "vhdl_compile_order",
 ]
 
 
@@ -173,12 +174,27 @@ def block_sources(toplevel: str, sim: str) -> list[Path]:
         raise ValueError(f"unknown simulator {sim!r}; expected one of {', '.join(SIMULATORS)}")
     if not top.is_file():
         raise FileNotFoundError(f"{top} not found (toplevel {toplevel!r} for {sim})")
-    order = _closure(top, units, words)
+    return _package_first(_closure(top, units, words))
+
+
+def _package_first(order: list[Path]) -> list[Path]:
     pkg = RTL_VHDL / "fringe_pkg.vhd"
     if pkg in order:
         order.remove(pkg)
         order.insert(0, pkg)
     return order
+
+
+def vhdl_compile_order(files: list[Path]) -> list[Path]:
+    """``files`` and every ``rtl/vhdl`` file they depend on, dependencies first (the package first)."""
+    every = sorted(set(RTL_VHDL.glob("*.vhd")) | set(files))
+    units, words = _index(every, _VHD_COMMENT, _VHD_UNIT, 2, fold=True)
+    order: list[Path] = []
+    for f in files:
+        for g in _closure(f, units, words):
+            if g not in order:
+                order.append(g)
+    return _package_first(order)
 
 
 def include_files() -> list[Path]:
