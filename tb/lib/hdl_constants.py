@@ -68,6 +68,21 @@ def block_constant(path: Path, name: str, generics: Mapping[str, int] | None = N
     return _evaluate(m.group(1), {**package_constants(lang), **(generics or {})}, f"{path.name}: {name}")
 
 
+def package_function(lang: str, name: str, **args: int) -> int:
+    """The value of the package's integer function ``name`` (a single expression of its arguments
+    and the package constants) for the given arguments: ``return EXPR;`` in VHDL, ``name = EXPR;``
+    in Verilog (the function carries the ``fringe_`` prefix there)."""
+    text = _strip_comments(PACKAGES[lang].read_text(), lang)
+    if lang == "vhdl":
+        m = re.search(rf"function\s+{name}\s*\([^)]*\)\s*return\s+\w+\s+is\s+begin\s+return\s+([^;]+);", text, re.I)
+    else:
+        m = re.search(rf"\bfringe_{name}\s*=\s*([^;]+);", text)
+    if m is None:
+        raise AssertionError(f"no function {name} in {PACKAGES[lang].name}")
+    names = {**package_constants(lang), **args}
+    return _evaluate(" ".join(m.group(1).split()), names, f"{PACKAGES[lang].name}: {name}")
+
+
 def both_languages(block: str) -> list[Path]:
     """The Verilog and the VHDL file of a block."""
     return [REPO / f"rtl/verilog/{block}.v", REPO / f"rtl/vhdl/{block}.vhd"]
