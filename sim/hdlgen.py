@@ -54,7 +54,9 @@ def constants() -> list[Const]:
     out += [Const("CTRL_WORD", regmap.CTRL_WORD, "register-space word of CTRL", regmap.SPACE_LSB),
             Const("CTRL_SWAP", regmap.CTRL_SWAP, "CTRL bit: 1 swaps the banks"),
             Const("SPACE_LSB", regmap.SPACE_LSB, "cfg_wr_addr bit where the address space starts")]
-    out += [Const(f"SPACE_{name.upper()}", v, f"cfg_wr_addr[19:{regmap.SPACE_LSB}] of the {name} image")
+    space_w = regmap.CFG_ADDR_W - regmap.SPACE_LSB
+    field = f"cfg_wr_addr[{regmap.CFG_ADDR_W - 1}:{regmap.SPACE_LSB}]"
+    out += [Const(f"SPACE_{name.upper()}", v, f"{field} of the {name} image", space_w)
             for name, v in regmap.SPACES.items()]
     out.append(Const("STATUS_W", len(STATUS_NAMES), "bits of the status word"))
     for name in STATUS_NAMES:

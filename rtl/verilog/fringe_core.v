@@ -216,11 +216,12 @@ module fringe_core #(
 
     // step 1: which space, whether the word lies inside one bank (table words), CTRL in two halves
     always @(posedge clk) begin
-        st1_en_reg    <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word[15:5] == 11'd0;
-        st1_en_ctrl_a <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word[15:8] == 8'd0;
-        st1_en_ctrl_b <= cfg_word[7:0] == CTRL_WORD[7:0] && cfg_wr_data[0];
-        st1_sel       <= {cfg_sel == 4'd8, cfg_sel == 4'd7, cfg_sel == 4'd6, cfg_sel == 4'd5, cfg_sel == 4'd4,
-                          cfg_sel == 4'd3, cfg_sel == 4'd2, cfg_sel == 4'd1} & {8{cfg_wr_en}};
+        st1_en_reg    <= cfg_wr_en && cfg_sel == SPACE_REGS && cfg_word[15:5] == 11'd0;
+        st1_en_ctrl_a <= cfg_wr_en && cfg_sel == SPACE_REGS && cfg_word[15:8] == 8'd0;
+        st1_en_ctrl_b <= cfg_word[7:0] == CTRL_WORD[7:0] && cfg_wr_data[CTRL_SWAP];
+        st1_sel       <= {cfg_sel == SPACE_DRIFT_FWD_COS, cfg_sel == SPACE_DRIFT_FWD_SIN, cfg_sel == SPACE_TRIM_AMP,
+                          cfg_sel == SPACE_TRIM_SPEED, cfg_sel == SPACE_TRIM_MAP, cfg_sel == SPACE_LONG_PERIOD,
+                          cfg_sel == SPACE_WAVE_COS, cfg_sel == SPACE_WAVE_SIN} & {8{cfg_wr_en}};
         st1_wave_ok   <= (cfg_word >> (WAVE_ADDR_W + 1)) == 16'd0;
         st1_lp_ok     <= (cfg_word >> LP_ADDR_W) == 16'd0;
         st1_trim_ok   <= (cfg_word >> (MAP_PSI_W + MAP_PHI_W + 1)) == 16'd0;

@@ -176,6 +176,10 @@ architecture rtl of fringe_core is
 
     -- configuration decode; the writes registered (one-hot register enables {bank, index})
     signal cfg_sel      : std_logic_vector(3 downto 0);
+    -- the spaces of st1_sel's bits: sine, cosine, long period, trim map, speed, magnitude, drift sine, cosine
+    constant SEL_SPACES : integer_vector(0 to 7) := (SPACE_WAVE_SIN, SPACE_WAVE_COS, SPACE_LONG_PERIOD, SPACE_TRIM_MAP,
+                                                     SPACE_TRIM_SPEED, SPACE_TRIM_AMP, SPACE_DRIFT_FWD_SIN,
+                                                     SPACE_DRIFT_FWD_COS);
     signal cfg_word     : unsigned(15 downto 0);
     signal wr_bank      : std_logic;
     -- power-up values: no write lands before the first one issued (as bank_r, not reset)
@@ -321,11 +325,15 @@ begin
         end function b;
     begin
         if rising_edge(clk) then
-            st1_en_reg    <= b(cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word(15 downto 5) = 0);
-            st1_en_ctrl_a <= b(cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word(15 downto 8) = 0);
-            st1_en_ctrl_b <= b(cfg_word(7 downto 0) = to_unsigned(CTRL_WORD mod 256, 8) and cfg_wr_data(0) = '1');
+            st1_en_reg    <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SPACE_REGS
+                               and cfg_word(15 downto 5) = 0);
+            st1_en_ctrl_a <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SPACE_REGS
+                               and cfg_word(15 downto 8) = 0);
+            -- (the package's CTRL_SWAP by its full name: the signal ctrl_swap hides it)
+            st1_en_ctrl_b <= b(cfg_word(7 downto 0) = to_unsigned(CTRL_WORD mod 256, 8)
+                               and cfg_wr_data(work.fringe_pkg.CTRL_SWAP) = '1');
             for k in 0 to 7 loop
-                st1_sel(k) <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = k + 1);
+                st1_sel(k) <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SEL_SPACES(k));
             end loop;
             st1_wave_ok <= b(shift_right(cfg_word, WAVE_ADDR_W + 1) = 0);
             st1_lp_ok   <= b(shift_right(cfg_word, LP_ADDR_W) = 0);

@@ -55,6 +55,7 @@ N_REGS = 32       # words per bank (20..31 reserved, written as 0)
 #: cfg_wr_addr[15:0] the word within one bank; spaces 4..6 exist with TRIM = 1, 7 and 8 with DRIFT = 1
 SPACES = {"regs": 0, "wave_sin": 1, "wave_cos": 2, "long_period": 3, "trim_map": 4, "trim_speed": 5,
           "trim_amp": 6, "drift_fwd_sin": 7, "drift_fwd_cos": 8}
+CFG_ADDR_W = 20   # cfg_wr_addr bits
 SPACE_LSB = 16    # cfg_wr_addr bit where the space number starts
 CTRL_WORD = 0x80  # word of the register space: writing bit CTRL_SWAP = 1 swaps the banks
 CTRL_SWAP = 0
