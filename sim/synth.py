@@ -194,7 +194,7 @@ def yosys(work: Path, top: str, params: dict, device: Device, sources: list[Path
     """Synthesise; returns Yosys's `stat -json` of the top (cell counts after technology mapping)."""
     sets = " ".join(f"-set {k} {param_value(k, v)}" for k, v in params.items())
     script = "\n".join([
-        f"read_verilog -defer {' '.join(str(p) for p in sources)}",
+        f"read_verilog -defer -I{RTL} {' '.join(str(p) for p in sources)}",
         f"chparam {sets} {top}" if sets else "",
         f"hierarchy -check -top {top}",
         f"{device.synth} -top {top} -json {work / 'netlist.json'}",
@@ -400,7 +400,7 @@ def block_parameters(prep: Prepared) -> dict[str, dict]:
 def block_ports(work: Path, module: str, params: dict) -> list[tuple[str, str, int]]:
     """(name, direction, width) of a block's ports for these parameters (Yosys elaborates it)."""
     sets = " ".join(f"-set {k} {param_value(k, v)}" for k, v in params.items())
-    script = (f"read_verilog -defer {' '.join(str(p) for p in sorted(RTL.glob('*.v')))}\n"
+    script = (f"read_verilog -defer -I{RTL} {' '.join(str(p) for p in sorted(RTL.glob('*.v')))}\n"
               f"chparam {sets} {module}\nhierarchy -top {module}\nproc\n"
               f"write_json {work / 'ports.json'}\n")
     (work / "ports.ys").write_text(script)
@@ -569,7 +569,7 @@ def snapshot_rtl(dest: Path) -> None:
     if dest.exists():
         shutil.rmtree(dest)
     dest.mkdir(parents=True)
-    for p in sorted(RTL.glob("*.v")):
+    for p in sorted(RTL.glob("*.v")) + sorted(RTL.glob("*.vh")):    # the modules and the include they share
         shutil.copy2(p, dest / p.name)
     RTL = dest
 
@@ -579,7 +579,7 @@ def rtl_digest() -> str:
     import hashlib
 
     h = hashlib.sha256()
-    for p in sorted(RTL.glob("*.v")) + [WRAP]:
+    for p in sorted(RTL.glob("*.v")) + sorted(RTL.glob("*.vh")) + [WRAP]:
         h.update(p.name.encode() + b"\0" + p.read_bytes())
     return h.hexdigest()[:16]
 

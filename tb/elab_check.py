@@ -1,7 +1,8 @@
 """Elaborate one block with given parameters and return the tools' messages (for the tests
 that check that illegal parameters stop elaboration with a clear message).
 
-- verilator: ``verilator --lint-only -Wall -G...`` on the block's sources;
+- verilator: ``verilator --lint-only -Wall -G...`` on the block's sources (``rtl/verilog`` on the
+  include path);
 - ghdl: analyse into a scratch library, then ``ghdl --elab-run`` with ``-g...`` for a zero-length run.
 """
 
@@ -11,15 +12,16 @@ import subprocess
 import tempfile
 from collections.abc import Mapping
 
-from cocotb_runner import block_sources, setup_path
+from cocotb_runner import RTL_VERILOG, block_sources, setup_path, simulator_parameters
 
 
 def elaborate(toplevel: str, sim: str, parameters: Mapping[str, object]) -> tuple[int, str]:
     """(exit status, stdout + stderr) of elaborating ``toplevel`` with ``parameters``."""
     setup_path()
+    parameters = simulator_parameters(parameters, sim)
     srcs = [str(s) for s in block_sources(toplevel, sim)]
     if sim == "verilator":
-        cmd = ["verilator", "--lint-only", "-Wall", "--top-module", toplevel,
+        cmd = ["verilator", "--lint-only", "-Wall", f"-I{RTL_VERILOG}", "--top-module", toplevel,
                *[f"-G{k}={v}" for k, v in parameters.items()], *srcs]
         r = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
         return r.returncode, r.stdout + r.stderr

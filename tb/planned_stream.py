@@ -23,11 +23,8 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-import cocotb
-from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-
-CLK_PERIOD_NS = 10
+from pipeline_check import CLK_PERIOD_NS, start_clock  # noqa: F401 - the one clock of both drivers, re-exported
 
 
 @dataclass
@@ -56,13 +53,6 @@ def accepted_segments(cycles: Sequence[Cycle]) -> list[list[int]]:
         elif c.accepted:
             segs[-1].append(i)
     return [s for s in segs if s]
-
-
-async def start_clock(dut) -> None:
-    """Start ``dut.clk`` and return at its first falling edge."""
-    dut.clk.value = 0
-    cocotb.start_soon(Clock(dut.clk, CLK_PERIOD_NS, unit="ns").start(start_high=False))
-    await FallingEdge(dut.clk)
 
 
 @dataclass

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import tempfile
 from collections import deque
 from pathlib import Path
@@ -414,18 +413,12 @@ def test_plan_is_effective(ps):
     assert any(c.drive.get("wr_en") and not c.ce for c in cycles)
 
 
-def _latency_in_source(path: Path, name: str) -> int:
-    text = path.read_text()
-    m = re.search(rf"localparam\s+integer\s+{name}\s*=\s*(\d+)\s*;", text) or \
-        re.search(rf"constant\s+{name}\s*:\s*integer\s*:=\s*(\d+)\s*;", text, re.I)
-    assert m, f"no {name} constant in {path}"
-    return int(m.group(1))
-
-
 def test_latency_constants_match_model():
-    for f in ("rtl/verilog/fringe_drift.v", "rtl/vhdl/fringe_drift.vhd"):
-        assert _latency_in_source(REPO / f, "NORM_LATENCY") == NORM_LATENCY
-        assert _latency_in_source(REPO / f, "OBS_LATENCY") == OBS_LATENCY
+    from lib.hdl_constants import block_constant, both_languages
+
+    for f in both_languages("fringe_drift"):
+        assert block_constant(f, "NORM_LATENCY") == NORM_LATENCY
+        assert block_constant(f, "OBS_LATENCY") == OBS_LATENCY
 
 
 BASE = PARAM_SETS[0][0].hdl_parameters()       # at the limit: PIPE_LATENCY 15 is one over
@@ -487,5 +480,5 @@ def test_fringe_drift(sim, ps):
     env = {"FRINGE_DRIFT_PARAMS": json.dumps(hdl),
            "FRINGE_SEED": os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))}
     for k, path in _init_files(p).items():
-        hdl[k] = f'"{path}"' if sim == "verilator" else str(path)
+        hdl[k] = path
     run_block(TOPLEVEL, "test_fringe_drift", hdl, sim=sim, timeout_s=600, extra_env=env)

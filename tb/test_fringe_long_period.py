@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import tempfile
 from pathlib import Path
 
@@ -192,7 +191,6 @@ def build_plan(p: LongPeriodParams, user_w: int, seed: int):
 
 try:
     import cocotb
-    from cocotb.triggers import FallingEdge
 except ImportError:  # pragma: no cover - pytest side without cocotb: the launcher skips
     cocotb = None
 
@@ -208,7 +206,8 @@ def _config() -> tuple[LongPeriodParams, int, int]:
 
 
 if cocotb is not None:
-    from planned_stream import drive, hdl_constant, measure_latency, start_clock
+    from lib.latency import check_latency
+    from planned_stream import drive, start_clock
 
     def _read(dut) -> tuple[int, int]:
         return int(dut.pos_out.value), int(dut.out_user.value)
@@ -231,19 +230,8 @@ if cocotb is not None:
             dut.bank.value = 1
             dut.in_user.value = user
 
-        n = await measure_latency(dut, apply)
-        if n != p.latency:
-            raise AssertionError(f"latency {n} clocks, documented LATENCY = {p.latency}")
         want = int(long_period_words(np.array([pos]), init_words(p), zero, 1, p, bank=np.array([1]))[0])
-        if _read(dut) != (want, user):
-            raise AssertionError(f"latency sample: RTL {_read(dut)}, model {(want, user)}")
-        await FallingEdge(dut.clk)
-        if int(dut.out_valid.value):
-            raise AssertionError("out_valid high for more than one clock")
-        hdl_lat = hdl_constant(dut, "LATENCY")
-        if hdl_lat is not None and hdl_lat != p.latency:
-            raise AssertionError(f"HDL LATENCY = {hdl_lat}, model {p.latency}")
-        dut._log.info("latency %d clocks (HDL constant: %s)", p.latency, hdl_lat)
+        await check_latency(dut, apply, p.latency, lambda: _read(dut), (want, user))
 
     @cocotb.test()
     async def long_period_stream(dut):
@@ -296,17 +284,11 @@ def test_plan_is_effective():
         assert any(b - a > p.rev // 2 for (a, _), b in zip(steps, pc, strict=True))
 
 
-def _latency_in_source(path: Path) -> int:
-    text = path.read_text()
-    m = re.search(r"localparam\s+integer\s+LATENCY\s*=\s*(\d+)\s*;", text) or \
-        re.search(r"constant\s+LATENCY\s*:\s*integer\s*:=\s*(\d+)\s*;", text, re.I)
-    assert m, f"no LATENCY constant in {path}"
-    return int(m.group(1))
-
-
 def test_latency_constant_matches_model():
-    assert _latency_in_source(REPO / "rtl/verilog/fringe_long_period.v") == LATENCY
-    assert _latency_in_source(REPO / "rtl/vhdl/fringe_long_period.vhd") == LATENCY
+    from lib.hdl_constants import block_constant, both_languages
+
+    for f in both_languages("fringe_long_period"):
+        assert block_constant(f, "LATENCY") == LATENCY, f
 
 
 def _hdl_params(lines, fine_w, addr, lp_w, frac, lp_if, recip=None, shift=None) -> dict:
@@ -356,10 +338,7 @@ def test_illegal_parameters_stop_elaboration(sim, params):
     from elab_check import elaborate
 
     msg = _model_error(params)
-    hdl = dict(params)
-    if sim == "verilator":
-        hdl["LP_RECIP"] = f"64'd{hdl['LP_RECIP']}"
-    rc, out = elaborate(TOPLEVEL, sim, hdl)
+    rc, out = elaborate(TOPLEVEL, sim, params)
     assert rc != 0 and msg in out, f"{msg!r} not in:\n{out[-3000:]}"
 
 
@@ -390,8 +369,5 @@ def test_fringe_long_period(sim, ps):
     if sim == "ghdl" and hdl["LP_RECIP"] >= 1 << 31:
         pytest.skip("LP_RECIP >= 2^31 does not fit a VHDL integer generic (documented limit)")
     env = {"FRINGE_LP_PARAMS": json.dumps(hdl), "FRINGE_SEED": os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))}
-    path = _init_file(p)
-    hdl["INIT_FILE"] = f'"{path}"' if sim == "verilator" else str(path)   # a Verilog string needs its quotes
-    if sim == "verilator":
-        hdl["LP_RECIP"] = f"64'd{hdl['LP_RECIP']}"                        # a 64-bit parameter
+    hdl["INIT_FILE"] = _init_file(p)
     run_block(TOPLEVEL, "test_fringe_long_period", hdl, sim=sim, timeout_s=240, extra_env=env)

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 from pathlib import Path
 
 import numpy as np
@@ -226,7 +225,6 @@ def build_plan(p: PeriodCountParams, user_w: int, seed: int):
 
 try:
     import cocotb
-    from cocotb.triggers import FallingEdge
 except ImportError:  # pragma: no cover - pytest side without cocotb: the launcher skips
     cocotb = None
 
@@ -238,7 +236,8 @@ def _config() -> tuple[PeriodCountParams, int, int]:
 
 
 if cocotb is not None:
-    from planned_stream import drive, hdl_constant, measure_latency, start_clock
+    from lib.latency import check_latency
+    from planned_stream import drive, start_clock
 
     def _read(dut) -> tuple[int, int, int, int]:
         return (int(dut.pos.value), int(dut.overspeed.value), int(dut.coarse_err.value), int(dut.out_user.value))
@@ -261,20 +260,8 @@ if cocotb is not None:
             dut.coarse_ofs.value = ofs & ((1 << (p.pos_w + 1)) - 1)
             dut.in_user.value = user
 
-        n = await measure_latency(dut, apply)
-        if n != p.latency:
-            raise AssertionError(f"latency {n} clocks, documented LATENCY = {p.latency}")
         pos, over, err = period_count(np.array([ph]), np.array([co]), ofs, p)
-        got = _read(dut)
-        if got != (int(pos[0]), int(over[0]), int(err[0]), user):
-            raise AssertionError(f"latency sample: RTL {got}, model {(int(pos[0]), int(over[0]), int(err[0]), user)}")
-        await FallingEdge(dut.clk)
-        if int(dut.out_valid.value):
-            raise AssertionError("out_valid high for more than one clock")
-        hdl_lat = hdl_constant(dut, "LATENCY")
-        if hdl_lat is not None and hdl_lat != p.latency:
-            raise AssertionError(f"HDL LATENCY = {hdl_lat}, model {p.latency}")
-        dut._log.info("latency %d clocks (HDL constant: %s)", p.latency, hdl_lat)
+        await check_latency(dut, apply, p.latency, lambda: _read(dut), (int(pos[0]), int(over[0]), int(err[0]), user))
 
     @cocotb.test()
     async def period_count_stream(dut):
@@ -330,17 +317,11 @@ def test_plan_is_effective():
         assert any(c.rst and not c.ce for c in cycles) and any(c.rst and c.valid for c in cycles)
 
 
-def _latency_in_source(path: Path) -> int:
-    text = path.read_text()
-    m = re.search(r"localparam\s+integer\s+LATENCY\s*=\s*(\d+)\s*;", text) or \
-        re.search(r"constant\s+LATENCY\s*:\s*integer\s*:=\s*(\d+)\s*;", text, re.I)
-    assert m, f"no LATENCY constant in {path}"
-    return int(m.group(1))
-
-
 def test_latency_constant_matches_model():
-    assert _latency_in_source(REPO / "rtl/verilog/fringe_period_count.v") == LATENCY
-    assert _latency_in_source(REPO / "rtl/vhdl/fringe_period_count.vhd") == LATENCY
+    from lib.hdl_constants import block_constant, both_languages
+
+    for f in both_languages("fringe_period_count"):
+        assert block_constant(f, "LATENCY") == LATENCY, f
 
 
 @pytest.mark.parametrize("params", [

@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
 from pathlib import Path
 
 import numpy as np
@@ -161,17 +160,11 @@ if cocotb is not None:
 # --------------------------------------------------------------------------- pytest launcher
 
 
-def _latency_in_source(path: Path) -> int:
-    text = path.read_text()
-    m = re.search(r"localparam\s+integer\s+LATENCY\s*=\s*(\d+)\s*;", text) or \
-        re.search(r"constant\s+LATENCY\s*:\s*integer\s*:=\s*(\d+)\s*;", text, re.I)
-    assert m, f"no LATENCY constant in {path}"
-    return int(m.group(1))
-
-
 def test_latency_constant_matches_model():
-    assert _latency_in_source(REPO / "rtl/verilog/fringe_quadrature.v") == LATENCY
-    assert _latency_in_source(REPO / "rtl/vhdl/fringe_quadrature.vhd") == LATENCY
+    from lib.hdl_constants import block_constant, both_languages
+
+    for f in both_languages("fringe_quadrature"):
+        assert block_constant(f, "LATENCY") == LATENCY, f
 
 
 @pytest.mark.parametrize("params", [

@@ -154,7 +154,7 @@ def test_fringe_table_ram(sim, ps):
         path = write_hex(hex_path(addr_w, data_w, seed), image_words(addr_w, data_w, seed), data_w,
                          [f"tb/test_fringe_table_ram.py image: ADDR_W={addr_w} DATA_W={data_w} seed={seed}",
                           "bank 0 then bank 1"])
-        params["INIT_FILE"] = f'"{path}"' if sim == "verilator" else str(path)
+        params["INIT_FILE"] = path
     cfg = {"ADDR_W": addr_w, "DATA_W": data_w, "init": init, "seed": seed}
     print(f"fringe_table_ram {sim} {params} seed {seed}")
     run_block(TOPLEVEL, "test_fringe_table_ram", params, sim=sim,

@@ -633,38 +633,39 @@ def test_fringe_top(sim, name):
 
 
 def test_latency_documented():
-    """The LATENCY in the HDL (core, top, and the blocks' constants) is the model's core_latency."""
+    """The LATENCY of core and top (both HDLs) is the model's core_latency over a random population of
+    configurations, and the core's bank taps and every block use the blocks' latencies."""
     import re
 
-    from fringe.fixed import drift, long_period, period_count, quadrature, trim, wave_lut
+    from lib.hdl_constants import block_constant, both_languages, package_function
 
-    cfg = CoreConfig()
-    lat = core_latency(cfg)
-    assert lat == cfg.cordic_stages + 24
-    assert core_latency(dataclasses.replace(cfg, trim=1)) == lat + trim.LATENCY == lat + 12
-    assert core_latency(dataclasses.replace(cfg, drift=1)) == lat + drift.NORM_LATENCY == lat + 4
-    for f in ("rtl/verilog/fringe_core.v", "rtl/verilog/fringe_top.v", "rtl/vhdl/fringe_core.vhd",
-              "rtl/vhdl/fringe_top.vhd"):
-        text = (REPO / f).read_text()
-        # CORDIC_STAGES + 24, plus fringe_trim's 12 when TRIM = 1
-        assert re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*24\s*\+", text), f
-        assert re.search(r"\?\s*12\s*:\s*0|return 12;", text), f
-        assert re.search(r"\(DRIFT != 0\)\s*\?\s*4\s*:\s*0|return 4;", text), f
+    from fringe.fixed import long_period, period_count, quadrature, trim, wave_lut
+
+    rng = np.random.default_rng(20261201)
+    configs = [CoreConfig(cordic_stages=int(rng.integers(4, 33)), trim=int(rng.integers(0, 2)),
+                          drift=int(rng.integers(0, 2))) for _ in range(20)]
+    for lang in ("verilog", "vhdl"):
+        for cfg in configs:
+            got = package_function(lang, "core_latency", cordic_stages=cfg.cordic_stages, trim=cfg.trim,
+                                   drift=cfg.drift)
+            assert got == core_latency(cfg), (lang, cfg)
+    call = re.compile(r"LATENCY\s*(:\s*integer\s*:)?=\s*(fringe_)?core_latency\(CORDIC_STAGES, TRIM, DRIFT\)")
+    for f in both_languages("fringe_core") + both_languages("fringe_top"):
+        assert call.search(f.read_text()), f
     # the core's bank pipeline taps (registers read one clock enable ahead) use the blocks' latencies
-    for f in ("rtl/verilog/fringe_core.v", "rtl/vhdl/fringe_core.vhd"):
-        text = (REPO / f).read_text()
-        for name, n in (("LAT_WL", wave_lut.LATENCY), ("LAT_Q", quadrature.LATENCY),
-                        ("LAT_P", period_count.LATENCY)):
-            m = re.search(rf"{name}\s*(:\s*integer\s*:)?=\s*(\d+)\s*;", text)
-            assert m and int(m.group(2)) == n, (f, name, m and m.group(0), n)
-        assert re.search(r"LAT_C\s*(:\s*integer\s*:)?=\s*CORDIC_STAGES\s*\+\s*2\s*;", text), f
+    for f in both_languages("fringe_core"):
+        for name, n in (("LAT_WL", wave_lut.LATENCY), ("LAT_Q", quadrature.LATENCY), ("LAT_P", period_count.LATENCY)):
+            assert block_constant(f, name) == n, (f, name)
+        for cfg in configs:
+            assert block_constant(f, "LAT_C", {"CORDIC_STAGES": cfg.cordic_stages}) == cfg.cordic().latency
+            assert block_constant(f, "LAT_T", {"TRIM": cfg.trim}) == cfg.trim * trim.LATENCY
     for block, n in (("fringe_wave_lut", wave_lut.LATENCY), ("fringe_quadrature", quadrature.LATENCY),
                      ("fringe_period_count", period_count.LATENCY), ("fringe_long_period", long_period.LATENCY),
                      ("fringe_trim", trim.LATENCY)):
-        for f in (f"rtl/verilog/{block}.v", f"rtl/vhdl/{block}.vhd"):
-            text = (REPO / f).read_text()
-            m = re.search(r"LATENCY\s*(:\s*integer\s*:)?=\s*(\d+)\s*;", text)
-            assert m and int(m.group(2)) == n, (f, m and m.group(0), n)
+        for f in both_languages(block):
+            assert block_constant(f, "LATENCY") == n, f
+    for f in both_languages("fringe_cordic"):
+        assert block_constant(f, "LATENCY", {"STAGES": 13}) == CoreConfig(cordic_stages=13).cordic().latency
 
 
 @pytest.mark.parametrize("params, message", [

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import tempfile
 from pathlib import Path
 
@@ -250,7 +249,6 @@ def build_plan(p: TrimParams, user_w: int, seed: int):
 
 try:
     import cocotb
-    from cocotb.triggers import FallingEdge
 except ImportError:  # pragma: no cover - pytest side without cocotb: the launcher skips
     cocotb = None
 
@@ -268,7 +266,8 @@ def _config() -> tuple[TrimParams, int, int]:
 
 
 if cocotb is not None:
-    from planned_stream import drive, hdl_constant, measure_latency, start_clock
+    from lib.latency import check_latency
+    from planned_stream import drive, start_clock
 
     def _read(dut) -> tuple[int, int, int, int]:
         return int(dut.pos_out.value), int(dut.dir.value), int(dut.sat.value), int(dut.out_user.value)
@@ -290,21 +289,9 @@ if cocotb is not None:
             dut.bank.value = 0
             dut.in_user.value = user
 
-        n = await measure_latency(dut, apply)
-        if n != p.latency:
-            raise AssertionError(f"latency {n} clocks, documented LATENCY = {p.latency}")
         t = init_tables(p)
         want = trim_words(np.array([pos]), mag, t["map"], t["speed"], t["amp"], p, bank=np.array([0]))
-        want = (*(int(x[0]) for x in want), user)
-        if _read(dut) != want:
-            raise AssertionError(f"latency sample: RTL {_read(dut)}, model {want}")
-        await FallingEdge(dut.clk)
-        if int(dut.out_valid.value):
-            raise AssertionError("out_valid high for more than one clock")
-        hdl_lat = hdl_constant(dut, "LATENCY")
-        if hdl_lat is not None and hdl_lat != p.latency:
-            raise AssertionError(f"HDL LATENCY = {hdl_lat}, model {p.latency}")
-        dut._log.info("latency %d clocks (HDL constant: %s)", p.latency, hdl_lat)
+        await check_latency(dut, apply, p.latency, lambda: _read(dut), (*(int(x[0]) for x in want), user))
 
     @cocotb.test()
     async def trim_stream(dut):
@@ -372,17 +359,11 @@ def test_plan_is_effective():
             assert corr == {half - 1, p.rev - half}, _id((p, user_w))
 
 
-def _latency_in_source(path: Path) -> int:
-    text = path.read_text()
-    m = re.search(r"localparam\s+integer\s+LATENCY\s*=\s*(\d+)\s*;", text) or \
-        re.search(r"constant\s+LATENCY\s*:\s*integer\s*:=\s*(\d+)\s*;", text, re.I)
-    assert m, f"no LATENCY constant in {path}"
-    return int(m.group(1))
-
-
 def test_latency_constant_matches_model():
-    assert _latency_in_source(REPO / "rtl/verilog/fringe_trim.v") == LATENCY
-    assert _latency_in_source(REPO / "rtl/vhdl/fringe_trim.vhd") == LATENCY
+    from lib.hdl_constants import block_constant, both_languages
+
+    for f in both_languages("fringe_trim"):
+        assert block_constant(f, "LATENCY") == LATENCY, f
 
 
 BASE = {"LINES": 256, "FINE_W": 16, "AMP_W": 12, "SPEED_LOG2": 5, "MAP_PSI_W": 4, "MAP_PHI_W": 6, "TRIM_W": 18,
@@ -424,10 +405,7 @@ def test_illegal_parameters_stop_elaboration(sim, over):
 
     params = {**BASE, **over}
     msg = _model_error(params)
-    hdl = dict(params)
-    if sim == "verilator":
-        hdl["SECT_RECIP"] = f"64'd{hdl['SECT_RECIP']}"
-    rc, out = elaborate(TOPLEVEL, sim, hdl)
+    rc, out = elaborate(TOPLEVEL, sim, params)
     assert rc != 0 and msg in out, f"{msg!r} not in:\n{out[-3000:]}"
 
 
@@ -463,7 +441,5 @@ def test_fringe_trim(sim, ps):
         pytest.skip("SECT_RECIP >= 2^31 does not fit a VHDL integer generic (documented limit)")
     env = {"FRINGE_TRIM_PARAMS": json.dumps(hdl), "FRINGE_SEED": os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))}
     for k, path in _init_files(p).items():
-        hdl[f"{k.upper()}_INIT"] = f'"{path}"' if sim == "verilator" else str(path)
-    if sim == "verilator":
-        hdl["SECT_RECIP"] = f"64'd{hdl['SECT_RECIP']}"                   # a 64-bit parameter
+        hdl[f"{k.upper()}_INIT"] = path
     run_block(TOPLEVEL, "test_fringe_trim", hdl, sim=sim, timeout_s=400, extra_env=env)

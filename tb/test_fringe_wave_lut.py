@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import tempfile
 from pathlib import Path
 
@@ -212,17 +211,11 @@ if cocotb is not None:
 # --------------------------------------------------------------------------- pytest launcher
 
 
-def _latency_in_source(path: Path) -> int:
-    text = path.read_text()
-    m = re.search(r"localparam\s+integer\s+LATENCY\s*=\s*(\d+)\s*;", text) or \
-        re.search(r"constant\s+LATENCY\s*:\s*integer\s*:=\s*(\d+)\s*;", text, re.I)
-    assert m, f"no LATENCY constant in {path}"
-    return int(m.group(1))
-
-
 def test_latency_constant_matches_model():
-    assert _latency_in_source(REPO / "rtl/verilog/fringe_wave_lut.v") == LATENCY
-    assert _latency_in_source(REPO / "rtl/vhdl/fringe_wave_lut.vhd") == LATENCY
+    from lib.hdl_constants import block_constant, both_languages
+
+    for f in both_languages("fringe_wave_lut"):
+        assert block_constant(f, "LATENCY") == LATENCY, f
 
 
 @pytest.mark.parametrize("params", [
@@ -267,7 +260,7 @@ def test_fringe_wave_lut(sim, ps):
                      [f"tb/test_fringe_wave_lut.py initial tables: ADC_W={adc_w} WAVE_ADDR_W={wave_addr_w} "
                       f"WAVE_W={wave_w}", "bank 0 then bank 1; word {slope, value}, address {branch, addr}"])
     params = {"ADC_W": adc_w, "WAVE_ADDR_W": wave_addr_w, "WAVE_W": wave_w, "USER_W": user_w,
-              "INIT_FILE": f'"{path}"' if sim == "verilator" else str(path)}
+              "INIT_FILE": path}
     cfg = {"ADC_W": adc_w, "WAVE_ADDR_W": wave_addr_w, "WAVE_W": wave_w, "USER_W": user_w,
            "seed": seed, "latency": LATENCY}
     print(f"fringe_wave_lut {sim} {params} seed {seed}")

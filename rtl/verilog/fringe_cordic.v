@@ -1,25 +1,9 @@
 // fringe_cordic: phase (arctan) and magnitude of the corrected vector, vectoring CORDIC.
 //
-// Formats (docs/architecture.md, "fringe_cordic"), N = ACC_W = FINE_W + GUARD:
-//   x, y   s(IN_W)     x = cosine (c), y = sine (s) of the quadrature stage
-//   pre    if x < 0: x, y = -x, -y and z = 2^(N-1) (half a turn), else z = 0;
-//          x, y scaled by 2^GUARD into s(DP_W), DP_W = IN_W + 2 + GUARD
-//          (1 bit for -(most negative), 1 bit for the CORDIC gain 1.647)
-//   stage  i = 0..STAGES-1: if y >= 0: x, y, z = x + (y >>> i), y - (x >>> i), z + ATAN[i]
-//                           else:      x, y, z = x - (y >>> i), y + (x >>> i), z - ATAN[i]
-//          z is u(N) modulo 2^N (one turn); ATAN[i] = round(atan(2^-i) / (2 pi) * 2^N),
-//          = (ATAN62[i] + 2^(61-N)) >> (62-N) from the shared 62-bit table (function atan62)
-//   phase  u(FINE_W) = ((z + 2^(GUARD-1)) >>> GUARD) mod 2^FINE_W, fraction of a period
-//   mag    u(IN_W+1) = (x + 2^(GUARD-1)) >>> GUARD, magnitude times the CORDIC gain
-//          (no rounding term when GUARD = 0)
-//   x = y = 0 gives mag = 0 and phase = round(sum ATAN) (about 0.2775 turn): meaningless, the
-//   top flags it through the magnitude threshold.
-// Bit-exact model: model/fringe/fixed/cordic.py (error budget: error_budget()).
-//
-// LATENCY = STAGES + 2 clock enables (ce = 1 cycles) from in_valid to out_valid:
-//   1: pre-rotation   2..STAGES+1: micro-rotations 0..STAGES-1   STAGES+2: output rounding
-// One sample per clock. ce = 0 freezes every register; rst (synchronous, active high, wins over
-// ce) clears only the valid pipeline, never the data registers.
+// LATENCY = STAGES + 2 clock enables, one sample per clock; ce = 0 freezes
+// every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+// Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_cordic.md.
+// Bit-exact model: model/fringe/fixed/cordic.py.
 
 `default_nettype none
 
@@ -45,7 +29,9 @@ module fringe_cordic #(
     output wire [USER_W-1:0]    out_user
 );
 
-    localparam integer LATENCY = STAGES + 2;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY = STAGES + CORDIC_LATENCY_BASE;
     localparam integer ACC_W   = FINE_W + GUARD;   // angle accumulator, one turn = 2^ACC_W
     localparam integer DP_W    = IN_W + 2 + GUARD; // x/y datapath
     localparam [ACC_W-1:0] HALF_TURN = {1'b1, {(ACC_W-1){1'b0}}};
@@ -196,25 +182,10 @@ module fringe_cordic #(
     wire unused_sign = &{1'b0, x_rnd[DP_W-1]};
 
     // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
 endmodule
 

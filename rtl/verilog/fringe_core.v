@@ -1,9 +1,9 @@
 // fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock.
 //
-//   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1: the online offset/gain tracker, docs/drift.md]
+//   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1: the online offset/gain tracker, docs/blocks/fringe_drift.md]
 //   -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
 //   -> fringe_cordic -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W))
-//   [-> fringe_trim, TRIM = 1: the closed loop's corrections, docs/trim.md]
+//   [-> fringe_trim, TRIM = 1: the closed loop's corrections, docs/blocks/fringe_trim.md]
 //   -> fringe_long_period -> pos u(POS_W), status (8 bits)
 // Formats, register map and status word: docs/architecture.md. Bit-exact model:
 // model/fringe/fixed/core.py (run_core; run_core_banks for a bank swap in mid-stream).
@@ -42,51 +42,54 @@
 `default_nettype none
 
 module fringe_core #(
-    parameter integer ADC_W         = 12,  // ADC code width (signed), 4..24
-    parameter integer LINES         = 256, // signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
-    parameter integer COARSE_W      = 9,   // coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
-    parameter integer WAVE_ADDR_W   = 8,   // waveform table address bits per branch, 2..min(ADC_W-1, 15)
-    parameter integer WAVE_W        = 18,  // waveform table / quadrature data width, 8..31
-    parameter integer COEF_W        = 18,  // quadrature gain width (COEF_W-2 fraction bits), 8..27
-    parameter integer FINE_W        = 16,  // fine phase bits per signal period, 8..30
-    parameter integer CORDIC_STAGES = 18,  // CORDIC micro-rotations, 4..32
-    parameter integer CORDIC_GUARD  = 3,   // extra fraction bits inside the CORDIC, 0..8
-    parameter integer LP_ADDR_W     = 8,   // long-period table entries per revolution = 2^LP_ADDR_W, <= 16
-    parameter integer LP_W          = 18,  // long-period table value/slope width, <= 32
-    parameter integer LP_FRAC       = 4,   // fraction bits of the long-period correction (fine counts)
-    parameter integer LP_IF         = 8,   // interpolation fraction bits of the long-period table
-    parameter [63:0]  LP_RECIP      = 64'd1, // long-period index multiplier (fringe.fixed.long_period.index_mapping)
-    parameter integer LP_SHIFT      = 16,  // long-period index shift (fringe.fixed.long_period.index_mapping)
-    // fringe_trim (closed-loop corrections, docs/trim.md): built only with TRIM = 1
-    parameter integer TRIM          = 0,   // 1 = fringe_trim between the period count and the long-period table
-    parameter integer SPEED_LOG2    = 5,   // speed window 2^SPEED_LOG2 samples, 0..8
-    parameter integer MAP_PSI_W     = 6,   // 2^MAP_PSI_W error-map sectors per revolution, 0..8
-    parameter integer MAP_PHI_W     = 5,   // 2^MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); MAP_PSI_W + MAP_PHI_W <= 15
-    parameter integer TRIM_W        = 18,  // trim table value/slope width, 8..24
-    parameter integer TRIM_FRAC     = 4,   // fraction bits of the trim (fine counts), 0..16
-    parameter integer G_SHIFT       = 24,  // right shift of the speed and magnitude products, 1..48
-    parameter [63:0]  SECT_RECIP    = 64'd1, // sector multiplier (fringe.fixed.trim.sector_mapping)
-    parameter integer SECT_SHIFT    = 18,  // sector shift (fringe.fixed.trim.sector_mapping)
-    // fringe_drift (the closed loop's online offset/gain tracker, docs/drift.md): built only with DRIFT = 1
-    parameter integer DRIFT            = 0,  // 1 = fringe_drift normalises the ADC codes in front of everything
-    parameter integer DRIFT_BLOCK_LOG2 = 8,  // samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 here (see PIPE_D)
-    parameter integer DRIFT_MU_LOG2    = 1,  // tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
-    parameter integer DRIFT_OFS_FRAC   = 4,  // fraction bits of the tracked offsets, 0..8
-    parameter integer DRIFT_GINV_W     = 18, // tracked inverse gains u(DRIFT_GINV_W), 8..24
-    parameter integer DRIFT_FWD_W      = 8,  // 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
-    parameter integer DRIFT_TABLE_W    = 18, // forward table value/slope width, 8..24
-    parameter integer DRIFT_TABLE_FRAC = 4,  // fraction bits of the forward tables and W0_S/W0_C, 0..12
-    parameter integer DRIFT_KG_W       = 18, // KG_S/KG_C width, 8..24
-    parameter integer DRIFT_KG_SHIFT   = 40, // right shift of the gain-loop product, 1..60
-    parameter         REGS_INIT     = "",  // $readmemh image of the registers, 2 x 32 words of 32 bits
-    parameter         WAVE_SIN_INIT = "",  // $readmemh image of the sine table, both banks
-    parameter         WAVE_COS_INIT = "",  // $readmemh image of the cosine table, both banks
-    parameter         LP_INIT       = "",  // $readmemh image of the long-period table, both banks
-    parameter         MAP_INIT      = "",  // $readmemh image of the trim map, both banks (TRIM = 1)
-    parameter         SPEED_INIT    = "",  // $readmemh image of the trim speed table, both banks (TRIM = 1)
-    parameter         AMP_INIT      = "",  // $readmemh image of the trim magnitude table, both banks (TRIM = 1)
-    parameter         FWD_SIN_INIT  = "",  // $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
-    parameter         FWD_COS_INIT  = ""   // $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
+    // BEGIN generated parameters (written by python sim/hdlgen.py; do not edit)
+    parameter integer ADC_W            = 12,    // ADC code width (signed), 4..24
+    parameter integer LINES            = 256,   // signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
+    parameter integer COARSE_W         = 9,     // coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
+    parameter integer WAVE_ADDR_W      = 8,     // waveform table address bits per branch, 2..min(ADC_W-1, 15)
+    parameter integer WAVE_W           = 18,    // waveform table / quadrature data width, 8..31
+    parameter integer COEF_W           = 18,    // quadrature gain width (COEF_W-2 fraction bits), 8..27
+    parameter integer FINE_W           = 16,    // fine phase bits per signal period, 8..30
+    parameter integer CORDIC_STAGES    = 18,    // CORDIC micro-rotations, 4..32
+    parameter integer CORDIC_GUARD     = 3,     // extra fraction bits inside the CORDIC, 0..8
+    parameter integer LP_ADDR_W        = 8,     // long-period table entries per revolution = 2^LP_ADDR_W, <= 16
+    parameter integer LP_W             = 18,    // long-period table value/slope width, <= 32
+    parameter integer LP_FRAC          = 4,     // fraction bits of the long-period correction (fine counts)
+    parameter integer LP_IF            = 8,     // interpolation fraction bits of the long-period table
+    parameter [63:0]  LP_RECIP         = 64'd1, // long-period index multiplier (long_period.index_mapping; < 2^31 in VHDL)
+    parameter integer LP_SHIFT         = 16,    // long-period index shift (long_period.index_mapping)
+    // fringe_trim (closed-loop corrections): built only with TRIM = 1
+    parameter integer TRIM             = 0,     // 1 = fringe_trim between the period count and the long-period table (docs/blocks/fringe_trim.md)
+    parameter integer SPEED_LOG2       = 5,     // speed window 2^SPEED_LOG2 samples, 0..8
+    parameter integer MAP_PSI_W        = 6,     // 2^MAP_PSI_W error-map sectors per revolution, 0..8
+    parameter integer MAP_PHI_W        = 5,     // 2^MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); MAP_PSI_W + MAP_PHI_W <= 15
+    parameter integer TRIM_W           = 18,    // trim table value/slope width, 8..24
+    parameter integer TRIM_FRAC        = 4,     // fraction bits of the trim (fine counts), 0..16
+    parameter integer G_SHIFT          = 24,    // right shift of the speed and magnitude products, 1..48
+    parameter [63:0]  SECT_RECIP       = 64'd1, // sector multiplier (trim.sector_mapping; < 2^31 in VHDL)
+    parameter integer SECT_SHIFT       = 18,    // sector shift (trim.sector_mapping)
+    // fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
+    parameter integer DRIFT            = 0,     // 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
+    parameter integer DRIFT_BLOCK_LOG2 = 8,     // samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)
+    parameter integer DRIFT_MU_LOG2    = 1,     // tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
+    parameter integer DRIFT_OFS_FRAC   = 4,     // fraction bits of the tracked offsets, 0..8
+    parameter integer DRIFT_GINV_W     = 18,    // tracked inverse gains u(DRIFT_GINV_W), 8..24
+    parameter integer DRIFT_FWD_W      = 8,     // 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
+    parameter integer DRIFT_TABLE_W    = 18,    // forward table value/slope width, 8..24
+    parameter integer DRIFT_TABLE_FRAC = 4,     // fraction bits of the forward tables and W0_S/W0_C, 0..12
+    parameter integer DRIFT_KG_W       = 18,    // KG_S/KG_C width, 8..24
+    parameter integer DRIFT_KG_SHIFT   = 40,    // right shift of the gain-loop product, 1..60
+    // initial contents: $readmemh images, "" = zeros
+    parameter         REGS_INIT        = "",    // $readmemh image of the registers, 2 x 32 words of 32 bits
+    parameter         WAVE_SIN_INIT    = "",    // $readmemh image of the sine table, both banks
+    parameter         WAVE_COS_INIT    = "",    // $readmemh image of the cosine table, both banks
+    parameter         LP_INIT          = "",    // $readmemh image of the long-period table, both banks
+    parameter         MAP_INIT         = "",    // $readmemh image of the trim map, both banks (TRIM = 1)
+    parameter         SPEED_INIT       = "",    // $readmemh image of the trim speed table, both banks (TRIM = 1)
+    parameter         AMP_INIT         = "",    // $readmemh image of the trim magnitude table, both banks (TRIM = 1)
+    parameter         FWD_SIN_INIT     = "",    // $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
+    parameter         FWD_COS_INIT     = ""     // $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
+    // END generated parameters
 ) (
     input  wire             clk,
     input  wire             rst,          // synchronous, active high: clears the sample pipeline
@@ -107,13 +110,14 @@ module fringe_core #(
     output wire             active_bank
 );
 
+    `include "fringe_pkg.vh"
+
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = CORDIC_STAGES + 24 + ((TRIM != 0) ? 12 : 0) + ((DRIFT != 0) ? 4 : 0);
+    localparam integer LATENCY = fringe_core_latency(CORDIC_STAGES, TRIM, DRIFT);
     /* verilator lint_on UNUSEDPARAM */
     localparam integer POS_W   = $clog2(LINES) + FINE_W;        // clog2(LINES * 2^FINE_W)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width
-    localparam integer REG_W   = 32;
     localparam integer AMP_W   = WAVE_W + 1;   // CORDIC magnitude u(WAVE_W+1)
     localparam integer BR_W    = ADC_W + 1;    // branch thresholds s(ADC_W+1)
 
@@ -155,14 +159,9 @@ module fringe_core #(
 
     // ---- register file and bank control (configuration, not reset) ----------------------------
     // regs[{bank, index}], index as in model/fringe/fixed/regmap.py
-    localparam [4:0] R_K_SS = 5'd0, R_K_SC = 5'd1, R_K_CC = 5'd2, R_OFS_S = 5'd3, R_OFS_C = 5'd4;
-    localparam [4:0] R_MID_S = 5'd5, R_THR_HI_S = 5'd6, R_THR_LO_S = 5'd7;
-    localparam [4:0] R_MID_C = 5'd8, R_THR_HI_C = 5'd9, R_THR_LO_C = 5'd10;
-    localparam [4:0] R_COARSE_OFS = 5'd11, R_ZERO = 5'd12, R_DIR = 5'd13, R_AMP_LOW = 5'd14, R_AMP_HIGH = 5'd15;
-    localparam [4:0] R_W0_S = 5'd16, R_W0_C = 5'd17, R_KG_S = 5'd18, R_KG_C = 5'd19;
-    localparam [15:0] CTRL_WORD = 16'h0080;
+    // register indices REG_*, CTRL_WORD: fringe_pkg.vh (generated from model/fringe/fixed/regmap.py)
 
-    reg [REG_W-1:0] regs [0:63];
+    reg [REG_W-1:0] regs [0:2*N_REGS-1];
     reg             bank_r;
 
     initial bank_r = 1'b0;   // power-up value (configuration: rst does not touch it)
@@ -217,11 +216,12 @@ module fringe_core #(
 
     // step 1: which space, whether the word lies inside one bank (table words), CTRL in two halves
     always @(posedge clk) begin
-        st1_en_reg    <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word[15:5] == 11'd0;
-        st1_en_ctrl_a <= cfg_wr_en && cfg_sel == 4'd0 && cfg_word[15:8] == 8'd0;
-        st1_en_ctrl_b <= cfg_word[7:0] == CTRL_WORD[7:0] && cfg_wr_data[0];
-        st1_sel       <= {cfg_sel == 4'd8, cfg_sel == 4'd7, cfg_sel == 4'd6, cfg_sel == 4'd5, cfg_sel == 4'd4,
-                          cfg_sel == 4'd3, cfg_sel == 4'd2, cfg_sel == 4'd1} & {8{cfg_wr_en}};
+        st1_en_reg    <= cfg_wr_en && cfg_sel == SPACE_REGS && cfg_word[15:5] == 11'd0;
+        st1_en_ctrl_a <= cfg_wr_en && cfg_sel == SPACE_REGS && cfg_word[15:8] == 8'd0;
+        st1_en_ctrl_b <= cfg_word[7:0] == CTRL_WORD[7:0] && cfg_wr_data[CTRL_SWAP];
+        st1_sel       <= {cfg_sel == SPACE_DRIFT_FWD_COS, cfg_sel == SPACE_DRIFT_FWD_SIN, cfg_sel == SPACE_TRIM_AMP,
+                          cfg_sel == SPACE_TRIM_SPEED, cfg_sel == SPACE_TRIM_MAP, cfg_sel == SPACE_LONG_PERIOD,
+                          cfg_sel == SPACE_WAVE_COS, cfg_sel == SPACE_WAVE_SIN} & {8{cfg_wr_en}};
         st1_wave_ok   <= (cfg_word >> (WAVE_ADDR_W + 1)) == 16'd0;
         st1_lp_ok     <= (cfg_word >> LP_ADDR_W) == 16'd0;
         st1_trim_ok   <= (cfg_word >> (MAP_PSI_W + MAP_PHI_W + 1)) == 16'd0;
@@ -280,7 +280,8 @@ module fringe_core #(
     // the normalisation (a saturated normalised code) travel with it, with the normalised codes the
     // tracker's observer needs at the CORDIC output: dx = {y_sin, y_cos, norm_sat, clip_c, clip_s}.
     localparam integer DX_W   = 2 * ADC_W + 3;
-    localparam integer PIPE_D = 2 + 4 + 5 + CORDIC_STAGES + 2;   // normaliser outputs -> CORDIC outputs
+    localparam integer PIPE_D = CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + CORDIC_STAGES
+                                + CORDIC_LATENCY_BASE;   // normaliser outputs -> CORDIC outputs
     localparam [ADC_W-1:0] ADC_MIN = {1'b1, {(ADC_W-1){1'b0}}}, ADC_MAX = {1'b0, {(ADC_W-1){1'b1}}};
     wire             raw_clip_s = (sin == ADC_MIN) || (sin == ADC_MAX);
     wire             raw_clip_c = (cos == ADC_MIN) || (cos == ADC_MAX);
@@ -307,9 +308,9 @@ module fringe_core #(
                 .norm_valid(n_valid), .y_sin(n_sin), .y_cos(n_cos), .norm_sat(n_sat), .norm_user(nu),
                 .obs_valid(c_valid), .obs_phase(phase), .obs_y_sin(c_dx[DX_W-1 -: ADC_W]),
                 .obs_y_cos(c_dx[ADC_W+2:3]), .obs_bank(c_bank),
-                .w0_sin(regs[{c_bank, R_W0_S}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
-                .w0_cos(regs[{c_bank, R_W0_C}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
-                .kg_sin(regs[{c_bank, R_KG_S}][DRIFT_KG_W-1:0]), .kg_cos(regs[{c_bank, R_KG_C}][DRIFT_KG_W-1:0]),
+                .w0_sin(regs[{c_bank, REG_W0_S}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
+                .w0_cos(regs[{c_bank, REG_W0_C}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
+                .kg_sin(regs[{c_bank, REG_KG_S}][DRIFT_KG_W-1:0]), .kg_cos(regs[{c_bank, REG_KG_C}][DRIFT_KG_W-1:0]),
                 .wr_en(wr_fwd), .wr_sel(wr_fwd_sel), .wr_addr({wr_bank_r, wr_word[DRIFT_FWD_W-1:0]}),
                 .wr_data(wr_data[2*DRIFT_TABLE_W-1:0]),
                 .off_sin(off_s), .off_cos(off_c), .ginv_sin(ginv_s), .ginv_cos(ginv_c), .track_sat(track_sat)
@@ -355,12 +356,12 @@ module fringe_core #(
             coarse0 <= n_coarse;
             bank0   <= n_bank;
             flags0  <= {n_sat, n_clip_c, n_clip_s};
-            mid_s   <= regs[{n_bank, R_MID_S}][BR_W-1:0];
-            hi_s    <= regs[{n_bank, R_THR_HI_S}][BR_W-1:0];
-            lo_s    <= regs[{n_bank, R_THR_LO_S}][BR_W-1:0];
-            mid_c   <= regs[{n_bank, R_MID_C}][BR_W-1:0];
-            hi_c    <= regs[{n_bank, R_THR_HI_C}][BR_W-1:0];
-            lo_c    <= regs[{n_bank, R_THR_LO_C}][BR_W-1:0];
+            mid_s   <= regs[{n_bank, REG_MID_S}][BR_W-1:0];
+            hi_s    <= regs[{n_bank, REG_THR_HI_S}][BR_W-1:0];
+            lo_s    <= regs[{n_bank, REG_THR_LO_S}][BR_W-1:0];
+            mid_c   <= regs[{n_bank, REG_MID_C}][BR_W-1:0];
+            hi_c    <= regs[{n_bank, REG_THR_HI_C}][BR_W-1:0];
+            lo_c    <= regs[{n_bank, REG_THR_LO_C}][BR_W-1:0];
         end
     end
 
@@ -402,11 +403,11 @@ module fringe_core #(
     // (the sum of the latencies before it) sees the sample's bank in bank_d[N-1]; one clock enable
     // ahead it is in bank_d[N-2], which selects the registers it takes with the sample. The
     // latencies must equal the blocks' LATENCY constants.
-    localparam integer LAT_WL = 4;                      // fringe_wave_lut
-    localparam integer LAT_Q  = 5;                      // fringe_quadrature
-    localparam integer LAT_C  = CORDIC_STAGES + 2;      // fringe_cordic
-    localparam integer LAT_P  = 3;                      // fringe_period_count
-    localparam integer LAT_T  = (TRIM != 0) ? 12 : 0;   // fringe_trim (TRIM = 1)
+    localparam integer LAT_WL = WAVE_LUT_LATENCY;
+    localparam integer LAT_Q  = QUADRATURE_LATENCY;
+    localparam integer LAT_C  = CORDIC_STAGES + CORDIC_LATENCY_BASE;
+    localparam integer LAT_P  = PERIOD_COUNT_LATENCY;
+    localparam integer LAT_T  = TRIM * TRIM_LATENCY;    // fringe_trim (TRIM = 1)
     localparam integer TAP_Q  = LAT_WL - 2;             // quadrature coefficients
     localparam integer TAP_C  = LAT_WL + LAT_Q + LAT_C - 2;          // magnitude thresholds, COARSE_OFS
     localparam integer TAP_P  = LAT_WL + LAT_Q + LAT_C + LAT_P + LAT_T - 2;  // ZERO, DIR
@@ -430,16 +431,16 @@ module fringe_core #(
 
     always @(posedge clk) begin
         if (ce) begin
-            ofs_s_r      <= regs[{bank_q, R_OFS_S}][WAVE_W-1:0];
-            ofs_c_r      <= regs[{bank_q, R_OFS_C}][WAVE_W-1:0];
-            k_ss_r       <= regs[{bank_q, R_K_SS}][COEF_W-1:0];
-            k_sc_r       <= regs[{bank_q, R_K_SC}][COEF_W-1:0];
-            k_cc_r       <= regs[{bank_q, R_K_CC}][COEF_W-1:0];
-            amp_low      <= regs[{bank_c, R_AMP_LOW}][AMP_W-1:0];
-            amp_high     <= regs[{bank_c, R_AMP_HIGH}][AMP_W-1:0];
-            coarse_ofs_r <= regs[{bank_c, R_COARSE_OFS}][POS_W:0];
-            zero_r       <= regs[{bank_p, R_ZERO}][POS_W-1:0];
-            dir_r        <= regs[{bank_p, R_DIR}][0];
+            ofs_s_r      <= regs[{bank_q, REG_OFS_S}][WAVE_W-1:0];
+            ofs_c_r      <= regs[{bank_q, REG_OFS_C}][WAVE_W-1:0];
+            k_ss_r       <= regs[{bank_q, REG_K_SS}][COEF_W-1:0];
+            k_sc_r       <= regs[{bank_q, REG_K_SC}][COEF_W-1:0];
+            k_cc_r       <= regs[{bank_q, REG_K_CC}][COEF_W-1:0];
+            amp_low      <= regs[{bank_c, REG_AMP_LOW}][AMP_W-1:0];
+            amp_high     <= regs[{bank_c, REG_AMP_HIGH}][AMP_W-1:0];
+            coarse_ofs_r <= regs[{bank_c, REG_COARSE_OFS}][POS_W:0];
+            zero_r       <= regs[{bank_p, REG_ZERO}][POS_W-1:0];
+            dir_r        <= regs[{bank_p, REG_DIR}][0];
         end
     end
 

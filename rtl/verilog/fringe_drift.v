@@ -1,54 +1,11 @@
-// fringe_drift: online offset / gain tracker for drifting sin/cos signals.
+// fringe_drift: online offset / gain tracker for drifting sin/cos signals: a normaliser at
+// the front of the core and an observer of each sample's fine phase.
 //
-// Two sides in one block (contract in docs/drift.md, bit-exact model model/fringe/fixed/drift.py),
-// per channel k in {sin, cos}; state OFF_k s(ADC_W + OFS_FRAC) (ADC codes, OFS_FRAC fraction bits),
-// GINV_k u(GINV_W) (GINV_W - 2 fraction bits, unity 2^(GINV_W-2)); reset values 0 and unity.
-//
-// NORMALISER (raw ADC codes at the front of the core):
-//   y_k = ((raw_k * 2^OFS_FRAC - OFF_k) * GINV_k + 2^(OFS_FRAC + GINV_W - 3)) >>> (OFS_FRAC + GINV_W - 2),
-//   saturated to s(ADC_W); norm_sat = either channel saturated.
-// OBSERVER (each sample's fine phase from downstream with the same sample's normalised codes):
-//   FB = FINE_W - FWD_W; bin = phase >> FB; frac = phase mod 2^FB
-//   a_k = value + ((slope * frac + 2^(FB-1)) >>> FB), word {slope, value} s(TABLE_W) at {obs_bank, bin}
-//   e_k = y_k * 2^TABLE_FRAC - W0_k - a_k           (W0_k s(ADC_W + TABLE_FRAC), taken with the sample)
-//   block j = observer samples [jB, (j+1)B) since reset, B = 2^BLOCK_LOG2:
-//   SE_k = sum e_k; SEA_k = sum e_k * a_k; SWEEP = sum |wrap(phase[n] - phase[n-1])| (0 for the first
-//   sample after reset). At the end of the block, if SWEEP >= 2^FINE_W:
-//   OFF_k  + ((SE_k * 2^OFS_FRAC) >>> (BLOCK_LOG2 + TABLE_FRAC + MU_LOG2)) saturated to s(ADC_W + OFS_FRAC)
-//   GINV_k - ((SEA_k * KG_k + 2^(KG_SHIFT-1)) >>> KG_SHIFT) saturated to u(GINV_W)
-//   (KG_k: kg_* with the block's last observer sample), else the block is skipped.
-// APPLICATION: the normaliser counts its accepted samples since reset; block j's update applies from
-//   input sample (j+1)B + D on, D = B/2 (taken when that sample is accepted). track_sat: the update
-//   applied last saturated (held through skipped blocks, cleared by rst).
-// Requirement: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY <= D + 1 clock enables, PIPE_LATENCY being the
-//   clock enables from norm_valid/y_* to obs_valid/obs_* in the core (0: wired directly) -- checked.
-//
-// Widths (none can overflow): YW = ADC_W + TABLE_FRAC + 1 (y * 2^TABLE_FRAC - W0), AW = TABLE_W + 1 (a),
-// E_W = max(YW, AW) + 1 (e), EA_W = E_W + AW (e * a), SE_W = E_W + BLOCK_LOG2, SEA_W = EA_W + BLOCK_LOG2,
-// SWEEP FINE_W + BLOCK_LOG2 bits (unsigned), SEA * KG SEA_W + KG_W + 1 bits.
-//
-// NORM_LATENCY = 4 clock enables from in_valid to norm_valid:
-//   1 input registers (the state is taken at acceptance)   2 d = raw * 2^OFS_FRAC - OFF
-//   3 d * GINV                                              4 + 2^(OFS_FRAC+GINV_W-3) (the bit below the
-//                                                              shift as a carry), >>>, saturate: y, norm_sat
-// OBS_LATENCY = 15 clock enables from obs_valid of a block's last sample to the pending update:
-//   1 input registers, table read at {bank, bin}            2 table RAM output register; phase delta;
-//                                                              y * 2^TABLE_FRAC - W0
-//   3 slope * frac + 2^(FB-1); |delta|                      4 a = value + (product >>> FB)
-//   5 e = yw - a                                            6 e * a partial products (<= 18x18)
-//   7 e * a rows (one per 17-bit chunk of e)                8 e * a (rows summed)
-//   9 SE, SEA, SWEEP accumulated (last sample: snapshot, accumulators cleared)
-//   10 SEA * KG partial products (<= 18x18); OFF + step; SWEEP test
-//   11 SEA * KG rows; OFF saturated                         12, 13 rows summed: P = SEA * KG
-//   14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1]              15 GINV saturated: the pending update
-// One carry chain or one multiply (with its rounding constant) per stage (the e * a row sum adds three
-// rows when e has three chunks, ADC_W + TABLE_FRAC >= 34). ce = 0 freezes every register (and the RAM
-// reads); rst (synchronous, active high, wins over ce) clears the valid bits, the counters, the
-// accumulators, the pending update, track_sat and the state (OFF = 0, GINV = unity); never the data
-// registers.
-// Tables: two two-bank fringe_table_ram (2 x 2^FWD_W words each), written through wr_en / wr_sel
-// (0 sin, 1 cos) / wr_addr {bank, bin} / wr_data {slope, value} whatever ce is; write only the bank
-// no sample in flight reads.
+// NORM_LATENCY = 4 clock enables (in_valid to norm_valid); OBS_LATENCY = 15 (a
+// block's last observer sample to its pending update), one sample per clock; ce = 0 freezes
+// every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+// Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_drift.md.
+// Bit-exact model: model/fringe/fixed/drift.py.
 
 `default_nettype none
 
@@ -63,7 +20,7 @@ module fringe_drift #(
     parameter integer TABLE_W      = 18,   // forward table value and slope width, 8..24
     parameter integer TABLE_FRAC   = 2,    // fraction bits of the table values and of W0 (ADC codes), 0..12
     parameter integer KG_W         = 18,   // KG width (unsigned), 8..24
-    parameter integer KG_SHIFT     = 38,   // right shift of SEA * KG, 1..60
+    parameter integer KG_SHIFT     = 40,   // right shift of SEA * KG, 1..60
     parameter integer PIPE_LATENCY = 0,    // clock enables from the norm outputs to the obs inputs in the core, >= 0
     parameter         FWD_SIN_INIT = "",   // $readmemh image of the sine table, 2 banks x 2^FWD_W words; "" = zeros
     parameter         FWD_COS_INIT = "",   // $readmemh image of the cosine table, 2 banks x 2^FWD_W words; "" = zeros
@@ -106,8 +63,10 @@ module fringe_drift #(
     output reg                               track_sat   // the last applied update saturated
 );
 
-    localparam integer NORM_LATENCY = 4;
-    localparam integer OBS_LATENCY = 15;
+    `include "fringe_pkg.vh"
+
+    localparam integer NORM_LATENCY = DRIFT_NORM_LATENCY;
+    localparam integer OBS_LATENCY  = DRIFT_OBS_LATENCY;
     localparam integer D        = 1 << (BLOCK_LOG2 - 1);
     localparam integer FWD_MAX  = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
     localparam integer TOTAL    = NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY;
@@ -222,25 +181,10 @@ module fringe_drift #(
     end
 
     // ---- normaliser ------------------------------------------------------------------------------------
-    reg  [NORM_LATENCY-1:0]        nvalid;
-    reg  [NORM_LATENCY*USER_W-1:0] nuser;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            nvalid <= {NORM_LATENCY{1'b0}};
-        end else if (ce) begin
-            nvalid <= {nvalid[NORM_LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            nuser <= {nuser[(NORM_LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign norm_valid = nvalid[NORM_LATENCY-1];
-    assign norm_user  = nuser[NORM_LATENCY*USER_W-1:(NORM_LATENCY-1)*USER_W];
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(NORM_LATENCY)) u_norm_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(norm_valid), .out_data(norm_user)
+    );
 
     reg  signed [ADC_W-1:0] n1_s, n1_c;
     reg  signed [OW:0]      n2_s, n2_c;

@@ -1,44 +1,10 @@
 // fringe_long_period: the seed 000 harmonic (long-period) correction table with linear
 // interpolation, then the output direction and zero.
 //
-// Formats (docs/architecture.md, "fringe_long_period"); REV = LINES * 2^FINE_W fine counts per
-// revolution, POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 48), N = 2^LP_ADDR_W entries
-// per revolution (entry k at position k * REV / N):
-//   pos, zero  u(POS_W) in [0, REV)      dir: 1 = the output runs the other way
-//   t       = pos * LP_RECIP;  entry = t >> LP_SHIFT;  frac = (t >> (LP_SHIFT - LP_IF)) mod 2^LP_IF
-//             (LP_RECIP, LP_SHIFT from model/fringe/fixed/long_period.py index_mapping(): entry is
-//             exactly floor(pos * N / REV); elaboration checks the proof's bound; a power-of-two
-//             REV makes LP_RECIP a power of two, a shift)
-//   word    = {slope, value}, both s(LP_W), fine counts with LP_FRAC fraction bits, read from the
-//             two-bank fringe_table_ram at {bank, entry}; slope[k] = value[k+1] - value[k] with
-//             value[N] = value[0] (the revolution wraps)
-//   corr    = value + ((slope * frac + 2^(LP_IF-1)) >>> LP_IF)
-//   step    = (corr + 2^(LP_FRAC-1)) >>> LP_FRAC       (LP_FRAC = 0: step = corr)
-//   pos_c   = (pos - step) mod REV
-//   pos_out = dir ? (zero - pos_c) mod REV : (pos_c + zero) mod REV, u(POS_W) in [0, REV)
-// 2^(LP_W - LP_FRAC) <= REV bounds |step| by REV for any table contents, so one add or subtract
-// of REV wraps each result. Bit-exact model: model/fringe/fixed/long_period.py.
-//
-// The table is written through wr_en / wr_addr ({bank, entry}) / wr_data, passed to
-// fringe_table_ram whatever ce is; write only the bank no sample in flight reads.
-//
-// LATENCY = 8 clock enables (ce = 1 cycles) from in_valid to out_valid, one carry chain per stage:
-//   1 index product   2 table read   2b the RAM's output register
-//   3 slope x fraction, bare (a DSP registered on both sides); a slope wider than 16 bits is split,
-//     slope * frac = slope_hi * frac * 2^15 + slope_lo * frac (slope_lo unsigned), so each partial
-//     product fits a 16x16 DSP (iCE40); value + 2^(LP_FRAC-1)
-//     A signed slope (or slope_hi) is multiplied by fc = frac - 2^(LP_IF-1) = frac ^ 2^(LP_IF-1),
-//     an s(LP_IF) with a live sign bit (a zero-extended {1'b0, frac} has a constant sign bit, and
-//     Yosys's ice40_dsp then leaves that operand's register outside the SB_MAC16, whose multiply
-//     delay nextpnr-ice40 does not time); the difference, slope * 2^(LP_IF-1) (slope_hi * 2^(14+LP_IF)
-//     when split), goes into the base below. unsigned slope_lo * frac stays as it is.
-//   3b the partial products summed (else the product registered again);
-//     base = {value + 2^(LP_FRAC-1), 2^(LP_IF-1)} + that difference (one add)
-//   4 step = (base + product) >>> (LP_IF + LP_FRAC) (one add); pos, pos + REV, pos - REV
-//   5 pos - step and its wrapped alternatives in parallel, chosen by sign bits; zero -+ REV
-//   6 zero and direction, wrap
-// One sample per clock. ce = 0 freezes every register (and the table read); rst (synchronous,
-// active high, wins over ce) clears only the valid pipeline, never the data registers.
+// LATENCY = 8 clock enables, one sample per clock; ce = 0 freezes
+// every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+// Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_long_period.md.
+// Bit-exact model: model/fringe/fixed/long_period.py.
 
 `default_nettype none
 
@@ -74,38 +40,16 @@ module fringe_long_period #(
     output wire [USER_W-1:0]                 out_user
 );
 
-    localparam integer LATENCY = 8;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY = LONG_PERIOD_LATENCY;
     localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
     localparam [63:0]  LINES64 = LINES * 64'd1;
     localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^48 when legal
 
     // ---- parameter checks -------------------------------------------------------------------------
-    // 2-adic valuation of LINES (trailing zero bits), LINES in 1..2^20
-    function integer tz;
-        input integer v;
-        integer k;
-        begin
-            tz = 0;
-            for (k = 1; k <= 20; k = k + 1) begin
-                if (v % (1 << k) == 0) begin
-                    tz = k;
-                end
-            end
-        end
-    endfunction
-
-    // Granlund-Montgomery bound (see check_index_mapping in the model), on 256-bit constants:
-    // E = LP_RECIP * REV - 2^(LP_ADDR_W + LP_SHIFT) >= 0 and (REV - 1) * E < 2^(G + LP_SHIFT),
-    // 2^G = gcd(2^LP_ADDR_W, REV).
-    localparam integer   V2      = FINE_W + tz(LINES);
-    localparam integer   G_LOG   = (LP_ADDR_W < V2) ? LP_ADDR_W : V2;
-    localparam [255:0]   REV_X   = {192'd0, REV64};
-    localparam [255:0]   PROD_X  = {192'd0, LP_RECIP} * REV_X;
-    localparam [255:0]   POW_X   = 256'd1 << (LP_ADDR_W + LP_SHIFT);
-    localparam [255:0]   E_X     = PROD_X - POW_X;
-    localparam [255:0]   LHS_X   = (REV_X - 256'd1) * E_X;
-    localparam [255:0]   RHS_X   = 256'd1 << (G_LOG + LP_SHIFT);
-    localparam           MAP_OK  = (LP_RECIP != 64'd0) && (PROD_X >= POW_X) && (LHS_X < RHS_X);
+    // the index mapping is exact for every position (check_index_mapping in the model)
+    localparam           MAP_OK  = fringe_mapping_exact(LP_RECIP, LP_SHIFT, LP_ADDR_W, LINES, FINE_W);
 
     generate
         if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
@@ -162,26 +106,11 @@ module fringe_long_period #(
     localparam [T_W-1:0] RECIP_T = RECIP_X[T_W-1:0];   // T_W >= RECIP_W: no bit lost
     localparam [WW-1:0]  REV_W   = REV64[WW-1:0];
 
-    // ---- valid (reset) and sideband, LATENCY stages ----------------------------------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
     // ---- 1: index product ----------------------------------------------------------------------------
     wire [T_W-1:0] t = {{(T_W-POS_W){1'b0}}, pos} * RECIP_T;

@@ -1,36 +1,10 @@
 // fringe_period_count: coarse/fine combination (absolute position from a coarse code), or period
 // counting without one; overspeed and coarse-code checks.
 //
-// Formats (docs/architecture.md, "fringe_period_count"); REV = LINES * 2^FINE_W fine counts per
-// revolution, POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 48):
-//   phase       u(FINE_W)    fine phase, a fraction of a signal period
-//   coarse      u(COARSE_W)  coarse code, 2^COARSE_W codes per revolution (1 unused bit when COARSE_W = 0)
-//   coarse_ofs  s(POS_W+1)   calibrated middle of coarse code 0, fine counts; |coarse_ofs| <= 2^FINE_W;
-//                            a register the top holds stable, taken with each sample
-//   delta       s(FINE_W)    = phase - phase_prev modulo 2^FINE_W, phase_prev the previous valid sample's
-//   overspeed   |delta| >= 2^(FINE_W-2) (a quarter period); never on the first valid sample after reset
-//   COARSE_W > 0:
-//     centre    = ((coarse * LINES) << (FINE_W - COARSE_W)) + coarse_ofs
-//     d         = centre - phase;  n = (d + 2^(FINE_W-1)) >>> FINE_W;  r = d - n * 2^FINE_W
-//     coarse_err = |r| > COARSE_TOL = (LINES << (FINE_W-COARSE_W-2)) + 2^(FINE_W-2), the midpoint
-//                 between half a coarse code and half a period
-//     pos       = (n mod LINES) * 2^FINE_W + phase; |coarse_ofs| <= 2^FINE_W keeps n in [-2, LINES+1],
-//                 so one add or subtract of LINES wraps it (LINES = 1: n mod 1 = 0). Outside that
-//                 range pos is not defined (the model refuses it).
-//   COARSE_W = 0:
-//     pos       = (pos_prev + delta) mod REV, pos_prev the previous valid output; the first valid
-//                 sample after reset gives pos = phase. coarse_err = 0; coarse and coarse_ofs unused.
-//   pos u(POS_W) in [0, REV).
+// LATENCY = 3 clock enables, one sample per clock; ce = 0 freezes
+// every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+// Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_period_count.md.
 // Bit-exact model: model/fringe/fixed/period_count.py.
-//
-// LATENCY = 3 clock enables (ce = 1 cycles) from in_valid to out_valid, one carry chain per stage:
-//   1: delta, coarse centre   2: overspeed test; d + half (period number n and residual r), or the
-//   counter's delta with its two wrapped alternatives   3: |r| > tol, the wrap of n and the position,
-//   or the counter (three sums in parallel, chosen by sign bits)
-// One sample per clock. ce = 0 freezes every register. rst (synchronous, active high, wins over ce)
-// clears the valid pipeline and the "previous sample seen" state, so the next valid sample is the
-// first again; the data registers (phase_prev, the position) are never reset. The outputs update
-// on valid samples only.
 
 `default_nettype none
 
@@ -57,7 +31,9 @@ module fringe_period_count #(
     output wire [USER_W-1:0]                  out_user
 );
 
-    localparam integer LATENCY = 3;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY = PERIOD_COUNT_LATENCY;
     localparam integer POS_W   = FINE_W + $clog2(LINES);   // clog2(REV)
     localparam integer N_W     = POS_W - FINE_W;           // period number bits (0 when LINES = 1)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;
@@ -84,29 +60,21 @@ module fringe_period_count #(
         end
     endgenerate
 
-    // ---- valid (reset) and sideband, LATENCY stages ---------------------------------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
+    // ---- valid (the only reset registers) and sideband: stages 1-2, then stage 3 -------------------
+    wire              s2_valid;      // the sample in stage 2 (it reaches the output at the next clock enable)
+    wire [USER_W-1:0] s2_user;
 
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY - 1)) u_valid_12 (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(s2_valid), .out_data(s2_user)
+    );
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(1)) u_valid_3 (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(s2_valid), .in_data(s2_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
     wire take = ce & in_valid;       // stage 1 takes a sample
-    wire done = ce & valid_sr[1];    // stage 3 produces an output
+    wire done = ce & s2_valid;       // stage 3 produces an output
 
     // ---- stage 1: delta to the previous valid sample -------------------------------------------
     reg  [FINE_W-1:0] phase_prev;    // data: the previous valid sample's phase

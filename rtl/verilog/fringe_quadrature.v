@@ -1,25 +1,9 @@
 // fringe_quadrature: offset, gain and quadrature correction (seed 001 eq. 21, Heydemann form).
 //
-// Formats (docs/architecture.md, "fringe_quadrature"):
-//   xs, xc, ofs_s, ofs_c, s, c   s(WAVE_W) with WAVE_FRAC = WAVE_W - 2 fractional bits
-//   k_ss, k_sc, k_cc             s(COEF_W) with COEF_FRAC = COEF_W - 2 fractional bits
-//   s = sat((k_ss*(xs-ofs_s) + k_sc*(xc-ofs_c) + 2^(COEF_FRAC-1)) >>> COEF_FRAC)
-//   c = sat((k_cc*(xc-ofs_c) + 2^(COEF_FRAC-1)) >>> COEF_FRAC)
-//   sat(v) clamps v to s(WAVE_W); flag `sat` when s or c was clamped.
-// The differences are exact (s(WAVE_W+1)), the products and the sum are exact, the only
-// rounding is the final shift (round half up). Bit-exact model: model/fringe/fixed/quadrature.py.
-//
-// The coefficient inputs are sampled in the same clock as xs/xc (they travel with the sample),
-// so the top may switch the coefficient bank between any two samples.
-//
-// LATENCY = 5 clock enables (ce = 1 cycles) from in_valid to out_valid:
-//   1: differences, coefficients registered   2: products, bare (a DSP registered on both sides);
-//   a difference wider than 18 bits is split, k * d = k * d_hi * 2^17 + k * d_lo (d_lo unsigned),
-//   and the two partial products are registered   3: products assembled, the rounding constant
-//   2^(COEF_FRAC-1) added to k_ss and k_cc's (concatenated below the high partial product when it
-//   fits there)   4: the sine sum   5: shift and saturate
-// ce = 0 freezes every register; rst (synchronous, active high, wins over ce) clears only the
-// valid pipeline, never the data registers.
+// LATENCY = 5 clock enables, one sample per clock; ce = 0 freezes
+// every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+// Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_quadrature.md.
+// Bit-exact model: model/fringe/fixed/quadrature.py.
 
 `default_nettype none
 
@@ -50,7 +34,9 @@ module fringe_quadrature #(
     output wire [USER_W-1:0] out_user
 );
 
-    localparam integer LATENCY   = 5;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY   = QUADRATURE_LATENCY;
     localparam integer COEF_FRAC = COEF_W - 2;
     localparam integer D_W       = WAVE_W + 1;       // x - ofs, exact
     localparam integer P_W       = COEF_W + D_W;     // k * (x - ofs), exact
@@ -181,26 +167,11 @@ module fringe_quadrature #(
         end
     end
 
-    // ---- valid (the only reset registers) and sideband, LATENCY stages ----------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
     // The low COEF_FRAC bits of the sums are the fraction dropped by the shift.
     wire unused_ok = &{1'b0, sum_s3[COEF_FRAC-1:0], sum_c3[COEF_FRAC-1:0]};

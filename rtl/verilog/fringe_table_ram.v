@@ -1,21 +1,8 @@
 // fringe_table_ram: two-bank table RAM, one write port, one registered read port.
 //
-// Simple dual-port RAM of 2 * 2^ADDR_W words of DATA_W bits, one clock. The address MSB
-// selects the bank: software writes the inactive bank through the write port while samples
-// read the active one; the top flips the bank between samples, so a sample never sees a mix
-// of old and new tables.
-//
-// Read:  rd_data <= mem[rd_addr] when rd_en (tie rd_en to the pipeline's ce). LATENCY = 1.
-// Write: mem[wr_addr] <= wr_data when wr_en (independent of rd_en).
-// A read of the word written in the same clock returns the old word in simulation; real
-// block RAMs differ by device, so callers never read the bank they write.
-//
-// Written for block-RAM inference (Yosys iCE40 / ECP5): no reset on the array or on the read
-// register, no byte enables. Initial contents: INIT_FILE, a $readmemh file of 2 * 2^ADDR_W
-// words (bank 0 then bank 1, one hex word per line, `//` comments allowed; give every word:
-// the HDLs differ on missing ones), or all zeros when INIT_FILE is "".
-//
-// No rst/ce ports: the RAM holds no valid state; rd_en plays the role of ce.
+// LATENCY = 1 clock (rd_en); no rst/ce ports (rd_en plays the role of ce).
+// Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_table_ram.md.
+// Bit-exact model: model/fringe/fixed/table_ram.py (the image format).
 
 `default_nettype none
 

@@ -1,48 +1,11 @@
-// fringe_trim: closed-loop angle trim. An error map over (direction, sector of the revolution,
-// fine phase) and two fine-phase-dependent gains, on the speed and on the signal magnitude,
-// give a correction that is subtracted from the position.
+// fringe_trim: closed-loop angle trim: an error map over (direction, sector of the revolution,
+// fine phase) and two fine-phase-dependent gains (speed, magnitude) give a correction
+// subtracted from the position.
 //
-// Formats (docs/trim.md); REV = LINES * 2^FINE_W fine counts per revolution, POS_W = clog2(REV) =
-// FINE_W + clog2(LINES) (at most 31), N = 2^SPEED_LOG2, FB = FINE_W - MAP_PHI_W (>= 1):
-//   pos     u(POS_W) in [0, REV);  mag u(AMP_W)
-//   phase   = pos mod 2^FINE_W;  bin = phase >> FB;  frac = phase mod 2^FB
-//   sector  = (pos * SECT_RECIP) >> SECT_SHIFT = floor(pos * 2^MAP_PSI_W / REV) (0 when MAP_PSI_W = 0;
-//             SECT_RECIP, SECT_SHIFT from model/fringe/fixed/trim.py sector_mapping(), checked here)
-//   speed   = wrap(pos - the pos of the sample N accepted samples earlier), 0 until N samples came
-//             since reset; wrap: d in (-REV, REV), 2d >= REV: d - REV, 2d < -REV: d + REV, so speed
-//             is in [-REV/2, REV/2), s(POS_W);  dir = speed < 0 (1 = moving backwards)
-//   words   {slope, value}, both s(TRIM_W), value in the low half; slope[k] = value[k+1] - value[k]
-//             along the bins, periodic (the last bin of a row takes value[0] of the same row)
-//   m       = value + ((slope * frac + 2^(FB-1)) >>> FB), map word at {bank, dir, sector, bin}
-//   gs, ga  = the same interpolation of the speed table and the amp table at {bank, bin}, s(TRIM_W+1)
-//   total   = m + ((speed * gs + mag * ga + 2^(G_SHIFT-1)) >>> G_SHIFT)    (TRIM_FRAC fraction bits)
-//   corr    = (total + 2^(TRIM_FRAC-1)) >>> TRIM_FRAC (TRIM_FRAC = 0: total), clipped to
-//             [-2^(FINE_W-1), 2^(FINE_W-1) - 1]; sat = it was clipped
-//   pos_out = (pos - corr) mod REV  (|corr| <= REV/2: one compare and correct, chosen by corr's sign)
-// Any table word is legal: every width below holds the extremes. Bit-exact model:
-// model/fringe/fixed/trim.py.
-//
-// The speed history is a 2N-word RAM written at wp and read at wp ^ N (the sample N earlier) on
-// every accepted sample (ce & in_valid & !rst); rst clears only the fill counter (and valid).
-// Tables: three two-bank fringe_table_ram (map 2 x 2^(1+MAP_PSI_W+MAP_PHI_W) words, speed and amp
-// 2 x 2^MAP_PHI_W words), written through wr_en / wr_sel (0 map, 1 speed, 2 amp, 3 none) /
-// wr_addr ({bank, word}; the small tables use the low MAP_PHI_W bits and ignore words beyond) /
-// wr_data whatever ce is; write only the bank no sample in flight reads.
-//
-// LATENCY = 12 clock enables (ce = 1 cycles) from in_valid to out_valid:
-//   1 input registers; history RAM read (and write)     2 history RAM output register; sector product
-//   3 pos - old; gain table reads                        4 speed wrapped, dir; gain RAM output registers
-//   5 map read at {bank, dir, sector, bin}; gain slope x frac (bare)
-//   6 map RAM output register; gs, ga (rounding bit as carry in)
-//   7 map slope x frac (bare); partial products of speed x gs and mag x ga (bare; an operand wider
-//     than 18 bits split into a signed high part and an unsigned 17-bit low part: <= 18x18 each)
-//   8 m (+ 2^(TRIM_FRAC-1)); partial products summed in pairs (bit-field joins where they do not overlap)
-//   9 the pairs summed, m * 2^G_SHIFT + 2^(G_SHIFT-1) joined
-//   10 A = (total + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + r, 0 <= r < 2^G_SHIFT
-//   11 clip to corr, sat; pos -+ REV                     12 pos - corr, wrapped: pos_out, dir, sat
-// One carry chain or one bare multiply (register -> a*b -> register) per stage. One sample per clock.
-// ce = 0 freezes every register (and the RAM reads); rst (synchronous, active high, wins over ce)
-// clears only the valid pipeline and the history fill counter, never the data registers.
+// LATENCY = 12 clock enables, one sample per clock; ce = 0 freezes
+// every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+// Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_trim.md.
+// Bit-exact model: model/fringe/fixed/trim.py.
 
 `default_nettype none
 
@@ -85,38 +48,16 @@ module fringe_trim #(
     output wire [USER_W-1:0]                     out_user
 );
 
-    localparam integer LATENCY = 12;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY = TRIM_LATENCY;
     localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
     localparam [63:0]  LINES64 = LINES * 64'd1;
     localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^31 when legal
 
     // ---- parameter checks -------------------------------------------------------------------------
-    // 2-adic valuation of LINES (trailing zero bits), LINES in 1..2^20
-    function integer tz;
-        input integer v;
-        integer k;
-        begin
-            tz = 0;
-            for (k = 1; k <= 20; k = k + 1) begin
-                if (v % (1 << k) == 0) begin
-                    tz = k;
-                end
-            end
-        end
-    endfunction
-
-    // Granlund-Montgomery bound (check_sector_mapping in the model), on 256-bit constants:
-    // E = SECT_RECIP * REV - 2^(MAP_PSI_W + SECT_SHIFT) >= 0 and (REV - 1) * E < 2^(G + SECT_SHIFT),
-    // 2^G = gcd(2^MAP_PSI_W, REV).
-    localparam integer   V2      = FINE_W + tz(LINES);
-    localparam integer   G_LOG   = (MAP_PSI_W < V2) ? MAP_PSI_W : V2;
-    localparam [255:0]   REV_X   = {192'd0, REV64};
-    localparam [255:0]   PROD_X  = {192'd0, SECT_RECIP} * REV_X;
-    localparam [255:0]   POW_X   = 256'd1 << (MAP_PSI_W + SECT_SHIFT);
-    localparam [255:0]   E_X     = PROD_X - POW_X;
-    localparam [255:0]   LHS_X   = (REV_X - 256'd1) * E_X;
-    localparam [255:0]   RHS_X   = 256'd1 << (G_LOG + SECT_SHIFT);
-    localparam           MAP_OK  = (SECT_RECIP != 64'd0) && (PROD_X >= POW_X) && (LHS_X < RHS_X);
+    // the index mapping is exact for every position (check_sector_mapping in the model)
+    localparam           MAP_OK  = fringe_mapping_exact(SECT_RECIP, SECT_SHIFT, MAP_PSI_W, LINES, FINE_W);
     localparam integer   PHI_MAX = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
 
     generate
@@ -191,26 +132,11 @@ module fringe_trim #(
     localparam [WW-1:0]  REV_W   = REV64[WW-1:0];
     localparam [SPEED_LOG2:0] N_HA = N[SPEED_LOG2:0];         // N as a history address (bit SPEED_LOG2)
 
-    // ---- valid (reset) and sideband, LATENCY stages ----------------------------------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
     // ---- speed history: 2N words, written at wp, read at wp ^ N (N accepted samples earlier) ------
     wire accept = ce & in_valid & ~rst;

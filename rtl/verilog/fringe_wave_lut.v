@@ -1,29 +1,9 @@
 // fringe_wave_lut: waveform inverse of one channel as an interpolated table (seed 001).
 //
-// Formats (docs/architecture.md, "fringe_wave_lut"):
-//   adc    s(ADC_W)  ADC code
-//   index  u = adc + 2^(ADC_W-1), FB = ADC_W - WAVE_ADDR_W, addr = u >> FB, frac = u mod 2^FB
-//   table  word {slope, value}, both s(WAVE_W), value in [WAVE_W-1:0], slope in [2*WAVE_W-1:WAVE_W],
-//          read at {bank, branch, addr}; slope[k] = value[k+1] - value[k]
-//   x      s(WAVE_W) with WAVE_FRAC = WAVE_W - 2 fractional bits:
-//          x = value + ((slope * frac + 2^(FB-1)) >>> FB)
-//          (lies between two table values, so it cannot overflow for a range-checked table)
-//   clip   adc is the most negative or the most positive code
+// LATENCY = 4 clock enables, one sample per clock; ce = 0 freezes
+// every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+// Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_wave_lut.md.
 // Bit-exact model: model/fringe/fixed/wave_lut.py.
-//
-// LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
-//   1: table RAM read (fringe_table_ram, registered)   2: the RAM's output register
-//   3: slope * (frac - 2^(FB-1)) (the bare product: a DSP registered on both sides, both operands
-//      genuinely signed, see below); in parallel base = {value, 2^(FB-1)} + slope * 2^(FB-1) (one add)
-//   4: (base + product) >>> FB (one add)
-// The multiplier's fraction operand is fc = frac - 2^(FB-1) = frac ^ 2^(FB-1), an s(FB) with a
-// live sign bit: slope * frac = slope * fc + slope * 2^(FB-1), exactly. (A zero-extended signed
-// {1'b0, frac} has a constant sign bit; Yosys's ice40_dsp then leaves that operand's register
-// outside the SB_MAC16, whose multiply delay nextpnr-ice40 does not time.)
-// ce = 0 freezes every register (including the RAM read); rst (synchronous, active high,
-// wins over ce) clears only the valid pipeline, never the data registers. The table write port
-// is independent of ce: write the bank that no sample in flight carries, then switch `bank`;
-// each sample reads the bank it carries, at the clock enable that accepts it.
 
 `default_nettype none
 
@@ -54,7 +34,9 @@ module fringe_wave_lut #(
     output wire [USER_W-1:0]         out_user
 );
 
-    localparam integer LATENCY = 4;
+    `include "fringe_pkg.vh"
+
+    localparam integer LATENCY = WAVE_LUT_LATENCY;
     localparam integer FB      = ADC_W - WAVE_ADDR_W;  // fraction bits of the index, >= 1
     localparam integer PROD_W  = WAVE_W + FB;           // s(WAVE_W) * s(FB)
     localparam [FB:0]   RND_X = {1'b1, {FB{1'b0}}} >> 1;
@@ -146,26 +128,11 @@ module fringe_wave_lut #(
         end
     end
 
-    // ---- valid (the only reset registers) and sideband, LATENCY stages ----------------------
-    reg [LATENCY-1:0]        valid_sr;
-    reg [LATENCY*USER_W-1:0] user_sr;
-
-    always @(posedge clk) begin
-        if (rst) begin
-            valid_sr <= {LATENCY{1'b0}};
-        end else if (ce) begin
-            valid_sr <= {valid_sr[LATENCY-2:0], in_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            user_sr <= {user_sr[(LATENCY-1)*USER_W-1:0], in_user};
-        end
-    end
-
-    assign out_valid = valid_sr[LATENCY-1];
-    assign out_user  = user_sr[LATENCY*USER_W-1:(LATENCY-1)*USER_W];
+    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(out_valid), .out_data(out_user)
+    );
 
     // The sum's low bits are rounded off.
     wire unused_ok = &{1'b0, sum2[FB-1:0]};

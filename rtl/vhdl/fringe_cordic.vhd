@@ -1,30 +1,15 @@
 -- fringe_cordic: phase (arctan) and magnitude of the corrected vector, vectoring CORDIC.
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_cordic.v (same generics, ports and behaviour).
--- Formats (docs/architecture.md, "fringe_cordic"), N = ACC_W = FINE_W + GUARD:
---   x, y   s(IN_W)     x = cosine (c), y = sine (s) of the quadrature stage
---   pre    if x < 0: x, y = -x, -y and z = 2^(N-1) (half a turn), else z = 0;
---          x, y scaled by 2^GUARD into s(DP_W), DP_W = IN_W + 2 + GUARD
---          (1 bit for -(most negative), 1 bit for the CORDIC gain 1.647)
---   stage  i = 0..STAGES-1: if y >= 0: x, y, z = x + (y >>> i), y - (x >>> i), z + ATAN(i)
---                           else:      x, y, z = x - (y >>> i), y + (x >>> i), z - ATAN(i)
---          z is u(N) modulo 2^N (one turn); ATAN(i) = round(atan(2^-i) / (2 pi) * 2^N),
---          = (ATAN62(i) + 2^(61-N)) >> (62-N) from the shared 62-bit table
---   phase  u(FINE_W) = ((z + 2^(GUARD-1)) >>> GUARD) mod 2^FINE_W, fraction of a period
---   mag    u(IN_W+1) = (x + 2^(GUARD-1)) >>> GUARD, magnitude times the CORDIC gain
---          (no rounding term when GUARD = 0)
---   x = y = 0 gives mag = 0 and phase = round(sum ATAN) (about 0.2775 turn): meaningless, the
---   top flags it through the magnitude threshold.
--- Bit-exact model: model/fringe/fixed/cordic.py (error budget: error_budget()).
---
--- LATENCY = STAGES + 2 clock enables (ce = 1 cycles) from in_valid to out_valid:
---   1: pre-rotation   2..STAGES+1: micro-rotations 0..STAGES-1   STAGES+2: output rounding
--- One sample per clock. ce = 0 freezes every register; rst (synchronous, active high, wins over
--- ce) clears only the valid pipeline, never the data registers.
+-- LATENCY = STAGES + 2 clock enables, one sample per clock; ce = 0 freezes
+-- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_cordic.md.
+-- Bit-exact model: model/fringe/fixed/cordic.py.
 
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
+use work.fringe_pkg.all;
 
 entity fringe_cordic is
     generic (
@@ -75,7 +60,7 @@ architecture rtl of fringe_cordic is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := STAGES + 2;
+    constant LATENCY : integer := STAGES + CORDIC_LATENCY_BASE;
     constant ACC_W   : integer := FINE_W + GUARD;     -- angle accumulator, one turn = 2^ACC_W
     constant DP_W    : integer := IN_W + 2 + GUARD;   -- x/y datapath
 
@@ -133,24 +118,12 @@ architecture rtl of fringe_cordic is
     end function atan_table;
     constant ATAN : acc_arr_t(0 to STAGES - 1) := atan_table;
 
-    -- 2^(GUARD-1) in a W-bit word, 0 when GUARD = 0 (no rounding).
-    function round_term(w : integer) return unsigned is
-    begin
-        if GUARD = 0 then
-            return to_unsigned(0, w);
-        end if;
-        return shift_left(to_unsigned(1, w), GUARD - 1);
-    end function round_term;
-
     -- Index k: the values after k micro-rotations (k = 0: pre-rotated). y after the last
     -- micro-rotation is not needed.
     signal x_p : dp_arr_t(0 to STAGES);
     signal y_p : dp_arr_t(0 to STAGES - 1);
     signal z_p : acc_arr_t(0 to STAGES);
 
-    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
-    signal valid_sr : std_logic_vector(1 to LATENCY);
-    signal user_sr  : user_sr_t;
 
 begin
 
@@ -192,8 +165,8 @@ begin
                 end loop;
 
                 -- stage STAGES+2: output rounding (x >= 0 here, below 1.17 * 2^(IN_W+GUARD))
-                x_rnd := x_p(STAGES) + signed(round_term(DP_W));
-                z_rnd := z_p(STAGES) + round_term(ACC_W);
+                x_rnd := x_p(STAGES) + round_half(DP_W, GUARD);
+                z_rnd := z_p(STAGES) + unsigned(round_half(ACC_W, GUARD));
                 phase <= std_logic_vector(z_rnd(ACC_W - 1 downto GUARD));
                 mag   <= std_logic_vector(x_rnd(IN_W + GUARD downto GUARD));
             end if;
@@ -201,27 +174,9 @@ begin
     end process p_data;
 
     -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
-    p_valid : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                valid_sr <= (others => '0');
-            elsif ce = '1' then
-                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_valid;
-
-    p_user : process (clk)
-    begin
-        if rising_edge(clk) then
-            if ce = '1' then
-                user_sr <= in_user & user_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_user;
-
-    out_valid <= valid_sr(LATENCY);
-    out_user  <= user_sr(LATENCY);
+    u_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => out_valid, out_data => out_user);
 
 end architecture rtl;

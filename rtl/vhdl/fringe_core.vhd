@@ -42,56 +42,58 @@
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
-use ieee.math_real.all;
-use std.textio.all;
+use work.fringe_pkg.all;
 
 entity fringe_core is
     generic (
-        ADC_W         : integer := 12;    -- ADC code width (signed), 4..24
-        LINES         : integer := 256;   -- signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
-        COARSE_W      : integer := 9;     -- coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
-        WAVE_ADDR_W   : integer := 8;     -- waveform table address bits per branch, 2..min(ADC_W-1, 15)
-        WAVE_W        : integer := 18;    -- waveform table / quadrature data width, 8..31
-        COEF_W        : integer := 18;    -- quadrature gain width (COEF_W-2 fraction bits), 8..27
-        FINE_W        : integer := 16;    -- fine phase bits per signal period, 8..30
-        CORDIC_STAGES : integer := 18;    -- CORDIC micro-rotations, 4..32
-        CORDIC_GUARD  : integer := 3;     -- extra fraction bits inside the CORDIC, 0..8
-        LP_ADDR_W     : integer := 8;     -- long-period table entries per revolution = 2^LP_ADDR_W, <= 16
-        LP_W          : integer := 18;    -- long-period table value/slope width, <= 32
-        LP_FRAC       : integer := 4;     -- fraction bits of the long-period correction (fine counts)
-        LP_IF         : integer := 8;     -- interpolation fraction bits of the long-period table
-        LP_RECIP      : natural := 1;     -- long-period index multiplier (index_mapping; < 2^31 in VHDL)
-        LP_SHIFT      : integer := 16;    -- long-period index shift (fringe.fixed.long_period.index_mapping)
-        -- fringe_trim (closed-loop corrections, docs/trim.md): built only with TRIM = 1
-        TRIM          : integer := 0;     -- 1 = fringe_trim between the period count and the long-period table
-        SPEED_LOG2    : integer := 5;     -- speed window 2^SPEED_LOG2 samples, 0..8
-        MAP_PSI_W     : integer := 6;     -- 2^MAP_PSI_W error-map sectors per revolution, 0..8
-        MAP_PHI_W     : integer := 5;     -- 2^MAP_PHI_W error-map bins per period; MAP_PSI_W + MAP_PHI_W <= 15
-        TRIM_W        : integer := 18;    -- trim table value/slope width, 8..24
-        TRIM_FRAC     : integer := 4;     -- fraction bits of the trim (fine counts), 0..16
-        G_SHIFT       : integer := 24;    -- right shift of the speed and magnitude products, 1..48
-        SECT_RECIP    : natural := 1;     -- sector multiplier (fringe.fixed.trim.sector_mapping; < 2^31 in VHDL)
-        SECT_SHIFT    : integer := 18;    -- sector shift (fringe.fixed.trim.sector_mapping)
-        -- fringe_drift (the closed loop's online offset/gain tracker, docs/drift.md): built only with DRIFT = 1
-        DRIFT            : integer := 0;  -- 1 = fringe_drift normalises the ADC codes in front of everything
-        DRIFT_BLOCK_LOG2 : integer := 8;  -- samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 here (see PIPE_D)
-        DRIFT_MU_LOG2    : integer := 1;  -- tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
-        DRIFT_OFS_FRAC   : integer := 4;  -- fraction bits of the tracked offsets, 0..8
-        DRIFT_GINV_W     : integer := 18; -- tracked inverse gains u(DRIFT_GINV_W), 8..24
-        DRIFT_FWD_W      : integer := 8;  -- 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
-        DRIFT_TABLE_W    : integer := 18; -- forward table value/slope width, 8..24
-        DRIFT_TABLE_FRAC : integer := 4;  -- fraction bits of the forward tables and W0_S/W0_C, 0..12
-        DRIFT_KG_W       : integer := 18; -- KG_S/KG_C width, 8..24
-        DRIFT_KG_SHIFT   : integer := 40; -- right shift of the gain-loop product, 1..60
-        REGS_INIT     : string  := "";    -- $readmemh image of the registers, 2 x 32 words of 32 bits
-        WAVE_SIN_INIT : string  := "";    -- $readmemh image of the sine table, both banks
-        WAVE_COS_INIT : string  := "";    -- $readmemh image of the cosine table, both banks
-        LP_INIT       : string  := "";    -- $readmemh image of the long-period table, both banks
-        MAP_INIT      : string  := "";    -- $readmemh image of the trim map, both banks (TRIM = 1)
-        SPEED_INIT    : string  := "";    -- $readmemh image of the trim speed table, both banks (TRIM = 1)
-        AMP_INIT      : string  := "";    -- $readmemh image of the trim magnitude table, both banks (TRIM = 1)
-        FWD_SIN_INIT  : string  := "";    -- $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
-        FWD_COS_INIT  : string  := ""     -- $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
+        -- BEGIN generated generics (written by python sim/hdlgen.py; do not edit)
+        ADC_W            : integer := 12;  -- ADC code width (signed), 4..24
+        LINES            : integer := 256; -- signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
+        COARSE_W         : integer := 9;   -- coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
+        WAVE_ADDR_W      : integer := 8;   -- waveform table address bits per branch, 2..min(ADC_W-1, 15)
+        WAVE_W           : integer := 18;  -- waveform table / quadrature data width, 8..31
+        COEF_W           : integer := 18;  -- quadrature gain width (COEF_W-2 fraction bits), 8..27
+        FINE_W           : integer := 16;  -- fine phase bits per signal period, 8..30
+        CORDIC_STAGES    : integer := 18;  -- CORDIC micro-rotations, 4..32
+        CORDIC_GUARD     : integer := 3;   -- extra fraction bits inside the CORDIC, 0..8
+        LP_ADDR_W        : integer := 8;   -- long-period table entries per revolution = 2^LP_ADDR_W, <= 16
+        LP_W             : integer := 18;  -- long-period table value/slope width, <= 32
+        LP_FRAC          : integer := 4;   -- fraction bits of the long-period correction (fine counts)
+        LP_IF            : integer := 8;   -- interpolation fraction bits of the long-period table
+        LP_RECIP         : natural := 1;   -- long-period index multiplier (long_period.index_mapping; < 2^31 in VHDL)
+        LP_SHIFT         : integer := 16;  -- long-period index shift (long_period.index_mapping)
+        -- fringe_trim (closed-loop corrections): built only with TRIM = 1
+        TRIM             : integer := 0;   -- 1 = fringe_trim between the period count and the long-period table (docs/blocks/fringe_trim.md)
+        SPEED_LOG2       : integer := 5;   -- speed window 2^SPEED_LOG2 samples, 0..8
+        MAP_PSI_W        : integer := 6;   -- 2^MAP_PSI_W error-map sectors per revolution, 0..8
+        MAP_PHI_W        : integer := 5;   -- 2^MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); MAP_PSI_W + MAP_PHI_W <= 15
+        TRIM_W           : integer := 18;  -- trim table value/slope width, 8..24
+        TRIM_FRAC        : integer := 4;   -- fraction bits of the trim (fine counts), 0..16
+        G_SHIFT          : integer := 24;  -- right shift of the speed and magnitude products, 1..48
+        SECT_RECIP       : natural := 1;   -- sector multiplier (trim.sector_mapping; < 2^31 in VHDL)
+        SECT_SHIFT       : integer := 18;  -- sector shift (trim.sector_mapping)
+        -- fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
+        DRIFT            : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
+        DRIFT_BLOCK_LOG2 : integer := 8;   -- samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)
+        DRIFT_MU_LOG2    : integer := 1;   -- tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
+        DRIFT_OFS_FRAC   : integer := 4;   -- fraction bits of the tracked offsets, 0..8
+        DRIFT_GINV_W     : integer := 18;  -- tracked inverse gains u(DRIFT_GINV_W), 8..24
+        DRIFT_FWD_W      : integer := 8;   -- 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
+        DRIFT_TABLE_W    : integer := 18;  -- forward table value/slope width, 8..24
+        DRIFT_TABLE_FRAC : integer := 4;   -- fraction bits of the forward tables and W0_S/W0_C, 0..12
+        DRIFT_KG_W       : integer := 18;  -- KG_S/KG_C width, 8..24
+        DRIFT_KG_SHIFT   : integer := 40;  -- right shift of the gain-loop product, 1..60
+        -- initial contents: $readmemh images, "" = zeros
+        REGS_INIT        : string  := "";  -- $readmemh image of the registers, 2 x 32 words of 32 bits
+        WAVE_SIN_INIT    : string  := "";  -- $readmemh image of the sine table, both banks
+        WAVE_COS_INIT    : string  := "";  -- $readmemh image of the cosine table, both banks
+        LP_INIT          : string  := "";  -- $readmemh image of the long-period table, both banks
+        MAP_INIT         : string  := "";  -- $readmemh image of the trim map, both banks (TRIM = 1)
+        SPEED_INIT       : string  := "";  -- $readmemh image of the trim speed table, both banks (TRIM = 1)
+        AMP_INIT         : string  := "";  -- $readmemh image of the trim magnitude table, both banks (TRIM = 1)
+        FWD_SIN_INIT     : string  := "";  -- $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
+        FWD_COS_INIT     : string  := ""   -- $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
+        -- END generated generics
     );
     port (
         clk         : in  std_logic;
@@ -105,7 +107,7 @@ entity fringe_core is
         -- sample out
         out_valid   : out std_logic;
         -- u(POS_W), POS_W = clog2(LINES * 2^FINE_W), fine counts, [0, LINES*2^FINE_W)
-        pos         : out std_logic_vector(integer(ceil(log2(real(LINES)))) + FINE_W - 1 downto 0);
+        pos         : out std_logic_vector(clog2(LINES) + FINE_W - 1 downto 0);
         status      : out std_logic_vector(7 downto 0);           -- status word, bit 7 = BANK
         -- configuration write port
         cfg_wr_en   : in  std_logic;
@@ -117,18 +119,8 @@ end entity fringe_core;
 
 architecture rtl of fringe_core is
 
-    function clog2(n : integer) return integer is
-        variable r : integer := 0;
-    begin
-        while 2 ** r < n loop
-            r := r + 1;
-        end loop;
-        return r;
-    end function clog2;
-
     constant POS_W : integer := clog2(LINES) + FINE_W;     -- clog2(LINES * 2^FINE_W)
     constant CW    : integer := maximum(COARSE_W, 1);      -- coarse port width
-    constant POS_PORT_W : integer := pos'length;           -- the port's width (from math_real log2)
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
@@ -147,8 +139,6 @@ architecture rtl of fringe_core is
         assert WAVE_W <= 31 and ADC_W <= 31
             report "fringe_core: WAVE_W = " & integer'image(WAVE_W) & ", ADC_W = " & integer'image(ADC_W)
                    & ": register fields must fit 32 bits" severity failure;
-        assert POS_PORT_W = POS_W
-            report "fringe_core: port width (real log2) differs from clog2(LINES) + FINE_W" severity failure;
         assert TRIM = 0 or TRIM = 1
             report "fringe_core: TRIM = " & integer'image(TRIM) & " must be 0 or 1" severity failure;
         assert TRIM = 0 or MAP_PSI_W + MAP_PHI_W <= 15
@@ -163,95 +153,16 @@ architecture rtl of fringe_core is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    function trim_latency return integer is
-    begin
-        if TRIM /= 0 then
-            return 12;
-        end if;
-        return 0;
-    end function trim_latency;
-    constant LAT_T   : integer := trim_latency;   -- fringe_trim (TRIM = 1)
-    function drift_latency return integer is
-    begin
-        if DRIFT /= 0 then
-            return 4;
-        end if;
-        return 0;
-    end function drift_latency;
-    constant LATENCY : integer := CORDIC_STAGES + 24 + LAT_T + drift_latency;
-    constant REG_W   : integer := 32;
+    constant LAT_T   : integer := TRIM * TRIM_LATENCY;   -- fringe_trim (TRIM = 1)
+    constant LATENCY : integer := core_latency(CORDIC_STAGES, TRIM, DRIFT);
     constant AMP_W   : integer := WAVE_W + 1;   -- CORDIC magnitude u(WAVE_W+1)
     constant BR_W    : integer := ADC_W + 1;    -- branch thresholds s(ADC_W+1)
 
-    -- register indices (model/fringe/fixed/regmap.py)
-    constant R_K_SS       : integer := 0;
-    constant R_K_SC       : integer := 1;
-    constant R_K_CC       : integer := 2;
-    constant R_OFS_S      : integer := 3;
-    constant R_OFS_C      : integer := 4;
-    constant R_MID_S      : integer := 5;
-    constant R_THR_HI_S   : integer := 6;
-    constant R_THR_LO_S   : integer := 7;
-    constant R_MID_C      : integer := 8;
-    constant R_THR_HI_C   : integer := 9;
-    constant R_THR_LO_C   : integer := 10;
-    constant R_COARSE_OFS : integer := 11;
-    constant R_ZERO       : integer := 12;
-    constant R_DIR        : integer := 13;
-    constant R_AMP_LOW    : integer := 14;
-    constant R_AMP_HIGH   : integer := 15;
-    constant R_W0_S       : integer := 16;
-    constant R_W0_C       : integer := 17;
-    constant R_KG_S       : integer := 18;
-    constant R_KG_C       : integer := 19;
-    constant CTRL_WORD    : integer := 16#80#;
+    -- register indices REG_*, CTRL_WORD: fringe_pkg (generated from model/fringe/fixed/regmap.py)
 
-    type regs_t is array (0 to 63) of std_logic_vector(REG_W - 1 downto 0);
+    subtype regs_t is word_array(0 to 2 * N_REGS - 1)(REG_W - 1 downto 0);   -- bank 0, then bank 1
 
-    -- Reads a $readmemh image (as fringe_table_ram): one word per line, "//" comment lines and
-    -- empty lines skipped; all zeros when the name is "".
-    impure function init_regs(fname : string) return regs_t is
-        file     f    : text;
-        variable l    : line;
-        variable m    : regs_t := (others => (others => '0'));
-        variable w    : std_logic_vector(REG_W - 1 downto 0);
-        variable good : boolean;
-        variable n    : integer := 0;
-        variable ch   : character;
-        variable stat : file_open_status;
-    begin
-        if fname'length = 0 then
-            return m;
-        end if;
-        file_open(stat, f, fname, read_mode);
-        assert stat = open_ok
-            report "fringe_core: cannot open REGS_INIT """ & fname & """" severity failure;
-        while not endfile(f) and n < 64 loop
-            readline(f, l);
-            while l'length > 0 loop
-                exit when l(l'left) /= ' ' and l(l'left) /= HT;
-                read(l, ch);
-            end loop;
-            if l'length = 0 then
-                next;
-            end if;
-            if l'length >= 2 then
-                if l(l'left to l'left + 1) = "//" then
-                    next;
-                end if;
-            end if;
-            hread(l, w, good);
-            assert good
-                report "fringe_core: REGS_INIT """ & fname & """ word " & integer'image(n)
-                       & " is not a hex number of 8 digits" severity failure;
-            m(n) := w;
-            n    := n + 1;
-        end loop;
-        file_close(f);
-        return m;
-    end function init_regs;
-
-    signal regs   : regs_t := init_regs(REGS_INIT);
+    signal regs   : regs_t := read_memh(REGS_INIT, 2 * N_REGS, REG_W, "fringe_core: REGS_INIT");
     signal bank_r : std_logic := '0';
 
     -- field `lo`..`lo+w-1` of register `idx` of bank `b`
@@ -265,6 +176,10 @@ architecture rtl of fringe_core is
 
     -- configuration decode; the writes registered (one-hot register enables {bank, index})
     signal cfg_sel      : std_logic_vector(3 downto 0);
+    -- the spaces of st1_sel's bits: sine, cosine, long period, trim map, speed, magnitude, drift sine, cosine
+    constant SEL_SPACES : integer_vector(0 to 7) := (SPACE_WAVE_SIN, SPACE_WAVE_COS, SPACE_LONG_PERIOD, SPACE_TRIM_MAP,
+                                                     SPACE_TRIM_SPEED, SPACE_TRIM_AMP, SPACE_DRIFT_FWD_SIN,
+                                                     SPACE_DRIFT_FWD_COS);
     signal cfg_word     : unsigned(15 downto 0);
     signal wr_bank      : std_logic;
     -- power-up values: no write lands before the first one issued (as bank_r, not reset)
@@ -297,7 +212,8 @@ architecture rtl of fringe_core is
     -- the drift normaliser (DRIFT = 1) or the raw codes; dx = {y_sin, y_cos, norm_sat, clip_c, clip_s}
     -- travels with the sample to the CORDIC output (the tracker's observer), CLIP_* of the raw codes
     constant DX_W   : integer := 2 * ADC_W + 3;
-    constant PIPE_D : integer := 2 + 4 + 5 + CORDIC_STAGES + 2;   -- normaliser outputs -> CORDIC outputs
+    constant PIPE_D : integer := CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + CORDIC_STAGES
+                                 + CORDIC_LATENCY_BASE;   -- normaliser outputs -> CORDIC outputs
     signal raw_clip_s, raw_clip_c : std_logic;
     signal n_valid      : std_logic;
     signal n_sin, n_cos : std_logic_vector(ADC_W - 1 downto 0);
@@ -322,10 +238,10 @@ architecture rtl of fringe_core is
     -- after N clock enables sees the sample's bank in bank_d(N-1); one clock enable ahead it is in
     -- bank_d(N-2), which selects the registers it takes with the sample. The latencies must equal
     -- the blocks' LATENCY constants.
-    constant LAT_WL : integer := 4;                      -- fringe_wave_lut
-    constant LAT_Q  : integer := 5;                      -- fringe_quadrature
-    constant LAT_C  : integer := CORDIC_STAGES + 2;      -- fringe_cordic
-    constant LAT_P  : integer := 3;                      -- fringe_period_count
+    constant LAT_WL : integer := WAVE_LUT_LATENCY;
+    constant LAT_Q  : integer := QUADRATURE_LATENCY;
+    constant LAT_C  : integer := CORDIC_STAGES + CORDIC_LATENCY_BASE;
+    constant LAT_P  : integer := PERIOD_COUNT_LATENCY;
     constant TAP_Q  : integer := LAT_WL - 2;             -- quadrature coefficients
     constant TAP_C  : integer := LAT_WL + LAT_Q + LAT_C - 2;          -- magnitude thresholds, COARSE_OFS
     constant TAP_P  : integer := LAT_WL + LAT_Q + LAT_C + LAT_P + LAT_T - 2;  -- ZERO, DIR
@@ -409,11 +325,15 @@ begin
         end function b;
     begin
         if rising_edge(clk) then
-            st1_en_reg    <= b(cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word(15 downto 5) = 0);
-            st1_en_ctrl_a <= b(cfg_wr_en = '1' and cfg_sel = "0000" and cfg_word(15 downto 8) = 0);
-            st1_en_ctrl_b <= b(cfg_word(7 downto 0) = to_unsigned(CTRL_WORD mod 256, 8) and cfg_wr_data(0) = '1');
+            st1_en_reg    <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SPACE_REGS
+                               and cfg_word(15 downto 5) = 0);
+            st1_en_ctrl_a <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SPACE_REGS
+                               and cfg_word(15 downto 8) = 0);
+            -- (the package's CTRL_SWAP by its full name: the signal ctrl_swap hides it)
+            st1_en_ctrl_b <= b(cfg_word(7 downto 0) = to_unsigned(CTRL_WORD mod 256, 8)
+                               and cfg_wr_data(work.fringe_pkg.CTRL_SWAP) = '1');
             for k in 0 to 7 loop
-                st1_sel(k) <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = k + 1);
+                st1_sel(k) <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SEL_SPACES(k));
             end loop;
             st1_wave_ok <= b(shift_right(cfg_word, WAVE_ADDR_W + 1) = 0);
             st1_lp_ok   <= b(shift_right(cfg_word, LP_ADDR_W) = 0);
@@ -512,10 +432,10 @@ begin
                 obs_valid => c_valid, obs_phase => phase,
                 obs_y_sin => c_dx(DX_W - 1 downto ADC_W + 3), obs_y_cos => c_dx(ADC_W + 2 downto 3),
                 obs_bank => c_bank_d,
-                w0_sin => reg_field(regs, c_bank_d, R_W0_S, ADC_W + DRIFT_TABLE_FRAC),
-                w0_cos => reg_field(regs, c_bank_d, R_W0_C, ADC_W + DRIFT_TABLE_FRAC),
-                kg_sin => reg_field(regs, c_bank_d, R_KG_S, DRIFT_KG_W),
-                kg_cos => reg_field(regs, c_bank_d, R_KG_C, DRIFT_KG_W),
+                w0_sin => reg_field(regs, c_bank_d, REG_W0_S, ADC_W + DRIFT_TABLE_FRAC),
+                w0_cos => reg_field(regs, c_bank_d, REG_W0_C, ADC_W + DRIFT_TABLE_FRAC),
+                kg_sin => reg_field(regs, c_bank_d, REG_KG_S, DRIFT_KG_W),
+                kg_cos => reg_field(regs, c_bank_d, REG_KG_C, DRIFT_KG_W),
                 wr_en => wr_fwd, wr_sel => wr_fwd_sel, wr_addr => d_wr_addr,
                 wr_data => wr_data(2 * DRIFT_TABLE_W - 1 downto 0),
                 off_sin => off_s, off_cos => off_c, ginv_sin => ginv_s, ginv_cos => ginv_c, track_sat => track_sat
@@ -560,12 +480,12 @@ begin
                 coarse0 <= n_coarse;
                 bank0   <= n_bank;
                 flags0  <= n_sat & n_clip_c & n_clip_s;
-                mid_s   <= signed(reg_field(regs, n_bank, R_MID_S, BR_W));
-                hi_s    <= signed(reg_field(regs, n_bank, R_THR_HI_S, BR_W));
-                lo_s    <= signed(reg_field(regs, n_bank, R_THR_LO_S, BR_W));
-                mid_c   <= signed(reg_field(regs, n_bank, R_MID_C, BR_W));
-                hi_c    <= signed(reg_field(regs, n_bank, R_THR_HI_C, BR_W));
-                lo_c    <= signed(reg_field(regs, n_bank, R_THR_LO_C, BR_W));
+                mid_s   <= signed(reg_field(regs, n_bank, REG_MID_S, BR_W));
+                hi_s    <= signed(reg_field(regs, n_bank, REG_THR_HI_S, BR_W));
+                lo_s    <= signed(reg_field(regs, n_bank, REG_THR_LO_S, BR_W));
+                mid_c   <= signed(reg_field(regs, n_bank, REG_MID_C, BR_W));
+                hi_c    <= signed(reg_field(regs, n_bank, REG_THR_HI_C, BR_W));
+                lo_c    <= signed(reg_field(regs, n_bank, REG_THR_LO_C, BR_W));
             end if;
         end if;
     end process p_stage1;
@@ -613,16 +533,16 @@ begin
         if rising_edge(clk) then
             if ce = '1' then
                 bank_d <= bank_d(TAP_P - 1 downto 0) & bank1;
-                ofs_s_r      <= reg_field(regs, bank_d(TAP_Q), R_OFS_S, WAVE_W);
-                ofs_c_r      <= reg_field(regs, bank_d(TAP_Q), R_OFS_C, WAVE_W);
-                k_ss_r       <= reg_field(regs, bank_d(TAP_Q), R_K_SS, COEF_W);
-                k_sc_r       <= reg_field(regs, bank_d(TAP_Q), R_K_SC, COEF_W);
-                k_cc_r       <= reg_field(regs, bank_d(TAP_Q), R_K_CC, COEF_W);
-                amp_low      <= reg_field(regs, bank_d(TAP_C), R_AMP_LOW, AMP_W);
-                amp_high     <= reg_field(regs, bank_d(TAP_C), R_AMP_HIGH, AMP_W);
-                coarse_ofs_r <= reg_field(regs, bank_d(TAP_C), R_COARSE_OFS, POS_W + 1);
-                p_zero       <= reg_field(regs, bank_d(TAP_P), R_ZERO, POS_W);
-                p_dir        <= reg_field(regs, bank_d(TAP_P), R_DIR, 1);
+                ofs_s_r      <= reg_field(regs, bank_d(TAP_Q), REG_OFS_S, WAVE_W);
+                ofs_c_r      <= reg_field(regs, bank_d(TAP_Q), REG_OFS_C, WAVE_W);
+                k_ss_r       <= reg_field(regs, bank_d(TAP_Q), REG_K_SS, COEF_W);
+                k_sc_r       <= reg_field(regs, bank_d(TAP_Q), REG_K_SC, COEF_W);
+                k_cc_r       <= reg_field(regs, bank_d(TAP_Q), REG_K_CC, COEF_W);
+                amp_low      <= reg_field(regs, bank_d(TAP_C), REG_AMP_LOW, AMP_W);
+                amp_high     <= reg_field(regs, bank_d(TAP_C), REG_AMP_HIGH, AMP_W);
+                coarse_ofs_r <= reg_field(regs, bank_d(TAP_C), REG_COARSE_OFS, POS_W + 1);
+                p_zero       <= reg_field(regs, bank_d(TAP_P), REG_ZERO, POS_W);
+                p_dir        <= reg_field(regs, bank_d(TAP_P), REG_DIR, 1);
             end if;
         end if;
     end process p_bank_d;

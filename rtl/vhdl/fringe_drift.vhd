@@ -1,57 +1,17 @@
--- fringe_drift: online offset / gain tracker for drifting sin/cos signals.
+-- fringe_drift: online offset / gain tracker for drifting sin/cos signals: a normaliser at
+-- the front of the core and an observer of each sample's fine phase.
 --
--- VHDL-2008 twin of rtl/verilog/fringe_drift.v (same generics, ports, latencies and bit-exact
--- behaviour). Contract in docs/drift.md, bit-exact model model/fringe/fixed/drift.py. Per channel k in
--- {sin, cos}; state OFF_k s(ADC_W + OFS_FRAC) (ADC codes, OFS_FRAC fraction bits), GINV_k u(GINV_W)
--- (GINV_W - 2 fraction bits, unity 2^(GINV_W-2)); reset values 0 and unity.
---
--- NORMALISER (raw ADC codes at the front of the core):
---   y_k = ((raw_k * 2^OFS_FRAC - OFF_k) * GINV_k + 2^(OFS_FRAC + GINV_W - 3)) >>> (OFS_FRAC + GINV_W - 2),
---   saturated to s(ADC_W); norm_sat = either channel saturated.
--- OBSERVER (each sample's fine phase from downstream with the same sample's normalised codes):
---   FB = FINE_W - FWD_W; bin = phase >> FB; frac = phase mod 2^FB
---   a_k = value + ((slope * frac + 2^(FB-1)) >>> FB), word {slope, value} s(TABLE_W) at {obs_bank, bin}
---   e_k = y_k * 2^TABLE_FRAC - W0_k - a_k           (W0_k s(ADC_W + TABLE_FRAC), taken with the sample)
---   block j = observer samples [jB, (j+1)B) since reset, B = 2^BLOCK_LOG2:
---   SE_k = sum e_k; SEA_k = sum e_k * a_k; SWEEP = sum |wrap(phase[n] - phase[n-1])| (0 for the first
---   sample after reset). At the end of the block, if SWEEP >= 2^FINE_W:
---   OFF_k  + ((SE_k * 2^OFS_FRAC) >>> (BLOCK_LOG2 + TABLE_FRAC + MU_LOG2)) saturated to s(ADC_W + OFS_FRAC)
---   GINV_k - ((SEA_k * KG_k + 2^(KG_SHIFT-1)) >>> KG_SHIFT) saturated to u(GINV_W)
---   (KG_k: kg_* with the block's last observer sample), else the block is skipped.
--- APPLICATION: the normaliser counts its accepted samples since reset; block j's update applies from
---   input sample (j+1)B + D on, D = B/2 (taken when that sample is accepted). track_sat: the update
---   applied last saturated (held through skipped blocks, cleared by rst).
--- Requirement: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY <= D + 1 clock enables, PIPE_LATENCY being the
---   clock enables from norm_valid/y_* to obs_valid/obs_* in the core (0: wired directly) -- checked.
---
--- Widths (none can overflow): YW = ADC_W + TABLE_FRAC + 1 (y * 2^TABLE_FRAC - W0), AW = TABLE_W + 1 (a),
--- E_W = max(YW, AW) + 1 (e), EA_W = E_W + AW (e * a), SE_W = E_W + BLOCK_LOG2, SEA_W = EA_W + BLOCK_LOG2,
--- SWEEP FINE_W + BLOCK_LOG2 bits (unsigned), SEA * KG SEA_W + KG_W + 1 bits.
---
--- NORM_LATENCY = 4 clock enables from in_valid to norm_valid:
---   1 input registers (the state is taken at acceptance)   2 d = raw * 2^OFS_FRAC - OFF
---   3 d * GINV                                              4 + 2^(OFS_FRAC+GINV_W-3) (the bit below the
---                                                              shift as a carry), >>>, saturate: y, norm_sat
--- OBS_LATENCY = 15 clock enables from obs_valid of a block's last sample to the pending update:
---   1 input registers, table read at {bank, bin}            2 table RAM output register; phase delta;
---                                                              y * 2^TABLE_FRAC - W0
---   3 slope * frac + 2^(FB-1); |delta|                      4 a = value + (product >>> FB)
---   5 e = yw - a                                            6 e * a partial products (<= 18x18)
---   7 e * a rows (one per 17-bit chunk of e)                8 e * a (rows summed)
---   9 SE, SEA, SWEEP accumulated (last sample: snapshot, accumulators cleared)
---   10 SEA * KG partial products (<= 18x18); OFF + step; SWEEP test
---   11 SEA * KG rows; OFF saturated                         12, 13 rows summed: P = SEA * KG
---   14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1]              15 GINV saturated: the pending update
--- One carry chain or one multiply (with its rounding constant) per stage (the e * a row sum adds three
--- rows when e has three chunks, ADC_W + TABLE_FRAC >= 34). ce = 0 freezes every
--- register (and the RAM reads); rst (synchronous, active high, wins over ce) clears the valid bits, the
--- counters, the accumulators, the pending update, track_sat and the state; never the data registers.
--- Tables: two two-bank fringe_table_ram (2 x 2^FWD_W words each), written through wr_en / wr_sel
--- (0 sin, 1 cos) / wr_addr {bank, bin} / wr_data {slope, value} whatever ce is.
+-- VHDL-2008 twin of rtl/verilog/fringe_drift.v (same generics, ports and behaviour).
+-- NORM_LATENCY = 4 clock enables (in_valid to norm_valid); OBS_LATENCY = 15 (a
+-- block's last observer sample to its pending update), one sample per clock; ce = 0 freezes
+-- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_drift.md.
+-- Bit-exact model: model/fringe/fixed/drift.py.
 
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
+use work.fringe_pkg.all;
 
 entity fringe_drift is
     generic (
@@ -65,7 +25,7 @@ entity fringe_drift is
         TABLE_W      : integer := 18;   -- forward table value and slope width, 8..24
         TABLE_FRAC   : integer := 2;    -- fraction bits of the table values and of W0 (ADC codes), 0..12
         KG_W         : integer := 18;   -- KG width (unsigned), 8..24
-        KG_SHIFT     : integer := 38;   -- right shift of SEA * KG, 1..60
+        KG_SHIFT     : integer := 40;   -- right shift of SEA * KG, 1..60
         PIPE_LATENCY : integer := 0;    -- clock enables from the norm outputs to the obs inputs in the core, >= 0
         FWD_SIN_INIT : string  := "";   -- hex image of the sine table, 2 banks x 2^FWD_W words; "" = zeros
         FWD_COS_INIT : string  := "";   -- hex image of the cosine table, 2 banks x 2^FWD_W words; "" = zeros
@@ -112,8 +72,8 @@ end entity fringe_drift;
 
 architecture rtl of fringe_drift is
 
-    constant NORM_LATENCY : integer := 4;
-    constant OBS_LATENCY : integer := 15;
+    constant NORM_LATENCY : integer := DRIFT_NORM_LATENCY;
+    constant OBS_LATENCY  : integer := DRIFT_OBS_LATENCY;
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
@@ -200,33 +160,6 @@ architecture rtl of fringe_drift is
     constant CNT_D  : unsigned(BLOCK_LOG2 - 1 downto 0) := to_unsigned(D, BLOCK_LOG2);
     constant CNT_LAST : unsigned(BLOCK_LOG2 - 1 downto 0) := (others => '1');
 
-    -- 2^(k-1) in a w-bit signed word
-    function round_term(w, k : integer) return signed is
-    begin
-        return shift_left(to_signed(1, w), k - 1);
-    end function round_term;
-
-    -- v saturated to s(w) (v wider than w)
-    function sat_s(v : signed; w : integer) return signed is
-        constant MX : signed(w - 1 downto 0) := '0' & (w - 2 downto 0 => '1');
-        constant MN : signed(w - 1 downto 0) := '1' & (w - 2 downto 0 => '0');
-    begin
-        if v > resize(MX, v'length) then
-            return MX;
-        elsif v < resize(MN, v'length) then
-            return MN;
-        end if;
-        return resize(v, w);
-    end function sat_s;
-
-    -- v outside s(w) (v wider than w): the bits from w-1 up are not all equal to the sign
-    function out_of(v : signed; w : integer) return boolean is
-        variable top : signed(v'length - w downto 0);
-    begin
-        top := v(v'high downto v'low + w - 1);
-        return not (top = (top'range => '0') or top = (top'range => '1'));
-    end function out_of;
-
     -- application
     signal acc_n      : std_logic;
     signal take       : std_logic;
@@ -241,9 +174,6 @@ architecture rtl of fringe_drift is
     signal pend_sat   : std_logic;
 
     -- normaliser
-    signal nvalid : std_logic_vector(1 to NORM_LATENCY);
-    type nuser_t is array (1 to NORM_LATENCY) of std_logic_vector(USER_W - 1 downto 0);
-    signal nuser  : nuser_t;
     signal n1_s, n1_c   : signed(ADC_W - 1 downto 0);
     signal n2_s, n2_c   : signed(OW downto 0);
     signal n2_gs, n2_gc : unsigned(GINV_W - 1 downto 0);
@@ -450,22 +380,10 @@ begin
     track_sat <= tsat;
 
     -- ---- normaliser ------------------------------------------------------------------------------------
-    p_nvalid : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                nvalid <= (others => '0');
-            elsif ce = '1' then
-                nvalid <= in_valid & nvalid(1 to NORM_LATENCY - 1);
-            end if;
-            if ce = '1' then
-                nuser <= in_user & nuser(1 to NORM_LATENCY - 1);
-            end if;
-        end if;
-    end process p_nvalid;
-
-    norm_valid <= nvalid(NORM_LATENCY);
-    norm_user  <= nuser(NORM_LATENCY);
+    u_norm_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => NORM_LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => norm_valid, out_data => norm_user);
 
     p_norm : process (clk)
         variable q_s, q_c : signed(QW - 1 downto 0);
@@ -492,10 +410,10 @@ begin
                 rb_c(0) := n3_c(SHN - 1);
                 q_s := n3_s(PW - 1 downto SHN) + rb_s;
                 q_c := n3_c(PW - 1 downto SHN) + rb_c;
-                os := out_of(q_s, ADC_W);
-                oc := out_of(q_c, ADC_W);
-                y_sin <= std_logic_vector(sat_s(q_s, ADC_W));
-                y_cos <= std_logic_vector(sat_s(q_c, ADC_W));
+                os := outside(q_s, ADC_W);
+                oc := outside(q_c, ADC_W);
+                y_sin <= std_logic_vector(saturate(q_s, ADC_W));
+                y_cos <= std_logic_vector(saturate(q_c, ADC_W));
                 norm_sat <= '1' when os or oc else '0';
             end if;
         end if;
@@ -578,8 +496,8 @@ begin
                 o2_ywc <= shift_left(resize(o1_yc, YW), TABLE_FRAC) - resize(o1_w0c, YW);
                 -- 3: slope * frac + 2^(FB-1); |delta|
                 frac_s := signed('0' & o2_frac);
-                o3_ps  <= signed(o2_ws(2 * TW - 1 downto TW)) * frac_s + round_term(IP_W, FB);
-                o3_pc  <= signed(o2_wc(2 * TW - 1 downto TW)) * frac_s + round_term(IP_W, FB);
+                o3_ps  <= signed(o2_ws(2 * TW - 1 downto TW)) * frac_s + round_half(IP_W, FB);
+                o3_pc  <= signed(o2_wc(2 * TW - 1 downto TW)) * frac_s + round_half(IP_W, FB);
                 o3_vs  <= signed(o2_ws(TW - 1 downto 0));
                 o3_vc  <= signed(o2_wc(TW - 1 downto 0));
                 o3_yws <= o2_yws;
@@ -736,10 +654,10 @@ begin
                 u1_oc <= resize(off_c, OS_W) + resize(stp_c, OS_W);
                 u1_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
                 -- 11: OFF saturated
-                os_over := out_of(u1_os, OW);
-                oc_over := out_of(u1_oc, OW);
-                u2_os  <= sat_s(u1_os, OW);
-                u2_oc  <= sat_s(u1_oc, OW);
+                os_over := outside(u1_os, OW);
+                oc_over := outside(u1_oc, OW);
+                u2_os  <= saturate(u1_os, OW);
+                u2_oc  <= saturate(u1_oc, OW);
                 u2_sat <= '1' when os_over or oc_over else '0';
                 u2_ok  <= u1_ok;
                 -- 12, 13: carried along

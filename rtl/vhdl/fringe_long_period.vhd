@@ -1,48 +1,16 @@
 -- fringe_long_period: the seed 000 harmonic (long-period) correction table with linear
 -- interpolation, then the output direction and zero.
 --
--- VHDL-2008 twin of rtl/verilog/fringe_long_period.v (same generics, ports, latency and bit-exact
--- behaviour). Formats (docs/architecture.md, "fringe_long_period"); REV = LINES * 2^FINE_W fine
--- counts per revolution, POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 48),
--- N = 2^LP_ADDR_W entries per revolution (entry k at position k * REV / N):
---   pos, zero  u(POS_W) in [0, REV)      dir: 1 = the output runs the other way
---   t       = pos * LP_RECIP;  entry = t >> LP_SHIFT;  frac = (t >> (LP_SHIFT - LP_IF)) mod 2^LP_IF
---             (LP_RECIP, LP_SHIFT from model/fringe/fixed/long_period.py index_mapping(): entry is
---             exactly floor(pos * N / REV); elaboration checks the proof's bound; a power-of-two
---             REV makes LP_RECIP a power of two, a shift)
---   word    = {slope, value}, both s(LP_W), fine counts with LP_FRAC fraction bits, read from the
---             two-bank fringe_table_ram at {bank, entry}; slope[k] = value[k+1] - value[k] with
---             value[N] = value[0] (the revolution wraps)
---   corr    = value + ((slope * frac + 2^(LP_IF-1)) >>> LP_IF)
---   step    = (corr + 2^(LP_FRAC-1)) >>> LP_FRAC       (LP_FRAC = 0: step = corr)
---   pos_c   = (pos - step) mod REV
---   pos_out = dir ? (zero - pos_c) mod REV : (pos_c + zero) mod REV, u(POS_W) in [0, REV)
--- 2^(LP_W - LP_FRAC) <= REV bounds |step| by REV for any table contents, so one add or subtract
--- of REV wraps each result. Bit-exact model: model/fringe/fixed/long_period.py.
--- VHDL integers are 32 bits: LP_RECIP is a natural here (< 2^31; index_mapping gives about REV or
--- less, so REV up to about 2^30), the Verilog takes 64 bits.
---
--- The table is written through wr_en / wr_addr ({bank, entry}) / wr_data, passed to
--- fringe_table_ram whatever ce is; write only the bank no sample in flight reads.
---
--- LATENCY = 8 clock enables (ce = 1 cycles) from in_valid to out_valid, one carry chain per stage:
---   1 index product   2 table read   2b the RAM's output register
---   3 slope x fraction, bare (a DSP registered on both sides); a slope wider than 16 bits is split,
---     slope * frac = slope_hi * frac * 2^15 + slope_lo * frac (slope_lo unsigned), so each partial
---     product fits a 16x16 DSP (iCE40); value + 2^(LP_FRAC-1)
---   3b the partial products summed (else the product registered again)
---   4 step = ({value, 2^(LP_IF-1)} + product) >>> (LP_IF + LP_FRAC) (one add); pos, pos + REV, pos - REV
---   5 pos - step and its wrapped alternatives in parallel, chosen by sign bits; zero -+ REV
---   6 zero and direction, wrap
--- One sample per clock. ce = 0 freezes every register (and the table read); rst (synchronous,
--- active high, wins over ce) clears only the valid pipeline, never the data registers.
--- The port widths use ceil(log2(real(LINES))) (exact in GHDL for LINES <= 2^20); elaboration
--- checks it against an integer clog2.
+-- VHDL-2008 twin of rtl/verilog/fringe_long_period.v (same generics, ports and behaviour).
+-- LATENCY = 8 clock enables, one sample per clock; ce = 0 freezes
+-- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_long_period.md.
+-- Bit-exact model: model/fringe/fixed/long_period.py.
 
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
-use ieee.math_real.all;
+use work.fringe_pkg.all;
 
 entity fringe_long_period is
     generic (
@@ -63,10 +31,10 @@ entity fringe_long_period is
         ce        : in  std_logic;                              -- clock enable
         -- sample in
         in_valid  : in  std_logic;
-        pos       : in  std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+        pos       : in  std_logic_vector(FINE_W + clog2(LINES) - 1 downto 0);
                                                                 -- u(POS_W), in [0, REV)
         bank      : in  std_logic;                              -- table bank of this sample
-        zero      : in  std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+        zero      : in  std_logic_vector(FINE_W + clog2(LINES) - 1 downto 0);
                                                                 -- u(POS_W), in [0, REV)
         dir       : in  std_logic;                              -- 1: the output runs the other way
         in_user   : in  std_logic_vector(USER_W - 1 downto 0);
@@ -76,65 +44,13 @@ entity fringe_long_period is
         wr_data   : in  std_logic_vector(2 * LP_W - 1 downto 0);  -- {slope, value}
         -- position out
         out_valid : out std_logic;
-        pos_out   : out std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+        pos_out   : out std_logic_vector(FINE_W + clog2(LINES) - 1 downto 0);
                                                                 -- u(POS_W), in [0, REV)
         out_user  : out std_logic_vector(USER_W - 1 downto 0)
     );
 end entity fringe_long_period;
 
 architecture rtl of fringe_long_period is
-
-    -- ceil(log2(v)) for v >= 1, on integers
-    function clog2(v : integer) return integer is
-        variable b : integer := 0;
-    begin
-        while b < 31 and 2**b < v loop
-            b := b + 1;
-        end loop;
-        return b;
-    end function clog2;
-
-    -- bits of a natural (at least 1)
-    function bits(v : natural) return integer is
-        variable b : integer := 1;
-    begin
-        while b < 31 and 2**b <= v loop
-            b := b + 1;
-        end loop;
-        return b;
-    end function bits;
-
-    -- 2-adic valuation of LINES (trailing zero bits), LINES in 1..2^20
-    function tz(v : integer) return integer is
-        variable k : integer := 0;
-    begin
-        for i in 1 to 20 loop
-            if v mod 2**i = 0 then
-                k := i;
-            end if;
-        end loop;
-        return k;
-    end function tz;
-
-    -- Granlund-Montgomery bound (see check_index_mapping in the model), on 256-bit numbers:
-    -- E = LP_RECIP * REV - 2^(LP_ADDR_W + LP_SHIFT) >= 0 and (REV - 1) * E < 2^(G + LP_SHIFT),
-    -- 2^G = gcd(2^LP_ADDR_W, REV).
-    function map_ok return boolean is
-        variable rev_x, prod, pw, e, lhs, rhs : unsigned(255 downto 0);
-        variable g_log : integer;
-    begin
-        g_log := minimum(LP_ADDR_W, FINE_W + tz(LINES));
-        rev_x := shift_left(to_unsigned(LINES, 256), FINE_W);
-        prod  := resize(to_unsigned(LP_RECIP, 256) * rev_x, 256);
-        pw    := shift_left(to_unsigned(1, 256), LP_ADDR_W + LP_SHIFT);
-        if LP_RECIP = 0 or prod < pw then
-            return false;
-        end if;
-        e   := prod - pw;
-        lhs := resize((rev_x - 1) * e, 256);
-        rhs := shift_left(to_unsigned(1, 256), g_log + LP_SHIFT);
-        return lhs < rhs;
-    end function map_ok;
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
@@ -176,7 +92,7 @@ architecture rtl of fringe_long_period is
             report "fringe_long_period: LP_SHIFT = " & integer'image(LP_SHIFT) & " out of range LP_IF = "
                    & integer'image(LP_IF) & " .. 127"
             severity failure;
-        assert map_ok
+        assert mapping_exact(LP_RECIP, LP_SHIFT, LP_ADDR_W, LINES, FINE_W)
             report "fringe_long_period: LP_RECIP = " & integer'image(LP_RECIP) & ", LP_SHIFT = "
                    & integer'image(LP_SHIFT) & " do not map every position to floor(pos * 2^LP_ADDR_W / REV);"
                    & " take them from index_mapping()"
@@ -184,16 +100,13 @@ architecture rtl of fringe_long_period is
         assert USER_W >= 1
             report "fringe_long_period: USER_W = " & integer'image(USER_W) & " must be >= 1"
             severity failure;
-        assert integer(ceil(log2(real(maximum(LINES, 1))))) = clog2(LINES)
-            report "fringe_long_period: ceil(log2(real(LINES))) is not exact in this tool (port widths)"
-            severity failure;
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := 8;
+    constant LATENCY : integer := LONG_PERIOD_LATENCY;
     constant POS_W   : integer := FINE_W + clog2(LINES);            -- clog2(REV)
-    constant RECIP_W : integer := bits(LP_RECIP);
+    constant RECIP_W : integer := bit_width(LP_RECIP);
     constant T_W     : integer := maximum(POS_W + RECIP_W, LP_SHIFT + LP_ADDR_W);  -- index product
     constant PR_W    : integer := LP_W + LP_IF + 1;                 -- slope x frac
     constant C_W     : integer := maximum(LP_W, LP_FRAC) + 2;       -- value + 2^(LP_FRAC-1) + ip
@@ -203,18 +116,6 @@ architecture rtl of fringe_long_period is
     constant WW      : integer := POS_W + 2;                        -- signed positions
     constant REV_W   : unsigned(WW - 1 downto 0) := shift_left(to_unsigned(LINES, WW), FINE_W);
 
-    -- 2^(k-1) in a w-bit signed word, 0 when k = 0 (no rounding)
-    function round_term(w, k : integer) return signed is
-    begin
-        if k = 0 then
-            return to_signed(0, w);
-        end if;
-        return shift_left(to_signed(1, w), k - 1);
-    end function round_term;
-
-    signal valid_sr : std_logic_vector(1 to LATENCY);
-    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
-    signal user_sr  : user_sr_t;
 
     signal s1_entry          : unsigned(LP_ADDR_W - 1 downto 0);
     signal s1_frac, s2_frac  : unsigned(LP_IF - 1 downto 0);
@@ -238,28 +139,10 @@ architecture rtl of fringe_long_period is
 begin
 
     -- ---- valid (the only reset registers) and sideband, LATENCY stages -----------------------
-    p_valid : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                valid_sr <= (others => '0');
-            elsif ce = '1' then
-                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_valid;
-
-    p_user : process (clk)
-    begin
-        if rising_edge(clk) then
-            if ce = '1' then
-                user_sr <= in_user & user_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_user;
-
-    out_valid <= valid_sr(LATENCY);
-    out_user  <= user_sr(LATENCY);
+    u_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => out_valid, out_data => out_user);
 
     -- ---- 2: table read ---------------------------------------------------------------------------
     rd_addr <= s1_bank & std_logic_vector(s1_entry);
@@ -334,7 +217,7 @@ begin
                 s2_dir   <= s1b_dir;
 
                 -- 3: slope x fraction (registered bare, in g_prod / g_split); value + 2^(LP_FRAC-1)
-                s3a_value <= resize(signed(word(LP_W - 1 downto 0)), C_W) + round_term(C_W, LP_FRAC);
+                s3a_value <= resize(signed(word(LP_W - 1 downto 0)), C_W) + round_half(C_W, LP_FRAC);
                 s3a_pos   <= s2_pos;
                 s3a_zero  <= s2_zero;
                 s3a_dir   <= s2_dir;

@@ -1,44 +1,16 @@
 -- fringe_period_count: coarse/fine combination (absolute position from a coarse code), or period
 -- counting without one; overspeed and coarse-code checks.
 --
--- VHDL-2008 twin of rtl/verilog/fringe_period_count.v (same generics, ports, latency and bit-exact
--- behaviour). Formats (docs/architecture.md, "fringe_period_count"); REV = LINES * 2^FINE_W fine
--- counts per revolution, POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 48):
---   phase       u(FINE_W)    fine phase, a fraction of a signal period
---   coarse      u(COARSE_W)  coarse code, 2^COARSE_W codes per revolution (1 unused bit when COARSE_W = 0)
---   coarse_ofs  s(POS_W+1)   calibrated middle of coarse code 0, fine counts; |coarse_ofs| <= 2^FINE_W;
---                            a register the top holds stable, taken with each sample
---   delta       s(FINE_W)    = phase - phase_prev modulo 2^FINE_W, phase_prev the previous valid sample's
---   overspeed   |delta| >= 2^(FINE_W-2) (a quarter period); never on the first valid sample after reset
---   COARSE_W > 0:
---     centre    = ((coarse * LINES) << (FINE_W - COARSE_W)) + coarse_ofs
---     d         = centre - phase;  n = (d + 2^(FINE_W-1)) >>> FINE_W;  r = d - n * 2^FINE_W
---     coarse_err = |r| > COARSE_TOL = (LINES << (FINE_W-COARSE_W-2)) + 2^(FINE_W-2), the midpoint
---                 between half a coarse code and half a period
---     pos       = (n mod LINES) * 2^FINE_W + phase; |coarse_ofs| <= 2^FINE_W keeps n in [-2, LINES+1],
---                 so one add or subtract of LINES wraps it (LINES = 1: n mod 1 = 0). Outside that
---                 range pos is not defined (the model refuses it).
---   COARSE_W = 0:
---     pos       = (pos_prev + delta) mod REV, pos_prev the previous valid output; the first valid
---                 sample after reset gives pos = phase. coarse_err = 0; coarse and coarse_ofs unused.
---   pos u(POS_W) in [0, REV).
+-- VHDL-2008 twin of rtl/verilog/fringe_period_count.v (same generics, ports and behaviour).
+-- LATENCY = 3 clock enables, one sample per clock; ce = 0 freezes
+-- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_period_count.md.
 -- Bit-exact model: model/fringe/fixed/period_count.py.
---
--- LATENCY = 3 clock enables (ce = 1 cycles) from in_valid to out_valid, one carry chain per stage:
---   1: delta, coarse centre   2: overspeed test; d + half (period number n and residual r), or the
---   counter's delta with its two wrapped alternatives   3: |r| > tol, the wrap of n and the position,
---   or the counter (three sums in parallel, chosen by sign bits)
--- One sample per clock. ce = 0 freezes every register. rst (synchronous, active high, wins over ce)
--- clears the valid pipeline and the "previous sample seen" state, so the next valid sample is the
--- first again; the data registers (phase_prev, the position) are never reset. The outputs update
--- on valid samples only.
--- The port widths use ceil(log2(real(LINES))) (exact in GHDL for LINES <= 2^20); elaboration
--- checks it against an integer clog2.
 
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
-use ieee.math_real.all;
+use work.fringe_pkg.all;
 
 entity fringe_period_count is
     generic (
@@ -55,12 +27,12 @@ entity fringe_period_count is
         in_valid   : in  std_logic;
         phase      : in  std_logic_vector(FINE_W - 1 downto 0);   -- u(FINE_W)
         coarse     : in  std_logic_vector(maximum(COARSE_W, 1) - 1 downto 0);  -- u(COARSE_W); unused if 0
-        coarse_ofs : in  std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) downto 0);
+        coarse_ofs : in  std_logic_vector(FINE_W + clog2(LINES) downto 0);
                                                                   -- s(POS_W+1), fine counts, |value| <= 2^FINE_W
         in_user    : in  std_logic_vector(USER_W - 1 downto 0);
         -- position out
         out_valid  : out std_logic;
-        pos        : out std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+        pos        : out std_logic_vector(FINE_W + clog2(LINES) - 1 downto 0);
                                                                   -- u(POS_W), in [0, REV)
         overspeed  : out std_logic;
         coarse_err : out std_logic;
@@ -69,16 +41,6 @@ entity fringe_period_count is
 end entity fringe_period_count;
 
 architecture rtl of fringe_period_count is
-
-    -- ceil(log2(v)) for v >= 1, on integers
-    function clog2(v : integer) return integer is
-        variable b : integer := 0;
-    begin
-        while b < 31 and 2**b < v loop
-            b := b + 1;
-        end loop;
-        return b;
-    end function clog2;
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
@@ -104,14 +66,11 @@ architecture rtl of fringe_period_count is
         assert USER_W >= 1
             report "fringe_period_count: USER_W = " & integer'image(USER_W) & " must be >= 1"
             severity failure;
-        assert integer(ceil(log2(real(maximum(LINES, 1))))) = clog2(LINES)
-            report "fringe_period_count: ceil(log2(real(LINES))) is not exact in this tool (port widths)"
-            severity failure;
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := 3;
+    constant LATENCY : integer := PERIOD_COUNT_LATENCY;
     constant POS_W   : integer := FINE_W + clog2(LINES);   -- clog2(REV)
     constant N_W     : integer := POS_W - FINE_W;          -- period number bits (0 when LINES = 1)
     constant W       : integer := POS_W + 3;               -- signed: centre and d for any s(POS_W+1) offset
@@ -138,10 +97,8 @@ architecture rtl of fringe_period_count is
     end function tolerance;
     constant TOL : signed(FINE_W downto 0) := tolerance;
 
-    signal valid_sr : std_logic_vector(1 to LATENCY);
-    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
-    signal user_sr  : user_sr_t;
-
+    signal s2_valid   : std_logic;                              -- the sample in stage 2
+    signal s2_user    : std_logic_vector(USER_W - 1 downto 0);
     signal take, done : std_logic;
 
     signal phase_prev : unsigned(FINE_W - 1 downto 0);  -- data: the previous valid sample's phase
@@ -161,31 +118,17 @@ architecture rtl of fringe_period_count is
 begin
 
     -- ---- valid (reset) and sideband, LATENCY stages ------------------------------------------
-    p_valid : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                valid_sr <= (others => '0');
-            elsif ce = '1' then
-                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_valid;
-
-    p_user : process (clk)
-    begin
-        if rising_edge(clk) then
-            if ce = '1' then
-                user_sr <= in_user & user_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_user;
-
-    out_valid <= valid_sr(LATENCY);
-    out_user  <= user_sr(LATENCY);
+    u_valid_12 : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => LATENCY - 1)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => s2_valid, out_data => s2_user);
+    u_valid_3 : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => 1)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => s2_valid, in_data => s2_user,
+                  out_valid => out_valid, out_data => out_user);
 
     take <= ce and in_valid;       -- stage 1 takes a sample
-    done <= ce and valid_sr(2);    -- stage 3 produces an output
+    done <= ce and s2_valid;       -- stage 3 produces an output
 
     p_state : process (clk)
     begin

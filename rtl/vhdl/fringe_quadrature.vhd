@@ -1,32 +1,15 @@
 -- fringe_quadrature: offset, gain and quadrature correction (seed 001 eq. 21, Heydemann form).
 --
--- VHDL-2008 twin of rtl/verilog/fringe_quadrature.v (same generics, ports, latency and
--- bit-exact behaviour).
---
--- Formats (docs/architecture.md, "fringe_quadrature"):
---   xs, xc, ofs_s, ofs_c, s, c   s(WAVE_W) with WAVE_FRAC = WAVE_W - 2 fractional bits
---   k_ss, k_sc, k_cc             s(COEF_W) with COEF_FRAC = COEF_W - 2 fractional bits
---   s = sat((k_ss*(xs-ofs_s) + k_sc*(xc-ofs_c) + 2^(COEF_FRAC-1)) >>> COEF_FRAC)
---   c = sat((k_cc*(xc-ofs_c) + 2^(COEF_FRAC-1)) >>> COEF_FRAC)
---   sat(v) clamps v to s(WAVE_W); flag `sat` when s or c was clamped.
--- The differences are exact (s(WAVE_W+1)), the products and the sum are exact, the only
--- rounding is the final shift (round half up). Bit-exact model: model/fringe/fixed/quadrature.py.
---
--- The coefficient inputs are sampled in the same clock as xs/xc (they travel with the sample),
--- so the top may switch the coefficient bank between any two samples.
---
--- LATENCY = 5 clock enables (ce = 1 cycles) from in_valid to out_valid:
---   1: differences, coefficients registered   2: products, bare (a DSP registered on both sides);
---   a difference wider than 18 bits is split, k * d = k * d_hi * 2^17 + k * d_lo (d_lo unsigned),
---   and the two partial products are registered   3: products assembled, the rounding constant
---   2^(COEF_FRAC-1) added to k_ss and k_cc's (concatenated below the high partial product when it
---   fits there)   4: the sine sum   5: shift and saturate
--- ce = 0 freezes every register; rst (synchronous, active high, wins over ce) clears only the
--- valid pipeline, never the data registers.
+-- VHDL-2008 twin of rtl/verilog/fringe_quadrature.v (same generics, ports and behaviour).
+-- LATENCY = 5 clock enables, one sample per clock; ce = 0 freezes
+-- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_quadrature.md.
+-- Bit-exact model: model/fringe/fixed/quadrature.py.
 
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
+use work.fringe_pkg.all;
 
 entity fringe_quadrature is
     generic (
@@ -76,7 +59,7 @@ architecture rtl of fringe_quadrature is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY   : integer := 5;
+    constant LATENCY   : integer := QUADRATURE_LATENCY;
     constant COEF_FRAC : integer := COEF_W - 2;
     constant D_W       : integer := WAVE_W + 1;        -- x - ofs, exact
     constant P_W       : integer := COEF_W + D_W;      -- k * (x - ofs), exact
@@ -109,9 +92,6 @@ architecture rtl of fringe_quadrature is
     signal pss3, psc3, pcc3   : signed(S_W - 1 downto 0);   -- k_ss*ds + RND, k_sc*dc, k_cc*dc + RND
     signal sum_s3, sum_c3     : signed(S_W - 1 downto 0);
 
-    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
-    signal valid_sr : std_logic_vector(1 to LATENCY);
-    signal user_sr  : user_sr_t;
 
 begin
 
@@ -191,27 +171,9 @@ begin
     end generate g_narrow;
 
     -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
-    p_valid : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                valid_sr <= (others => '0');
-            elsif ce = '1' then
-                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_valid;
-
-    p_user : process (clk)
-    begin
-        if rising_edge(clk) then
-            if ce = '1' then
-                user_sr <= in_user & user_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_user;
-
-    out_valid <= valid_sr(LATENCY);
-    out_user  <= user_sr(LATENCY);
+    u_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => out_valid, out_data => out_user);
 
 end architecture rtl;

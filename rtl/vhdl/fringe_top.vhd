@@ -22,53 +22,58 @@
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
-use ieee.math_real.all;
+use work.fringe_pkg.all;
 
 entity fringe_top is
     generic (
-        ADC_W         : integer := 12;    -- ADC code width (signed), 4..24
-        LINES         : integer := 256;   -- signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
-        COARSE_W      : integer := 9;     -- coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
-        WAVE_ADDR_W   : integer := 8;     -- waveform table address bits per branch, 2..min(ADC_W-1, 15)
-        WAVE_W        : integer := 18;    -- waveform table / quadrature data width, 8..31
-        COEF_W        : integer := 18;    -- quadrature gain width (COEF_W-2 fraction bits), 8..27
-        FINE_W        : integer := 16;    -- fine phase bits per signal period, 8..30
-        CORDIC_STAGES : integer := 18;    -- CORDIC micro-rotations, 4..32
-        CORDIC_GUARD  : integer := 3;     -- extra fraction bits inside the CORDIC, 0..8
-        LP_ADDR_W     : integer := 8;     -- long-period table entries per revolution = 2^LP_ADDR_W, <= 16
-        LP_W          : integer := 18;    -- long-period table value/slope width, <= 32
-        LP_FRAC       : integer := 4;     -- fraction bits of the long-period correction (fine counts)
-        LP_IF         : integer := 8;     -- interpolation fraction bits of the long-period table
-        LP_RECIP      : natural := 1;     -- long-period index multiplier (index_mapping; < 2^31 in VHDL)
-        LP_SHIFT      : integer := 16;    -- long-period index shift (fringe.fixed.long_period.index_mapping)
-        TRIM          : integer := 0;     -- 1 = fringe_trim (closed-loop corrections); the trim generics: fringe_core
-        SPEED_LOG2    : integer := 5;
-        MAP_PSI_W     : integer := 6;
-        MAP_PHI_W     : integer := 5;
-        TRIM_W        : integer := 18;
-        TRIM_FRAC     : integer := 4;
-        G_SHIFT       : integer := 24;
-        SECT_RECIP    : natural := 1;
-        SECT_SHIFT    : integer := 18;
-        DRIFT            : integer := 0;  -- 1 = fringe_drift (online offset/gain tracker); its generics: fringe_core
-        DRIFT_BLOCK_LOG2 : integer := 8;
-        DRIFT_MU_LOG2    : integer := 1;
-        DRIFT_OFS_FRAC   : integer := 4;
-        DRIFT_GINV_W     : integer := 18;
-        DRIFT_FWD_W      : integer := 8;
-        DRIFT_TABLE_W    : integer := 18;
-        DRIFT_TABLE_FRAC : integer := 4;
-        DRIFT_KG_W       : integer := 18;
-        DRIFT_KG_SHIFT   : integer := 40;
-        REGS_INIT     : string  := "";    -- $readmemh image of the registers, 2 x 32 words of 32 bits
-        WAVE_SIN_INIT : string  := "";    -- $readmemh image of the sine table, both banks
-        WAVE_COS_INIT : string  := "";    -- $readmemh image of the cosine table, both banks
-        LP_INIT       : string  := "";    -- $readmemh image of the long-period table, both banks
-        MAP_INIT      : string  := "";    -- $readmemh images of the trim tables, both banks (TRIM = 1)
-        SPEED_INIT    : string  := "";
-        AMP_INIT      : string  := "";
-        FWD_SIN_INIT  : string  := "";    -- $readmemh images of the drift forward tables, both banks (DRIFT = 1)
-        FWD_COS_INIT  : string  := ""
+        -- BEGIN generated generics (written by python sim/hdlgen.py; do not edit)
+        ADC_W            : integer := 12;  -- ADC code width (signed), 4..24
+        LINES            : integer := 256; -- signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
+        COARSE_W         : integer := 9;   -- coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
+        WAVE_ADDR_W      : integer := 8;   -- waveform table address bits per branch, 2..min(ADC_W-1, 15)
+        WAVE_W           : integer := 18;  -- waveform table / quadrature data width, 8..31
+        COEF_W           : integer := 18;  -- quadrature gain width (COEF_W-2 fraction bits), 8..27
+        FINE_W           : integer := 16;  -- fine phase bits per signal period, 8..30
+        CORDIC_STAGES    : integer := 18;  -- CORDIC micro-rotations, 4..32
+        CORDIC_GUARD     : integer := 3;   -- extra fraction bits inside the CORDIC, 0..8
+        LP_ADDR_W        : integer := 8;   -- long-period table entries per revolution = 2^LP_ADDR_W, <= 16
+        LP_W             : integer := 18;  -- long-period table value/slope width, <= 32
+        LP_FRAC          : integer := 4;   -- fraction bits of the long-period correction (fine counts)
+        LP_IF            : integer := 8;   -- interpolation fraction bits of the long-period table
+        LP_RECIP         : natural := 1;   -- long-period index multiplier (long_period.index_mapping; < 2^31 in VHDL)
+        LP_SHIFT         : integer := 16;  -- long-period index shift (long_period.index_mapping)
+        -- fringe_trim (closed-loop corrections): built only with TRIM = 1
+        TRIM             : integer := 0;   -- 1 = fringe_trim between the period count and the long-period table (docs/blocks/fringe_trim.md)
+        SPEED_LOG2       : integer := 5;   -- speed window 2^SPEED_LOG2 samples, 0..8
+        MAP_PSI_W        : integer := 6;   -- 2^MAP_PSI_W error-map sectors per revolution, 0..8
+        MAP_PHI_W        : integer := 5;   -- 2^MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); MAP_PSI_W + MAP_PHI_W <= 15
+        TRIM_W           : integer := 18;  -- trim table value/slope width, 8..24
+        TRIM_FRAC        : integer := 4;   -- fraction bits of the trim (fine counts), 0..16
+        G_SHIFT          : integer := 24;  -- right shift of the speed and magnitude products, 1..48
+        SECT_RECIP       : natural := 1;   -- sector multiplier (trim.sector_mapping; < 2^31 in VHDL)
+        SECT_SHIFT       : integer := 18;  -- sector shift (trim.sector_mapping)
+        -- fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
+        DRIFT            : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
+        DRIFT_BLOCK_LOG2 : integer := 8;   -- samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)
+        DRIFT_MU_LOG2    : integer := 1;   -- tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
+        DRIFT_OFS_FRAC   : integer := 4;   -- fraction bits of the tracked offsets, 0..8
+        DRIFT_GINV_W     : integer := 18;  -- tracked inverse gains u(DRIFT_GINV_W), 8..24
+        DRIFT_FWD_W      : integer := 8;   -- 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
+        DRIFT_TABLE_W    : integer := 18;  -- forward table value/slope width, 8..24
+        DRIFT_TABLE_FRAC : integer := 4;   -- fraction bits of the forward tables and W0_S/W0_C, 0..12
+        DRIFT_KG_W       : integer := 18;  -- KG_S/KG_C width, 8..24
+        DRIFT_KG_SHIFT   : integer := 40;  -- right shift of the gain-loop product, 1..60
+        -- initial contents: $readmemh images, "" = zeros
+        REGS_INIT        : string  := "";  -- $readmemh image of the registers, 2 x 32 words of 32 bits
+        WAVE_SIN_INIT    : string  := "";  -- $readmemh image of the sine table, both banks
+        WAVE_COS_INIT    : string  := "";  -- $readmemh image of the cosine table, both banks
+        LP_INIT          : string  := "";  -- $readmemh image of the long-period table, both banks
+        MAP_INIT         : string  := "";  -- $readmemh image of the trim map, both banks (TRIM = 1)
+        SPEED_INIT       : string  := "";  -- $readmemh image of the trim speed table, both banks (TRIM = 1)
+        AMP_INIT         : string  := "";  -- $readmemh image of the trim magnitude table, both banks (TRIM = 1)
+        FWD_SIN_INIT     : string  := "";  -- $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
+        FWD_COS_INIT     : string  := ""   -- $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
+        -- END generated generics
     );
     port (
         clk           : in  std_logic;
@@ -80,7 +85,7 @@ entity fringe_top is
         s_axis_tready : out std_logic;
         -- AXI4-Stream positions out
         -- M_DATA_W = POS_LANE + 8 bits
-        m_axis_tdata  : out std_logic_vector(8 * ((integer(ceil(log2(real(LINES)))) + FINE_W + 7) / 8) + 8 - 1
+        m_axis_tdata  : out std_logic_vector(8 * ((clog2(LINES) + FINE_W + 7) / 8) + 8 - 1
                                              downto 0);
         m_axis_tvalid : out std_logic;
         m_axis_tready : in  std_logic;
@@ -94,30 +99,7 @@ end entity fringe_top;
 
 architecture rtl of fringe_top is
 
-    function clog2(n : integer) return integer is
-        variable r : integer := 0;
-    begin
-        while 2 ** r < n loop
-            r := r + 1;
-        end loop;
-        return r;
-    end function clog2;
-
-    function trim_latency return integer is
-    begin
-        if TRIM /= 0 then
-            return 12;
-        end if;
-        return 0;
-    end function trim_latency;
-    function drift_latency return integer is
-    begin
-        if DRIFT /= 0 then
-            return 4;
-        end if;
-        return 0;
-    end function drift_latency;
-    constant LATENCY  : integer := CORDIC_STAGES + 24 + trim_latency + drift_latency;
+    constant LATENCY  : integer := core_latency(CORDIC_STAGES, TRIM, DRIFT);
     constant CW       : integer := maximum(COARSE_W, 1);      -- coarse port width of the core
     constant POS_W    : integer := clog2(LINES) + FINE_W;     -- position bits
     constant ADC_LANE : integer := 8 * ((ADC_W + 7) / 8);     -- bits of the sin and cos lanes
@@ -143,18 +125,20 @@ begin
 
     u_core : entity work.fringe_core
         generic map (
-            ADC_W => ADC_W, LINES => LINES, COARSE_W => COARSE_W, WAVE_ADDR_W => WAVE_ADDR_W,
-            WAVE_W => WAVE_W, COEF_W => COEF_W, FINE_W => FINE_W, CORDIC_STAGES => CORDIC_STAGES,
-            CORDIC_GUARD => CORDIC_GUARD, LP_ADDR_W => LP_ADDR_W, LP_W => LP_W, LP_FRAC => LP_FRAC,
-            LP_IF => LP_IF, LP_RECIP => LP_RECIP, LP_SHIFT => LP_SHIFT, REGS_INIT => REGS_INIT,
-            WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT, LP_INIT => LP_INIT,
-            TRIM => TRIM, SPEED_LOG2 => SPEED_LOG2, MAP_PSI_W => MAP_PSI_W, MAP_PHI_W => MAP_PHI_W,
-            TRIM_W => TRIM_W, TRIM_FRAC => TRIM_FRAC, G_SHIFT => G_SHIFT, SECT_RECIP => SECT_RECIP,
-            SECT_SHIFT => SECT_SHIFT, MAP_INIT => MAP_INIT, SPEED_INIT => SPEED_INIT, AMP_INIT => AMP_INIT,
-            DRIFT => DRIFT, DRIFT_BLOCK_LOG2 => DRIFT_BLOCK_LOG2, DRIFT_MU_LOG2 => DRIFT_MU_LOG2,
-            DRIFT_OFS_FRAC => DRIFT_OFS_FRAC, DRIFT_GINV_W => DRIFT_GINV_W, DRIFT_FWD_W => DRIFT_FWD_W,
-            DRIFT_TABLE_W => DRIFT_TABLE_W, DRIFT_TABLE_FRAC => DRIFT_TABLE_FRAC, DRIFT_KG_W => DRIFT_KG_W,
-            DRIFT_KG_SHIFT => DRIFT_KG_SHIFT, FWD_SIN_INIT => FWD_SIN_INIT, FWD_COS_INIT => FWD_COS_INIT
+            -- BEGIN generated core map (written by python sim/hdlgen.py; do not edit)
+            ADC_W => ADC_W, LINES => LINES, COARSE_W => COARSE_W, WAVE_ADDR_W => WAVE_ADDR_W, WAVE_W => WAVE_W,
+            COEF_W => COEF_W, FINE_W => FINE_W, CORDIC_STAGES => CORDIC_STAGES, CORDIC_GUARD => CORDIC_GUARD,
+            LP_ADDR_W => LP_ADDR_W, LP_W => LP_W, LP_FRAC => LP_FRAC, LP_IF => LP_IF, LP_RECIP => LP_RECIP,
+            LP_SHIFT => LP_SHIFT, TRIM => TRIM, SPEED_LOG2 => SPEED_LOG2, MAP_PSI_W => MAP_PSI_W,
+            MAP_PHI_W => MAP_PHI_W, TRIM_W => TRIM_W, TRIM_FRAC => TRIM_FRAC, G_SHIFT => G_SHIFT,
+            SECT_RECIP => SECT_RECIP, SECT_SHIFT => SECT_SHIFT, DRIFT => DRIFT,
+            DRIFT_BLOCK_LOG2 => DRIFT_BLOCK_LOG2, DRIFT_MU_LOG2 => DRIFT_MU_LOG2, DRIFT_OFS_FRAC => DRIFT_OFS_FRAC,
+            DRIFT_GINV_W => DRIFT_GINV_W, DRIFT_FWD_W => DRIFT_FWD_W, DRIFT_TABLE_W => DRIFT_TABLE_W,
+            DRIFT_TABLE_FRAC => DRIFT_TABLE_FRAC, DRIFT_KG_W => DRIFT_KG_W, DRIFT_KG_SHIFT => DRIFT_KG_SHIFT,
+            REGS_INIT => REGS_INIT, WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT,
+            LP_INIT => LP_INIT, MAP_INIT => MAP_INIT, SPEED_INIT => SPEED_INIT, AMP_INIT => AMP_INIT,
+            FWD_SIN_INIT => FWD_SIN_INIT, FWD_COS_INIT => FWD_COS_INIT
+            -- END generated core map
         )
         port map (
             clk => clk, rst => rst, ce => ce,

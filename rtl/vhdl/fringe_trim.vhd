@@ -1,57 +1,17 @@
--- fringe_trim: closed-loop angle trim. An error map over (direction, sector of the revolution,
--- fine phase) and two fine-phase-dependent gains, on the speed and on the signal magnitude,
--- give a correction that is subtracted from the position.
+-- fringe_trim: closed-loop angle trim: an error map over (direction, sector of the revolution,
+-- fine phase) and two fine-phase-dependent gains (speed, magnitude) give a correction
+-- subtracted from the position.
 --
--- VHDL-2008 twin of rtl/verilog/fringe_trim.v (same generics, ports, latency and bit-exact
--- behaviour). Formats (docs/trim.md); REV = LINES * 2^FINE_W fine counts per revolution,
--- POS_W = clog2(REV) = FINE_W + clog2(LINES) (at most 31), N = 2^SPEED_LOG2, FB = FINE_W - MAP_PHI_W:
---   pos     u(POS_W) in [0, REV);  mag u(AMP_W)
---   phase   = pos mod 2^FINE_W;  bin = phase >> FB;  frac = phase mod 2^FB
---   sector  = (pos * SECT_RECIP) >> SECT_SHIFT = floor(pos * 2^MAP_PSI_W / REV) (0 when MAP_PSI_W = 0;
---             SECT_RECIP, SECT_SHIFT from model/fringe/fixed/trim.py sector_mapping(), checked here)
---   speed   = wrap(pos - the pos of the sample N accepted samples earlier), 0 until N samples came
---             since reset; wrap: d in (-REV, REV), 2d >= REV: d - REV, 2d < -REV: d + REV, so speed
---             is in [-REV/2, REV/2), s(POS_W);  dir = speed < 0 (1 = moving backwards)
---   words   {slope, value}, both s(TRIM_W), value in the low half; slope[k] = value[k+1] - value[k]
---             along the bins, periodic (the last bin of a row takes value[0] of the same row)
---   m       = value + ((slope * frac + 2^(FB-1)) >>> FB), map word at {bank, dir, sector, bin}
---   gs, ga  = the same interpolation of the speed table and the amp table at {bank, bin}, s(TRIM_W+1)
---   total   = m + ((speed * gs + mag * ga + 2^(G_SHIFT-1)) >>> G_SHIFT)    (TRIM_FRAC fraction bits)
---   corr    = (total + 2^(TRIM_FRAC-1)) >>> TRIM_FRAC (TRIM_FRAC = 0: total), clipped to
---             [-2^(FINE_W-1), 2^(FINE_W-1) - 1]; sat = it was clipped
---   pos_out = (pos - corr) mod REV  (|corr| <= REV/2: one compare and correct, chosen by corr's sign)
--- Any table word is legal: every width below holds the extremes. Bit-exact model:
--- model/fringe/fixed/trim.py. VHDL integers are 32 bits: SECT_RECIP is a natural here (< 2^31;
--- sector_mapping gives about REV or less), the Verilog takes 64 bits.
---
--- The speed history is a 2N-word RAM written at wp and read at wp xor N (the sample N earlier) on
--- every accepted sample (ce and in_valid and not rst); rst clears only the fill counter (and valid).
--- Tables: three two-bank fringe_table_ram (map 2 x 2^(1+MAP_PSI_W+MAP_PHI_W) words, speed and amp
--- 2 x 2^MAP_PHI_W words), written through wr_en / wr_sel (0 map, 1 speed, 2 amp, 3 none) /
--- wr_addr ({bank, word}; the small tables use the low MAP_PHI_W bits and ignore words beyond) /
--- wr_data whatever ce is; write only the bank no sample in flight reads.
---
--- LATENCY = 12 clock enables (ce = 1 cycles) from in_valid to out_valid:
---   1 input registers; history RAM read (and write)     2 history RAM output register; sector product
---   3 pos - old; gain table reads                        4 speed wrapped, dir; gain RAM output registers
---   5 map read at {bank, dir, sector, bin}; gain slope x frac (bare)
---   6 map RAM output register; gs, ga (rounding bit as carry in)
---   7 map slope x frac (bare); partial products of speed x gs and mag x ga (bare; an operand wider
---     than 18 bits split into a signed high part and an unsigned 17-bit low part: <= 18x18 each)
---   8 m (+ 2^(TRIM_FRAC-1)); partial products summed in pairs (bit-field joins where they do not overlap)
---   9 the pairs summed, m * 2^G_SHIFT + 2^(G_SHIFT-1) joined
---   10 A = (total + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + r, 0 <= r < 2^G_SHIFT
---   11 clip to corr, sat; pos -+ REV                     12 pos - corr, wrapped: pos_out, dir, sat
--- One carry chain or one bare multiply (register -> a*b -> register) per stage. One sample per clock.
--- ce = 0 freezes every register (and the RAM reads); rst (synchronous, active high, wins over ce)
--- clears only the valid pipeline and the history fill counter, never the data registers.
--- The port widths use ceil(log2(real(LINES))) (exact in GHDL for LINES <= 2^20); elaboration
--- checks it against an integer clog2.
+-- VHDL-2008 twin of rtl/verilog/fringe_trim.v (same generics, ports and behaviour).
+-- LATENCY = 12 clock enables, one sample per clock; ce = 0 freezes
+-- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_trim.md.
+-- Bit-exact model: model/fringe/fixed/trim.py.
 
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
-use ieee.math_real.all;
+use work.fringe_pkg.all;
 
 entity fringe_trim is
     generic (
@@ -77,7 +37,7 @@ entity fringe_trim is
         ce        : in  std_logic;                              -- clock enable
         -- sample in
         in_valid  : in  std_logic;
-        pos       : in  std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+        pos       : in  std_logic_vector(FINE_W + clog2(LINES) - 1 downto 0);
                                                                 -- u(POS_W), in [0, REV)
         mag       : in  std_logic_vector(AMP_W - 1 downto 0);   -- u(AMP_W)
         bank      : in  std_logic;                              -- table bank of this sample
@@ -89,7 +49,7 @@ entity fringe_trim is
         wr_data   : in  std_logic_vector(2 * TRIM_W - 1 downto 0);            -- {slope, value}
         -- position out
         out_valid : out std_logic;
-        pos_out   : out std_logic_vector(FINE_W + integer(ceil(log2(real(maximum(LINES, 1))))) - 1 downto 0);
+        pos_out   : out std_logic_vector(FINE_W + clog2(LINES) - 1 downto 0);
                                                                 -- u(POS_W), in [0, REV)
         dir       : out std_logic;                              -- 1: moving backwards (speed < 0)
         sat       : out std_logic;                              -- the trim was clipped
@@ -98,58 +58,6 @@ entity fringe_trim is
 end entity fringe_trim;
 
 architecture rtl of fringe_trim is
-
-    -- ceil(log2(v)) for v >= 1, on integers
-    function clog2(v : integer) return integer is
-        variable b : integer := 0;
-    begin
-        while b < 31 and 2**b < v loop
-            b := b + 1;
-        end loop;
-        return b;
-    end function clog2;
-
-    -- bits of a natural (at least 1)
-    function bits(v : natural) return integer is
-        variable b : integer := 1;
-    begin
-        while b < 31 and 2**b <= v loop
-            b := b + 1;
-        end loop;
-        return b;
-    end function bits;
-
-    -- 2-adic valuation of LINES (trailing zero bits), LINES in 1..2^20
-    function tz(v : integer) return integer is
-        variable k : integer := 0;
-    begin
-        for i in 1 to 20 loop
-            if v mod 2**i = 0 then
-                k := i;
-            end if;
-        end loop;
-        return k;
-    end function tz;
-
-    -- Granlund-Montgomery bound (check_sector_mapping in the model), on 256-bit numbers:
-    -- E = SECT_RECIP * REV - 2^(MAP_PSI_W + SECT_SHIFT) >= 0 and (REV - 1) * E < 2^(G + SECT_SHIFT),
-    -- 2^G = gcd(2^MAP_PSI_W, REV).
-    function map_ok return boolean is
-        variable rev_x, prod, pw, e, lhs, rhs : unsigned(255 downto 0);
-        variable g_log : integer;
-    begin
-        g_log := minimum(MAP_PSI_W, FINE_W + tz(LINES));
-        rev_x := shift_left(to_unsigned(LINES, 256), FINE_W);
-        prod  := resize(to_unsigned(SECT_RECIP, 256) * rev_x, 256);
-        pw    := shift_left(to_unsigned(1, 256), MAP_PSI_W + SECT_SHIFT);
-        if SECT_RECIP = 0 or prod < pw then
-            return false;
-        end if;
-        e   := prod - pw;
-        lhs := resize((rev_x - 1) * e, 256);
-        rhs := shift_left(to_unsigned(1, 256), g_log + SECT_SHIFT);
-        return lhs < rhs;
-    end function map_ok;
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
@@ -191,7 +99,7 @@ architecture rtl of fringe_trim is
             assert SECT_SHIFT >= 0 and SECT_SHIFT <= 127
                 report "fringe_trim: SECT_SHIFT = " & integer'image(SECT_SHIFT) & " out of range 0..127"
                 severity failure;
-            assert map_ok
+            assert mapping_exact(SECT_RECIP, SECT_SHIFT, MAP_PSI_W, LINES, FINE_W)
                 report "fringe_trim: SECT_RECIP = " & integer'image(SECT_RECIP) & ", SECT_SHIFT = "
                        & integer'image(SECT_SHIFT) & " do not map every position to floor(pos * 2^MAP_PSI_W / REV);"
                        & " take them from sector_mapping()"
@@ -200,14 +108,11 @@ architecture rtl of fringe_trim is
         assert USER_W >= 1
             report "fringe_trim: USER_W = " & integer'image(USER_W) & " must be >= 1"
             severity failure;
-        assert integer(ceil(log2(real(maximum(LINES, 1))))) = clog2(LINES)
-            report "fringe_trim: ceil(log2(real(LINES))) is not exact in this tool (port widths)"
-            severity failure;
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := 12;
+    constant LATENCY : integer := TRIM_LATENCY;
     constant POS_W   : integer := FINE_W + clog2(LINES);            -- clog2(REV)
     constant N       : integer := 2**SPEED_LOG2;                    -- speed window
     constant FB      : integer := FINE_W - MAP_PHI_W;               -- fraction bits within a bin, >= 1
@@ -226,7 +131,7 @@ architecture rtl of fringe_trim is
     constant C_W     : integer := TT_W - TRIM_FRAC;                 -- corr before clipping
     constant CX_W    : integer := maximum(C_W, FINE_W) + 1;         -- corr, sign-extended
     constant WW      : integer := POS_W + 2;                        -- signed positions
-    constant RECIP_W : integer := bits(SECT_RECIP);
+    constant RECIP_W : integer := bit_width(SECT_RECIP);
     constant T_W     : integer := maximum(POS_W + RECIP_W, SECT_SHIFT + PSI_R);   -- sector product
     constant REV_W   : signed(WW - 1 downto 0) := signed(shift_left(to_unsigned(LINES, WW), FINE_W));
     constant HALF_W  : signed(WW - 1 downto 0) := signed(shift_left(to_unsigned(LINES, WW), FINE_W - 1));
@@ -280,18 +185,6 @@ architecture rtl of fringe_trim is
         return r;
     end function low_bits;
 
-    -- 2^(k-1) in a w-bit signed word, 0 when k = 0 (no rounding)
-    function round_term(w, k : integer) return signed is
-    begin
-        if k = 0 then
-            return to_signed(0, w);
-        end if;
-        return shift_left(to_signed(1, w), k - 1);
-    end function round_term;
-
-    signal valid_sr : std_logic_vector(1 to LATENCY);
-    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
-    signal user_sr  : user_sr_t;
 
     -- speed history: 2N words (initialised so that GHDL computes on defined values before it fills)
     type hist_t is array (0 to 2 * N - 1) of unsigned(POS_W - 1 downto 0);
@@ -338,28 +231,10 @@ architecture rtl of fringe_trim is
 begin
 
     -- ---- valid (reset) and sideband, LATENCY stages ------------------------------------------------
-    p_valid : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                valid_sr <= (others => '0');
-            elsif ce = '1' then
-                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_valid;
-
-    p_user : process (clk)
-    begin
-        if rising_edge(clk) then
-            if ce = '1' then
-                user_sr <= in_user & user_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_user;
-
-    out_valid <= valid_sr(LATENCY);
-    out_user  <= user_sr(LATENCY);
+    u_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => out_valid, out_data => out_user);
 
     -- ---- speed history: written at wp, read at wp xor N (N accepted samples earlier) ----------------
     accept <= ce and in_valid and not rst;
@@ -516,7 +391,7 @@ begin
                 -- one of at most 18 bits is x_hi = x, x_lo = 0
                 frac6 := signed('0' & s6_pos(FB - 1 downto 0));
                 s7_mprod  <= resize(signed(map_word(2 * TW - 1 downto TW)) * frac6, IP_W);
-                s7_mvalue <= resize(signed(map_word(TW - 1 downto 0)), VR_W) + round_term(VR_W, TRIM_FRAC);
+                s7_mvalue <= resize(signed(map_word(TW - 1 downto 0)), VR_W) + round_half(VR_W, TRIM_FRAC);
                 mag_s := signed('0' & s6_mag);
                 sp_x  := resize(s6_speed, POS_W + L);
                 gs_x  := resize(s6_gs, GW + L);

@@ -1,31 +1,15 @@
 -- fringe_wave_lut: waveform inverse of one channel as an interpolated table (seed 001).
 --
--- VHDL-2008 twin of rtl/verilog/fringe_wave_lut.v (same generics, ports, latency and
--- bit-exact behaviour).
---
--- Formats (docs/architecture.md, "fringe_wave_lut"):
---   adc    s(ADC_W)  ADC code
---   index  u = adc + 2^(ADC_W-1), FB = ADC_W - WAVE_ADDR_W, addr = u >> FB, frac = u mod 2^FB
---   table  word {slope, value}, both s(WAVE_W), value in [WAVE_W-1:0], slope in [2*WAVE_W-1:WAVE_W],
---          read at {bank, branch, addr}; slope[k] = value[k+1] - value[k]
---   x      s(WAVE_W) with WAVE_FRAC = WAVE_W - 2 fractional bits:
---          x = value + ((slope * frac + 2^(FB-1)) >>> FB)
---          (lies between two table values, so it cannot overflow for a range-checked table)
---   clip   adc is the most negative or the most positive code
+-- VHDL-2008 twin of rtl/verilog/fringe_wave_lut.v (same generics, ports and behaviour).
+-- LATENCY = 4 clock enables, one sample per clock; ce = 0 freezes
+-- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_wave_lut.md.
 -- Bit-exact model: model/fringe/fixed/wave_lut.py.
---
--- LATENCY = 4 clock enables (ce = 1 cycles) from in_valid to out_valid:
---   1: table RAM read (fringe_table_ram, registered)   2: the RAM's output register
---   3: slope * frac (the bare product: a DSP registered on both sides)
---   4: ({value, 2^(FB-1)} + product) >>> FB, the rounding constant concatenated below value (one add)
--- ce = 0 freezes every register (including the RAM read); rst (synchronous, active high,
--- wins over ce) clears only the valid pipeline, never the data registers. The table write port
--- is independent of ce: write the bank that no sample in flight carries, then switch `bank`;
--- each sample reads the bank it carries, at the clock enable that accepts it.
 
 library ieee;
 use ieee.std_logic_1164.all;
 use ieee.numeric_std.all;
+use work.fringe_pkg.all;
 
 entity fringe_wave_lut is
     generic (
@@ -79,7 +63,7 @@ architecture rtl of fringe_wave_lut is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant LATENCY : integer := 4;
+    constant LATENCY : integer := WAVE_LUT_LATENCY;
     constant FB      : integer := ADC_W - WAVE_ADDR_W;   -- fraction bits of the index, >= 1
     constant PROD_W  : integer := WAVE_W + FB + 1;        -- s(WAVE_W) * u(FB+1)
     constant RND_X   : signed(FB downto 0) := shift_left(to_signed(1, FB + 1), FB - 1);  -- 2^(FB-1)
@@ -100,9 +84,6 @@ architecture rtl of fringe_wave_lut is
     signal word1r  : std_logic_vector(2 * WAVE_W - 1 downto 0);
     signal clip2   : std_logic;
     -- valid and sideband
-    type user_sr_t is array (1 to LATENCY) of std_logic_vector(USER_W - 1 downto 0);
-    signal valid_sr : std_logic_vector(1 to LATENCY);
-    signal user_sr  : user_sr_t;
 
 begin
 
@@ -153,27 +134,9 @@ begin
     end process p_data;
 
     -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
-    p_valid : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                valid_sr <= (others => '0');
-            elsif ce = '1' then
-                valid_sr <= in_valid & valid_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_valid;
-
-    p_user : process (clk)
-    begin
-        if rising_edge(clk) then
-            if ce = '1' then
-                user_sr <= in_user & user_sr(1 to LATENCY - 1);
-            end if;
-        end if;
-    end process p_user;
-
-    out_valid <= valid_sr(LATENCY);
-    out_user  <= user_sr(LATENCY);
+    u_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => out_valid, out_data => out_user);
 
 end architecture rtl;

@@ -19,6 +19,58 @@ TRIM_FIELDS = ("trim", "speed_log2", "map_psi_w", "map_phi_w", "trim_w", "trim_f
 DRIFT_FIELDS = ("drift", "drift_block_log2", "drift_mu_log2", "drift_ofs_frac", "drift_ginv_w", "drift_fwd_w",
                 "drift_table_w", "drift_table_frac", "drift_kg_w", "drift_kg_shift")
 
+#: The parameters/generics of fringe_core and fringe_top (both HDLs) and of sim/synth_wrap.v, in declaration
+#: order, with their meaning and limits: the CoreConfig fields (upper case), the index mappings derived from
+#: them and the init files. `sim/hdlgen.py` writes the HDL declarations and maps from this table; the
+#: defaults are those of CoreConfig() (`hdl_parameter_defaults`).
+HDL_PARAMETER_DOCS = {
+    "ADC_W": "ADC code width (signed), 4..24",
+    "LINES": "signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)",
+    "COARSE_W": "coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2",
+    "WAVE_ADDR_W": "waveform table address bits per branch, 2..min(ADC_W-1, 15)",
+    "WAVE_W": "waveform table / quadrature data width, 8..31",
+    "COEF_W": "quadrature gain width (COEF_W-2 fraction bits), 8..27",
+    "FINE_W": "fine phase bits per signal period, 8..30",
+    "CORDIC_STAGES": "CORDIC micro-rotations, 4..32",
+    "CORDIC_GUARD": "extra fraction bits inside the CORDIC, 0..8",
+    "LP_ADDR_W": "long-period table entries per revolution = 2^LP_ADDR_W, <= 16",
+    "LP_W": "long-period table value/slope width, <= 32",
+    "LP_FRAC": "fraction bits of the long-period correction (fine counts)",
+    "LP_IF": "interpolation fraction bits of the long-period table",
+    "LP_RECIP": "long-period index multiplier (long_period.index_mapping; < 2^31 in VHDL)",
+    "LP_SHIFT": "long-period index shift (long_period.index_mapping)",
+    "TRIM": "1 = fringe_trim between the period count and the long-period table (docs/blocks/fringe_trim.md)",
+    "SPEED_LOG2": "speed window 2^SPEED_LOG2 samples, 0..8",
+    "MAP_PSI_W": "2^MAP_PSI_W error-map sectors per revolution, 0..8",
+    "MAP_PHI_W": "2^MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); MAP_PSI_W + MAP_PHI_W <= 15",
+    "TRIM_W": "trim table value/slope width, 8..24",
+    "TRIM_FRAC": "fraction bits of the trim (fine counts), 0..16",
+    "G_SHIFT": "right shift of the speed and magnitude products, 1..48",
+    "SECT_RECIP": "sector multiplier (trim.sector_mapping; < 2^31 in VHDL)",
+    "SECT_SHIFT": "sector shift (trim.sector_mapping)",
+    "DRIFT": "1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)",
+    "DRIFT_BLOCK_LOG2": "samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)",
+    "DRIFT_MU_LOG2": "tracker step 2^-DRIFT_MU_LOG2 per block, 0..8",
+    "DRIFT_OFS_FRAC": "fraction bits of the tracked offsets, 0..8",
+    "DRIFT_GINV_W": "tracked inverse gains u(DRIFT_GINV_W), 8..24",
+    "DRIFT_FWD_W": "2^DRIFT_FWD_W bins of the forward waveform tables, 2..10",
+    "DRIFT_TABLE_W": "forward table value/slope width, 8..24",
+    "DRIFT_TABLE_FRAC": "fraction bits of the forward tables and W0_S/W0_C, 0..12",
+    "DRIFT_KG_W": "KG_S/KG_C width, 8..24",
+    "DRIFT_KG_SHIFT": "right shift of the gain-loop product, 1..60",
+    "REGS_INIT": "$readmemh image of the registers, 2 x 32 words of 32 bits",
+    "WAVE_SIN_INIT": "$readmemh image of the sine table, both banks",
+    "WAVE_COS_INIT": "$readmemh image of the cosine table, both banks",
+    "LP_INIT": "$readmemh image of the long-period table, both banks",
+    "MAP_INIT": "$readmemh image of the trim map, both banks (TRIM = 1)",
+    "SPEED_INIT": "$readmemh image of the trim speed table, both banks (TRIM = 1)",
+    "AMP_INIT": "$readmemh image of the trim magnitude table, both banks (TRIM = 1)",
+    "FWD_SIN_INIT": "$readmemh image of the drift sine forward table, both banks (DRIFT = 1)",
+    "FWD_COS_INIT": "$readmemh image of the drift cosine forward table, both banks (DRIFT = 1)",
+}
+#: the 64-bit (Verilog) multipliers of the index mappings
+HDL_WIDE_PARAMETERS = ("LP_RECIP", "SECT_RECIP")
+
 
 @dataclass(frozen=True)
 class CoreConfig:
@@ -35,7 +87,7 @@ class CoreConfig:
     lp_w: int = 18             # LP_W: long-period table value/slope width
     lp_frac: int = 4           # LP_FRAC: fraction bits of the long-period correction (fine counts)
     lp_if: int = 8             # LP_IF: interpolation fraction bits of the long-period table
-    # fringe_trim (closed-loop corrections, docs/trim.md); TRIM = 0: not built, no latency
+    # fringe_trim (closed-loop corrections, docs/blocks/fringe_trim.md); TRIM = 0: not built, no latency
     trim: int = 0              # TRIM: 1 = fringe_trim between the period count and the long-period table
     speed_log2: int = 5        # SPEED_LOG2: speed = position change over 2^SPEED_LOG2 samples (effects.SPEED_LOG2)
     map_psi_w: int = 6         # MAP_PSI_W: 2^MAP_PSI_W error-map sectors per revolution
@@ -43,7 +95,7 @@ class CoreConfig:
     trim_w: int = 18           # TRIM_W: trim table value/slope width
     trim_frac: int = 4         # TRIM_FRAC: fraction bits of the trim (fine counts)
     g_shift: int = 24          # G_SHIFT: right shift of the speed and magnitude products
-    # fringe_drift (the closed loop's online offset/gain tracker, docs/drift.md); DRIFT = 0: not built
+    # fringe_drift (the closed loop's online offset/gain tracker, docs/blocks/fringe_drift.md); DRIFT = 0: not built
     drift: int = 0             # DRIFT: 1 = fringe_drift normalises the ADC codes in front of everything
     drift_block_log2: int = 8  # DRIFT_BLOCK_LOG2: samples per tracker update = 2^DRIFT_BLOCK_LOG2 (>= 7 in the core)
     drift_mu_log2: int = 1     # DRIFT_MU_LOG2: tracker step 2^-DRIFT_MU_LOG2 per block
@@ -122,6 +174,15 @@ class CoreConfig:
         if self.drift:    # likewise fringe_drift's
             p.update({name.upper(): getattr(self, name) for name in DRIFT_FIELDS})
         return p
+
+    def hdl_parameter_defaults(self) -> dict[str, int | str]:
+        """Every HDL parameter of HDL_PARAMETER_DOCS with this configuration's value (the trim and drift
+        ones too, whatever TRIM and DRIFT are; init files empty)."""
+        p = {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self)}
+        p.update(self.hdl_parameters())
+        tp = self.trim_params()
+        p["SECT_RECIP"], p["SECT_SHIFT"] = tp.recip, tp.shift
+        return {k: p.get(k, "") for k in HDL_PARAMETER_DOCS}
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)

@@ -2,7 +2,8 @@
 
 One register file per bank, REG_W = 32 bits per word, two's complement for signed values
 (sign-extended to 32 bits in the image). The same list drives the ROM image (`regs.mem`),
-the HDL's register decode (fringe_core) and the documentation.
+the HDL's register decode (fringe_core, through the constants `sim/hdlgen.py` writes into
+rtl/*/fringe_pkg.*) and the documentation.
 """
 
 from __future__ import annotations
@@ -31,24 +32,33 @@ REGISTERS = (
     Reg(2, "K_CC", True, "COEF_W", "quadrature gain c' <- (xc - OFS_C)"),
     Reg(3, "OFS_S", True, "WAVE_W", "sine offset after the waveform table"),
     Reg(4, "OFS_C", True, "WAVE_W", "cosine offset after the waveform table"),
-    Reg(5, "MID_S", True, "ADC_W+1", "sine table branch: sin >= MID_S picks THR_HI_S, else THR_LO_S"),
-    Reg(6, "THR_HI_S", True, "ADC_W+1", "sine table branch 1 when cos >= threshold"),
-    Reg(7, "THR_LO_S", True, "ADC_W+1", ""),
-    Reg(8, "MID_C", True, "ADC_W+1", "cosine table branch: cos >= MID_C picks THR_HI_C, else THR_LO_C"),
-    Reg(9, "THR_HI_C", True, "ADC_W+1", "cosine table branch 1 when sin >= threshold"),
-    Reg(10, "THR_LO_C", True, "ADC_W+1", ""),
+    Reg(5, "MID_S", True, "ADC_W+1", "sine table branch: branch_s = cos >= (sin >= MID_S ? THR_HI_S : THR_LO_S)"),
+    Reg(6, "THR_HI_S", True, "ADC_W+1", "cosine threshold of the sine branch when sin >= MID_S"),
+    Reg(7, "THR_LO_S", True, "ADC_W+1", "cosine threshold of the sine branch when sin < MID_S"),
+    Reg(8, "MID_C", True, "ADC_W+1", "cosine table branch: branch_c = sin >= (cos >= MID_C ? THR_HI_C : THR_LO_C)"),
+    Reg(9, "THR_HI_C", True, "ADC_W+1", "sine threshold of the cosine branch when cos >= MID_C"),
+    Reg(10, "THR_LO_C", True, "ADC_W+1", "sine threshold of the cosine branch when cos < MID_C"),
     Reg(11, "COARSE_OFS", True, "POS_W+1", "middle of coarse code 0, fine counts"),
     Reg(12, "ZERO", False, "POS_W", "output zero, fine counts in [0, REV)"),
     Reg(13, "DIR", False, "1", "1: output runs the other way"),
     Reg(14, "AMP_LOW", False, "WAVE_W+1", "AMP_LOW flag below this CORDIC magnitude"),
     Reg(15, "AMP_HIGH", False, "WAVE_W+1", "AMP_HIGH flag above this CORDIC magnitude"),
-    # fringe_drift (DRIFT = 1, docs/drift.md); 0 otherwise
+    # fringe_drift (DRIFT = 1, docs/blocks/fringe_drift.md); 0 otherwise
     Reg(16, "W0_S", True, "ADC_W+DRIFT_TABLE_FRAC", "drift tracker: mean of the calibrated sine waveform"),
     Reg(17, "W0_C", True, "ADC_W+DRIFT_TABLE_FRAC", "drift tracker: mean of the calibrated cosine waveform"),
     Reg(18, "KG_S", False, "DRIFT_KG_W", "drift tracker: sine gain-loop constant"),
     Reg(19, "KG_C", False, "DRIFT_KG_W", "drift tracker: cosine gain-loop constant"),
 )
 N_REGS = 32       # words per bank (20..31 reserved, written as 0)
+
+#: configuration write port: cfg_wr_addr[19:16] selects the address space (the ROM image written there),
+#: cfg_wr_addr[15:0] the word within one bank; spaces 4..6 exist with TRIM = 1, 7 and 8 with DRIFT = 1
+SPACES = {"regs": 0, "wave_sin": 1, "wave_cos": 2, "long_period": 3, "trim_map": 4, "trim_speed": 5,
+          "trim_amp": 6, "drift_fwd_sin": 7, "drift_fwd_cos": 8}
+CFG_ADDR_W = 20   # cfg_wr_addr bits
+SPACE_LSB = 16    # cfg_wr_addr bit where the space number starts
+CTRL_WORD = 0x80  # word of the register space: writing bit CTRL_SWAP = 1 swaps the banks
+CTRL_SWAP = 0
 
 
 def widths(cfg: CoreConfig) -> dict[str, int]:

@@ -1,0 +1,118 @@
+// fringe_pkg.vh: what every fringe block shares, Verilog-2005 (twin: rtl/vhdl/fringe_pkg.vhd).
+//
+// Included inside a module body (`include "fringe_pkg.vh"): the exact reciprocal-mapping check
+// of fringe_long_period and fringe_trim, and the constants generated from the Python single
+// source (register map, address spaces, status bits, block latencies). Widths use $clog2
+// (integer arithmetic). The $readmemh images are read by $readmemh itself.
+
+// A module uses a few of the shared constants; the others are not an error.
+/* verilator lint_off UNUSEDPARAM */
+// BEGIN generated constants (written by python sim/hdlgen.py; do not edit)
+localparam integer REG_W                = 32;  // bits per register word
+localparam integer N_REGS               = 32;  // register words per bank
+localparam [4:0]   REG_K_SS             = 5'd0;  // s(COEF_W)
+localparam [4:0]   REG_K_SC             = 5'd1;  // s(COEF_W)
+localparam [4:0]   REG_K_CC             = 5'd2;  // s(COEF_W)
+localparam [4:0]   REG_OFS_S            = 5'd3;  // s(WAVE_W)
+localparam [4:0]   REG_OFS_C            = 5'd4;  // s(WAVE_W)
+localparam [4:0]   REG_MID_S            = 5'd5;  // s(ADC_W+1)
+localparam [4:0]   REG_THR_HI_S         = 5'd6;  // s(ADC_W+1)
+localparam [4:0]   REG_THR_LO_S         = 5'd7;  // s(ADC_W+1)
+localparam [4:0]   REG_MID_C            = 5'd8;  // s(ADC_W+1)
+localparam [4:0]   REG_THR_HI_C         = 5'd9;  // s(ADC_W+1)
+localparam [4:0]   REG_THR_LO_C         = 5'd10;  // s(ADC_W+1)
+localparam [4:0]   REG_COARSE_OFS       = 5'd11;  // s(POS_W+1)
+localparam [4:0]   REG_ZERO             = 5'd12;  // u(POS_W)
+localparam [4:0]   REG_DIR              = 5'd13;  // u(1)
+localparam [4:0]   REG_AMP_LOW          = 5'd14;  // u(WAVE_W+1)
+localparam [4:0]   REG_AMP_HIGH         = 5'd15;  // u(WAVE_W+1)
+localparam [4:0]   REG_W0_S             = 5'd16;  // s(ADC_W+DRIFT_TABLE_FRAC)
+localparam [4:0]   REG_W0_C             = 5'd17;  // s(ADC_W+DRIFT_TABLE_FRAC)
+localparam [4:0]   REG_KG_S             = 5'd18;  // u(DRIFT_KG_W)
+localparam [4:0]   REG_KG_C             = 5'd19;  // u(DRIFT_KG_W)
+localparam [15:0]  CTRL_WORD            = 16'd128;  // register-space word of CTRL
+localparam integer CTRL_SWAP            = 0;  // CTRL bit: 1 swaps the banks
+localparam integer SPACE_LSB            = 16;  // cfg_wr_addr bit where the address space starts
+localparam [3:0]   SPACE_REGS           = 4'd0;  // cfg_wr_addr[19:16] of the regs image
+localparam [3:0]   SPACE_WAVE_SIN       = 4'd1;  // cfg_wr_addr[19:16] of the wave_sin image
+localparam [3:0]   SPACE_WAVE_COS       = 4'd2;  // cfg_wr_addr[19:16] of the wave_cos image
+localparam [3:0]   SPACE_LONG_PERIOD    = 4'd3;  // cfg_wr_addr[19:16] of the long_period image
+localparam [3:0]   SPACE_TRIM_MAP       = 4'd4;  // cfg_wr_addr[19:16] of the trim_map image
+localparam [3:0]   SPACE_TRIM_SPEED     = 4'd5;  // cfg_wr_addr[19:16] of the trim_speed image
+localparam [3:0]   SPACE_TRIM_AMP       = 4'd6;  // cfg_wr_addr[19:16] of the trim_amp image
+localparam [3:0]   SPACE_DRIFT_FWD_SIN  = 4'd7;  // cfg_wr_addr[19:16] of the drift_fwd_sin image
+localparam [3:0]   SPACE_DRIFT_FWD_COS  = 4'd8;  // cfg_wr_addr[19:16] of the drift_fwd_cos image
+localparam integer STATUS_W             = 8;  // bits of the status word
+localparam integer STATUS_CLIP_SIN      = 0;  // status bit
+localparam integer STATUS_CLIP_COS      = 1;  // status bit
+localparam integer STATUS_AMP_LOW       = 2;  // status bit
+localparam integer STATUS_AMP_HIGH      = 3;  // status bit
+localparam integer STATUS_OVERSPEED     = 4;  // status bit
+localparam integer STATUS_COARSE_ERR    = 5;  // status bit
+localparam integer STATUS_SATURATED     = 6;  // status bit
+localparam integer STATUS_BANK          = 7;  // status bit
+localparam integer CORE_INPUT_LATENCY   = 2;  // fringe_core input registers
+localparam integer WAVE_LUT_LATENCY     = 4;  // fringe_wave_lut
+localparam integer QUADRATURE_LATENCY   = 5;  // fringe_quadrature
+localparam integer CORDIC_LATENCY_BASE  = 2;  // fringe_cordic: STAGES + this
+localparam integer PERIOD_COUNT_LATENCY = 3;  // fringe_period_count
+localparam integer TRIM_LATENCY         = 12;  // fringe_trim
+localparam integer LONG_PERIOD_LATENCY  = 8;  // fringe_long_period
+localparam integer DRIFT_NORM_LATENCY   = 4;  // fringe_drift normaliser
+localparam integer DRIFT_OBS_LATENCY    = 15;  // fringe_drift observer
+// END generated constants
+/* verilator lint_on UNUSEDPARAM */
+
+// LATENCY of fringe_core and fringe_top (trim, drift: the TRIM and DRIFT parameters, 0 or 1): the
+// input registers and the blocks in the chain, from the generated block latencies above
+function integer fringe_core_latency;
+    input integer cordic_stages;
+    input integer trim;
+    input integer drift;
+    begin
+        fringe_core_latency = CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + cordic_stages
+                              + CORDIC_LATENCY_BASE + PERIOD_COUNT_LATENCY + LONG_PERIOD_LATENCY
+                              + trim * TRIM_LATENCY + drift * DRIFT_NORM_LATENCY;
+    end
+endfunction
+
+// trailing zero bits of 1 <= v < 2^31 (its 2-adic valuation), at most 30
+function integer fringe_trailing_zeros;
+    input integer v;
+    integer k;
+    begin
+        fringe_trailing_zeros = 0;
+        for (k = 1; k <= 30; k = k + 1) begin      // a bounded loop: Yosys evaluates it at elaboration
+            if (v % (1 << k) == 0) begin
+                fringe_trailing_zeros = k;
+            end
+        end
+    end
+endfunction
+
+// 1 when floor(p * recip / 2^shift) = floor(p * 2^addr_w / REV) for every position
+// 0 <= p < REV = lines * 2^fine_w (Granlund-Montgomery bound, model:
+// fringe.fixed.long_period.mapping_ok): with E = recip * REV - 2^(addr_w + shift) and
+// 2^G = gcd(2^addr_w, REV), E >= 0 and (REV - 1) * E < 2^(G + shift). 256-bit arithmetic.
+function fringe_mapping_exact;
+    input [63:0]  recip;
+    input integer shift;
+    input integer addr_w;
+    input integer lines;
+    input integer fine_w;
+    reg   [255:0] rev_x, prod, pw, e, lhs, rhs;
+    integer       g_log;
+    begin
+        g_log = fine_w + fringe_trailing_zeros(lines);
+        if (addr_w < g_log) begin
+            g_log = addr_w;
+        end
+        rev_x = {224'd0, lines} << fine_w;
+        prod  = {192'd0, recip} * rev_x;
+        pw    = 256'd1 << (addr_w + shift);
+        e     = prod - pw;
+        lhs   = (rev_x - 256'd1) * e;
+        rhs   = 256'd1 << (g_log + shift);
+        fringe_mapping_exact = (lines > 0) && (recip != 64'd0) && (prod >= pw) && (lhs < rhs);
+    end
+endfunction

@@ -1,0 +1,233 @@
+-- fringe_pkg: what every fringe block shares, VHDL-2008 (twin: rtl/verilog/fringe_pkg.vh).
+--
+-- Integer arithmetic for widths (clog2, bit_width: no real log2), the exact reciprocal-mapping
+-- check of fringe_long_period and fringe_trim, rounding and saturation helpers, the reader of the
+-- $readmemh images (fringe_table_ram, the register file), and the constants generated from the
+-- Python single source (register map, address spaces, status bits, block latencies).
+
+library ieee;
+use ieee.std_logic_1164.all;
+use ieee.numeric_std.all;
+use std.textio.all;
+
+package fringe_pkg is
+
+    -- ceil(log2(v)), 0 for v <= 1 (as Verilog's $clog2)
+    function clog2(v : natural) return natural;
+    -- bits of the unsigned number v, at least 1
+    function bit_width(v : natural) return positive;
+    -- trailing zero bits of v >= 1 (its 2-adic valuation)
+    function trailing_zeros(v : positive) return natural;
+
+    -- True when floor(p * recip / 2^shift) = floor(p * 2^addr_w / REV) for every position
+    -- 0 <= p < REV = lines * 2^fine_w (Granlund-Montgomery bound, model:
+    -- fringe.fixed.long_period.mapping_ok): with E = recip * REV - 2^(addr_w + shift) and
+    -- 2^G = gcd(2^addr_w, REV), E >= 0 and (REV - 1) * E < 2^(G + shift). 256-bit arithmetic.
+    function mapping_exact(recip, shift, addr_w, lines, fine_w : natural) return boolean;
+
+    -- 2^(k-1) as s(w), the rounding constant of (v + 2^(k-1)) >>> k; 0 when k = 0
+    function round_half(w, k : natural) return signed;
+    -- v saturated to s(w) (v at least w bits wide)
+    function saturate(v : signed; w : positive) return signed;
+    -- v outside s(w): the bits from w-1 up are not all equal to the sign
+    function outside(v : signed; w : positive) return boolean;
+
+    -- Words of a $readmemh image, as fringe_table_ram and the register file hold them.
+    type word_array is array (natural range <>) of std_logic_vector;
+    -- The first `depth` words of the image `fname` (one hex word of ceil(width/4) digits per line,
+    -- "//" comment lines and empty lines skipped; missing words are 0); all zeros when fname is "".
+    -- `what` names the file in the failure messages ("fringe_table_ram: INIT_FILE").
+    impure function read_memh(fname : string; depth, width : positive; what : string) return word_array;
+
+    -- LATENCY of fringe_core and fringe_top (trim, drift: the TRIM and DRIFT generics, 0 or 1):
+    -- the input registers and the blocks in the chain, from the generated block latencies below
+    function core_latency(cordic_stages, trim, drift : natural) return natural;
+
+    -- BEGIN generated constants (written by python sim/hdlgen.py; do not edit)
+    constant REG_W                : integer := 32;  -- bits per register word
+    constant N_REGS               : integer := 32;  -- register words per bank
+    constant REG_K_SS             : integer := 0;  -- s(COEF_W)
+    constant REG_K_SC             : integer := 1;  -- s(COEF_W)
+    constant REG_K_CC             : integer := 2;  -- s(COEF_W)
+    constant REG_OFS_S            : integer := 3;  -- s(WAVE_W)
+    constant REG_OFS_C            : integer := 4;  -- s(WAVE_W)
+    constant REG_MID_S            : integer := 5;  -- s(ADC_W+1)
+    constant REG_THR_HI_S         : integer := 6;  -- s(ADC_W+1)
+    constant REG_THR_LO_S         : integer := 7;  -- s(ADC_W+1)
+    constant REG_MID_C            : integer := 8;  -- s(ADC_W+1)
+    constant REG_THR_HI_C         : integer := 9;  -- s(ADC_W+1)
+    constant REG_THR_LO_C         : integer := 10;  -- s(ADC_W+1)
+    constant REG_COARSE_OFS       : integer := 11;  -- s(POS_W+1)
+    constant REG_ZERO             : integer := 12;  -- u(POS_W)
+    constant REG_DIR              : integer := 13;  -- u(1)
+    constant REG_AMP_LOW          : integer := 14;  -- u(WAVE_W+1)
+    constant REG_AMP_HIGH         : integer := 15;  -- u(WAVE_W+1)
+    constant REG_W0_S             : integer := 16;  -- s(ADC_W+DRIFT_TABLE_FRAC)
+    constant REG_W0_C             : integer := 17;  -- s(ADC_W+DRIFT_TABLE_FRAC)
+    constant REG_KG_S             : integer := 18;  -- u(DRIFT_KG_W)
+    constant REG_KG_C             : integer := 19;  -- u(DRIFT_KG_W)
+    constant CTRL_WORD            : integer := 128;  -- register-space word of CTRL
+    constant CTRL_SWAP            : integer := 0;  -- CTRL bit: 1 swaps the banks
+    constant SPACE_LSB            : integer := 16;  -- cfg_wr_addr bit where the address space starts
+    constant SPACE_REGS           : integer := 0;  -- cfg_wr_addr[19:16] of the regs image
+    constant SPACE_WAVE_SIN       : integer := 1;  -- cfg_wr_addr[19:16] of the wave_sin image
+    constant SPACE_WAVE_COS       : integer := 2;  -- cfg_wr_addr[19:16] of the wave_cos image
+    constant SPACE_LONG_PERIOD    : integer := 3;  -- cfg_wr_addr[19:16] of the long_period image
+    constant SPACE_TRIM_MAP       : integer := 4;  -- cfg_wr_addr[19:16] of the trim_map image
+    constant SPACE_TRIM_SPEED     : integer := 5;  -- cfg_wr_addr[19:16] of the trim_speed image
+    constant SPACE_TRIM_AMP       : integer := 6;  -- cfg_wr_addr[19:16] of the trim_amp image
+    constant SPACE_DRIFT_FWD_SIN  : integer := 7;  -- cfg_wr_addr[19:16] of the drift_fwd_sin image
+    constant SPACE_DRIFT_FWD_COS  : integer := 8;  -- cfg_wr_addr[19:16] of the drift_fwd_cos image
+    constant STATUS_W             : integer := 8;  -- bits of the status word
+    constant STATUS_CLIP_SIN      : integer := 0;  -- status bit
+    constant STATUS_CLIP_COS      : integer := 1;  -- status bit
+    constant STATUS_AMP_LOW       : integer := 2;  -- status bit
+    constant STATUS_AMP_HIGH      : integer := 3;  -- status bit
+    constant STATUS_OVERSPEED     : integer := 4;  -- status bit
+    constant STATUS_COARSE_ERR    : integer := 5;  -- status bit
+    constant STATUS_SATURATED     : integer := 6;  -- status bit
+    constant STATUS_BANK          : integer := 7;  -- status bit
+    constant CORE_INPUT_LATENCY   : integer := 2;  -- fringe_core input registers
+    constant WAVE_LUT_LATENCY     : integer := 4;  -- fringe_wave_lut
+    constant QUADRATURE_LATENCY   : integer := 5;  -- fringe_quadrature
+    constant CORDIC_LATENCY_BASE  : integer := 2;  -- fringe_cordic: STAGES + this
+    constant PERIOD_COUNT_LATENCY : integer := 3;  -- fringe_period_count
+    constant TRIM_LATENCY         : integer := 12;  -- fringe_trim
+    constant LONG_PERIOD_LATENCY  : integer := 8;  -- fringe_long_period
+    constant DRIFT_NORM_LATENCY   : integer := 4;  -- fringe_drift normaliser
+    constant DRIFT_OBS_LATENCY    : integer := 15;  -- fringe_drift observer
+    -- END generated constants
+
+end package fringe_pkg;
+
+package body fringe_pkg is
+
+    function clog2(v : natural) return natural is
+        variable b : natural := 0;
+    begin
+        while b < 31 and 2 ** b < v loop
+            b := b + 1;
+        end loop;
+        return b;
+    end function clog2;
+
+    function bit_width(v : natural) return positive is
+        variable b : positive := 1;
+    begin
+        while b < 31 and 2 ** b <= v loop
+            b := b + 1;
+        end loop;
+        return b;
+    end function bit_width;
+
+    function trailing_zeros(v : positive) return natural is
+        variable r : positive := v;
+        variable k : natural  := 0;
+    begin
+        while r mod 2 = 0 loop
+            r := r / 2;
+            k := k + 1;
+        end loop;
+        return k;
+    end function trailing_zeros;
+
+    function mapping_exact(recip, shift, addr_w, lines, fine_w : natural) return boolean is
+        variable rev_x, prod, pw, e, lhs, rhs : unsigned(255 downto 0);
+        variable g_log : natural;
+    begin
+        if lines = 0 or recip = 0 then
+            return false;
+        end if;
+        g_log := minimum(addr_w, fine_w + trailing_zeros(lines));
+        rev_x := shift_left(to_unsigned(lines, 256), fine_w);
+        prod  := resize(to_unsigned(recip, 256) * rev_x, 256);
+        pw    := shift_left(to_unsigned(1, 256), addr_w + shift);
+        if prod < pw then
+            return false;
+        end if;
+        e   := prod - pw;
+        lhs := resize((rev_x - 1) * e, 256);
+        rhs := shift_left(to_unsigned(1, 256), g_log + shift);
+        return lhs < rhs;
+    end function mapping_exact;
+
+    function round_half(w, k : natural) return signed is
+    begin
+        if k = 0 then
+            return to_signed(0, w);
+        end if;
+        return shift_left(to_signed(1, w), k - 1);
+    end function round_half;
+
+    function saturate(v : signed; w : positive) return signed is
+        constant MX : signed(w - 1 downto 0) := '0' & (w - 2 downto 0 => '1');
+        constant MN : signed(w - 1 downto 0) := '1' & (w - 2 downto 0 => '0');
+    begin
+        if v > resize(MX, v'length) then
+            return MX;
+        elsif v < resize(MN, v'length) then
+            return MN;
+        end if;
+        return resize(v, w);
+    end function saturate;
+
+    function outside(v : signed; w : positive) return boolean is
+        variable top : signed(v'length - w downto 0);
+    begin
+        top := v(v'high downto v'low + w - 1);
+        return not (top = (top'range => '0') or top = (top'range => '1'));
+    end function outside;
+
+    function core_latency(cordic_stages, trim, drift : natural) return natural is
+    begin
+        return CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + cordic_stages + CORDIC_LATENCY_BASE
+               + PERIOD_COUNT_LATENCY + LONG_PERIOD_LATENCY + trim * TRIM_LATENCY + drift * DRIFT_NORM_LATENCY;
+    end function core_latency;
+
+    impure function read_memh(fname : string; depth, width : positive; what : string) return word_array is
+        constant HEX_W : positive := 4 * ((width + 3) / 4);   -- a word rounded up to hex digits
+        subtype image_t is word_array(0 to depth - 1)(width - 1 downto 0);
+        type image_ptr_t is access image_t;
+        file     f    : text;
+        variable l    : line;
+        -- On the heap: a large table as a plain variable exceeds GHDL's stack limit.
+        variable m    : image_ptr_t := new image_t'(others => (others => '0'));
+        variable w    : std_logic_vector(HEX_W - 1 downto 0);
+        variable good : boolean;
+        variable n    : natural := 0;
+        variable ch   : character;
+        variable stat : file_open_status;
+    begin
+        if fname'length = 0 then
+            return m.all;
+        end if;
+        file_open(stat, f, fname, read_mode);
+        assert stat = open_ok
+            report what & ": cannot open """ & fname & """" severity failure;
+        while not endfile(f) and n < depth loop
+            readline(f, l);
+            while l'length > 0 loop                           -- skip leading blanks
+                exit when l(l'left) /= ' ' and l(l'left) /= HT;
+                read(l, ch);
+            end loop;
+            if l'length = 0 then
+                next;
+            end if;
+            if l'length >= 2 then
+                if l(l'left to l'left + 1) = "//" then
+                    next;
+                end if;
+            end if;
+            hread(l, w, good);
+            assert good
+                report what & " """ & fname & """ word " & integer'image(n) & " is not a hex number of "
+                       & integer'image(HEX_W / 4) & " digits"
+                severity failure;
+            m(n) := w(width - 1 downto 0);
+            n    := n + 1;
+        end loop;
+        file_close(f);
+        return m.all;
+    end function read_memh;
+
+end package body fringe_pkg;
