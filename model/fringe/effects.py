@@ -170,6 +170,7 @@ class FittedEffect:
     name: str
     weights: np.ndarray
     tone_hz: float = 0.0       # for the "tone" artefact
+    engine: str = "core"       # "float": the bit-exact core does not carry it (no legal width or no block)
 
     def to_dict(self) -> dict:
         e = LIBRARY.get(self.name)
@@ -179,11 +180,13 @@ class FittedEffect:
             d.update(correction=e.correction, where=e.where)
         if self.tone_hz:
             d["tone_hz"] = self.tone_hz
+        if self.engine != "core":
+            d["engine"] = self.engine
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> FittedEffect:
-        return cls(d["name"], np.asarray(d["weights"], float), float(d.get("tone_hz", 0.0)))
+        return cls(d["name"], np.asarray(d["weights"], float), float(d.get("tone_hz", 0.0)), d.get("engine", "core"))
 
     def predict(self, ctx: Context) -> np.ndarray:
         if self.name == "tone":

@@ -17,7 +17,7 @@ import os
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
+from scipy import signal, stats
 
 from .calibrate import calibrate
 from .dataio import Measurement, atomic_dir
@@ -34,9 +34,62 @@ VALIDATION_BLOCKS = 500  # interleaved blocks when there is no --validate record
 
 
 def noise_sigma(r: np.ndarray) -> float:
-    """Noise RMS from successive differences, robust to outliers (MAD)."""
+    """Noise RMS from successive differences, robust to outliers (MAD). High-frequency structure (a tone,
+    interference) inflates it: it is reported as a cross-check, not used for the tests."""
     d = np.diff(r)
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2))
+
+
+def sample_rate(t: np.ndarray) -> float:
+    """Samples per second on a uniform time axis, 1.0 (per sample) when the axis is not uniform."""
+    dt = np.diff(t)
+    if len(dt) == 0 or np.mean(dt) <= 0 or np.ptp(dt) > 1e-3 * np.mean(dt):
+        return 1.0
+    return float(1.0 / np.mean(dt))
+
+
+def spectral_level(x: np.ndarray, fs: float = 1.0) -> float:
+    """RMS of the white part of x: its spectrum's median level (lines and slow trends occupy few bins;
+    a periodogram bin of white noise is exponential, its median ln 2 times the mean) over the whole band."""
+    if len(x) < 64:
+        return noise_sigma(x)
+    f, p = signal.periodogram(x, fs, window="hann", detrend="linear")
+    keep = f > 16 * f[1]           # the slowest trends belong to drift
+    return float(np.sqrt(np.median(p[keep]) / np.log(2) * fs / 2))
+
+
+def radial_floor(ev: Evaluation) -> float:
+    """Angle noise from the corrected Lissajous figure's radial scatter (arcsec): channel noise over the
+    amplitude is angle noise, and no error of the angle (a vibration, a reference error, a long-period
+    error) moves the magnitude. What the magnitude repeats over the fine phase is removed first."""
+    ctx = ev.ctx
+    m = np.asarray(ctx.magnitude, float)
+    x = np.column_stack([np.ones_like(m)] + [f(k * ctx.phi) for k in range(1, 17) for f in (np.cos, np.sin)])
+    w, *_ = np.linalg.lstsq(x, m, rcond=None)
+    per_rad = ARCSEC_PER_REV / (2 * np.pi * ctx.lines)
+    return spectral_level(m - x @ w, sample_rate(ctx.t)) / float(np.mean(m)) * per_rad
+
+
+def noise_floor(ev: Evaluation) -> tuple[float, dict]:
+    """The floor the tests use (the residual's spectral level away from lines) and every estimate."""
+    est = {"spectral level of the residual away from lines": spectral_level(ev.r, sample_rate(ev.ctx.t)),
+           "radial scatter of the corrected Lissajous figure": radial_floor(ev),
+           "successive differences of the residual": noise_sigma(ev.r)}
+    sigma = est["spectral level of the residual away from lines"]
+    ratios = {k: v / sigma for k, v in est.items()}
+    # the radial scatter is a lower bound when the waveform inverse amplifies the noise along the circle
+    # (harmonic-rich waveforms): it agrees if not above the floor by more than 40 % nor below half of it
+    agree = 0.7 <= ratios["successive differences of the residual"] <= 1.4 and \
+        0.5 <= ratios["radial scatter of the corrected Lissajous figure"] <= 1.4
+    return sigma, {"used": "spectral level of the residual away from lines",
+                   "estimates_arcsec": {k: round(v, 4) for k, v in est.items()},
+                   "agree": agree,
+                   "note": "the estimates agree" if agree else
+                   "the estimates disagree: " + ("the radial scatter is lower, so part of the floor is not channel "
+                                                 "noise (reference noise, mechanical jitter or unresolved structure)"
+                                                 if ratios["radial scatter of the corrected Lissajous figure"] < 0.5
+                                                 else "structure inflates the successive differences or the "
+                                                 "magnitude (high-frequency content, interference)")}
 
 
 @dataclass
@@ -286,9 +339,9 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         fit_data, val_data, val_name = train, validate, validate.path
     state = base = LoopState(calibrate(fit_data, enc))
     ev_fit, ev_val = evaluate(state, fit_data), evaluate(state, val_data)
-    sigma = noise_sigma(ev_fit.r)
+    sigma, floor_info = noise_floor(ev_fit)
     report = {"data": train.path, "validation": val_name, "noise_floor_arcsec": round(sigma, 4),
-              "noise_floor_method": "robust RMS of successive differences of the residual / sqrt(2)",
+              "noise_floor_method": floor_info["used"], "noise_floor_estimates": floor_info,
               "before": _figs(ev_val), "effects_added": [], "effects_rejected": [], "iterations": []}
     excluded: set = set()
     for _ in range(MAX_EFFECTS):
