@@ -191,11 +191,43 @@ class FittedEffect:
     def predict(self, ctx: Context) -> np.ndarray:
         if self.name == "tone":
             return tone_columns(ctx, self.tone_hz) @ self.weights
+        if self.name == "interference":
+            return interference_columns(ctx, self.tone_hz) @ self.weights
         return LIBRARY[self.name].design(ctx) @ self.weights
 
 
 def tone_columns(ctx: Context, f: float) -> np.ndarray:
     return np.column_stack([np.cos(2 * np.pi * f * ctx.t), np.sin(2 * np.pi * f * ctx.t)])
+
+
+INTERFERENCE_WAVE_ORDERS = 8     # what the magnitude repeats over the fine phase, removed before the tone fit
+
+INTERFERENCE = dict(
+    cause="additive interference on the signals at a fixed frequency (switching supply, motor drive, pick-up)",
+    signature="a line at the frequency in each channel's error against the reference's phase; in the angle, "
+              "sidebands at plus and minus the electrical frequency",
+    correction="float engine",
+    where="the float engine: a canceller at the named frequency that estimates the tone on each channel from "
+          "the recording's own Lissajous radius (no reference needed) and removes its angle image; the bit-exact "
+          "core does not carry it (no core block exists yet)")
+
+
+def interference_columns(ctx: Context, f: float) -> np.ndarray:
+    """The angle image (rad of fine phase) of an additive tone at f on the corrected channels, estimated
+    from this recording alone: a tone n = (n_c, n_s) moves the point (cos phi, sin phi) radially by
+    n_c cos phi + n_s sin phi (seen in the magnitude) and along the circle by n_s cos phi - n_c sin phi
+    (the angle error). Its phase does not repeat between recordings, so it is fitted on each."""
+    w = 2 * np.pi * f * ctx.t
+    cw, sw = np.cos(w), np.sin(w)
+    cp, sp = np.cos(ctx.phi), np.sin(ctx.phi)
+    tone = np.column_stack([cw * cp, sw * cp, cw * sp, sw * sp])
+    shape = [np.ones_like(cp)] + [g(k * ctx.phi) for k in range(1, INTERFERENCE_WAVE_ORDERS + 1)
+                                  for g in (np.cos, np.sin)]
+    x = np.column_stack([*shape, tone])
+    coef, *_ = np.linalg.lstsq(x, ctx.magnitude, rcond=None)
+    a_c, b_c, a_s, b_s = coef[-4:]
+    n_c, n_s = a_c * cw + b_c * sw, a_s * cw + b_s * sw
+    return ((n_s * cp - n_c * sp) / np.maximum(ctx.magnitude, 1e-9))[:, None]
 
 
 @dataclass

@@ -17,11 +17,20 @@ import os
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import signal, stats
+from scipy import ndimage, signal, stats
 
 from .calibrate import calibrate
 from .dataio import Measurement, atomic_dir
-from .effects import LIBRARY, SPEED_LOG2, Context, FittedEffect, make_context, tone_columns
+from .effects import (
+    INTERFERENCE,
+    LIBRARY,
+    SPEED_LOG2,
+    Context,
+    FittedEffect,
+    interference_columns,
+    make_context,
+    tone_columns,
+)
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
 from .metrics import error_arcsec, error_figures
@@ -98,6 +107,8 @@ class Evaluation:
     ctx: Context
     figures: dict
     rms: float
+    meas: Measurement | None = None     # the recording (its channels for the channel-domain tests)
+    cal: Calibration | None = None
 
 
 @dataclass
@@ -135,11 +146,15 @@ def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
         r = r - x @ w
     r = r - r.mean()
     fig = error_figures(r, res.frac, res.position / state.cal.encoder.lines_per_rev).to_dict()
-    return Evaluation(r, ctx, fig, float(np.sqrt(np.mean(r * r))))
+    return Evaluation(r, ctx, fig, float(np.sqrt(np.mean(r * r))), meas, state.cal)
 
 
 def _design(name: str, ctx: Context, tone_hz: float = 0.0) -> np.ndarray:
-    return tone_columns(ctx, tone_hz) if name == "tone" else LIBRARY[name].design(ctx)
+    if name == "tone":
+        return tone_columns(ctx, tone_hz)
+    if name == "interference":
+        return interference_columns(ctx, tone_hz)
+    return LIBRARY[name].design(ctx)
 
 
 @dataclass
@@ -186,26 +201,97 @@ def testable(name: str, ctx: Context) -> str | None:
     return None
 
 
-def find_tone(r: np.ndarray, ctx: Context) -> tuple[float, int] | None:
-    """The strongest line in the residual's spectrum over time (Hz) and how many lines were searched.
+LINE_WINDOW = 64      # bins either side for the local spectral level of the line detector
 
-    Needs a uniform time axis. At a steady speed, time and position are the same axis: a line at a
-    multiple of the revolution rate is then a position error, not a tone, and is not offered.
-    """
-    dt = np.diff(ctx.t)
-    if len(r) < 256 or np.ptp(dt) > 1e-3 * np.mean(dt):
+
+def find_line(x: np.ndarray, fs: float, exclude_hz=()) -> tuple[float, float, int] | None:
+    """The strongest line of x's spectrum against the local spectral level, over the whole band up to
+    Nyquist: (frequency in Hz, or cycles per sample at fs = 1; its level over the local one; bins
+    searched). A periodogram bin of noise is exponential about the local mean, so a bin q times the
+    local mean has the chance exp(-q), and the strongest of N bins N exp(-q). The slowest bins belong to
+    the drift test; bins within 1.5 bins of `exclude_hz` are not offered."""
+    if len(x) < 256:
         return None
-    spec = np.abs(np.fft.rfft((r - r.mean()) * np.hanning(len(r)))) ** 2
-    freqs = np.fft.rfftfreq(len(r), np.mean(dt))
-    spec[:4] = 0                       # slow trends belong to the drift test
-    v = np.abs(settled_speed(ctx))
-    if np.std(v) < 0.05 * np.mean(v):  # steady speed: drop the revolution harmonics (+- one bin)
-        rate = np.mean(v)
-        m = np.round(freqs / rate)
-        bin_hz = freqs[1] if len(freqs) > 1 else 1.0
-        spec[(m >= 1) & (np.abs(freqs - m * rate) <= 1.5 * bin_hz)] = 0
-    k = int(np.argmax(spec))
-    return (float(freqs[k]), len(spec)) if spec[k] > 50 * np.median(spec[1:]) else None
+    f, p = signal.periodogram(x, fs, window="hann", detrend="linear")
+    local = ndimage.median_filter(p, size=2 * LINE_WINDOW + 1, mode="reflect") / np.log(2)
+    q = p / np.maximum(local, 1e-300)
+    q[f <= 16 * f[1]] = 0.0
+    for ex in exclude_hz:
+        q[np.abs(f - ex) <= 1.5 * f[1]] = 0.0
+    k = int(np.argmax(q))
+    return float(f[k]), float(q[k]), int(np.count_nonzero(q))
+
+
+def line_p_value(found) -> float:
+    if not found:
+        return 1.0
+    _, q, searched = found
+    return float(min(1.0, searched * np.exp(-q)))
+
+
+def steady_rate(ctx: Context) -> float | None:
+    """The revolution rate (rev/s) when the speed is steady (it varies by less than 5 %), else None."""
+    v = settled_speed(ctx)
+    return float(np.mean(v)) if np.std(v) < 0.05 * np.mean(np.abs(v)) else None
+
+
+def channel_errors(ev: Evaluation) -> np.ndarray | None:
+    """Each channel's reading minus the calibrated waveform at the reference's fine phase (ADC codes,
+    shape (2, n)): an additive tone shows here as a line at its frequency; an angle error (a vibration)
+    only through the waveform's slope, modulated by the fine phase."""
+    from .fixed.closed_loop import channel_waveforms
+
+    if ev.meas is None or ev.cal is None or not ev.cal.waves or ev.cal.rev_norm is not None or ev.cal.adaptive:
+        return None
+    waves = channel_waveforms(ev.cal)
+    frac = ev.ctx.phi / (2 * np.pi)
+    dfrac = ev.r * ev.ctx.lines / ARCSEC_PER_REV      # the residual as a fraction of a period
+    best = None
+    for sign in (1.0, -1.0):      # the residual's frame against the fine phase's: the sign that explains more
+        ref = frac - sign * dfrac
+        e = np.stack([ev.meas.sin - waves["sin"](ref), ev.meas.cos - waves["cos"](ref)])
+        power = float(np.sum(e * e))
+        if best is None or power < best[0]:
+            best = (power, e)
+    return best[1]
+
+
+def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], list[str]]:
+    """Lines in time: (name, Hz, p-value of the strongest of the searched lines) and notes on what stays
+    ambiguous. A line in the angle residual with none in the channels is a vibration ("tone"); a line in
+    the channels is additive interference (the angle shows it as sidebands at +- the electrical frequency)."""
+    fs = sample_rate(ev.ctx.t)
+    rate = steady_rate(ev.ctx)
+    electrical = abs(rate) * ev.ctx.lines if rate else None
+    out, notes = [], []
+    chan = channel_errors(ev)
+    chan_found = None
+    if chan is not None:
+        # at a steady speed the waveform's own errors sit at multiples of the electrical frequency
+        harmonics = [k * electrical for k in range(1, int(fs / 2 / electrical) + 1)] if electrical else []
+        found = [find_line(e, fs, harmonics[:4096]) for e in chan]
+        found = [f for f in found if f]
+        if found:
+            chan_found = max(found, key=lambda f: f[1])
+            p = min(1.0, 2 * line_p_value(chan_found))
+            if p < P_VALUE:
+                out.append(("interference", chan_found[0], p))
+    angle = find_line(ev.r, fs)
+    if angle and line_p_value(angle) < P_VALUE:
+        f = angle[0]
+        bin_hz = fs / len(ev.r)
+        sideband = chan_found is not None and electrical and \
+            min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
+        if not sideband:
+            out.append(("tone", f, line_p_value(angle)))
+        if rate and abs(f / rate - round(f / rate)) * rate <= 1.5 * bin_hz and round(f / rate) >= 1:
+            notes.append(f"the line at {f:.3f} Hz is harmonic {round(f / rate)} of the steady revolution rate "
+                         f"({rate:.4g} rev/s): in one recording a vibration and a position error look the same; "
+                         "the validation recording (another trajectory) decides")
+    if chan is None:
+        notes.append("channel-domain test not run (the calibration normalises the channels over the revolution or "
+                     "tracks drift): a line in the angle cannot be told from interference")
+    return out, notes
 
 
 def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
@@ -218,13 +304,15 @@ def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], 
             skipped[name] = why
             continue
         tests.append(test_terms(ev.r, LIBRARY[name].design(ev.ctx), sigma, name))
-    if "tone" not in exclude:
-        found = find_tone(ev.r, ev.ctx)
-        if found:
-            f, searched = found
-            t = test_terms(ev.r, tone_columns(ev.ctx, f), sigma, "tone", f)
-            t.p_value = min(1.0, t.p_value * searched)      # the strongest of `searched` lines
-            tests.append(t)
+    lines, notes = tone_candidates(ev)
+    for name, f, p_line in lines:
+        if name in exclude:
+            continue
+        t = test_terms(ev.r, _design(name, ev.ctx, f), sigma, name, f)
+        t.p_value = max(t.p_value, p_line)      # the line must stand out of its neighbours, and the term explain
+        tests.append(t)
+    if notes:
+        skipped["tones"] = "; ".join(notes)
     return tests, skipped
 
 
@@ -235,6 +323,8 @@ TONE_EFFECT = dict(cause="a tone in time: vibration between encoder and referenc
 def describe(name: str) -> dict:
     if name == "tone":
         return TONE_EFFECT
+    if name == "interference":
+        return INTERFERENCE
     e = LIBRARY[name]
     return {"cause": e.cause, "signature": e.signature, "correction": e.correction, "where": e.where}
 
@@ -242,8 +332,8 @@ def describe(name: str) -> dict:
 def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
     new = LoopState(dataclasses.replace(state.cal, angle_terms=list(state.cal.angle_terms)), list(state.artefacts),
                     state.ref_lag_s)
-    kind = "artefact" if t.name == "tone" else LIBRARY[t.name].correction
-    fitted = FittedEffect(t.name, t.weights, t.tone_hz)
+    kind = {"tone": "artefact", "interference": "float engine"}.get(t.name) or LIBRARY[t.name].correction
+    fitted = FittedEffect(t.name, t.weights, t.tone_hz, "float" if kind == "float engine" else "core")
     if t.name == "ref_lag":
         # r = direction * speed * lag: shift the reference, calibrate again without the lag in it, and
         # repeat (the first calibration absorbed part of the lag into its long-period table)
@@ -259,7 +349,7 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
                 break
     elif t.name == "rev_offset_gain":
         new.cal = fit_rev_offset_gain(new.cal, shift_reference(fit_data, state.ref_lag_s))
-    elif kind == "hardware":
+    elif kind in ("hardware", "float engine"):
         new.cal.angle_terms.append(fitted)
         new.cal = refit_angle_terms(new.cal, shift_reference(fit_data, state.ref_lag_s))
     elif kind == "adaptive":
@@ -295,7 +385,7 @@ def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> C
     jointly on what the declared model leaves: neither absorbs the other's error."""
     from .calibrate import CalibrationOptions
 
-    names = [t.name for t in cal.angle_terms]
+    terms = list(cal.angle_terms)
     for _ in range(rounds):
         res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
         ctx = make_context(res.frac, res.position, cal.encoder.lines_per_rev, sample_times(len(res.frac), meas.t_s),
@@ -304,11 +394,12 @@ def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> C
         base = calibrate(meas, cal.encoder, CalibrationOptions(known_error_arcsec=known))
         base = dataclasses.replace(base, rev_norm=cal.rev_norm, adaptive=cal.adaptive)
         r = error_arcsec(run_float(base, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
-        x = np.column_stack([LIBRARY[n].design(ctx) for n in names])
+        blocks = [_design(t.name, ctx, t.tone_hz) for t in terms]
+        x = np.column_stack(blocks)
         w, *_ = np.linalg.lstsq(x - x.mean(0), r - r.mean(), rcond=None)
-        splits = np.cumsum([LIBRARY[n].design(ctx).shape[1] for n in names])[:-1]
-        cal = dataclasses.replace(base, angle_terms=[FittedEffect(n, ww) for n, ww in zip(names, np.split(w, splits),
-                                                                                          strict=True)])
+        splits = np.cumsum([b.shape[1] for b in blocks])[:-1]
+        terms = [dataclasses.replace(t, weights=ww) for t, ww in zip(terms, np.split(w, splits), strict=True)]
+        cal = dataclasses.replace(base, angle_terms=terms)
     return cal
 
 
@@ -422,13 +513,15 @@ def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
             out.append({"domain": domain, "description": f"significant structure left ({t.dof} terms, "
                         f"p = {t.p_value:.1e}); no effect in the library explains it",
                         "rms_arcsec": round(t.explained_rms, 4)})
-    found = find_tone(ev.r, ctx)
-    if found:
-        tone, searched = found
-        t = test_terms(ev.r, tone_columns(ctx, tone), sigma, "tone", tone)
-        if t.p_value * searched < P_VALUE and t.explained_rms > 0.1 * sigma:
-            out.append({"domain": "time (tones)", "description": f"a line at {tone:.3f} Hz",
+    lines, notes = tone_candidates(ev)
+    for name, f, p_line in lines:
+        t = test_terms(ev.r, _design(name, ctx, f), sigma, name, f)
+        if max(t.p_value, p_line) < P_VALUE and t.explained_rms > 0.1 * sigma:
+            what = "in the channels (additive interference)" if name == "interference" else "in the angle only"
+            out.append({"domain": "time (tones)", "description": f"a line at {f:.3f} Hz {what}",
                         "rms_arcsec": round(t.explained_rms, 4)})
+    for note in notes:
+        out.append({"domain": "time (tones)", "description": note, "rms_arcsec": None})
     out.append({"domain": "noise", "description": "random part (the floor)", "rms_arcsec": round(sigma, 4)})
     return out
 

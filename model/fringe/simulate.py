@@ -82,6 +82,10 @@ class SimulationConfig:
     ref_lag_s: float = 0.0                # the reference is sampled this much earlier than the ADC
     vibration_arcsec: float = 0.0         # amplitude of a vibration between encoder and reference
     vibration_hz: float = 0.0
+    # additive interference on both channels (a switching supply, motor PWM): a sinusoid of this amplitude
+    # (fraction of FS) and frequency, with a random phase per channel and recording
+    interference_fs: float = 0.0
+    interference_hz: float = 0.0
 
     def encoder(self) -> Encoder:
         full_scale = None
@@ -170,6 +174,7 @@ def simulate(cfg: SimulationConfig, seed: int = 1) -> Recording:
         raise FringeInputError(f"needs at least 2 samples, got {cfg.samples}", "--samples")
     rng = np.random.default_rng(seed)
     effects_rng = np.random.default_rng([seed, 1])    # effects never disturb the noise draws
+    tone_rng = np.random.default_rng([seed, 2])       # nor the drift draws
     t, theta = trajectory(cfg, rng)
     disc = theta + graduation_error_arcsec(cfg, theta) / ARCSEC_PER_REV
     disc += (cfg.vibration_arcsec * np.sin(2 * np.pi * cfg.vibration_hz * t)
@@ -183,6 +188,9 @@ def simulate(cfg: SimulationConfig, seed: int = 1) -> Recording:
         offset = ch.offset + fourier_arcsec(offset_mod, psi) + _drift(t, cfg.drift_offset_rms, cfg, effects_rng)
         gain = ch.gain * gain_mod * (1.0 + _drift(t, cfg.drift_gain_rms, cfg, effects_rng))
         clean = (offset + gain * ch.waveform(ph + ch.phase_rad)) * half
+        if cfg.interference_fs:
+            clean = clean + cfg.interference_fs * half * np.cos(2 * np.pi * cfg.interference_hz * t
+                                                               + tone_rng.uniform(0, 2 * np.pi))
         noisy = clean + rng.normal(0.0, cfg.noise_rms * half, clean.shape)
         return clean, np.clip(np.round(noisy), -half, half - 1).astype(np.int64)
 
