@@ -282,12 +282,13 @@ def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], lis
         bin_hz = fs / len(ev.r)
         sideband = chan_found is not None and electrical and \
             min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
-        if not sideband:
+        harmonic = bool(rate) and abs(f / rate - round(f / rate)) * abs(rate) <= 1.5 * bin_hz and round(f / rate) >= 1
+        if harmonic:     # a tone's phase is refitted on every recording: it would "validate" a position error too
+            notes.append(f"the line at {f:.3f} Hz is harmonic {round(abs(f / rate))} of the steady revolution rate "
+                         f"({abs(rate):.4g} rev/s): in the angle alone a vibration and a position error look the same, "
+                         "so it is not named (ambiguous)")
+        elif not sideband:
             out.append(("tone", f, line_p_value(angle)))
-        if rate and abs(f / rate - round(f / rate)) * rate <= 1.5 * bin_hz and round(f / rate) >= 1:
-            notes.append(f"the line at {f:.3f} Hz is harmonic {round(f / rate)} of the steady revolution rate "
-                         f"({rate:.4g} rev/s): in one recording a vibration and a position error look the same; "
-                         "the validation recording (another trajectory) decides")
     if chan is None:
         notes.append("channel-domain test not run (the calibration normalises the channels over the revolution or "
                      "tracks drift): a line in the angle cannot be told from interference")
@@ -370,7 +371,9 @@ def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) ->
         res = run_float(new, meas.sin, meas.cos, meas.coarse, meas.t_s)
         rev = res.position / cal.encoder.lines_per_rev
         raw_norm = new.rev_norm
-        phi = reference_phase(new, meas, rev)
+        # without a long-period table (calibrate found none) the reference's phase needs no correction
+        phi = reference_phase(new if new.long_period is not None else
+                              dataclasses.replace(new, long_period=np.zeros_like), meas, rev)
         psi = 2 * np.pi * (rev % 1.0)
         norm = fit_rev_normalisation(new.waves, meas.sin, meas.cos, phi, psi) if raw_norm is None else \
             _compose(raw_norm, fit_rev_normalisation(new.waves, *raw_norm.apply(meas.sin, meas.cos, psi), phi, psi))
@@ -449,7 +452,8 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         excluded.add(best.name)
         try:
             trial = apply(state, best, fit_data)
-        except FringeInputError as e:
+        except (FringeInputError, ValueError, TypeError, np.linalg.LinAlgError) as e:
+            # never abort on the data: an effect whose fit fails is reported and left out
             report["effects_rejected"].append({"name": best.name, **describe(best.name), "evidence": "",
                                                "why_not_kept": f"re-calibration with it failed: {e}"})
             continue

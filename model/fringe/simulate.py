@@ -86,6 +86,9 @@ class SimulationConfig:
     # (fraction of FS) and frequency, with a random phase per channel and recording
     interference_fs: float = 0.0
     interference_hz: float = 0.0
+    # a waveform that changes with the amplitude (the air gap): a 2nd harmonic on the sin channel in
+    # proportion to the relative gain change over the revolution (rev_gain_mod), this much per unit of it
+    harmonic2_per_gain: float = 0.0
 
     def encoder(self) -> Encoder:
         full_scale = None
@@ -187,7 +190,10 @@ def simulate(cfg: SimulationConfig, seed: int = 1) -> Recording:
     def channel(ch: ChannelConfig, ph: np.ndarray, offset_mod: dict):
         offset = ch.offset + fourier_arcsec(offset_mod, psi) + _drift(t, cfg.drift_offset_rms, cfg, effects_rng)
         gain = ch.gain * gain_mod * (1.0 + _drift(t, cfg.drift_gain_rms, cfg, effects_rng))
-        clean = (offset + gain * ch.waveform(ph + ch.phase_rad)) * half
+        wave = ch.waveform(ph + ch.phase_rad)
+        if cfg.harmonic2_per_gain and ch is cfg.sin_channel:
+            wave = wave + cfg.harmonic2_per_gain * (gain_mod - 1.0) * np.sin(2 * (ph + ch.phase_rad))
+        clean = (offset + gain * wave) * half
         if cfg.interference_fs:
             clean = clean + cfg.interference_fs * half * np.cos(2 * np.pi * cfg.interference_hz * t
                                                                + tone_rng.uniform(0, 2 * np.pi))
