@@ -68,8 +68,8 @@ def test_trim_format_follows_the_fitted_values():
     for _ in range(6):
         lines = int(rng.choice([1, 3, 64, 1000, 4096]))
         adc = int(rng.integers(10, 17))
-        cfg = SimulationConfig(lines_per_rev=lines, adc_bits=adc, coarse_bits=13, samples=6000,
-                               speed_mean_rev_s=0.1 * 10_000 / lines)
+        cfg = SimulationConfig(lines_per_rev=lines, adc_bits=adc, coarse_bits=0, samples=max(6000, 12 * lines),
+                               speed_mean_rev_s=0.1371 * 10_000 / lines, speed_swing_rev_s=0.0)
         cal = calibrate(measurement_of(simulate(cfg, 1)), cfg.encoder())
         size = 10 ** rng.uniform(-3, 6)           # arcsec
         cal = dataclasses.replace(cal, angle_terms=[

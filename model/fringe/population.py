@@ -43,7 +43,8 @@ def draw_case(seed: int) -> dict:
     fs = float(max(10_000.0, 5.0 * lines))
     limit = 0.25 * fs / lines                            # the core's overspeed limit, rev/s
     vmax = min(0.8 * limit, 5.0)
-    duration = SAMPLES / fs
+    samples = max(SAMPLES, 16 * lines)                  # 1.5 revolutions fit below the speed limit
+    duration = samples / fs
     trajectory = TRAJECTORIES[int(rng.integers(len(TRAJECTORIES)))]
     least = 1.5 / duration                               # at least 1.5 revolutions (the long-period fit)
     mean, swing = {
@@ -54,7 +55,7 @@ def draw_case(seed: int) -> dict:
         "fast": (0.8 * limit, 0.1 * limit),
     }[trajectory]
     if trajectory != "reversals":
-        mean = max(mean, least + swing)
+        mean = min(max(mean, least + swing), 0.95 * limit - swing)
     gain = rng.uniform(0.5, 0.9)
     h = {n: rng.normal(0, 0.01) for n in (2, 3, 5)}
     sin_ch = ChannelConfig(offset=rng.normal(0, 0.01), gain=gain, phase_rad=rng.normal(0, 0.01),
@@ -69,7 +70,7 @@ def draw_case(seed: int) -> dict:
         # an incremental encoder does not know its place in the revolution: the declared model does not correct
         # a graduation error there (calibrate says so), so none is simulated and the floor stays the noise
         grad = {}
-    cfg = SimulationConfig(lines_per_rev=lines, adc_bits=adc, coarse_bits=coarse, sample_rate_hz=fs, samples=SAMPLES,
+    cfg = SimulationConfig(lines_per_rev=lines, adc_bits=adc, coarse_bits=coarse, sample_rate_hz=fs, samples=samples,
                            graduation_error=grad, sin_channel=sin_ch, cos_channel=cos_ch, noise_rms=noise,
                            ref_error_arcsec={}, speed_mean_rev_s=mean, speed_swing_rev_s=swing)
     # the floor's RMS on the angle: channel noise (and ADC rounding) over the amplitude
