@@ -42,6 +42,12 @@ class Context:
     direction: np.ndarray   # +1 / -1
     magnitude: np.ndarray   # corrected signal magnitude (1 nominal)
     lines: int = 1          # signal periods per revolution
+    t_span: tuple | None = None   # (first, last) time of the whole recording when this is a slice of it
+
+    def rows(self, sl: slice) -> Context:
+        """The same context for a block of samples (designs are evaluated block by block to bound memory)."""
+        return Context(self.phi[sl], self.psi[sl], self.t[sl], self.speed[sl], self.accel[sl], self.direction[sl],
+                       self.magnitude[sl], self.lines, self.t_span or (float(self.t[0]), float(self.t[-1])))
 
 
 def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int = SPEED_LOG2) -> np.ndarray:
@@ -76,8 +82,9 @@ def _rev_modulated(orders_phi, ctx: Context, m_orders=REV_ORDERS) -> list[np.nda
 
 
 def _legendre_time(ctx: Context, degree=TIME_ORDERS) -> list[np.ndarray]:
-    span = ctx.t[-1] - ctx.t[0]
-    x = 2 * (ctx.t - ctx.t[0]) / span - 1 if span > 0 else np.zeros_like(ctx.t)
+    t0, t1 = ctx.t_span or (ctx.t[0], ctx.t[-1])
+    span = t1 - t0
+    x = 2 * (ctx.t - t0) / span - 1 if span > 0 else np.zeros_like(ctx.t)
     return [np.polynomial.legendre.Legendre.basis(d)(x) for d in range(1, degree + 1)]
 
 

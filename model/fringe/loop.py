@@ -73,10 +73,13 @@ def radial_floor(ev: Evaluation) -> float:
     error) moves the magnitude. What the magnitude repeats over the fine phase is removed first."""
     ctx = ev.ctx
     m = np.asarray(ctx.magnitude, float)
-    x = np.column_stack([np.ones_like(m)] + [f(k * ctx.phi) for k in range(1, 17) for f in (np.cos, np.sin)])
-    w, *_ = np.linalg.lstsq(x, m, rcond=None)
+    bins = 256                 # the magnitude's shape over the fine phase: its mean per phase bin
+    k = np.minimum((np.mod(ctx.phi, 2 * np.pi) / (2 * np.pi) * bins).astype(np.int64), bins - 1)
+    counts = np.bincount(k, minlength=bins)
+    shape = np.bincount(k, m, minlength=bins) / np.maximum(counts, 1)
+    dof = np.sqrt(len(m) / max(len(m) - np.count_nonzero(counts), 1))     # the bin means took one each
     per_rad = ARCSEC_PER_REV / (2 * np.pi * ctx.lines)
-    return spectral_level(m - x @ w, sample_rate(ctx.t)) / float(np.mean(m)) * per_rad
+    return spectral_level(m - shape[k], sample_rate(ctx.t)) * dof / float(np.mean(m)) * per_rad
 
 
 def noise_floor(ev: Evaluation) -> tuple[float, dict]:
@@ -168,15 +171,50 @@ class Test:
     tone_hz: float = 0.0
 
 
-def test_terms(r: np.ndarray, x: np.ndarray, sigma: float, name: str, tone_hz: float = 0.0) -> Test:
-    xc = x - x.mean(0)
-    w, *_ = np.linalg.lstsq(xc, r - r.mean(), rcond=None)
-    fit = xc @ w
-    chi2 = float(fit @ fit) / max(sigma, 1e-12) ** 2
-    p = float(stats.chi2.sf(chi2, x.shape[1]))
-    rest = r - r.mean() - fit
-    return Test(name, w, float(np.sqrt(np.mean(fit * fit))), float(np.sqrt(np.mean(rest * rest))), p,
-                x.shape[1], tone_hz)
+CHUNK = 1 << 12     # rows per block of a design matrix: memory stays bounded however long the recording
+
+
+def test_terms(r: np.ndarray, x, sigma: float, name: str, tone_hz: float = 0.0) -> Test:
+    """Least-squares fit of r on the columns x (plus a constant) and its chi-square against the noise.
+
+    x: the design matrix, or a function of a block of rows (a slice) giving that block's columns; the
+    fit is accumulated block by block as normal equations, so no full matrix of a wide domain is held."""
+    design = x if callable(x) else (lambda sl: x[sl])
+    n = len(r)
+    gram = rhs = None
+    for start in range(0, n, CHUNK):
+        sl = slice(start, min(n, start + CHUNK))
+        xa = np.column_stack([design(sl), np.ones(sl.stop - sl.start)])
+        g, b = xa.T @ xa, xa.T @ r[sl]
+        gram, rhs = (g, b) if gram is None else (gram + g, rhs + b)
+    return _solve(gram, rhs, r, sigma, name, tone_hz)
+
+
+def _solve(gram: np.ndarray, rhs: np.ndarray, r: np.ndarray, sigma: float, name: str, tone_hz: float = 0.0) -> Test:
+    """The fit from its normal equations (the constant is the last column)."""
+    n = len(r)
+    scale = np.sqrt(np.maximum(np.diag(gram), 1e-300))       # equilibrate: columns of very different size
+    w = np.linalg.lstsq(gram / np.outer(scale, scale), rhs / scale, rcond=1e-12)[0] / scale
+    mean = float(np.mean(r))
+    explained = max(float(w @ rhs) - n * mean * mean, 0.0)      # sum of (fit - mean)^2
+    rest = max(float(r @ r) - float(w @ rhs), 0.0)
+    k = gram.shape[0] - 1
+    p = float(stats.chi2.sf(explained / max(sigma, 1e-12) ** 2, k))
+    return Test(name, w[:-1], float(np.sqrt(explained / n)), float(np.sqrt(rest / n)), p, k, tone_hz)
+
+
+ANGLE_BINS = 1 << 13     # angle bins of the Fourier-domain tests (orders up to 64: under 2.5 % phase error)
+
+
+def test_fourier(r: np.ndarray, angle: np.ndarray, orders, sigma: float, name: str) -> Test:
+    """test_terms for a Fourier series in one angle, in time linear in the samples: the residual is summed
+    per angle bin and the series evaluated at the bins' centres."""
+    k = np.minimum((np.mod(angle, 2 * np.pi) / (2 * np.pi) * ANGLE_BINS).astype(np.int64), ANGLE_BINS - 1)
+    counts = np.bincount(k, minlength=ANGLE_BINS).astype(float)
+    sums = np.bincount(k, r, minlength=ANGLE_BINS)
+    centre = 2 * np.pi * (np.arange(ANGLE_BINS) + 0.5) / ANGLE_BINS
+    xa = np.column_stack([_fourier(centre, orders), np.ones(ANGLE_BINS)])
+    return _solve((xa * counts[:, None]).T @ xa, xa.T @ sums, r, sigma, name)
 
 
 def settled_speed(ctx: Context) -> np.ndarray:
@@ -304,7 +342,7 @@ def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], 
         if why:
             skipped[name] = why
             continue
-        tests.append(test_terms(ev.r, LIBRARY[name].design(ev.ctx), sigma, name))
+        tests.append(test_terms(ev.r, lambda sl, e=LIBRARY[name]: e.design(ev.ctx.rows(sl)), sigma, name))
     lines, notes = tone_candidates(ev)
     for name, f, p_line in lines:
         if name in exclude:
@@ -491,28 +529,30 @@ def _fourier(x: np.ndarray, orders) -> np.ndarray:
 def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
     """What is still significant, by domain (or why a domain could not be tested)."""
     ctx = ev.ctx
-    domains = {
-        "fine phase": (lambda: _fourier(ctx.phi, range(1, 33)), None),
-        "revolution": (lambda: _fourier(ctx.psi, range(1, 65)), None),
-        "fine phase x revolution": (lambda: LIBRARY["rev_offset_gain"].design(ctx), testable("rev_offset_gain", ctx)),
-        "time (trend)": (lambda: np.column_stack([np.polynomial.legendre.Legendre.basis(d)(
-            2 * (ctx.t - ctx.t[0]) / max(np.ptp(ctx.t), 1e-12) - 1) for d in (1, 2, 3)]), None),
-        "speed": (lambda: np.column_stack([ctx.speed, ctx.speed ** 2]), testable("ref_lag", ctx)),
-        "acceleration": (lambda: ctx.accel[:, None], testable("acceleration", ctx)),
-        "direction": (lambda: ctx.direction[:, None].astype(float), testable("hysteresis", ctx)),
-        "amplitude": (lambda: LIBRARY["amplitude"].design(ctx), None),
+    from .effects import _legendre_time
+
+    domains = {     # name: (columns of a block of rows, why the domain cannot be tested, number of columns)
+        "fine phase": ((ctx.phi, range(1, 33)), None, 64),
+        "revolution": ((ctx.psi, range(1, 65)), None, 128),
+        "fine phase x revolution": (lambda sl: LIBRARY["rev_offset_gain"].design(ctx.rows(sl)),
+                                    testable("rev_offset_gain", ctx), 32),
+        "time (trend)": (lambda sl: np.column_stack(_legendre_time(ctx.rows(sl))), None, 3),
+        "speed": (lambda sl: np.column_stack([ctx.speed[sl], ctx.speed[sl] ** 2]), testable("ref_lag", ctx), 2),
+        "acceleration": (lambda sl: ctx.accel[sl, None], testable("acceleration", ctx), 1),
+        "direction": (lambda sl: ctx.direction[sl, None].astype(float), testable("hysteresis", ctx), 1),
+        "amplitude": (lambda sl: LIBRARY["amplitude"].design(ctx.rows(sl)), None, 3),
     }
     out = []
-    for domain, (design, why) in domains.items():
+    for domain, (design, why, width) in domains.items():
         if why:
             out.append({"domain": domain, "description": f"not tested: {why}", "rms_arcsec": None})
             continue
-        x = design()
-        if len(ev.r) < 4 * x.shape[1]:
+        x = design
+        if len(ev.r) < 4 * width:
             out.append({"domain": domain, "description": "not tested: too few samples for this domain",
                         "rms_arcsec": None})
             continue
-        t = test_terms(ev.r, x, sigma, domain)
+        t = test_fourier(ev.r, *x, sigma, domain) if isinstance(x, tuple) else test_terms(ev.r, x, sigma, domain)
         if t.p_value < P_VALUE and t.explained_rms > 0.1 * sigma:
             out.append({"domain": domain, "description": f"significant structure left ({t.dof} terms, "
                         f"p = {t.p_value:.1e}); no effect in the library explains it",
