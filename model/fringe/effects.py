@@ -200,6 +200,8 @@ class FittedEffect:
             return tone_columns(ctx, self.tone_hz) @ self.weights
         if self.name == "interference":
             return interference_columns(ctx, self.tone_hz) @ self.weights
+        if self.name.startswith("generic:"):
+            return generic_design(self.name, ctx) @ self.weights
         return LIBRARY[self.name].design(ctx) @ self.weights
 
 
@@ -307,3 +309,66 @@ def tracked_phase(cal, sin: np.ndarray, cos: np.ndarray):
     from .fixed.closed_loop import tracked_phase as track
 
     return track(cal, sin, cos)
+
+
+# ---------------------------------------------------------------- the general dictionary under the names
+
+#: factors that multiply the fine-phase harmonics, and whether fringe_trim's tables can carry the product
+#: (map: any function of phase x sector x direction; gs: phase x speed; ga: phase x magnitude)
+GENERIC_FACTORS = {"1": True, "speed": True, "speed2": False, "direction": True, "magnitude": True,
+                   "magnitude2": False, "revolution": True, "time": False}
+GENERIC_PHASE_ORDERS = (1, 2, 3, 4, 6, 8)     # fine-phase orders 0..K offered (K chosen by cross-validation)
+GENERIC_REV_ORDERS = (1, 2, 4, 8)             # revolution orders 1..M of the "revolution" factor
+
+
+def generic_name(factor: str, k: int, m: int = 0) -> str:
+    return f"generic:{factor}:{k}:{m}"
+
+
+def parse_generic(name: str) -> tuple[str, int, int]:
+    _, factor, k, m = name.split(":")
+    return factor, int(k), int(m)
+
+
+def phase_columns(phi: np.ndarray, k: int, constant: bool) -> list[np.ndarray]:
+    cols = [np.ones_like(phi)] if constant else []
+    for j in range(1, k + 1):
+        cols += [np.cos(j * phi), np.sin(j * phi)]
+    return cols
+
+
+def factor_columns(factor: str, ctx: Context, m: int) -> list[np.ndarray]:
+    a = ctx.magnitude - MAG_REF
+    if factor == "1":
+        return [np.ones_like(ctx.phi)]
+    if factor == "speed":
+        return [ctx.speed]
+    if factor == "speed2":
+        return [ctx.speed ** 2]
+    if factor == "direction":
+        return [ctx.direction.astype(float)]
+    if factor == "magnitude":
+        return [a]
+    if factor == "magnitude2":
+        return [a * a]
+    if factor == "revolution":
+        return [g(j * ctx.psi) for j in range(1, m + 1) for g in (np.cos, np.sin)]
+    if factor == "time":
+        return _legendre_time(ctx)
+    raise ValueError(f"unknown generic factor '{factor}'")
+
+
+def generic_design(name: str, ctx: Context) -> np.ndarray:
+    """Fine-phase harmonics 0..K (0 = the factor alone; not for the constant factor) times the factor."""
+    factor, k, m = parse_generic(name)
+    phase = phase_columns(ctx.phi, k, constant=factor != "1")
+    return np.column_stack([p * f for f in factor_columns(factor, ctx, m) for p in phase])
+
+
+GENERIC = dict(
+    cause="structure the library's shapes do not describe (no physical name)",
+    signature="fine-phase harmonics times a factor (speed, direction, magnitude, revolution, time), orders chosen "
+              "on held-out data",
+    correction="hardware",
+    where="fringe_trim's tables when the factor is speed, direction, magnitude or revolution; the float engine "
+          "for speed^2, magnitude^2 and time")

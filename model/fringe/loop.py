@@ -22,11 +22,18 @@ from scipy import ndimage, signal, stats
 from .calibrate import calibrate
 from .dataio import Measurement, atomic_dir
 from .effects import (
+    GENERIC,
+    GENERIC_FACTORS,
+    GENERIC_PHASE_ORDERS,
+    GENERIC_REV_ORDERS,
     INTERFERENCE,
     LIBRARY,
     SPEED_LOG2,
     Context,
     FittedEffect,
+    factor_columns,
+    generic_design,
+    generic_name,
     interference_columns,
     make_context,
     tone_columns,
@@ -157,6 +164,8 @@ def _design(name: str, ctx: Context, tone_hz: float = 0.0) -> np.ndarray:
         return tone_columns(ctx, tone_hz)
     if name == "interference":
         return interference_columns(ctx, tone_hz)
+    if name.startswith("generic:"):
+        return generic_design(name, ctx)
     return LIBRARY[name].design(ctx)
 
 
@@ -169,6 +178,7 @@ class Test:
     p_value: float
     dof: int
     tone_hz: float = 0.0
+    label: str = ""          # the library's name when the term is a general-dictionary shape for that effect
 
 
 CHUNK = 1 << 12     # rows per block of a design matrix: memory stays bounded however long the recording
@@ -352,7 +362,116 @@ def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], 
         tests.append(t)
     if notes:
         skipped["tones"] = "; ".join(notes)
+    tests += generic_candidates(ev, sigma, exclude)
     return tests, skipped
+
+
+GENERIC_NEEDS = {"speed": "speed", "speed2": "speed", "direction": "direction", "revolution": "periods",
+                 "time": "time"}
+GENERIC_PROBE = {"speed": "ref_lag", "direction": "hysteresis", "periods": "rev_offset_gain", "time": "drift"}
+CV_BLOCKS = 200     # interleaved blocks of the two-fold cross-validation
+
+
+def _fold_grams(ev: Evaluation, design, width: int):
+    """Normal equations of a design (plus a constant) on each half of the two-fold cross-validation."""
+    r, n = ev.r, len(ev.r)
+    fold = (np.arange(n) * CV_BLOCKS // n) % 2
+    grams = [np.zeros((width + 1,) * 2) for _ in range(2)]
+    rhs = [np.zeros(width + 1) for _ in range(2)]
+    for start in range(0, n, CHUNK):
+        sl = slice(start, min(n, start + CHUNK))
+        xa = np.column_stack([design(sl), np.ones(sl.stop - sl.start)])
+        for f in (0, 1):
+            m = fold[sl] == f
+            grams[f] += xa[m].T @ xa[m]
+            rhs[f] += xa[m].T @ r[sl][m]
+    rr = [float(r[fold == f] @ r[fold == f]) for f in (0, 1)]
+    return grams, rhs, rr
+
+
+def _held_out(grams, rhs, rr, idx) -> tuple[float, float]:
+    """Held-out sum of squares of the columns idx (the constant last), and of the constant alone."""
+    held = base = 0.0
+    for a, b in ((0, 1), (1, 0)):
+        g, y = grams[a][np.ix_(idx, idx)], rhs[a][idx]
+        sc = np.sqrt(np.maximum(np.diag(g), 1e-300))
+        w = np.linalg.lstsq(g / np.outer(sc, sc), y / sc, rcond=1e-12)[0] / sc
+        gb, yb = grams[b][np.ix_(idx, idx)], rhs[b][idx]
+        held += rr[b] - 2 * w @ yb + w @ gb @ w
+        mean_a = rhs[a][-1] / grams[a][-1, -1]
+        base += rr[b] - 2 * mean_a * rhs[b][-1] + mean_a ** 2 * grams[b][-1, -1]
+    return float(held), float(base)
+
+
+def cv_held_out(ev: Evaluation, design, width: int) -> float:
+    grams, rhs, rr = _fold_grams(ev, design, width)
+    return _held_out(grams, rhs, rr, list(range(width + 1)))[0]
+
+
+def generic_cv(ev: Evaluation, factor: str) -> tuple[float, float, str]:
+    """The factor's best orders by two-fold cross-validation: (held-out SSE, held-out SSE of a constant, name)."""
+    ctx = ev.ctx
+    kmax = max(GENERIC_PHASE_ORDERS) if factor != "revolution" else 4
+    mmax = max(GENERIC_REV_ORDERS[:3]) if factor == "revolution" else 0
+    nf = len(factor_columns(factor, ctx.rows(slice(0, 1)), mmax))
+    npc = 2 * kmax + (factor != "1")
+    grams, rhs, rr = _fold_grams(ev, lambda sl: generic_design(generic_name(factor, kmax, mmax), ctx.rows(sl)),
+                                 nf * npc)
+    best = None
+    for k in [k for k in GENERIC_PHASE_ORDERS if k <= kmax]:
+        for mm in ([m for m in GENERIC_REV_ORDERS if m <= mmax] or [0]):
+            keep_f = 2 * mm if factor == "revolution" else nf
+            keep_p = 2 * k + (factor != "1")
+            idx = [fi * npc + pj for fi in range(keep_f) for pj in range(keep_p)] + [nf * npc]
+            held, base = _held_out(grams, rhs, rr, idx)
+            if best is None or held < best[0]:
+                best = (held, base, generic_name(factor, k, mm))
+    return best
+
+
+def generic_candidates(ev: Evaluation, sigma: float, exclude: set) -> list[Test]:
+    """The general dictionary: for each factor, fine-phase orders 0..K (and revolution orders 1..M) chosen by
+    two-fold cross-validation on interleaved blocks of the fit data (fitted on one half, scored on the other,
+    and the other way round); the best order of each factor is offered as a "generic" term when it lowers
+    the held-out error by at least MIN_GAIN."""
+    ctx, r = ev.ctx, ev.r
+    if len(r) < 2000:
+        return []
+    out = []
+    for factor in GENERIC_FACTORS:
+        need = GENERIC_NEEDS.get(factor)
+        if need and testable(GENERIC_PROBE[need], ctx):
+            continue
+        if any(e.startswith(f"generic:{factor}:") for e in exclude):
+            continue
+        held, base, name = generic_cv(ev, factor)
+        if held > (1 - MIN_GAIN) ** 2 * base:
+            continue
+        out.append(test_terms(r, lambda sl, nm=name: generic_design(nm, ctx.rows(sl)), sigma, name))
+    return out
+
+
+#: library effects carried as angle terms, and the factor of the general dictionary their signature lies in
+SHAPE_FACTOR = {"sampling_skew": "speed", "hysteresis": "direction", "amplitude": "magnitude"}
+
+
+def widen(best: Test, ev: Evaluation, sigma: float) -> Test:
+    """A named effect with the shape the data asks for: when the general dictionary's block of the same factor
+    (orders chosen by cross-validation) predicts held-out data better than the library's fixed shape by at
+    least MIN_GAIN, the name stays and the block is the correction (e.g. a large channel skew needs more than
+    the one-term shape)."""
+    factor = SHAPE_FACTOR.get(best.name)
+    if factor is None or len(ev.r) < 2000:
+        return best
+    held, _, name = generic_cv(ev, factor)
+    lib = LIBRARY[best.name]
+    width = lib.design(ev.ctx.rows(slice(0, 1))).shape[1]
+    lib_held = cv_held_out(ev, lambda sl: lib.design(ev.ctx.rows(sl)), width)
+    if held > (1 - MIN_GAIN) ** 2 * lib_held:
+        return best
+    t = test_terms(ev.r, lambda sl: generic_design(name, ev.ctx.rows(sl)), sigma, name)
+    t.label = best.name
+    return t
 
 
 TONE_EFFECT = dict(cause="a tone in time: vibration between encoder and reference, or interference",
@@ -360,6 +479,14 @@ TONE_EFFECT = dict(cause="a tone in time: vibration between encoder and referenc
 
 
 def describe(name: str) -> dict:
+    if name.startswith("generic:"):
+        from .effects import parse_generic
+        factor, k, m = parse_generic(name)
+        carried = GENERIC_FACTORS[factor]
+        what = f"fine-phase orders 0..{k} times {factor}" + (f" (revolution orders 1..{m})" if m else "")
+        return {**GENERIC, "signature": what + "; unexplained by name",
+                "correction": "hardware" if carried else "float engine",
+                "where": "fringe_trim's tables" if carried else "the float engine (no core block carries it)"}
     if name == "tone":
         return TONE_EFFECT
     if name == "interference":
@@ -371,7 +498,8 @@ def describe(name: str) -> dict:
 def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
     new = LoopState(dataclasses.replace(state.cal, angle_terms=list(state.cal.angle_terms)), list(state.artefacts),
                     state.ref_lag_s)
-    kind = {"tone": "artefact", "interference": "float engine"}.get(t.name) or LIBRARY[t.name].correction
+    kind = {"tone": "artefact", "interference": "float engine"}.get(t.name) or \
+        (describe(t.name)["correction"] if t.name.startswith("generic:") else LIBRARY[t.name].correction)
     fitted = FittedEffect(t.name, t.weights, t.tone_hz, "float" if kind == "float engine" else "core")
     if t.name == "ref_lag":
         # r = direction * speed * lag: shift the reference, calibrate again without the lag in it, and
@@ -479,6 +607,9 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
     for _ in range(MAX_EFFECTS):
         tests, skipped = candidates(ev_fit, sigma, excluded)
         good = [t for t in tests if t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * ev_fit.rms]
+        # the library's names first: the general dictionary corrects what none of them explains
+        named = [t for t in good if not t.name.startswith("generic:")]
+        good = named or good
         report["iterations"].append({"residual_rms_arcsec": round(ev_fit.rms, 4), "tests": [
             {"effect": t.name, "explained_rms_arcsec": round(t.explained_rms, 4), "p_value": t.p_value,
              "dof": t.dof} for t in sorted(tests, key=lambda t: t.rms_after)], "not_testable": skipped})
@@ -487,16 +618,19 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         # BIC: between effects that explain nearly the same, the one with fewer terms
         n = len(ev_fit.r)
         best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
-        excluded.add(best.name)
+        best = widen(best, ev_fit, sigma)
+        excluded.update({best.name, best.label} - {""})
         try:
             trial = apply(state, best, fit_data)
-        except (FringeInputError, ValueError, TypeError, np.linalg.LinAlgError) as e:
+            val_after = evaluate(trial, val_data)
+        except (FringeInputError, ValueError, TypeError, KeyError, np.linalg.LinAlgError) as e:
             # never abort on the data: an effect whose fit fails is reported and left out
             report["effects_rejected"].append({"name": best.name, **describe(best.name), "evidence": "",
                                                "why_not_kept": f"re-calibration with it failed: {e}"})
             continue
-        val_after = evaluate(trial, val_data)
-        entry = {"name": best.name, **describe(best.name),
+        entry = {"name": best.label or best.name, **describe(best.label or best.name),
+                 **({"shape": describe(best.name)["signature"], "correction": describe(best.name)["correction"],
+                     "where": describe(best.name)["where"]} if best.label else {}),
                  "evidence": f"explains {best.explained_rms:.3f}\" RMS of the residual ({best.dof} terms, "
                              f"p = {best.p_value:.1e} against the {sigma:.3f}\" noise floor)"
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),

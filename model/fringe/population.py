@@ -50,9 +50,9 @@ def draw_case(seed: int) -> dict:
     mean, swing = {
         "steady": (rng.uniform(0.3, 1.0) * vmax, 0.0),
         "sweeps": (0.5 * vmax, 0.4 * vmax),
-        "reversals": (0.15 * vmax, 0.8 * vmax),
+        "reversals": (max(0.15 * vmax, least), 0.8 * vmax),
         "slow": (max(0.05 * vmax, least), 0.03 * vmax),
-        "fast": (0.8 * limit, 0.1 * limit),
+        "fast": (0.7 * limit, 0.15 * limit),
     }[trajectory]
     if trajectory != "reversals":
         mean = min(max(mean, least + swing), 0.95 * limit - swing)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..effects import LIBRARY, MAG_REF, REV_ORDERS
+from ..effects import MAG_REF, REV_ORDERS
 from ..encoder import ARCSEC_PER_REV
 from ..pipeline import Calibration, fine_phase
 
@@ -44,7 +44,10 @@ def unsupported(cal: Calibration) -> list[str]:
 
     Terms marked for the float engine only (FittedEffect.engine == "float": no legal table width carries
     them, or no core block exists for them) are not counted: the core runs the rest of the calibration."""
-    return [t.name for t in core_terms(cal) if t.name not in TRIM_EFFECTS]
+    from ..effects import GENERIC_FACTORS, parse_generic
+
+    return [t.name for t in core_terms(cal) if t.name not in TRIM_EFFECTS
+            and not (t.name.startswith("generic:") and GENERIC_FACTORS[parse_generic(t.name)[0]])]
 
 
 def core_terms(cal: Calibration) -> list:
@@ -125,9 +128,37 @@ def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_
             h = w[0] + w[1] * np.cos(2 * phi) + w[2] * np.sin(2 * phi)    # effects._amplitude_cols
             ga += h * counts / mag_scale
             grid -= (h * counts * MAG_REF)[None, None, :]
-        elif term.name in LIBRARY:
+        elif term.name.startswith("generic:"):
+            _generic_into(term, grid, gs, ga, phi, psi, counts, rev, speed_log2, mag_scale, sample_interval_s)
+        else:
             raise ValueError(f"fringe_trim cannot carry the closed-loop term '{term.name}'")
     return TrimGrids(grid, gs, ga)
+
+
+def _generic_into(term, grid, gs, ga, phi, psi, counts, rev, speed_log2, mag_scale, sample_interval_s):
+    """A term of the general dictionary (effects.generic_design) into fringe_trim's tables: the phase shape
+    per factor column, placed in the table that multiplies by that factor."""
+    from ..effects import GENERIC_FACTORS, parse_generic, phase_columns
+
+    factor, k, m = parse_generic(term.name)
+    if not GENERIC_FACTORS[factor]:
+        raise ValueError(f"fringe_trim cannot carry the closed-loop term '{term.name}'")
+    phase = np.column_stack(phase_columns(phi, k, constant=factor != "1"))
+    w = np.asarray(term.weights, float).reshape(-1, phase.shape[1])       # (factor column, phase column)
+    shapes = w @ phase.T * counts                                          # (factor column, phase bin)
+    if factor == "1":
+        grid += shapes[0][None, None, :]
+    elif factor == "direction":
+        grid[0] += shapes[0][None, :]
+        grid[1] -= shapes[0][None, :]
+    elif factor == "revolution":
+        rc = np.column_stack([g(j * psi) for j in range(1, m + 1) for g in (np.cos, np.sin)])
+        grid += (rc @ shapes)[None]
+    elif factor == "speed":
+        gs += shapes[0] / (rev * (1 << speed_log2) * sample_interval_s)
+    elif factor == "magnitude":
+        ga += shapes[0] / mag_scale
+        grid -= (shapes[0] * MAG_REF)[None, None, :]
 
 
 def mag_scale(cfg) -> float:
@@ -226,6 +257,8 @@ class DriftTables:
 def channel_waveforms(cal: Calibration):
     """The calibrated channel readings (ADC codes) as functions of the core's fine phase (fraction of a
     period): the phase the CORDIC measures is theta + psi_cos (effects.tracked_phase's convention)."""
+    if not {"sin", "cos"} <= set(cal.waves):
+        raise ValueError("fringe_drift needs the calibrated waveform models (this calibration has none)")
     psi_c = cal.waves["cos"].psi
     return {k: (lambda ph, w=cal.waves[k]: w(2 * np.pi * np.asarray(ph) - psi_c)) for k in ("sin", "cos")}
 
