@@ -94,13 +94,15 @@ def noise_floor(ev: Evaluation) -> tuple[float, dict]:
     est = {"spectral level of the residual away from lines": spectral_level(ev.r, sample_rate(ev.ctx.t)),
            "radial scatter of the corrected Lissajous figure": radial_floor(ev),
            "successive differences of the residual": noise_sigma(ev.r)}
-    sigma = est["spectral level of the residual away from lines"]
-    ratios = {k: v / sigma for k, v in est.items()}
+    # structure inflates both: broadband (smeared by a changing speed) the spectral level, high-frequency (a tone,
+    # interference) the differences; the lower of the two is the least inflated
+    sigma = min(est["spectral level of the residual away from lines"], est["successive differences of the residual"])
+    ratios = {k: v / est["spectral level of the residual away from lines"] for k, v in est.items()}
     # the radial scatter is a lower bound when the waveform inverse amplifies the noise along the circle
     # (harmonic-rich waveforms): it agrees if not above the floor by more than 40 % nor below half of it
     agree = 0.7 <= ratios["successive differences of the residual"] <= 1.4 and \
         0.5 <= ratios["radial scatter of the corrected Lissajous figure"] <= 1.4
-    return sigma, {"used": "spectral level of the residual away from lines",
+    return sigma, {"used": "the lower of the spectral level away from lines and the successive differences",
                    "estimates_arcsec": {k: round(v, 4) for k, v in est.items()},
                    "agree": agree,
                    "note": "the estimates agree" if agree else
@@ -343,8 +345,23 @@ def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], lis
     return out, notes
 
 
-def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
+GENERIC_ABOVE_FLOOR = 1.05
+SEARCH_ROWS = 1 << 17    # the term tests run on at most this many rows (evenly strided): ample power, bounded time
+
+
+def strided(ev: Evaluation) -> Evaluation:
+    """Every k-th row of a long evaluation, for the term tests (the tone search keeps every sample)."""
+    step = -(-len(ev.r) // SEARCH_ROWS)
+    if step <= 1:
+        return ev
+    sl = slice(None, None, step)
+    r = ev.r[sl]
+    return Evaluation(r, ev.ctx.rows(sl), ev.figures, float(np.sqrt(np.mean(r * r))), None, ev.cal)
+
+
+def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
     tests, skipped = [], {}
+    ev = strided(ev_full)
     for name in LIBRARY:
         if name in exclude:
             continue
@@ -353,16 +370,17 @@ def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], 
             skipped[name] = why
             continue
         tests.append(test_terms(ev.r, lambda sl, e=LIBRARY[name]: e.design(ev.ctx.rows(sl)), sigma, name))
-    lines, notes = tone_candidates(ev)
+    lines, notes = tone_candidates(ev_full)
     for name, f, p_line in lines:
         if name in exclude:
             continue
-        t = test_terms(ev.r, _design(name, ev.ctx, f), sigma, name, f)
+        t = test_terms(ev_full.r, _design(name, ev_full.ctx, f), sigma, name, f)
         t.p_value = max(t.p_value, p_line)      # the line must stand out of its neighbours, and the term explain
         tests.append(t)
     if notes:
         skipped["tones"] = "; ".join(notes)
-    tests += generic_candidates(ev, sigma, exclude)
+    if ev.rms > GENERIC_ABOVE_FLOOR * sigma:      # near the floor nothing is left for a shape without a name
+        tests += generic_candidates(ev, sigma, exclude)
     return tests, skipped
 
 
@@ -618,7 +636,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         # BIC: between effects that explain nearly the same, the one with fewer terms
         n = len(ev_fit.r)
         best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
-        best = widen(best, ev_fit, sigma)
+        best = widen(best, strided(ev_fit), sigma)
         excluded.update({best.name, best.label} - {""})
         try:
             trial = apply(state, best, fit_data)
@@ -639,12 +657,16 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
             report["effects_added"].append(entry)
             state, ev_val = trial, val_after
             ev_fit = evaluate(state, fit_data)
+            sigma = min(sigma, noise_floor(ev_fit)[0])     # a cleaner residual inflates the floor less
         else:
             entry["why_not_kept"] = f"did not lower the error on the validation data ({val_name})"
             report["effects_rejected"].append(entry)
     report["after"] = _figs(ev_val)
+    report["noise_floor_arcsec"] = round(sigma, 4)
     report["unexplained"] = unexplained(ev_fit, sigma)
     report["artefacts"] = [a.to_dict() for a in state.artefacts]
+    from .fixed.closed_loop import float_only
+    report["float_engine_only"] = float_only(state.cal)
     if state.ref_lag_s:
         report["artefacts"].append({"name": "ref_lag", "lag_s": state.ref_lag_s,
                                     "correction": "artefact", "where": LIBRARY["ref_lag"].where})

@@ -76,12 +76,24 @@ def _map(ev, bins: int = 32) -> np.ndarray:
         return np.where(n > 0, s / np.maximum(n, 1), np.nan).reshape(bins, bins)
 
 
+def _floor_lines(report: dict) -> list[str]:
+    info = report.get("noise_floor_estimates")
+    if not info:
+        return []
+    out = ["", "Noise floor estimates (arcsec): " + "; ".join(f"{k} {v}" for k, v in info["estimates_arcsec"].items())
+           + f". {info['note']}."]
+    if report.get("float_engine_only"):
+        out += ["", "Carried by the float engine only (the bit-exact core runs the rest of the calibration): "
+                + ", ".join(report["float_engine_only"]) + "."]
+    return out
+
+
 def write_markdown(report: dict, plots: dict, path: str):
     b, a = report["before"], report["after"]
     out = ["# fringe closed loop", "",
            f"Data: `{report['data']}`; validation: `{report['validation']}`.",
            f"Noise floor estimated from the data: {report['noise_floor_arcsec']}\" RMS "
-           f"({report['noise_floor_method']}).", "",
+           f"({report['noise_floor_method']}).", *_floor_lines(report), "",
            "| | RMS | p-p | interpolation p-p | long-period p-p |", "|---|---|---|---|---|",
            f"| declared model (seeds, generalised) | {b['rms_arcsec']} | {b['pp_arcsec']} | "
            f"{b['interp_pp_arcsec']} | {b['lp_pp_arcsec']} |",
@@ -93,6 +105,8 @@ def write_markdown(report: dict, plots: dict, path: str):
         out += [f"### {e['name']}: {e['cause']}", "", f"- evidence: {e['evidence']}",
                 f"- signature: {e.get('signature', '')}", f"- correction: {e['correction']} ({e['where']})",
                 f"- validation RMS: {e['rms_before_arcsec']}\" -> {e['rms_after_arcsec']}\"", ""]
+        if e.get("shape"):
+            out.insert(-1, f"- shape chosen on held-out data: {e['shape']}")
     if report["effects_rejected"]:
         out += ["## Tried and not kept", ""]
         out += [f"- {e['name']}: {e['evidence']}; {e['why_not_kept']}" for e in report["effects_rejected"]]

@@ -147,7 +147,9 @@ def population_case(seed: int) -> dict:
     try:
         fit, val = measurement_of(simulate(cfg, 2 * seed + 1)), measurement_of(simulate(cfg, 2 * seed + 2))
         _, state, rep = run_loop(fit, cfg.encoder(), val)
-        found = {e["name"] for e in rep["effects_added"]}
+        # names only: terms of the general dictionary are corrections without a name, counted apart
+        found = {e["name"] for e in rep["effects_added"] if not e["name"].startswith("generic:")}
+        out["generic_terms"] = [e["name"] for e in rep["effects_added"] if e["name"].startswith("generic:")]
         floor = noise_floor_arcsec(state.cal, cfg, 2 * seed + 2)
         model = run_engine("model", state.cal, val, None)
         floor_model = noise_floor_arcsec(state.cal, cfg, 2 * seed + 2,
@@ -201,6 +203,7 @@ def summarise(cases: list[dict]) -> dict:
                                      "found", "float_ratio", "model_ratio")} for c in worst],
         "wrong_names": [{k: c[k] for k in ("seed", "classes", "strengths", "trajectory", "lines", "expected", "found")}
                         for c in ok if not c["named_right"]][:20],
+        "with_generic_terms": _share(bool(c.get("generic_terms")) for c in ok),
         "seconds_per_recording": round(float(np.mean([c["seconds"] for c in cases])), 2) if cases else None,
     }
 
@@ -219,3 +222,44 @@ def population_bench(n: int = 200, seed: int = 9000, workers: int = 1) -> dict:
     out.update(first_seed=seed, samples_per_recording=SAMPLES, workers=workers,
                wall_seconds=round(time.perf_counter() - t0, 1))
     return out
+
+
+def _run_loop_child(csv: str, enc: str, out: str) -> tuple[float, float]:
+    """Wall seconds and peak RSS (bytes) of `fringe loop` in a fresh process (its own rusage: os.wait4)."""
+    import os
+    import subprocess
+    import sys
+
+    t0 = time.perf_counter()
+    child = subprocess.Popen([sys.executable, "-m", "fringe", "loop", csv, "--encoder", enc, "--out", out],
+                             stdout=subprocess.DEVNULL)
+    _, status, usage = os.wait4(child.pid, 0)
+    child.returncode = status
+    seconds = time.perf_counter() - t0
+    if status:
+        raise RuntimeError(f"fringe loop failed on {csv} (status {status})")
+    return seconds, usage.ru_maxrss * 1024.0
+
+
+def loop_speed(samples: int = 1_000_000, small: int = 20_000) -> dict:
+    """`fringe loop` on a simulated recording of `samples` rows (the seed encoder): wall time, peak RSS, and the
+    RSS per input row both in all and above a `small`-row run (the interpreter and libraries are fixed costs).
+    Target of issue 8/9: at most 200 bytes per input row, 1 M rows within 60 s."""
+    import os
+    import tempfile
+
+    from .cli import main
+
+    with tempfile.TemporaryDirectory(prefix="fringe-loop-speed-") as tmp:
+        runs = {}
+        for rows in (small, samples):
+            csv, enc = os.path.join(tmp, f"a{rows}.csv"), os.path.join(tmp, "e.json")
+            if main(["simulate", "--preset", "seed-encoder", "--samples", str(rows), "--out", csv, "--encoder-out", enc,
+                     "--seed", "3"]) != 0:
+                raise RuntimeError("simulate failed")
+            runs[rows] = _run_loop_child(csv, enc, os.path.join(tmp, f"loop{rows}"))
+    (_, rss_small), (t_big, rss_big) = runs[small], runs[samples]
+    return {"rows": samples, "seconds": round(t_big, 1), "peak_rss_mb": round(rss_big / 2 ** 20, 1),
+            "bytes_per_row": round(rss_big / samples, 1),
+            "bytes_per_row_above_small_run": round((rss_big - rss_small) / (samples - small), 1),
+            "targets": {"seconds": 60, "bytes_per_row": 200}}
