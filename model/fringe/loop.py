@@ -272,6 +272,15 @@ def find_line(x: np.ndarray, fs: float, exclude_hz=()) -> tuple[float, float, in
     return float(f[k]), float(q[k]), int(np.count_nonzero(q))
 
 
+def refine_frequency(x: np.ndarray, t: np.ndarray, f0: float, bin_hz: float, points: int = 41) -> float:
+    """The line's frequency between the periodogram's bins: the largest projection of x on a complex tone
+    within one bin of f0 (a bin's error drifts the phase by up to pi over the recording)."""
+    xc = x - x.mean()
+    grid = f0 + bin_hz * np.linspace(-1.0, 1.0, points)
+    power = [abs(np.exp(-2j * np.pi * f * t) @ xc) for f in grid]
+    return float(grid[int(np.argmax(power))])
+
+
 def line_p_value(found) -> float:
     if not found:
         return 1.0
@@ -320,16 +329,18 @@ def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], lis
         # at a steady speed the waveform's own errors sit at multiples of the electrical frequency
         harmonics = [k * electrical for k in range(1, int(fs / 2 / electrical) + 1)] if electrical else []
         found = [find_line(e, fs, harmonics[:4096]) for e in chan]
-        found = [f for f in found if f]
-        if found:
-            chan_found = max(found, key=lambda f: f[1])
+        if any(found):
+            which = int(np.argmax([f[1] if f else -1.0 for f in found]))
+            chan_found = found[which]
+            chan_found = (refine_frequency(chan[which], ev.ctx.t if fs != 1.0 else np.arange(len(ev.r)),
+                                           chan_found[0], fs / len(ev.r)), *chan_found[1:])
             p = min(1.0, 2 * line_p_value(chan_found))
             if p < P_VALUE:
                 out.append(("interference", chan_found[0], p))
     angle = find_line(ev.r, fs)
     if angle and line_p_value(angle) < P_VALUE:
-        f = angle[0]
         bin_hz = fs / len(ev.r)
+        f = refine_frequency(ev.r, ev.ctx.t if fs != 1.0 else np.arange(len(ev.r)), angle[0], bin_hz)
         sideband = chan_found is not None and electrical and \
             min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
         harmonic = bool(rate) and abs(f / rate - round(f / rate)) * abs(rate) <= 1.5 * bin_hz and round(f / rate) >= 1
@@ -541,7 +552,23 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
         new.cal.adaptive = True
     else:
         new.artefacts.append(fitted)
+        if t.name == "tone":     # the declared model was fitted with the tone in its residual: fit it without
+            new.cal = refit_around_tone(new.cal, fitted, shift_reference(fit_data, state.ref_lag_s))
     return new
+
+
+def refit_around_tone(cal: Calibration, tone: FittedEffect, meas: Measurement) -> Calibration:
+    """Re-calibrate the declared model with a tone's error (in time, fitted on this recording) held out of it."""
+    from .calibrate import CalibrationOptions
+
+    res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
+    ctx = make_context(res.frac, res.position, cal.encoder.lines_per_rev, sample_times(len(res.frac), meas.t_s),
+                       res.magnitude)
+    x = tone_columns(ctx, tone.tone_hz)
+    r = error_arcsec(res.angle_deg, meas.ref_deg)
+    w, *_ = np.linalg.lstsq(x - x.mean(0), r - r.mean(), rcond=None)
+    fresh = calibrate(meas, cal.encoder, CalibrationOptions(known_error_arcsec=cal.direction * (x @ w)))
+    return dataclasses.replace(fresh, rev_norm=cal.rev_norm, adaptive=cal.adaptive, angle_terms=list(cal.angle_terms))
 
 
 def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) -> Calibration:
