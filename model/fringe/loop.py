@@ -251,6 +251,7 @@ def testable(name: str, ctx: Context) -> str | None:
     return None
 
 
+WAVE_HARMONICS = 32  # at a steady speed, channel lines at these multiples of the electrical frequency are waveform
 LINE_WINDOW = 64      # bins either side for the local spectral level of the line detector
 
 
@@ -268,6 +269,8 @@ def find_line(x: np.ndarray, fs: float, exclude_hz=()) -> tuple[float, float, in
     q[f <= 16 * f[1]] = 0.0
     for ex in exclude_hz:
         q[np.abs(f - ex) <= 1.5 * f[1]] = 0.0
+    if not np.any(q > 0):
+        return None
     k = int(np.argmax(q))
     return float(f[k]), float(q[k]), int(np.count_nonzero(q))
 
@@ -326,9 +329,10 @@ def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], lis
     chan = channel_errors(ev)
     chan_found = None
     if chan is not None:
-        # at a steady speed the waveform's own errors sit at multiples of the electrical frequency
-        harmonics = [k * electrical for k in range(1, int(fs / 2 / electrical) + 1)] if electrical else []
-        found = [find_line(e, fs, harmonics[:4096]) for e in chan]
+        # at a steady speed the waveform's own errors sit at the low multiples of the electrical frequency (a
+        # waveform model's orders); a line at a high multiple is interference
+        harmonics = [k * electrical for k in range(1, WAVE_HARMONICS + 1)] if electrical else []
+        found = [find_line(e, fs, harmonics) for e in chan]
         if any(found):
             which = int(np.argmax([f[1] if f else -1.0 for f in found]))
             chan_found = found[which]
@@ -343,9 +347,10 @@ def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], lis
         f = refine_frequency(ev.r, ev.ctx.t if fs != 1.0 else np.arange(len(ev.r)), angle[0], bin_hz)
         sideband = chan_found is not None and electrical and \
             min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
-        harmonic = bool(rate) and abs(f / rate - round(f / rate)) * abs(rate) <= 1.5 * bin_hz and round(f / rate) >= 1
+        order = round(f / abs(rate)) if rate else 0
+        harmonic = order >= 1 and abs(f - order * abs(rate)) <= 1.5 * bin_hz
         if harmonic:     # a tone's phase is refitted on every recording: it would "validate" a position error too
-            notes.append(f"the line at {f:.3f} Hz is harmonic {round(abs(f / rate))} of the steady revolution rate "
+            notes.append(f"the line at {f:.3f} Hz is harmonic {order} of the steady revolution rate "
                          f"({abs(rate):.4g} rev/s): in the angle alone a vibration and a position error look the same, "
                          "so it is not named (ambiguous)")
         elif not sideband:
