@@ -372,3 +372,15 @@ GENERIC = dict(
     correction="hardware",
     where="fringe_trim's tables when the factor is speed, direction, magnitude or revolution; the float engine "
           "for speed^2, magnitude^2 and time")
+
+
+def known_term(name: str) -> bool:
+    """Whether a stored closed-loop angle term names something this library can evaluate."""
+    if name in LIBRARY or name == "interference":
+        return True
+    if name.startswith("generic:"):
+        try:
+            return parse_generic(name)[0] in GENERIC_FACTORS
+        except ValueError:
+            return False
+    return False

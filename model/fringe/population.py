@@ -56,6 +56,8 @@ def draw_case(seed: int) -> dict:
     }[trajectory]
     if trajectory != "reversals":
         mean = min(max(mean, least + swing), 0.95 * limit - swing)
+    else:
+        swing = min(swing, 0.95 * limit - mean)
     gain = rng.uniform(0.5, 0.9)
     h = {n: rng.normal(0, 0.01) for n in (2, 3, 5)}
     sin_ch = ChannelConfig(offset=rng.normal(0, 0.01), gain=gain, phase_rad=rng.normal(0, 0.01),
