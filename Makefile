@@ -41,6 +41,7 @@ test-rtl: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check model tests tb sim
 	$(BIN)/python sim/lint.py
+	$(BIN)/python sim/hdlgen.py --check
 
 bench: synth
 	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m fringe.bench --out results

@@ -71,7 +71,7 @@ class Encoder:
 
 
 def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg):
-    """The contract of docs/drift.md as a plain per-sample loop on Python integers."""
+    """The contract of docs/blocks/fringe_drift.md as a plain per-sample loop on Python integers."""
     B, D = p.b, p.d
     off, ginv = [0, 0], [p.unity, p.unity]
     pending = []                          # (apply index, state)

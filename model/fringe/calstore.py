@@ -119,9 +119,9 @@ def load_calibration(cal_dir: str) -> Calibration:
             from .effects import RevNormalisation
             cal.rev_norm = RevNormalisation.from_dict(loop["rev_normalisation"])
         if loop.get("angle_terms"):
-            from .effects import LIBRARY, FittedEffect
+            from .effects import FittedEffect, known_term
             for t in loop["angle_terms"]:
-                if t["name"] not in LIBRARY:
+                if not known_term(t["name"]):
                     raise ValueError(f"unknown closed-loop term '{t['name']}'")
                 cal.angle_terms.append(FittedEffect.from_dict(t))
         if st.get("coarse"):

@@ -42,6 +42,12 @@ class Context:
     direction: np.ndarray   # +1 / -1
     magnitude: np.ndarray   # corrected signal magnitude (1 nominal)
     lines: int = 1          # signal periods per revolution
+    t_span: tuple | None = None   # (first, last) time of the whole recording when this is a slice of it
+
+    def rows(self, sl: slice) -> Context:
+        """The same context for a block of samples (designs are evaluated block by block to bound memory)."""
+        return Context(self.phi[sl], self.psi[sl], self.t[sl], self.speed[sl], self.accel[sl], self.direction[sl],
+                       self.magnitude[sl], self.lines, self.t_span or (float(self.t[0]), float(self.t[-1])))
 
 
 def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int = SPEED_LOG2) -> np.ndarray:
@@ -76,8 +82,9 @@ def _rev_modulated(orders_phi, ctx: Context, m_orders=REV_ORDERS) -> list[np.nda
 
 
 def _legendre_time(ctx: Context, degree=TIME_ORDERS) -> list[np.ndarray]:
-    span = ctx.t[-1] - ctx.t[0]
-    x = 2 * (ctx.t - ctx.t[0]) / span - 1 if span > 0 else np.zeros_like(ctx.t)
+    t0, t1 = ctx.t_span or (ctx.t[0], ctx.t[-1])
+    span = t1 - t0
+    x = 2 * (ctx.t - t0) / span - 1 if span > 0 else np.zeros_like(ctx.t)
     return [np.polynomial.legendre.Legendre.basis(d)(x) for d in range(1, degree + 1)]
 
 
@@ -170,6 +177,7 @@ class FittedEffect:
     name: str
     weights: np.ndarray
     tone_hz: float = 0.0       # for the "tone" artefact
+    engine: str = "core"       # "float": the bit-exact core does not carry it (no legal width or no block)
 
     def to_dict(self) -> dict:
         e = LIBRARY.get(self.name)
@@ -179,20 +187,56 @@ class FittedEffect:
             d.update(correction=e.correction, where=e.where)
         if self.tone_hz:
             d["tone_hz"] = self.tone_hz
+        if self.engine != "core":
+            d["engine"] = self.engine
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> FittedEffect:
-        return cls(d["name"], np.asarray(d["weights"], float), float(d.get("tone_hz", 0.0)))
+        return cls(d["name"], np.asarray(d["weights"], float), float(d.get("tone_hz", 0.0)), d.get("engine", "core"))
 
     def predict(self, ctx: Context) -> np.ndarray:
         if self.name == "tone":
             return tone_columns(ctx, self.tone_hz) @ self.weights
+        if self.name == "interference":
+            return interference_columns(ctx, self.tone_hz) @ self.weights
+        if self.name.startswith("generic:"):
+            return generic_design(self.name, ctx) @ self.weights
         return LIBRARY[self.name].design(ctx) @ self.weights
 
 
 def tone_columns(ctx: Context, f: float) -> np.ndarray:
     return np.column_stack([np.cos(2 * np.pi * f * ctx.t), np.sin(2 * np.pi * f * ctx.t)])
+
+
+INTERFERENCE_WAVE_ORDERS = 8     # what the magnitude repeats over the fine phase, removed before the tone fit
+
+INTERFERENCE = dict(
+    cause="additive interference on the signals at a fixed frequency (switching supply, motor drive, pick-up)",
+    signature="a line at the frequency in each channel's error against the reference's phase; in the angle, "
+              "sidebands at plus and minus the electrical frequency",
+    correction="float engine",
+    where="the float engine: a canceller at the named frequency that estimates the tone on each channel from "
+          "the recording's own Lissajous radius (no reference needed) and removes its angle image; the bit-exact "
+          "core does not carry it (no core block exists yet)")
+
+
+def interference_columns(ctx: Context, f: float) -> np.ndarray:
+    """The angle image (rad of fine phase) of an additive tone at f on the corrected channels, estimated
+    from this recording alone: a tone n = (n_c, n_s) moves the point (cos phi, sin phi) radially by
+    n_c cos phi + n_s sin phi (seen in the magnitude) and along the circle by n_s cos phi - n_c sin phi
+    (the angle error). Its phase does not repeat between recordings, so it is fitted on each."""
+    w = 2 * np.pi * f * ctx.t
+    cw, sw = np.cos(w), np.sin(w)
+    cp, sp = np.cos(ctx.phi), np.sin(ctx.phi)
+    tone = np.column_stack([cw * cp, sw * cp, cw * sp, sw * sp])
+    shape = [np.ones_like(cp)] + [g(k * ctx.phi) for k in range(1, INTERFERENCE_WAVE_ORDERS + 1)
+                                  for g in (np.cos, np.sin)]
+    x = np.column_stack([*shape, tone])
+    coef, *_ = np.linalg.lstsq(x, ctx.magnitude, rcond=None)
+    a_c, b_c, a_s, b_s = coef[-4:]
+    n_c, n_s = a_c * cw + b_c * sw, a_s * cw + b_s * sw
+    return ((n_s * cp - n_c * sp) / np.maximum(ctx.magnitude, 1e-9))[:, None]
 
 
 @dataclass
@@ -259,9 +303,84 @@ def fit_rev_normalisation(waves: dict, sin: np.ndarray, cos: np.ndarray, phi: np
 
 def tracked_phase(cal, sin: np.ndarray, cos: np.ndarray):
     """Fine phase with the online offset/gain tracker in front of the tables (fringe_drift's equations,
-    docs/drift.md: per block of samples the normalised readings are compared with the calibrated
+    docs/blocks/fringe_drift.md: per block of samples the normalised readings are compared with the calibrated
     waveform at the measured phase; the mean error steps the offset, its correlation with the waveform
     the gain; the new values apply from a fixed sample on, causal as in the hardware)."""
     from .fixed.closed_loop import tracked_phase as track
 
     return track(cal, sin, cos)
+
+
+# ---------------------------------------------------------------- the general dictionary under the names
+
+#: factors that multiply the fine-phase harmonics, and whether fringe_trim's tables can carry the product
+#: (map: any function of phase x sector x direction; gs: phase x speed; ga: phase x magnitude)
+GENERIC_FACTORS = {"1": True, "speed": True, "speed2": False, "direction": True, "magnitude": True,
+                   "magnitude2": False, "revolution": True, "time": False}
+GENERIC_PHASE_ORDERS = (1, 2, 3, 4, 6, 8)     # fine-phase orders 0..K offered (K chosen by cross-validation)
+GENERIC_REV_ORDERS = (1, 2, 4, 8)             # revolution orders 1..M of the "revolution" factor
+
+
+def generic_name(factor: str, k: int, m: int = 0) -> str:
+    return f"generic:{factor}:{k}:{m}"
+
+
+def parse_generic(name: str) -> tuple[str, int, int]:
+    _, factor, k, m = name.split(":")
+    return factor, int(k), int(m)
+
+
+def phase_columns(phi: np.ndarray, k: int, constant: bool) -> list[np.ndarray]:
+    cols = [np.ones_like(phi)] if constant else []
+    for j in range(1, k + 1):
+        cols += [np.cos(j * phi), np.sin(j * phi)]
+    return cols
+
+
+def factor_columns(factor: str, ctx: Context, m: int) -> list[np.ndarray]:
+    a = ctx.magnitude - MAG_REF
+    if factor == "1":
+        return [np.ones_like(ctx.phi)]
+    if factor == "speed":
+        return [ctx.speed]
+    if factor == "speed2":
+        return [ctx.speed ** 2]
+    if factor == "direction":
+        return [ctx.direction.astype(float)]
+    if factor == "magnitude":
+        return [a]
+    if factor == "magnitude2":
+        return [a * a]
+    if factor == "revolution":
+        return [g(j * ctx.psi) for j in range(1, m + 1) for g in (np.cos, np.sin)]
+    if factor == "time":
+        return _legendre_time(ctx)
+    raise ValueError(f"unknown generic factor '{factor}'")
+
+
+def generic_design(name: str, ctx: Context) -> np.ndarray:
+    """Fine-phase harmonics 0..K (0 = the factor alone; not for the constant factor) times the factor."""
+    factor, k, m = parse_generic(name)
+    phase = phase_columns(ctx.phi, k, constant=factor != "1")
+    return np.column_stack([p * f for f in factor_columns(factor, ctx, m) for p in phase])
+
+
+GENERIC = dict(
+    cause="structure the library's shapes do not describe (no physical name)",
+    signature="fine-phase harmonics times a factor (speed, direction, magnitude, revolution, time), orders chosen "
+              "on held-out data",
+    correction="hardware",
+    where="fringe_trim's tables when the factor is speed, direction, magnitude or revolution; the float engine "
+          "for speed^2, magnitude^2 and time")
+
+
+def known_term(name: str) -> bool:
+    """Whether a stored closed-loop angle term names something this library can evaluate."""
+    if name in LIBRARY or name == "interference":
+        return True
+    if name.startswith("generic:"):
+        try:
+            return parse_generic(name)[0] in GENERIC_FACTORS
+        except ValueError:
+            return False
+    return False

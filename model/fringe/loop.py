@@ -17,11 +17,27 @@ import os
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
+from scipy import ndimage, signal, stats
 
 from .calibrate import calibrate
 from .dataio import Measurement
-from .effects import LIBRARY, SPEED_LOG2, Context, FittedEffect, make_context, tone_columns
+from .effects import (
+    GENERIC,
+    GENERIC_FACTORS,
+    GENERIC_PHASE_ORDERS,
+    GENERIC_REV_ORDERS,
+    INTERFERENCE,
+    LIBRARY,
+    SPEED_LOG2,
+    Context,
+    FittedEffect,
+    factor_columns,
+    generic_design,
+    generic_name,
+    interference_columns,
+    make_context,
+    tone_columns,
+)
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
 from .metrics import error_arcsec, error_figures
@@ -34,9 +50,67 @@ VALIDATION_BLOCKS = 500  # interleaved blocks when there is no --validate record
 
 
 def noise_sigma(r: np.ndarray) -> float:
-    """Noise RMS from successive differences, robust to outliers (MAD)."""
+    """Noise RMS from successive differences, robust to outliers (MAD). High-frequency structure (a tone,
+    interference) inflates it: it is reported as a cross-check, not used for the tests."""
     d = np.diff(r)
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2))
+
+
+def sample_rate(t: np.ndarray) -> float:
+    """Samples per second on a uniform time axis, 1.0 (per sample) when the axis is not uniform."""
+    dt = np.diff(t)
+    if len(dt) == 0 or np.mean(dt) <= 0 or np.ptp(dt) > 1e-3 * np.mean(dt):
+        return 1.0
+    return float(1.0 / np.mean(dt))
+
+
+def spectral_level(x: np.ndarray, fs: float = 1.0) -> float:
+    """RMS of the white part of x: its spectrum's median level (lines and slow trends occupy few bins;
+    a periodogram bin of white noise is exponential, its median ln 2 times the mean) over the whole band."""
+    if len(x) < 64:
+        return noise_sigma(x)
+    f, p = signal.periodogram(x, fs, window="hann", detrend="linear")
+    keep = f > 16 * f[1]           # the slowest trends belong to drift
+    return float(np.sqrt(np.median(p[keep]) / np.log(2) * fs / 2))
+
+
+def radial_floor(ev: Evaluation) -> float:
+    """Angle noise from the corrected Lissajous figure's radial scatter (arcsec): channel noise over the
+    amplitude is angle noise, and no error of the angle (a vibration, a reference error, a long-period
+    error) moves the magnitude. What the magnitude repeats over the fine phase is removed first."""
+    ctx = ev.ctx
+    m = np.asarray(ctx.magnitude, float)
+    bins = 256                 # the magnitude's shape over the fine phase: its mean per phase bin
+    k = np.minimum((np.mod(ctx.phi, 2 * np.pi) / (2 * np.pi) * bins).astype(np.int64), bins - 1)
+    counts = np.bincount(k, minlength=bins)
+    shape = np.bincount(k, m, minlength=bins) / np.maximum(counts, 1)
+    dof = np.sqrt(len(m) / max(len(m) - np.count_nonzero(counts), 1))     # the bin means took one each
+    per_rad = ARCSEC_PER_REV / (2 * np.pi * ctx.lines)
+    return spectral_level(m - shape[k], sample_rate(ctx.t)) * dof / float(np.mean(m)) * per_rad
+
+
+def noise_floor(ev: Evaluation) -> tuple[float, dict]:
+    """The floor the tests use (the residual's spectral level away from lines) and every estimate."""
+    est = {"spectral level of the residual away from lines": spectral_level(ev.r, sample_rate(ev.ctx.t)),
+           "radial scatter of the corrected Lissajous figure": radial_floor(ev),
+           "successive differences of the residual": noise_sigma(ev.r)}
+    # structure inflates both: broadband (smeared by a changing speed) the spectral level, high-frequency (a tone,
+    # interference) the differences; the lower of the two is the least inflated
+    sigma = min(est["spectral level of the residual away from lines"], est["successive differences of the residual"])
+    ratios = {k: v / est["spectral level of the residual away from lines"] for k, v in est.items()}
+    # the radial scatter is a lower bound when the waveform inverse amplifies the noise along the circle
+    # (harmonic-rich waveforms): it agrees if not above the floor by more than 40 % nor below half of it
+    agree = 0.7 <= ratios["successive differences of the residual"] <= 1.4 and \
+        0.5 <= ratios["radial scatter of the corrected Lissajous figure"] <= 1.4
+    return sigma, {"used": "the lower of the spectral level away from lines and the successive differences",
+                   "estimates_arcsec": {k: round(v, 4) for k, v in est.items()},
+                   "agree": agree,
+                   "note": "the estimates agree" if agree else
+                   "the estimates disagree: " + ("the radial scatter is lower, so part of the floor is not channel "
+                                                 "noise (reference noise, mechanical jitter or unresolved structure)"
+                                                 if ratios["radial scatter of the corrected Lissajous figure"] < 0.5
+                                                 else "structure inflates the successive differences or the "
+                                                 "magnitude (high-frequency content, interference)")}
 
 
 @dataclass
@@ -45,6 +119,8 @@ class Evaluation:
     ctx: Context
     figures: dict
     rms: float
+    meas: Measurement | None = None     # the recording (its channels for the channel-domain tests)
+    cal: Calibration | None = None
 
 
 @dataclass
@@ -82,11 +158,17 @@ def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
         r = r - x @ w
     r = r - r.mean()
     fig = error_figures(r, res.frac, res.position / state.cal.encoder.lines_per_rev).to_dict()
-    return Evaluation(r, ctx, fig, float(np.sqrt(np.mean(r * r))))
+    return Evaluation(r, ctx, fig, float(np.sqrt(np.mean(r * r))), meas, state.cal)
 
 
 def _design(name: str, ctx: Context, tone_hz: float = 0.0) -> np.ndarray:
-    return tone_columns(ctx, tone_hz) if name == "tone" else LIBRARY[name].design(ctx)
+    if name == "tone":
+        return tone_columns(ctx, tone_hz)
+    if name == "interference":
+        return interference_columns(ctx, tone_hz)
+    if name.startswith("generic:"):
+        return generic_design(name, ctx)
+    return LIBRARY[name].design(ctx)
 
 
 @dataclass
@@ -98,17 +180,53 @@ class Test:
     p_value: float
     dof: int
     tone_hz: float = 0.0
+    label: str = ""          # the library's name when the term is a general-dictionary shape for that effect
 
 
-def test_terms(r: np.ndarray, x: np.ndarray, sigma: float, name: str, tone_hz: float = 0.0) -> Test:
-    xc = x - x.mean(0)
-    w, *_ = np.linalg.lstsq(xc, r - r.mean(), rcond=None)
-    fit = xc @ w
-    chi2 = float(fit @ fit) / max(sigma, 1e-12) ** 2
-    p = float(stats.chi2.sf(chi2, x.shape[1]))
-    rest = r - r.mean() - fit
-    return Test(name, w, float(np.sqrt(np.mean(fit * fit))), float(np.sqrt(np.mean(rest * rest))), p,
-                x.shape[1], tone_hz)
+CHUNK = 1 << 12     # rows per block of a design matrix: memory stays bounded however long the recording
+
+
+def test_terms(r: np.ndarray, x, sigma: float, name: str, tone_hz: float = 0.0) -> Test:
+    """Least-squares fit of r on the columns x (plus a constant) and its chi-square against the noise.
+
+    x: the design matrix, or a function of a block of rows (a slice) giving that block's columns; the
+    fit is accumulated block by block as normal equations, so no full matrix of a wide domain is held."""
+    design = x if callable(x) else (lambda sl: x[sl])
+    n = len(r)
+    gram = rhs = None
+    for start in range(0, n, CHUNK):
+        sl = slice(start, min(n, start + CHUNK))
+        xa = np.column_stack([design(sl), np.ones(sl.stop - sl.start)])
+        g, b = xa.T @ xa, xa.T @ r[sl]
+        gram, rhs = (g, b) if gram is None else (gram + g, rhs + b)
+    return _solve(gram, rhs, r, sigma, name, tone_hz)
+
+
+def _solve(gram: np.ndarray, rhs: np.ndarray, r: np.ndarray, sigma: float, name: str, tone_hz: float = 0.0) -> Test:
+    """The fit from its normal equations (the constant is the last column)."""
+    n = len(r)
+    scale = np.sqrt(np.maximum(np.diag(gram), 1e-300))       # equilibrate: columns of very different size
+    w = np.linalg.lstsq(gram / np.outer(scale, scale), rhs / scale, rcond=1e-12)[0] / scale
+    mean = float(np.mean(r))
+    explained = max(float(w @ rhs) - n * mean * mean, 0.0)      # sum of (fit - mean)^2
+    rest = max(float(r @ r) - float(w @ rhs), 0.0)
+    k = gram.shape[0] - 1
+    p = float(stats.chi2.sf(explained / max(sigma, 1e-12) ** 2, k))
+    return Test(name, w[:-1], float(np.sqrt(explained / n)), float(np.sqrt(rest / n)), p, k, tone_hz)
+
+
+ANGLE_BINS = 1 << 13     # angle bins of the Fourier-domain tests (orders up to 64: under 2.5 % phase error)
+
+
+def test_fourier(r: np.ndarray, angle: np.ndarray, orders, sigma: float, name: str) -> Test:
+    """test_terms for a Fourier series in one angle, in time linear in the samples: the residual is summed
+    per angle bin and the series evaluated at the bins' centres."""
+    k = np.minimum((np.mod(angle, 2 * np.pi) / (2 * np.pi) * ANGLE_BINS).astype(np.int64), ANGLE_BINS - 1)
+    counts = np.bincount(k, minlength=ANGLE_BINS).astype(float)
+    sums = np.bincount(k, r, minlength=ANGLE_BINS)
+    centre = 2 * np.pi * (np.arange(ANGLE_BINS) + 0.5) / ANGLE_BINS
+    xa = np.column_stack([_fourier(centre, orders), np.ones(ANGLE_BINS)])
+    return _solve((xa * counts[:, None]).T @ xa, xa.T @ sums, r, sigma, name)
 
 
 def settled_speed(ctx: Context) -> np.ndarray:
@@ -133,30 +251,133 @@ def testable(name: str, ctx: Context) -> str | None:
     return None
 
 
-def find_tone(r: np.ndarray, ctx: Context) -> tuple[float, int] | None:
-    """The strongest line in the residual's spectrum over time (Hz) and how many lines were searched.
+WAVE_HARMONICS = 32  # at a steady speed, channel lines at these multiples of the electrical frequency are waveform
+LINE_WINDOW = 64      # bins either side for the local spectral level of the line detector
 
-    Needs a uniform time axis. At a steady speed, time and position are the same axis: a line at a
-    multiple of the revolution rate is then a position error, not a tone, and is not offered.
-    """
-    dt = np.diff(ctx.t)
-    if len(r) < 256 or np.ptp(dt) > 1e-3 * np.mean(dt):
+
+def find_line(x: np.ndarray, fs: float, exclude_hz=()) -> tuple[float, float, int] | None:
+    """The strongest line of x's spectrum against the local spectral level, over the whole band up to
+    Nyquist: (frequency in Hz, or cycles per sample at fs = 1; its level over the local one; bins
+    searched). A periodogram bin of noise is exponential about the local mean, so a bin q times the
+    local mean has the chance exp(-q), and the strongest of N bins N exp(-q). The slowest bins belong to
+    the drift test; bins within 1.5 bins of `exclude_hz` are not offered."""
+    if len(x) < 256:
         return None
-    spec = np.abs(np.fft.rfft((r - r.mean()) * np.hanning(len(r)))) ** 2
-    freqs = np.fft.rfftfreq(len(r), np.mean(dt))
-    spec[:4] = 0                       # slow trends belong to the drift test
-    v = np.abs(settled_speed(ctx))
-    if np.std(v) < 0.05 * np.mean(v):  # steady speed: drop the revolution harmonics (+- one bin)
-        rate = np.mean(v)
-        m = np.round(freqs / rate)
-        bin_hz = freqs[1] if len(freqs) > 1 else 1.0
-        spec[(m >= 1) & (np.abs(freqs - m * rate) <= 1.5 * bin_hz)] = 0
-    k = int(np.argmax(spec))
-    return (float(freqs[k]), len(spec)) if spec[k] > 50 * np.median(spec[1:]) else None
+    f, p = signal.periodogram(x, fs, window="hann", detrend="linear")
+    local = ndimage.median_filter(p, size=2 * LINE_WINDOW + 1, mode="reflect") / np.log(2)
+    q = p / np.maximum(local, 1e-300)
+    q[f <= 16 * f[1]] = 0.0
+    for ex in exclude_hz:
+        q[np.abs(f - ex) <= 1.5 * f[1]] = 0.0
+    if not np.any(q > 0):
+        return None
+    k = int(np.argmax(q))
+    return float(f[k]), float(q[k]), int(np.count_nonzero(q))
 
 
-def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
+def refine_frequency(x: np.ndarray, t: np.ndarray, f0: float, bin_hz: float, points: int = 41) -> float:
+    """The line's frequency between the periodogram's bins: the largest projection of x on a complex tone
+    within one bin of f0 (a bin's error drifts the phase by up to pi over the recording)."""
+    xc = x - x.mean()
+    grid = f0 + bin_hz * np.linspace(-1.0, 1.0, points)
+    power = [abs(np.exp(-2j * np.pi * f * t) @ xc) for f in grid]
+    return float(grid[int(np.argmax(power))])
+
+
+def line_p_value(found) -> float:
+    if not found:
+        return 1.0
+    _, q, searched = found
+    return float(min(1.0, searched * np.exp(-q)))
+
+
+def steady_rate(ctx: Context) -> float | None:
+    """The revolution rate (rev/s) when the speed is steady (it varies by less than 5 %), else None."""
+    v = settled_speed(ctx)
+    return float(np.mean(v)) if np.std(v) < 0.05 * np.mean(np.abs(v)) else None
+
+
+def channel_errors(ev: Evaluation) -> np.ndarray | None:
+    """Each channel's reading minus the calibrated waveform at the reference's fine phase (ADC codes,
+    shape (2, n)): an additive tone shows here as a line at its frequency; an angle error (a vibration)
+    only through the waveform's slope, modulated by the fine phase."""
+    from .fixed.closed_loop import channel_waveforms
+
+    if ev.meas is None or ev.cal is None or not ev.cal.waves or ev.cal.rev_norm is not None or ev.cal.adaptive:
+        return None
+    waves = channel_waveforms(ev.cal)
+    frac = ev.ctx.phi / (2 * np.pi)
+    dfrac = ev.r * ev.ctx.lines / ARCSEC_PER_REV      # the residual as a fraction of a period
+    best = None
+    for sign in (1.0, -1.0):      # the residual's frame against the fine phase's: the sign that explains more
+        ref = frac - sign * dfrac
+        e = np.stack([ev.meas.sin - waves["sin"](ref), ev.meas.cos - waves["cos"](ref)])
+        power = float(np.sum(e * e))
+        if best is None or power < best[0]:
+            best = (power, e)
+    return best[1]
+
+
+def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], list[str]]:
+    """Lines in time: (name, Hz, p-value of the strongest of the searched lines) and notes on what stays
+    ambiguous. A line in the angle residual with none in the channels is a vibration ("tone"); a line in
+    the channels is additive interference (the angle shows it as sidebands at +- the electrical frequency)."""
+    fs = sample_rate(ev.ctx.t)
+    rate = steady_rate(ev.ctx)
+    electrical = abs(rate) * ev.ctx.lines if rate else None
+    out, notes = [], []
+    chan = channel_errors(ev)
+    chan_found = None
+    if chan is not None:
+        # at a steady speed the waveform's own errors sit at the low multiples of the electrical frequency (a
+        # waveform model's orders); a line at a high multiple is interference
+        harmonics = [k * electrical for k in range(1, WAVE_HARMONICS + 1)] if electrical else []
+        found = [find_line(e, fs, harmonics) for e in chan]
+        if any(found):
+            which = int(np.argmax([f[1] if f else -1.0 for f in found]))
+            chan_found = found[which]
+            chan_found = (refine_frequency(chan[which], ev.ctx.t if fs != 1.0 else np.arange(len(ev.r)),
+                                           chan_found[0], fs / len(ev.r)), *chan_found[1:])
+            p = min(1.0, 2 * line_p_value(chan_found))
+            if p < P_VALUE:
+                out.append(("interference", chan_found[0], p))
+    angle = find_line(ev.r, fs)
+    if angle and line_p_value(angle) < P_VALUE:
+        bin_hz = fs / len(ev.r)
+        f = refine_frequency(ev.r, ev.ctx.t if fs != 1.0 else np.arange(len(ev.r)), angle[0], bin_hz)
+        sideband = chan_found is not None and electrical and \
+            min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
+        order = round(f / abs(rate)) if rate else 0
+        harmonic = order >= 1 and abs(f - order * abs(rate)) <= 1.5 * bin_hz
+        if harmonic:     # a tone's phase is refitted on every recording: it would "validate" a position error too
+            notes.append(f"the line at {f:.3f} Hz is harmonic {order} of the steady revolution rate "
+                         f"({abs(rate):.4g} rev/s): in the angle alone a vibration and a position error look the same, "
+                         "so it is not named (ambiguous)")
+        elif not sideband:
+            out.append(("tone", f, line_p_value(angle)))
+    if chan is None:
+        notes.append("channel-domain test not run (the calibration normalises the channels over the revolution or "
+                     "tracks drift): a line in the angle cannot be told from interference")
+    return out, notes
+
+
+GENERIC_ABOVE_FLOOR = 1.05
+SEARCH_ROWS = 1 << 17    # the term tests run on at most this many rows (evenly strided): ample power, bounded time
+
+
+def strided(ev: Evaluation) -> Evaluation:
+    """Every k-th row of a long evaluation, for the term tests (the tone search keeps every sample)."""
+    step = -(-len(ev.r) // SEARCH_ROWS)
+    if step <= 1:
+        return ev
+    sl = slice(None, None, step)
+    r = ev.r[sl]
+    return Evaluation(r, ev.ctx.rows(sl), ev.figures, float(np.sqrt(np.mean(r * r))), None, ev.cal)
+
+
+def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
     tests, skipped = [], {}
+    ev = strided(ev_full)
     for name in LIBRARY:
         if name in exclude:
             continue
@@ -164,15 +385,127 @@ def candidates(ev: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], 
         if why:
             skipped[name] = why
             continue
-        tests.append(test_terms(ev.r, LIBRARY[name].design(ev.ctx), sigma, name))
-    if "tone" not in exclude:
-        found = find_tone(ev.r, ev.ctx)
-        if found:
-            f, searched = found
-            t = test_terms(ev.r, tone_columns(ev.ctx, f), sigma, "tone", f)
-            t.p_value = min(1.0, t.p_value * searched)      # the strongest of `searched` lines
-            tests.append(t)
+        tests.append(test_terms(ev.r, lambda sl, e=LIBRARY[name]: e.design(ev.ctx.rows(sl)), sigma, name))
+    lines, notes = tone_candidates(ev_full)
+    for name, f, p_line in lines:
+        if name in exclude:
+            continue
+        t = test_terms(ev_full.r, _design(name, ev_full.ctx, f), sigma, name, f)
+        t.p_value = max(t.p_value, p_line)      # the line must stand out of its neighbours, and the term explain
+        tests.append(t)
+    if notes:
+        skipped["tones"] = "; ".join(notes)
+    if ev.rms > GENERIC_ABOVE_FLOOR * sigma:      # near the floor nothing is left for a shape without a name
+        tests += generic_candidates(ev, sigma, exclude)
     return tests, skipped
+
+
+GENERIC_NEEDS = {"speed": "speed", "speed2": "speed", "direction": "direction", "revolution": "periods",
+                 "time": "time"}
+GENERIC_PROBE = {"speed": "ref_lag", "direction": "hysteresis", "periods": "rev_offset_gain", "time": "drift"}
+CV_BLOCKS = 200     # interleaved blocks of the two-fold cross-validation
+
+
+def _fold_grams(ev: Evaluation, design, width: int):
+    """Normal equations of a design (plus a constant) on each half of the two-fold cross-validation."""
+    r, n = ev.r, len(ev.r)
+    fold = (np.arange(n) * CV_BLOCKS // n) % 2
+    grams = [np.zeros((width + 1,) * 2) for _ in range(2)]
+    rhs = [np.zeros(width + 1) for _ in range(2)]
+    for start in range(0, n, CHUNK):
+        sl = slice(start, min(n, start + CHUNK))
+        xa = np.column_stack([design(sl), np.ones(sl.stop - sl.start)])
+        for f in (0, 1):
+            m = fold[sl] == f
+            grams[f] += xa[m].T @ xa[m]
+            rhs[f] += xa[m].T @ r[sl][m]
+    rr = [float(r[fold == f] @ r[fold == f]) for f in (0, 1)]
+    return grams, rhs, rr
+
+
+def _held_out(grams, rhs, rr, idx) -> tuple[float, float]:
+    """Held-out sum of squares of the columns idx (the constant last), and of the constant alone."""
+    held = base = 0.0
+    for a, b in ((0, 1), (1, 0)):
+        g, y = grams[a][np.ix_(idx, idx)], rhs[a][idx]
+        sc = np.sqrt(np.maximum(np.diag(g), 1e-300))
+        w = np.linalg.lstsq(g / np.outer(sc, sc), y / sc, rcond=1e-12)[0] / sc
+        gb, yb = grams[b][np.ix_(idx, idx)], rhs[b][idx]
+        held += rr[b] - 2 * w @ yb + w @ gb @ w
+        mean_a = rhs[a][-1] / grams[a][-1, -1]
+        base += rr[b] - 2 * mean_a * rhs[b][-1] + mean_a ** 2 * grams[b][-1, -1]
+    return float(held), float(base)
+
+
+def cv_held_out(ev: Evaluation, design, width: int) -> float:
+    grams, rhs, rr = _fold_grams(ev, design, width)
+    return _held_out(grams, rhs, rr, list(range(width + 1)))[0]
+
+
+def generic_cv(ev: Evaluation, factor: str) -> tuple[float, float, str]:
+    """The factor's best orders by two-fold cross-validation: (held-out SSE, held-out SSE of a constant, name)."""
+    ctx = ev.ctx
+    kmax = max(GENERIC_PHASE_ORDERS) if factor != "revolution" else 4
+    mmax = max(GENERIC_REV_ORDERS[:3]) if factor == "revolution" else 0
+    nf = len(factor_columns(factor, ctx.rows(slice(0, 1)), mmax))
+    npc = 2 * kmax + (factor != "1")
+    grams, rhs, rr = _fold_grams(ev, lambda sl: generic_design(generic_name(factor, kmax, mmax), ctx.rows(sl)),
+                                 nf * npc)
+    best = None
+    for k in [k for k in GENERIC_PHASE_ORDERS if k <= kmax]:
+        for mm in ([m for m in GENERIC_REV_ORDERS if m <= mmax] or [0]):
+            keep_f = 2 * mm if factor == "revolution" else nf
+            keep_p = 2 * k + (factor != "1")
+            idx = [fi * npc + pj for fi in range(keep_f) for pj in range(keep_p)] + [nf * npc]
+            held, base = _held_out(grams, rhs, rr, idx)
+            if best is None or held < best[0]:
+                best = (held, base, generic_name(factor, k, mm))
+    return best
+
+
+def generic_candidates(ev: Evaluation, sigma: float, exclude: set) -> list[Test]:
+    """The general dictionary: for each factor, fine-phase orders 0..K (and revolution orders 1..M) chosen by
+    two-fold cross-validation on interleaved blocks of the fit data (fitted on one half, scored on the other,
+    and the other way round); the best order of each factor is offered as a "generic" term when it lowers
+    the held-out error by at least MIN_GAIN."""
+    ctx, r = ev.ctx, ev.r
+    if len(r) < 2000:
+        return []
+    out = []
+    for factor in GENERIC_FACTORS:
+        need = GENERIC_NEEDS.get(factor)
+        if need and testable(GENERIC_PROBE[need], ctx):
+            continue
+        if any(e.startswith(f"generic:{factor}:") for e in exclude):
+            continue
+        held, base, name = generic_cv(ev, factor)
+        if held > (1 - MIN_GAIN) ** 2 * base:
+            continue
+        out.append(test_terms(r, lambda sl, nm=name: generic_design(nm, ctx.rows(sl)), sigma, name))
+    return out
+
+
+#: library effects carried as angle terms, and the factor of the general dictionary their signature lies in
+SHAPE_FACTOR = {"sampling_skew": "speed", "hysteresis": "direction", "amplitude": "magnitude"}
+
+
+def widen(best: Test, ev: Evaluation, sigma: float) -> Test:
+    """A named effect with the shape the data asks for: when the general dictionary's block of the same factor
+    (orders chosen by cross-validation) predicts held-out data better than the library's fixed shape by at
+    least MIN_GAIN, the name stays and the block is the correction (e.g. a large channel skew needs more than
+    the one-term shape)."""
+    factor = SHAPE_FACTOR.get(best.name)
+    if factor is None or len(ev.r) < 2000:
+        return best
+    held, _, name = generic_cv(ev, factor)
+    lib = LIBRARY[best.name]
+    width = lib.design(ev.ctx.rows(slice(0, 1))).shape[1]
+    lib_held = cv_held_out(ev, lambda sl: lib.design(ev.ctx.rows(sl)), width)
+    if held > (1 - MIN_GAIN) ** 2 * lib_held:
+        return best
+    t = test_terms(ev.r, lambda sl: generic_design(name, ev.ctx.rows(sl)), sigma, name)
+    t.label = best.name
+    return t
 
 
 TONE_EFFECT = dict(cause="a tone in time: vibration between encoder and reference, or interference",
@@ -180,8 +513,18 @@ TONE_EFFECT = dict(cause="a tone in time: vibration between encoder and referenc
 
 
 def describe(name: str) -> dict:
+    if name.startswith("generic:"):
+        from .effects import parse_generic
+        factor, k, m = parse_generic(name)
+        carried = GENERIC_FACTORS[factor]
+        what = f"fine-phase orders 0..{k} times {factor}" + (f" (revolution orders 1..{m})" if m else "")
+        return {**GENERIC, "signature": what + "; unexplained by name",
+                "correction": "hardware" if carried else "float engine",
+                "where": "fringe_trim's tables" if carried else "the float engine (no core block carries it)"}
     if name == "tone":
         return TONE_EFFECT
+    if name == "interference":
+        return INTERFERENCE
     e = LIBRARY[name]
     return {"cause": e.cause, "signature": e.signature, "correction": e.correction, "where": e.where}
 
@@ -189,8 +532,9 @@ def describe(name: str) -> dict:
 def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
     new = LoopState(dataclasses.replace(state.cal, angle_terms=list(state.cal.angle_terms)), list(state.artefacts),
                     state.ref_lag_s)
-    kind = "artefact" if t.name == "tone" else LIBRARY[t.name].correction
-    fitted = FittedEffect(t.name, t.weights, t.tone_hz)
+    kind = {"tone": "artefact", "interference": "float engine"}.get(t.name) or \
+        (describe(t.name)["correction"] if t.name.startswith("generic:") else LIBRARY[t.name].correction)
+    fitted = FittedEffect(t.name, t.weights, t.tone_hz, "float" if kind == "float engine" else "core")
     if t.name == "ref_lag":
         # r = direction * speed * lag: shift the reference, calibrate again without the lag in it, and
         # repeat (the first calibration absorbed part of the lag into its long-period table)
@@ -206,14 +550,30 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
                 break
     elif t.name == "rev_offset_gain":
         new.cal = fit_rev_offset_gain(new.cal, shift_reference(fit_data, state.ref_lag_s))
-    elif kind == "hardware":
+    elif kind in ("hardware", "float engine"):
         new.cal.angle_terms.append(fitted)
         new.cal = refit_angle_terms(new.cal, shift_reference(fit_data, state.ref_lag_s))
     elif kind == "adaptive":
         new.cal.adaptive = True
     else:
         new.artefacts.append(fitted)
+        if t.name == "tone":     # the declared model was fitted with the tone in its residual: fit it without
+            new.cal = refit_around_tone(new.cal, fitted, shift_reference(fit_data, state.ref_lag_s))
     return new
+
+
+def refit_around_tone(cal: Calibration, tone: FittedEffect, meas: Measurement) -> Calibration:
+    """Re-calibrate the declared model with a tone's error (in time, fitted on this recording) held out of it."""
+    from .calibrate import CalibrationOptions
+
+    res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
+    ctx = make_context(res.frac, res.position, cal.encoder.lines_per_rev, sample_times(len(res.frac), meas.t_s),
+                       res.magnitude)
+    x = tone_columns(ctx, tone.tone_hz)
+    r = error_arcsec(res.angle_deg, meas.ref_deg)
+    w, *_ = np.linalg.lstsq(x - x.mean(0), r - r.mean(), rcond=None)
+    fresh = calibrate(meas, cal.encoder, CalibrationOptions(known_error_arcsec=cal.direction * (x @ w)))
+    return dataclasses.replace(fresh, rev_norm=cal.rev_norm, adaptive=cal.adaptive, angle_terms=list(cal.angle_terms))
 
 
 def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) -> Calibration:
@@ -227,7 +587,9 @@ def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) ->
         res = run_float(new, meas.sin, meas.cos, meas.coarse, meas.t_s)
         rev = res.position / cal.encoder.lines_per_rev
         raw_norm = new.rev_norm
-        phi = reference_phase(new, meas, rev)
+        # without a long-period table (calibrate found none) the reference's phase needs no correction
+        phi = reference_phase(new if new.long_period is not None else
+                              dataclasses.replace(new, long_period=np.zeros_like), meas, rev)
         psi = 2 * np.pi * (rev % 1.0)
         norm = fit_rev_normalisation(new.waves, meas.sin, meas.cos, phi, psi) if raw_norm is None else \
             _compose(raw_norm, fit_rev_normalisation(new.waves, *raw_norm.apply(meas.sin, meas.cos, psi), phi, psi))
@@ -242,7 +604,7 @@ def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> C
     jointly on what the declared model leaves: neither absorbs the other's error."""
     from .calibrate import CalibrationOptions
 
-    names = [t.name for t in cal.angle_terms]
+    terms = list(cal.angle_terms)
     for _ in range(rounds):
         res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
         ctx = make_context(res.frac, res.position, cal.encoder.lines_per_rev, sample_times(len(res.frac), meas.t_s),
@@ -251,11 +613,12 @@ def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> C
         base = calibrate(meas, cal.encoder, CalibrationOptions(known_error_arcsec=known))
         base = dataclasses.replace(base, rev_norm=cal.rev_norm, adaptive=cal.adaptive)
         r = error_arcsec(run_float(base, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
-        x = np.column_stack([LIBRARY[n].design(ctx) for n in names])
+        blocks = [_design(t.name, ctx, t.tone_hz) for t in terms]
+        x = np.column_stack(blocks)
         w, *_ = np.linalg.lstsq(x - x.mean(0), r - r.mean(), rcond=None)
-        splits = np.cumsum([LIBRARY[n].design(ctx).shape[1] for n in names])[:-1]
-        cal = dataclasses.replace(base, angle_terms=[FittedEffect(n, ww) for n, ww in zip(names, np.split(w, splits),
-                                                                                          strict=True)])
+        splits = np.cumsum([b.shape[1] for b in blocks])[:-1]
+        terms = [dataclasses.replace(t, weights=ww) for t, ww in zip(terms, np.split(w, splits), strict=True)]
+        cal = dataclasses.replace(base, angle_terms=terms)
     return cal
 
 
@@ -286,14 +649,17 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         fit_data, val_data, val_name = train, validate, validate.path
     state = base = LoopState(calibrate(fit_data, enc))
     ev_fit, ev_val = evaluate(state, fit_data), evaluate(state, val_data)
-    sigma = noise_sigma(ev_fit.r)
+    sigma, floor_info = noise_floor(ev_fit)
     report = {"data": train.path, "validation": val_name, "noise_floor_arcsec": round(sigma, 4),
-              "noise_floor_method": "robust RMS of successive differences of the residual / sqrt(2)",
+              "noise_floor_method": floor_info["used"], "noise_floor_estimates": floor_info,
               "before": _figs(ev_val), "effects_added": [], "effects_rejected": [], "iterations": []}
     excluded: set = set()
     for _ in range(MAX_EFFECTS):
         tests, skipped = candidates(ev_fit, sigma, excluded)
         good = [t for t in tests if t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * ev_fit.rms]
+        # the library's names first: the general dictionary corrects what none of them explains
+        named = [t for t in good if not t.name.startswith("generic:")]
+        good = named or good
         report["iterations"].append({"residual_rms_arcsec": round(ev_fit.rms, 4), "tests": [
             {"effect": t.name, "explained_rms_arcsec": round(t.explained_rms, 4), "p_value": t.p_value,
              "dof": t.dof} for t in sorted(tests, key=lambda t: t.rms_after)], "not_testable": skipped})
@@ -302,15 +668,19 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         # BIC: between effects that explain nearly the same, the one with fewer terms
         n = len(ev_fit.r)
         best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
-        excluded.add(best.name)
+        best = widen(best, strided(ev_fit), sigma)
+        excluded.update({best.name, best.label} - {""})
         try:
             trial = apply(state, best, fit_data)
-        except FringeInputError as e:
+            val_after = evaluate(trial, val_data)
+        except (FringeInputError, ValueError, TypeError, KeyError, np.linalg.LinAlgError) as e:
+            # never abort on the data: an effect whose fit fails is reported and left out
             report["effects_rejected"].append({"name": best.name, **describe(best.name), "evidence": "",
                                                "why_not_kept": f"re-calibration with it failed: {e}"})
             continue
-        val_after = evaluate(trial, val_data)
-        entry = {"name": best.name, **describe(best.name),
+        entry = {"name": best.label or best.name, **describe(best.label or best.name),
+                 **({"shape": describe(best.name)["signature"], "correction": describe(best.name)["correction"],
+                     "where": describe(best.name)["where"]} if best.label else {}),
                  "evidence": f"explains {best.explained_rms:.3f}\" RMS of the residual ({best.dof} terms, "
                              f"p = {best.p_value:.1e} against the {sigma:.3f}\" noise floor)"
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
@@ -319,12 +689,16 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
             report["effects_added"].append(entry)
             state, ev_val = trial, val_after
             ev_fit = evaluate(state, fit_data)
+            sigma = min(sigma, noise_floor(ev_fit)[0])     # a cleaner residual inflates the floor less
         else:
             entry["why_not_kept"] = f"did not lower the error on the validation data ({val_name})"
             report["effects_rejected"].append(entry)
     report["after"] = _figs(ev_val)
+    report["noise_floor_arcsec"] = round(sigma, 4)
     report["unexplained"] = unexplained(ev_fit, sigma)
     report["artefacts"] = [a.to_dict() for a in state.artefacts]
+    from .fixed.closed_loop import float_only
+    report["float_engine_only"] = float_only(state.cal)
     if state.ref_lag_s:
         report["artefacts"].append({"name": "ref_lag", "lag_s": state.ref_lag_s,
                                     "correction": "artefact", "where": LIBRARY["ref_lag"].where})
@@ -343,39 +717,43 @@ def _fourier(x: np.ndarray, orders) -> np.ndarray:
 def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
     """What is still significant, by domain (or why a domain could not be tested)."""
     ctx = ev.ctx
-    domains = {
-        "fine phase": (lambda: _fourier(ctx.phi, range(1, 33)), None),
-        "revolution": (lambda: _fourier(ctx.psi, range(1, 65)), None),
-        "fine phase x revolution": (lambda: LIBRARY["rev_offset_gain"].design(ctx), testable("rev_offset_gain", ctx)),
-        "time (trend)": (lambda: np.column_stack([np.polynomial.legendre.Legendre.basis(d)(
-            2 * (ctx.t - ctx.t[0]) / max(np.ptp(ctx.t), 1e-12) - 1) for d in (1, 2, 3)]), None),
-        "speed": (lambda: np.column_stack([ctx.speed, ctx.speed ** 2]), testable("ref_lag", ctx)),
-        "acceleration": (lambda: ctx.accel[:, None], testable("acceleration", ctx)),
-        "direction": (lambda: ctx.direction[:, None].astype(float), testable("hysteresis", ctx)),
-        "amplitude": (lambda: LIBRARY["amplitude"].design(ctx), None),
+    from .effects import _legendre_time
+
+    domains = {     # name: (columns of a block of rows, why the domain cannot be tested, number of columns)
+        "fine phase": ((ctx.phi, range(1, 33)), None, 64),
+        "revolution": ((ctx.psi, range(1, 65)), None, 128),
+        "fine phase x revolution": (lambda sl: LIBRARY["rev_offset_gain"].design(ctx.rows(sl)),
+                                    testable("rev_offset_gain", ctx), 32),
+        "time (trend)": (lambda sl: np.column_stack(_legendre_time(ctx.rows(sl))), None, 3),
+        "speed": (lambda sl: np.column_stack([ctx.speed[sl], ctx.speed[sl] ** 2]), testable("ref_lag", ctx), 2),
+        "acceleration": (lambda sl: ctx.accel[sl, None], testable("acceleration", ctx), 1),
+        "direction": (lambda sl: ctx.direction[sl, None].astype(float), testable("hysteresis", ctx), 1),
+        "amplitude": (lambda sl: LIBRARY["amplitude"].design(ctx.rows(sl)), None, 3),
     }
     out = []
-    for domain, (design, why) in domains.items():
+    for domain, (design, why, width) in domains.items():
         if why:
             out.append({"domain": domain, "description": f"not tested: {why}", "rms_arcsec": None})
             continue
-        x = design()
-        if len(ev.r) < 4 * x.shape[1]:
+        x = design
+        if len(ev.r) < 4 * width:
             out.append({"domain": domain, "description": "not tested: too few samples for this domain",
                         "rms_arcsec": None})
             continue
-        t = test_terms(ev.r, x, sigma, domain)
+        t = test_fourier(ev.r, *x, sigma, domain) if isinstance(x, tuple) else test_terms(ev.r, x, sigma, domain)
         if t.p_value < P_VALUE and t.explained_rms > 0.1 * sigma:
             out.append({"domain": domain, "description": f"significant structure left ({t.dof} terms, "
                         f"p = {t.p_value:.1e}); no effect in the library explains it",
                         "rms_arcsec": round(t.explained_rms, 4)})
-    found = find_tone(ev.r, ctx)
-    if found:
-        tone, searched = found
-        t = test_terms(ev.r, tone_columns(ctx, tone), sigma, "tone", tone)
-        if t.p_value * searched < P_VALUE and t.explained_rms > 0.1 * sigma:
-            out.append({"domain": "time (tones)", "description": f"a line at {tone:.3f} Hz",
+    lines, notes = tone_candidates(ev)
+    for name, f, p_line in lines:
+        t = test_terms(ev.r, _design(name, ctx, f), sigma, name, f)
+        if max(t.p_value, p_line) < P_VALUE and t.explained_rms > 0.1 * sigma:
+            what = "in the channels (additive interference)" if name == "interference" else "in the angle only"
+            out.append({"domain": "time (tones)", "description": f"a line at {f:.3f} Hz {what}",
                         "rms_arcsec": round(t.explained_rms, 4)})
+    for note in notes:
+        out.append({"domain": "time (tones)", "description": note, "rms_arcsec": None})
     out.append({"domain": "noise", "description": "random part (the floor)", "rms_arcsec": round(sigma, 4)})
     return out
 

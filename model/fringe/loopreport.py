@@ -12,11 +12,16 @@ import numpy as np  # noqa: E402
 
 from .report import error_plot, lissajous_plot  # noqa: E402
 
+PLOT_POINTS = 20_000     # points per scatter plot (the spectra and the map use every sample)
+
 
 def _spectrum(r: np.ndarray, x: np.ndarray, orders: int) -> np.ndarray:
     """Amplitude (arcsec) of each order of r against the angle x (least squares, one order at a time)."""
-    z = np.exp(-1j * np.outer(np.arange(1, orders + 1), x))
-    return 2 * np.abs(z @ (r - r.mean())) / len(r)
+    k, rc, acc = np.arange(1, orders + 1), r - r.mean(), np.zeros(orders, complex)
+    for start in range(0, len(r), 4096):       # by blocks of samples: memory stays bounded
+        sl = slice(start, start + 4096)
+        acc += np.exp(-1j * np.outer(k, x[sl])) @ rc[sl]
+    return 2 * np.abs(acc) / len(r)
 
 
 def write_plots(base, state, meas, out_dir: str) -> dict[str, str]:
@@ -24,8 +29,9 @@ def write_plots(base, state, meas, out_dir: str) -> dict[str, str]:
 
     before, after = evaluate(base, meas), evaluate(state, meas)
     plots = {}
-    curves = {"declared model": (before.r, before.ctx.phi / (2 * np.pi), before.ctx.psi / (2 * np.pi)),
-              "with the added effects": (after.r, after.ctx.phi / (2 * np.pi), after.ctx.psi / (2 * np.pi))}
+    k = slice(None, None, -(-len(before.r) // PLOT_POINTS))     # scatter plots: evenly strided points
+    curves = {"declared model": (before.r[k], before.ctx.phi[k] / (2 * np.pi), before.ctx.psi[k] / (2 * np.pi)),
+              "with the added effects": (after.r[k], after.ctx.phi[k] / (2 * np.pi), after.ctx.psi[k] / (2 * np.pi))}
     error_plot(os.path.join(out_dir, "error_vs_angle.png"), curves)
     plots["Error against angle, before and after"] = "error_vs_angle.png"
 
@@ -61,7 +67,7 @@ def write_plots(base, state, meas, out_dir: str) -> dict[str, str]:
     plt.close(fig)
     plots["Fine phase x revolution error map"] = "error_map.png"
 
-    lissajous_plot(os.path.join(out_dir, "lissajous.png"), state.cal, meas.sin, meas.cos)
+    lissajous_plot(os.path.join(out_dir, "lissajous.png"), state.cal, meas.sin[k], meas.cos[k])
     plots["Lissajous figure, raw and corrected"] = "lissajous.png"
     return plots
 
@@ -76,12 +82,24 @@ def _map(ev, bins: int = 32) -> np.ndarray:
         return np.where(n > 0, s / np.maximum(n, 1), np.nan).reshape(bins, bins)
 
 
+def _floor_lines(report: dict) -> list[str]:
+    info = report.get("noise_floor_estimates")
+    if not info:
+        return []
+    out = ["", "Noise floor estimates (arcsec): " + "; ".join(f"{k} {v}" for k, v in info["estimates_arcsec"].items())
+           + f". {info['note']}."]
+    if report.get("float_engine_only"):
+        out += ["", "Carried by the float engine only (the bit-exact core runs the rest of the calibration): "
+                + ", ".join(report["float_engine_only"]) + "."]
+    return out
+
+
 def write_markdown(report: dict, plots: dict, path: str):
     b, a = report["before"], report["after"]
     out = ["# fringe closed loop", "",
            f"Data: `{report['data']}`; validation: `{report['validation']}`.",
            f"Noise floor estimated from the data: {report['noise_floor_arcsec']}\" RMS "
-           f"({report['noise_floor_method']}).", "",
+           f"({report['noise_floor_method']}).", *_floor_lines(report), "",
            "| | RMS | p-p | interpolation p-p | long-period p-p |", "|---|---|---|---|---|",
            f"| declared model (seeds, generalised) | {b['rms_arcsec']} | {b['pp_arcsec']} | "
            f"{b['interp_pp_arcsec']} | {b['lp_pp_arcsec']} |",
@@ -93,6 +111,8 @@ def write_markdown(report: dict, plots: dict, path: str):
         out += [f"### {e['name']}: {e['cause']}", "", f"- evidence: {e['evidence']}",
                 f"- signature: {e.get('signature', '')}", f"- correction: {e['correction']} ({e['where']})",
                 f"- validation RMS: {e['rms_before_arcsec']}\" -> {e['rms_after_arcsec']}\"", ""]
+        if e.get("shape"):
+            out.insert(-1, f"- shape chosen on held-out data: {e['shape']}")
     if report["effects_rejected"]:
         out += ["## Tried and not kept", ""]
         out += [f"- {e['name']}: {e['evidence']}; {e['why_not_kept']}" for e in report["effects_rejected"]]

@@ -66,7 +66,7 @@ def images(t: CoreTables, cfg: CoreConfig) -> list[Image]:
             raise ValueError("TRIM = 1: the core tables hold no fringe_trim tables")
         tp = cfg.trim_params()
         out += [Image("trim_map", two_banks(trim_mod.pack_words(t.trim.map, tp)), tp.word_w,
-                      "fringe_trim error map {slope, value} at {dir, sector, bin} (docs/trim.md)"),
+                      "fringe_trim error map {slope, value} at {dir, sector, bin} (docs/blocks/fringe_trim.md)"),
                 Image("trim_speed", two_banks(trim_mod.pack_words(t.trim.speed, tp)), tp.word_w,
                       "fringe_trim speed gain {slope, value} per fine-phase bin"),
                 Image("trim_amp", two_banks(trim_mod.pack_words(t.trim.amp, tp)), tp.word_w,

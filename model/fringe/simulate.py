@@ -87,6 +87,13 @@ class SimulationConfig:
     # harmonics 2, 3, ... of both waveforms scale with (common gain)^this (rev_gain_mod and common_gain_rms):
     # a sensor whose distortion grows with the field (0: the waveform's shape does not change)
     harmonics_gain_exponent: float = 0.0
+    # additive interference on both channels (a switching supply, motor PWM): a sinusoid of this amplitude
+    # (fraction of FS) and frequency, with a random phase per channel and recording
+    interference_fs: float = 0.0
+    interference_hz: float = 0.0
+    # a waveform that changes with the amplitude (the air gap): a 2nd harmonic on the sin channel in
+    # proportion to the relative gain change over the revolution (rev_gain_mod), this much per unit of it
+    harmonic2_per_gain: float = 0.0
 
     def encoder(self) -> Encoder:
         full_scale = None
@@ -175,6 +182,7 @@ def simulate(cfg: SimulationConfig, seed: int = 1) -> Recording:
         raise FringeInputError(f"needs at least 2 samples, got {cfg.samples}", "--samples")
     rng = np.random.default_rng(seed)
     effects_rng = np.random.default_rng([seed, 1])    # effects never disturb the noise draws
+    tone_rng = np.random.default_rng([seed, 2])       # nor the drift draws
     t, theta = trajectory(cfg, rng)
     disc = theta + graduation_error_arcsec(cfg, theta) / ARCSEC_PER_REV
     disc += (cfg.vibration_arcsec * np.sin(2 * np.pi * cfg.vibration_hz * t)
@@ -189,7 +197,13 @@ def simulate(cfg: SimulationConfig, seed: int = 1) -> Recording:
     def channel(ch: ChannelConfig, ph: np.ndarray, offset_mod: dict):
         offset = ch.offset + fourier_arcsec(offset_mod, psi) + _drift(t, cfg.drift_offset_rms, cfg, effects_rng)
         gain = ch.gain * common * (1.0 + _drift(t, cfg.drift_gain_rms, cfg, effects_rng))
-        clean = (offset + gain * _shape(ch, ph + ch.phase_rad, common, cfg.harmonics_gain_exponent)) * half
+        wave = _shape(ch, ph + ch.phase_rad, common, cfg.harmonics_gain_exponent)
+        if cfg.harmonic2_per_gain and ch is cfg.sin_channel:
+            wave = wave + cfg.harmonic2_per_gain * (gain_mod - 1.0) * np.sin(2 * (ph + ch.phase_rad))
+        clean = (offset + gain * wave) * half
+        if cfg.interference_fs:
+            clean = clean + cfg.interference_fs * half * np.cos(2 * np.pi * cfg.interference_hz * t
+                                                               + tone_rng.uniform(0, 2 * np.pi))
         noisy = clean + rng.normal(0.0, cfg.noise_rms * half, clean.shape)
         return clean, np.clip(np.round(noisy), -half, half - 1).astype(np.int64)
 

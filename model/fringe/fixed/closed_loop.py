@@ -4,7 +4,7 @@
 - `rev_norm`: per-channel offsets and gains over the revolution, undone on the raw readings;
 - `angle_terms`: fitted effects (effects.LIBRARY) subtracted from the output angle.
 fringe_trim subtracts, after the period count, `map[dir][sector][phase] + speed * gs[phase] +
-mag * ga[phase]` (fine counts, docs/trim.md). This module evaluates those three functions from
+mag * ga[phase]` (fine counts, docs/blocks/fringe_trim.md). This module evaluates those three functions from
 a calibration, in float, at the tables' points:
 - the map holds the angle image of `rev_norm` (the fine-phase error the revolution-dependent
   offsets and gains cause at each sector, obtained by running the calibrated waveform model
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..effects import LIBRARY, MAG_REF, REV_ORDERS
+from ..effects import MAG_REF, REV_ORDERS
 from ..encoder import ARCSEC_PER_REV
 from ..pipeline import Calibration, fine_phase
 
@@ -35,12 +35,29 @@ THETA_POINTS = 4096      # waveform samples per period when the rev_norm map is 
 
 
 def needs_trim(cal: Calibration) -> bool:
+    # fringe/fixed/core.py asks for TRIM = 1 whenever the calibration has closed-loop terms, float-only ones too
     return cal.rev_norm is not None or bool(cal.angle_terms)
 
 
 def unsupported(cal: Calibration) -> list[str]:
-    """Closed-loop corrections of this calibration that the bit-exact core does not carry."""
-    return [t.name for t in cal.angle_terms if t.name not in TRIM_EFFECTS]
+    """Closed-loop corrections of this calibration that the bit-exact core cannot run without.
+
+    Terms marked for the float engine only (FittedEffect.engine == "float": no legal table width carries
+    them, or no core block exists for them) are not counted: the core runs the rest of the calibration."""
+    from ..effects import GENERIC_FACTORS, parse_generic
+
+    return [t.name for t in core_terms(cal) if t.name not in TRIM_EFFECTS
+            and not (t.name.startswith("generic:") and GENERIC_FACTORS[parse_generic(t.name)[0]])]
+
+
+def core_terms(cal: Calibration) -> list:
+    """The angle terms the bit-exact core carries (the float engine runs them all)."""
+    return [t for t in cal.angle_terms if getattr(t, "engine", "core") != "float"]
+
+
+def float_only(cal: Calibration) -> list[str]:
+    """Angle terms that only the float engine runs."""
+    return [t.name for t in cal.angle_terms if getattr(t, "engine", "core") == "float"]
 
 
 @dataclass(frozen=True)
@@ -95,7 +112,7 @@ def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_
     ga = np.zeros(len(phi))
     if cal.rev_norm is not None:
         grid += rev_norm_error(cal, psi, phi)[None] * (1 << fine_w)
-    for term in cal.angle_terms:
+    for term in core_terms(cal):
         w = np.asarray(term.weights, float)
         if term.name == "hysteresis":
             for d, sign in ((0, 1.0), (1, -1.0)):
@@ -111,9 +128,37 @@ def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_
             h = w[0] + w[1] * np.cos(2 * phi) + w[2] * np.sin(2 * phi)    # effects._amplitude_cols
             ga += h * counts / mag_scale
             grid -= (h * counts * MAG_REF)[None, None, :]
-        elif term.name in LIBRARY:
+        elif term.name.startswith("generic:"):
+            _generic_into(term, grid, gs, ga, phi, psi, counts, rev, speed_log2, mag_scale, sample_interval_s)
+        else:
             raise ValueError(f"fringe_trim cannot carry the closed-loop term '{term.name}'")
     return TrimGrids(grid, gs, ga)
+
+
+def _generic_into(term, grid, gs, ga, phi, psi, counts, rev, speed_log2, mag_scale, sample_interval_s):
+    """A term of the general dictionary (effects.generic_design) into fringe_trim's tables: the phase shape
+    per factor column, placed in the table that multiplies by that factor."""
+    from ..effects import GENERIC_FACTORS, parse_generic, phase_columns
+
+    factor, k, m = parse_generic(term.name)
+    if not GENERIC_FACTORS[factor]:
+        raise ValueError(f"fringe_trim cannot carry the closed-loop term '{term.name}'")
+    phase = np.column_stack(phase_columns(phi, k, constant=factor != "1"))
+    w = np.asarray(term.weights, float).reshape(-1, phase.shape[1])       # (factor column, phase column)
+    shapes = w @ phase.T * counts                                          # (factor column, phase bin)
+    if factor == "1":
+        grid += shapes[0][None, None, :]
+    elif factor == "direction":
+        grid[0] += shapes[0][None, :]
+        grid[1] -= shapes[0][None, :]
+    elif factor == "revolution":
+        rc = np.column_stack([g(j * psi) for j in range(1, m + 1) for g in (np.cos, np.sin)])
+        grid += (rc @ shapes)[None]
+    elif factor == "speed":
+        gs += shapes[0] / (rev * (1 << speed_log2) * sample_interval_s)
+    elif factor == "magnitude":
+        ga += shapes[0] / mag_scale
+        grid -= (shapes[0] * MAG_REF)[None, None, :]
 
 
 def mag_scale(cfg) -> float:
@@ -138,13 +183,33 @@ def choose_g_shift(grids: TrimGrids, trim_w: int, trim_frac: int) -> int:
     return int(min(48, max(1, g)))
 
 
+MAX_TABLE_W = 24         # the widest table word the blocks accept (fringe_trim TRIM_W, fringe_drift TABLE_W)
+
+
 def trim_config(cal: Calibration, cfg):
-    """cfg with fringe_trim switched on and G_SHIFT chosen for this calibration (cfg unchanged if the
-    calibration has no closed-loop correction)."""
+    """cfg with fringe_trim switched on and its table format chosen for this calibration (cfg unchanged
+    if the calibration has no closed-loop correction).
+
+    The format follows from the fitted values: at the configured TRIM_W the most fraction bits
+    (TRIM_FRAC, from the configured value down to 0) with which every map value and slope fits, G_SHIFT
+    the largest that keeps the gains in range; a wider TRIM_W (up to 24) only when no fraction fits.
+    Every choice is checked by building the tables. ValueError (what does not fit) when nothing does."""
     if not needs_trim(cal):
         return cfg
     on = dataclasses.replace(cfg, trim=1)
-    return dataclasses.replace(on, g_shift=choose_g_shift(grids_for(cal, on), on.trim_w, on.trim_frac))
+    grids = grids_for(cal, on)
+    last = None
+    for width in range(on.trim_w, max(on.trim_w, MAX_TABLE_W) + 1):
+        for frac in range(on.trim_frac, -1, -1):
+            trial = dataclasses.replace(on, trim_w=width, trim_frac=frac)
+            trial = dataclasses.replace(trial, g_shift=choose_g_shift(grids, width, frac))
+            try:
+                _quantise_trim(grids, trial.trim_params())
+                return trial
+            except ValueError as e:
+                last = e
+    raise ValueError(f"{last}: the closed-loop corrections do not fit fringe_trim's tables at any "
+                     f"TRIM_W <= {MAX_TABLE_W}")
 
 
 @dataclass(frozen=True)
@@ -158,20 +223,23 @@ class TrimTables:
 
 def build_trim_tables(cal: Calibration, cfg) -> TrimTables:
     """Quantise; ValueError (with what to change) if a table does not fit its width."""
-    from . import trim as trim_mod
-
     if unsupported(cal):
         raise ValueError("the bit-exact core does not carry these closed-loop corrections: "
                          + ", ".join(unsupported(cal)) + " (use --engine float)")
     p = cfg.trim_params()
-    grids = grids_for(cal, cfg)
     try:
-        m = trim_mod.make_map_table(lambda d, s, ph: grids.map[d, s], p)
-        gs = trim_mod.make_gain_table(lambda ph: grids.speed, p)
-        ga = trim_mod.make_gain_table(lambda ph: grids.amp, p)
+        return _quantise_trim(grids_for(cal, cfg), p)
     except ValueError as e:
         raise ValueError(f"{e}: the closed-loop corrections do not fit fringe_trim's tables "
                          f"(TRIM_W = {p.trim_w}, TRIM_FRAC = {p.trim_frac}, G_SHIFT = {p.g_shift})") from None
+
+
+def _quantise_trim(grids: TrimGrids, p) -> TrimTables:
+    from . import trim as trim_mod
+
+    m = trim_mod.make_map_table(lambda d, s, ph: grids.map[d, s], p)
+    gs = trim_mod.make_gain_table(lambda ph: grids.speed, p)
+    ga = trim_mod.make_gain_table(lambda ph: grids.amp, p)
     return TrimTables(m, gs, ga)
 
 
@@ -189,6 +257,8 @@ class DriftTables:
 def channel_waveforms(cal: Calibration):
     """The calibrated channel readings (ADC codes) as functions of the core's fine phase (fraction of a
     period): the phase the CORDIC measures is theta + psi_cos (effects.tracked_phase's convention)."""
+    if not {"sin", "cos"} <= set(cal.waves):
+        raise ValueError("fringe_drift needs the calibrated waveform models (this calibration has none)")
     psi_c = cal.waves["cos"].psi
     return {k: (lambda ph, w=cal.waves[k]: w(2 * np.pi * np.asarray(ph) - psi_c)) for k in ("sin", "cos")}
 
@@ -205,11 +275,27 @@ def choose_kg_shift(cal: Calibration, cfg) -> int:
 
 
 def drift_config(cal: Calibration, cfg):
-    """cfg with fringe_drift switched on for an adaptive calibration (KG_SHIFT chosen), else unchanged."""
+    """cfg with fringe_drift switched on for an adaptive calibration, else unchanged.
+
+    The forward tables' format follows from the calibrated waveforms (any ADC width): at the configured
+    DRIFT_TABLE_W the most fraction bits (DRIFT_TABLE_FRAC, from the configured value down to 0) with
+    which every value, slope and W0 fits; a wider DRIFT_TABLE_W (up to 24) only when none does; then
+    KG_SHIFT. Each choice is checked by building the tables; ValueError when nothing fits."""
     if not cal.adaptive:
         return cfg
     on = dataclasses.replace(cfg, drift=1)
-    return dataclasses.replace(on, drift_kg_shift=choose_kg_shift(cal, on))
+    last = None
+    for width in range(on.drift_table_w, max(on.drift_table_w, MAX_TABLE_W) + 1):
+        for frac in range(on.drift_table_frac, -1, -1):
+            trial = dataclasses.replace(on, drift_table_w=width, drift_table_frac=frac)
+            try:
+                trial = dataclasses.replace(trial, drift_kg_shift=choose_kg_shift(cal, trial))
+                build_drift_tables(cal, trial)
+                return trial
+            except ValueError as e:
+                last = e
+    raise ValueError(f"{last}: the calibrated waveforms do not fit fringe_drift's forward tables at any "
+                     f"DRIFT_TABLE_W <= {MAX_TABLE_W}")
 
 
 def build_drift_tables(cal: Calibration, cfg, pipe_latency: int = 0) -> DriftTables:

@@ -1,6 +1,6 @@
 """Bit-exact model of ``fringe_drift``: online offset / gain tracker for drifting sin/cos signals.
 
-Mirrors ``rtl/verilog/fringe_drift.v`` and ``rtl/vhdl/fringe_drift.vhd`` (contract in ``docs/drift.md``).
+Mirrors ``rtl/verilog/fringe_drift.v`` and ``rtl/vhdl/fringe_drift.vhd`` (contract in ``docs/blocks/fringe_drift.md``).
 Two sides in one block, per channel k in {sin, cos}:
 
 NORMALISER (front of the core, raw ADC codes s(ADC_W))::

@@ -1,6 +1,6 @@
 """Bit-exact model of ``fringe_trim``: the closed-loop angle trim (error map, speed and magnitude gains).
 
-Mirrors ``rtl/verilog/fringe_trim.v`` and ``rtl/vhdl/fringe_trim.vhd`` (contract in ``docs/trim.md``).
+Mirrors ``rtl/verilog/fringe_trim.v`` and ``rtl/vhdl/fringe_trim.vhd`` (contract in ``docs/blocks/fringe_trim.md``).
 With ``REV = LINES * 2^FINE_W`` fine counts per revolution, ``POS_W = FINE_W + clog2(LINES)`` (<= 31),
 ``N = 2^SPEED_LOG2`` samples of speed window, ``FB = FINE_W - MAP_PHI_W``::
 
@@ -23,7 +23,7 @@ overflow): `trim_words` computes with raw words, `trim` with values (slopes deri
 Everything is vectorised numpy int64: the widest product is s(POS_W) x s(TRIM_W + 1) or
 u(AMP_W) x s(TRIM_W + 1), below 2^57, and their sum with the rounding constant below 2^59.
 
-The RTL has ``LATENCY = 12`` enabled clocks (stage list in ``docs/trim.md`` and the HDL headers).
+The RTL has ``LATENCY = 12`` enabled clocks (stage list in ``docs/blocks/fringe_trim.md`` and the HDL headers).
 """
 
 from __future__ import annotations

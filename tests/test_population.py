@@ -1,0 +1,82 @@
+"""The randomised population of the closed loop (fringe.population): a small fixed subset of it, and
+the generator's table formats on random fitted values."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from fringe.effects import FittedEffect
+from fringe.population import CLASSES, STRENGTH_RANGE, draw_case, population_case, summarise
+from fringe.simulate import max_speed_ok
+
+
+def test_draws_cover_the_ranges_and_respect_the_overspeed_limit():
+    seed = 4711
+    print("seed", seed)
+    cases = [draw_case(s) for s in range(seed, seed + 300)]
+    lines = [c["lines"] for c in cases]
+    assert min(lines) == 1 and max(lines) > 2000 and any(n & (n - 1) for n in lines)
+    assert {c["adc_bits"] for c in cases} == set(range(10, 17))
+    assert any(c["coarse_bits"] for c in cases) and any(not c["coarse_bits"] for c in cases)
+    assert {c["trajectory"] for c in cases} == {"steady", "sweeps", "reversals", "slow", "fast"}
+    assert set().union(*[c["classes"] for c in cases]) == set(CLASSES)
+    assert any(len(c["classes"]) == 3 for c in cases) and any(not c["classes"] for c in cases)
+    for c in cases:
+        assert max_speed_ok(c["config"]), c["seed"]
+        assert c["expected"] <= set(c["classes"]) - {"common_gain"}
+        for s in c["strengths"].values():
+            assert STRENGTH_RANGE[0] <= s <= STRENGTH_RANGE[1]
+
+
+# a fixed subset: clean (9003, 9011), drift (9009, 9012), reference lag with hysteresis that cannot show (9013)
+@pytest.mark.parametrize("seed", [9003, 9009, 9011, 9013])
+def test_population_subset(seed):
+    c = population_case(seed)
+    assert c["abort"] is None, c
+    assert c["named_right"], c
+    assert c["model_ratio"] <= 1.25 and c["float_ratio"] <= 1.25, c
+    if not c["expected"]:
+        assert c["rise"] <= 0.02, c
+
+
+def test_summary_counts_names_and_aborts():
+    rows = [dict(seed=1, classes=["drift"], strengths={}, trajectory="steady", lines=8, adc_bits=12, expected=["drift"],
+                 found=["drift", "tone"], named_right=False, float_ratio=1.1, model_ratio=1.3, rise=-0.2, abort=None,
+                 seconds=1.0),
+            dict(seed=2, classes=[], strengths={}, trajectory="fast", lines=8, adc_bits=12, expected=[], found=[],
+                 named_right=True, float_ratio=1.0, model_ratio=1.0, rise=0.01, abort=None, seconds=1.0),
+            dict(seed=3, classes=[], expected=[], found=[], named_right=False, abort="ValueError: x", seconds=1.0)]
+    s = summarise(rows)
+    assert s["naming"]["precision"] == 0.5 and s["naming"]["recall"] == 1.0
+    assert s["aborts"] == [{"seed": 3, "abort": "ValueError: x"}]
+    assert s["correctable_model_within_1.25"] == 0.5 and s["clean_rise_within_2pct"] == 1.0
+
+
+def test_trim_format_follows_the_fitted_values():
+    """Random closed-loop terms over nine decades on random encoders: fringe_trim's format is chosen so the
+    tables build, and the tables then hold the float values to within their rounding."""
+    from fringe.calibrate import calibrate
+    from fringe.engines import core_config
+    from fringe.evaluate import measurement_of
+    from fringe.fixed.closed_loop import build_trim_tables, grids_for
+    from fringe.simulate import SimulationConfig, simulate
+
+    seed = 31
+    print("seed", seed)
+    rng = np.random.default_rng(seed)
+    for _ in range(6):
+        lines = int(rng.choice([1, 3, 64, 1000, 4096]))
+        adc = int(rng.integers(10, 17))
+        cfg = SimulationConfig(lines_per_rev=lines, adc_bits=adc, coarse_bits=0, samples=max(6000, 12 * lines),
+                               speed_mean_rev_s=0.1371 * 10_000 / lines, speed_swing_rev_s=0.0)
+        cal = calibrate(measurement_of(simulate(cfg, 1)), cfg.encoder())
+        size = 10 ** rng.uniform(-3, 6)           # arcsec
+        cal = dataclasses.replace(cal, angle_terms=[
+            FittedEffect("hysteresis", rng.normal(0, size, 9)),
+            FittedEffect("amplitude", rng.normal(0, size, 3)),
+            FittedEffect("sampling_skew", rng.normal(0, size * 1e-3, 1))], adaptive=bool(rng.integers(2)))
+        core = core_config(cal)
+        tables = build_trim_tables(cal, core)
+        grids = grids_for(cal, core)
+        assert np.max(np.abs(tables.map / 2.0 ** core.trim_frac - grids.map)) <= 0.5 / 2 ** core.trim_frac + 1e-9
