@@ -16,16 +16,22 @@ at least 10x better than the ellipse alone.
 """
 
 import json
+import os
 
 import numpy as np
 import pytest
-from conftest import rng
 
 from fringe.calibrate import calibrate, ellipse_only
 from fringe.cli import main
 from fringe.dataio import Measurement
 from fringe.encoder import Encoder
 from fringe.pipeline import fine_phase
+
+
+def rng(seed: int = 0) -> np.random.Generator:
+    """FRINGE_SEED replays a failing seed (as tests/conftest.py's helper)."""
+    return np.random.default_rng(int(os.environ.get("FRINGE_SEED", seed)))
+
 
 SERVO_OFFSET = 8192
 
