@@ -8,7 +8,7 @@ JOBS   ?= 2
 
 SYNTH_STAMP := $(VENV)/.installed-synth
 
-.PHONY: setup demo test test-model test-rtl lint bench synth clean help
+.PHONY: setup demo test test-model test-rtl lint bench synth formal clean help
 
 help:
 	@echo "make demo   - simulate the seed encoder, calibrate, correct, print before/after, write plots ($(OUT)/demo)"
@@ -16,6 +16,7 @@ help:
 	@echo "make lint   - ruff on the Python, verilator -Wall and ghdl -a --std=08 on the RTL"
 	@echo "make bench  - accuracy, speed and size (runs make synth) into results/bench.json and results/bench.md"
 	@echo "make synth  - Yosys + nextpnr for iCE40 UP5K and ECP5-25k: LUT, FF, DSP, BRAM, Fmax into results/synth.json"
+	@echo "make formal - SymbiYosys proofs of fringe_top's stream (yowasp-sby, Debian z3) into results/formal.json"
 	@echo "make setup  - create .venv and install fringe with its test tools"
 
 $(STAMP): pyproject.toml
@@ -52,6 +53,9 @@ $(SYNTH_STAMP): $(STAMP)
 
 synth: $(SYNTH_STAMP)
 	$(BIN)/python sim/synth.py --out results --configs seed,line1,seed_trim,seed_drift
+
+formal: $(SYNTH_STAMP)
+	timeout 900 $(BIN)/python sim/formal/run.py --json results/formal.json
 
 clean:
 	rm -rf $(OUT) results sim_build .pytest_cache
