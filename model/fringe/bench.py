@@ -24,6 +24,8 @@ from .evaluate import figures, float_engine, measurement_of, noise_floor_arcsec
 from .fixed.config import CoreConfig
 from .fixed.core import build_tables, error_budget, run_model
 from .metrics import error_arcsec
+from .population import loop_speed, population_bench
+from .rtlsim import engine_speed
 from .simulate import seed_encoder, simulate
 
 SHARED_DATA = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data")
@@ -242,7 +244,7 @@ def markdown(results: dict) -> str:
 
 
 OTHER_SECTIONS = {"reference_free": reference_free_markdown, "real_vs_plain_fit": None, "one_line_population": None,
-                  "io_and_memory": None}
+                  "io_and_memory": None, "loop_population": None, "loop_speed": None, "rtl_engine_speed": None}
 
 
 def main(argv=None) -> int:
@@ -263,6 +265,9 @@ def main(argv=None) -> int:
              ("real_vs_plain_fit", lambda: real_vs_plain_bench(SHARED_DATA)),
              ("one_line_population", lambda: simulated_bench(6 if a.quick else 24, 2000)),
              ("io_and_memory", lambda: io_and_memory(a.quick)),
+             ("loop_population", lambda: population_bench(20 if a.quick else 200, 9000, workers=2)),
+             ("loop_speed", lambda: loop_speed(200_000 if a.quick else 1_000_000)),
+             ("rtl_engine_speed", lambda: engine_speed(samples=100_000 if a.quick else 1_000_000)),
              ("synthesis", lambda: synthesis(a.out))]
     for name, fn in steps:
         t0 = time.perf_counter()
