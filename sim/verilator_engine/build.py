@@ -60,7 +60,7 @@ def build_engine(parameters: Mapping[str, object], build_dir: str | os.PathLike,
     binary = build_dir / BINARY
     stamp = build_dir / ".fringe_engine_stamp"
     sources = cocotb_runner.block_sources(TOPLEVEL, "verilator")
-    digest = _digest(sources, parameters)
+    digest = _digest(sources + cocotb_runner.include_files(), parameters)   # fringe_pkg.vh is part of the build
     if stamp.is_file() and stamp.read_text() == digest and binary.is_file():
         return binary
     build_dir.mkdir(parents=True, exist_ok=True)
@@ -68,6 +68,7 @@ def build_engine(parameters: Mapping[str, object], build_dir: str | os.PathLike,
     cmd = ["verilator", "--cc", "--exe", "--build", "-j", str(jobs), *VERILATOR_ARGS,
            "--top-module", TOPLEVEL, "--Mdir", str(build_dir / "obj"), "-o", str(binary),
            "--MAKEFLAGS", MAKE_VARS,
+           f"-I{cocotb_runner.RTL_VERILOG}",
            *[f"-G{k}={v}" for k, v in parameters.items()], *map(str, sources), str(HARNESS)]
     log = build_dir / "build.log"
     with open(log, "w") as fh:
