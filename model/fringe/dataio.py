@@ -207,6 +207,20 @@ def _wanted_columns(header, path, line_no):
     return [c for c in REQUIRED + OPTIONAL if c in header]
 
 
+def _csv_options(header, wanted, **read):
+    """pyarrow's CSV options for the spec's files: our header names, wanted columns as float64, no
+    missing values and no blank lines (anything else fails here and the slow path names the line)."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    return dict(read_options=pacsv.ReadOptions(column_names=header, skip_rows=1, **read),
+                parse_options=pacsv.ParseOptions(ignore_empty_lines=False),
+                convert_options=pacsv.ConvertOptions(include_columns=wanted,
+                                                     column_types={c: pa.float64() for c in wanted},
+                                                     null_values=[], strings_can_be_null=False,
+                                                     quoted_strings_can_be_null=False))
+
+
 def _read_csv(path):
     import pyarrow as pa
     import pyarrow.csv as pacsv
@@ -219,12 +233,7 @@ def _read_csv(path):
         src = pa.memory_map(path, "r")
         src.seek(offset)
         table = pacsv.read_csv(
-            src, read_options=pacsv.ReadOptions(column_names=header, skip_rows=1),
-            parse_options=pacsv.ParseOptions(ignore_empty_lines=False),
-            convert_options=pacsv.ConvertOptions(include_columns=wanted,
-                                                 column_types={c: pa.float64() for c in wanted},
-                                                 null_values=[], strings_can_be_null=False,
-                                                 quoted_strings_can_be_null=False))
+            src, **_csv_options(header, wanted))
         cols = {c: table.column(c).to_numpy() for c in wanted}
         del table
         if not len(cols["sin"]):
@@ -253,12 +262,7 @@ def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18):
         src = pa.memory_map(path, "r")
         src.seek(offset)
         reader = pacsv.open_csv(
-            src, read_options=pacsv.ReadOptions(column_names=header, skip_rows=1, block_size=rows * 48,
-                                                use_threads=False),
-            parse_options=pacsv.ParseOptions(ignore_empty_lines=False),
-            convert_options=pacsv.ConvertOptions(include_columns=wanted, column_types={c: pa.float64() for c in wanted},
-                                                 null_values=[], strings_can_be_null=False,
-                                                 quoted_strings_can_be_null=False))
+            src, **_csv_options(header, wanted, block_size=rows * 48, use_threads=False))
         for batch in reader:
             cols = {c: batch.column(c).to_numpy(zero_copy_only=False) for c in wanted}
             first = header_line + 1 + done
