@@ -14,6 +14,8 @@ from .pipeline import Calibration
 from .quadrature import QuadratureCorrection
 from .waveform import ChannelWaveform, WaveformInverse
 
+TRACKER_KEYS = ("drift_block_log2", "drift_mu_log2")     # the drift tracker constants a calibration may choose
+
 CAL_JSON = "calibration.json"
 WAVE_CSV = "wave_tables.csv"
 FORMAT = "fringe-calibration"
@@ -48,7 +50,7 @@ def to_json_dict(cal: Calibration) -> dict:
             "status": {"amp_low": cal.amp_low, "amp_high": cal.amp_high,
                        "units": "corrected vector magnitude (1 = unit circle)"},
         },
-        "closed_loop": {"adaptive_offset_gain": cal.adaptive,
+        "closed_loop": {"adaptive_offset_gain": cal.adaptive, "tracker": cal.tracker,
                         "rev_normalisation": None if cal.rev_norm is None else cal.rev_norm.to_dict(),
                         "angle_terms": [t.to_dict() for t in cal.angle_terms]},
         "skipped": cal.skipped,
@@ -115,6 +117,11 @@ def load_calibration(cal_dir: str) -> Calibration:
                           fit=d.get("fit", {}))
         loop = d.get("closed_loop") or {}
         cal.adaptive = bool(loop.get("adaptive_offset_gain", False))
+        tracker = loop.get("tracker") or {}
+        if not isinstance(tracker, dict) or \
+                not all(k in TRACKER_KEYS and isinstance(v, int) for k, v in tracker.items()):
+            raise FringeInputError(f"closed_loop.tracker must map {', '.join(TRACKER_KEYS)} to integers", path)
+        cal.tracker = dict(tracker)
         if loop.get("rev_normalisation"):
             from .effects import RevNormalisation
             cal.rev_norm = RevNormalisation.from_dict(loop["rev_normalisation"])

@@ -165,7 +165,8 @@ LIBRARY = {
         "an error following the acceleration", "artefact", "the mechanical set-up; nothing in the hardware",
         _accel_cols, ("speed",)),
     "amplitude": Effect(
-        "amplitude", "error depending on the signal amplitude (the waveform's shape changes with the air gap)",
+        "amplitude", "error depending on the signal amplitude (the waveform's shape changes with the air gap, or "
+        "the amplitude changes and the waveform tables, calibrated at one amplitude, read off their curve)",
         "fine-phase order 2 and an offset whose size follows the corrected magnitude",
         "hardware", "magnitude-dependent phase correction (the CORDIC magnitude, known online)",
         _amplitude_cols),

@@ -45,7 +45,7 @@ from .pipeline import Calibration, run_float, sample_times
 
 P_VALUE = 1e-6
 MIN_GAIN = 0.01          # an effect must remove at least this fraction of the residual RMS
-MAX_EFFECTS = 5
+MAX_EFFECTS = 8
 VALIDATION_BLOCKS = 500  # interleaved blocks when there is no --validate recording
 
 
@@ -235,11 +235,23 @@ def settled_speed(ctx: Context) -> np.ndarray:
     return ctx.speed[n:] if len(ctx.speed) > 2 * n else ctx.speed
 
 
-def testable(name: str, ctx: Context) -> str | None:
+def absolute(cal: Calibration | None) -> bool:
+    """Whether the position in the revolution is known (a coarse code), so a correction tied to it repeats between
+    recordings; an incremental encoder's count starts wherever the recording starts."""
+    return cal is None or cal.encoder.lines_per_rev == 1 or \
+        (bool(cal.encoder.coarse_bits) and cal.coarse_offset_periods is not None)
+
+
+#: a speed effect is tested when the speed spreads by at least this fraction of its mean: below, the speed is as good
+#: as a constant (a lag is an offset, a skew a quadrature phase error); above, significance and validation decide
+SPEED_SPREAD = 0.01
+
+
+def testable(name: str, ctx: Context, cal: Calibration | None = None) -> str | None:
     """Why a domain cannot be tested on this recording (None if it can)."""
     needs = LIBRARY[name].needs if name in LIBRARY else ("time",)
     v = settled_speed(ctx)
-    if "speed" in needs and np.std(v) < 0.05 * max(np.mean(np.abs(v)), 1e-12):
+    if "speed" in needs and np.std(v) < SPEED_SPREAD * max(np.mean(np.abs(v)), 1e-12):
         return "the speed hardly changes in this recording, so speed effects cannot be told from a constant"
     if "direction" in needs and (np.all(ctx.direction > 0) or np.all(ctx.direction < 0)):
         return "the recording moves in one direction only"
@@ -248,6 +260,9 @@ def testable(name: str, ctx: Context) -> str | None:
     if "periods" in needs and ctx.lines < 4:
         return (f"with {ctx.lines} signal period(s) per revolution the revolution and the fine phase are nearly "
                 "the same angle: a change over the revolution is a waveform error (the tables own it)")
+    if "periods" in needs and not absolute(cal):
+        return ("the encoder has no coarse code, so the place in the revolution is not known and a correction tied "
+                "to it would not repeat in another recording")
     return None
 
 
@@ -276,12 +291,22 @@ def find_line(x: np.ndarray, fs: float, exclude_hz=()) -> tuple[float, float, in
 
 
 def refine_frequency(x: np.ndarray, t: np.ndarray, f0: float, bin_hz: float, points: int = 41) -> float:
-    """The line's frequency between the periodogram's bins: the largest projection of x on a complex tone
-    within one bin of f0 (a bin's error drifts the phase by up to pi over the recording)."""
+    """The line's frequency between the periodogram's bins: the largest projection of x on a complex tone, on a
+    grid within one bin of f0, then polished to a ten-thousandth of a bin (a frequency off by a twentieth of a bin
+    drifts the phase by 0.3 rad over the recording, which leaves a sixth of the line uncorrected)."""
+    from scipy.optimize import minimize_scalar
+
     xc = x - x.mean()
+
+    def power(f):
+        return abs(np.exp(-2j * np.pi * f * t) @ xc)
+
     grid = f0 + bin_hz * np.linspace(-1.0, 1.0, points)
-    power = [abs(np.exp(-2j * np.pi * f * t) @ xc) for f in grid]
-    return float(grid[int(np.argmax(power))])
+    k = int(np.argmax([power(f) for f in grid]))
+    step = grid[1] - grid[0]
+    best = minimize_scalar(lambda f: -power(f), bounds=(grid[k] - step, grid[k] + step), method="bounded",
+                           options={"xatol": 1e-4 * bin_hz})
+    return float(best.x) if -best.fun >= power(grid[k]) else float(grid[k])
 
 
 def line_p_value(found) -> float:
@@ -318,10 +343,11 @@ def channel_errors(ev: Evaluation) -> np.ndarray | None:
     return best[1]
 
 
-def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], list[str]]:
+def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float, float]], list[str]]:
     """Lines in time: (name, Hz, p-value of the strongest of the searched lines) and notes on what stays
     ambiguous. A line in the angle residual with none in the channels is a vibration ("tone"); a line in
-    the channels is additive interference (the angle shows it as sidebands at +- the electrical frequency)."""
+    the channels is additive interference (the angle shows it as sidebands at +- the electrical frequency).
+    Lines at `known_hz` (already corrected or rejected) are not offered again."""
     fs = sample_rate(ev.ctx.t)
     rate = steady_rate(ev.ctx)
     electrical = abs(rate) * ev.ctx.lines if rate else None
@@ -332,7 +358,7 @@ def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], lis
         # at a steady speed the waveform's own errors sit at the low multiples of the electrical frequency (a
         # waveform model's orders); a line at a high multiple is interference
         harmonics = [k * electrical for k in range(1, WAVE_HARMONICS + 1)] if electrical else []
-        found = [find_line(e, fs, harmonics) for e in chan]
+        found = [find_line(e, fs, [*harmonics, *known_hz]) for e in chan]
         if any(found):
             which = int(np.argmax([f[1] if f else -1.0 for f in found]))
             chan_found = found[which]
@@ -341,7 +367,7 @@ def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], lis
             p = min(1.0, 2 * line_p_value(chan_found))
             if p < P_VALUE:
                 out.append(("interference", chan_found[0], p))
-    angle = find_line(ev.r, fs)
+    angle = find_line(ev.r, fs, known_hz)
     if angle and line_p_value(angle) < P_VALUE:
         bin_hz = fs / len(ev.r)
         f = refine_frequency(ev.r, ev.ctx.t if fs != 1.0 else np.arange(len(ev.r)), angle[0], bin_hz)
@@ -349,11 +375,11 @@ def tone_candidates(ev: Evaluation) -> tuple[list[tuple[str, float, float]], lis
             min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
         order = round(f / abs(rate)) if rate else 0
         harmonic = order >= 1 and abs(f - order * abs(rate)) <= 1.5 * bin_hz
-        if harmonic:     # a tone's phase is refitted on every recording: it would "validate" a position error too
+        if harmonic:     # at a steady speed a revolution harmonic covers every few bins: say so, do not drop it
             notes.append(f"the line at {f:.3f} Hz is harmonic {order} of the steady revolution rate "
-                         f"({abs(rate):.4g} rev/s): in the angle alone a vibration and a position error look the same, "
-                         "so it is not named (ambiguous)")
-        elif not sideband:
+                         f"({abs(rate):.4g} rev/s): in the angle alone a vibration and a position error at that order "
+                         "look the same within one recording; it is corrected as a tone in time (ambiguous)")
+        if not sideband:
             out.append(("tone", f, line_p_value(angle)))
     if chan is None:
         notes.append("channel-domain test not run (the calibration normalises the channels over the revolution or "
@@ -381,15 +407,14 @@ def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Te
     for name in LIBRARY:
         if name in exclude:
             continue
-        why = testable(name, ev.ctx)
+        why = testable(name, ev.ctx, ev.cal)
         if why:
             skipped[name] = why
             continue
         tests.append(test_terms(ev.r, lambda sl, e=LIBRARY[name]: e.design(ev.ctx.rows(sl)), sigma, name))
-    lines, notes = tone_candidates(ev_full)
+    known_hz = [float(e.split("@")[1]) for e in exclude if "@" in e]
+    lines, notes = tone_candidates(ev_full, known_hz)
     for name, f, p_line in lines:
-        if name in exclude:
-            continue
         t = test_terms(ev_full.r, _design(name, ev_full.ctx, f), sigma, name, f)
         t.p_value = max(t.p_value, p_line)      # the line must stand out of its neighbours, and the term explain
         tests.append(t)
@@ -474,7 +499,7 @@ def generic_candidates(ev: Evaluation, sigma: float, exclude: set) -> list[Test]
     out = []
     for factor in GENERIC_FACTORS:
         need = GENERIC_NEEDS.get(factor)
-        if need and testable(GENERIC_PROBE[need], ctx):
+        if need and testable(GENERIC_PROBE[need], ctx, ev.cal):
             continue
         if any(e.startswith(f"generic:{factor}:") for e in exclude):
             continue
@@ -542,8 +567,7 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
         for _ in range(8):     # each round leaves a fraction of the lag: iterate until it is negligible
             new.ref_lag_s += w * state.cal.direction / ARCSEC_PER_REV
             fresh = calibrate(shift_reference(fit_data, new.ref_lag_s), state.cal.encoder)
-            new.cal = dataclasses.replace(fresh, rev_norm=state.cal.rev_norm, adaptive=state.cal.adaptive,
-                                          angle_terms=list(state.cal.angle_terms))
+            new.cal = carry_loop(fresh, state.cal)
             ev = evaluate(LoopState(new.cal, [], new.ref_lag_s), fit_data)
             w = float(test_terms(ev.r, LIBRARY["ref_lag"].design(ev.ctx), 1.0, "ref_lag").weights[0])
             if abs(w) * np.std(ev.ctx.speed) < 0.01 * noise_sigma(ev.r):
@@ -554,26 +578,59 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
         new.cal.angle_terms.append(fitted)
         new.cal = refit_angle_terms(new.cal, shift_reference(fit_data, state.ref_lag_s))
     elif kind == "adaptive":
-        new.cal.adaptive = True
+        new.cal = choose_tracker(dataclasses.replace(new.cal, adaptive=True), new, fit_data)
     else:
         new.artefacts.append(fitted)
         if t.name == "tone":     # the declared model was fitted with the tone in its residual: fit it without
-            new.cal = refit_around_tone(new.cal, fitted, shift_reference(fit_data, state.ref_lag_s))
+            new.cal = refit_around_tone(new.cal, [a for a in new.artefacts if a.name == "tone"],
+                                        shift_reference(fit_data, state.ref_lag_s))
     return new
 
 
-def refit_around_tone(cal: Calibration, tone: FittedEffect, meas: Measurement) -> Calibration:
-    """Re-calibrate the declared model with a tone's error (in time, fitted on this recording) held out of it."""
+def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
+    """A fresh calibration of the declared model with the closed loop's additions of `cal` carried over."""
+    kept = dict(rev_norm=cal.rev_norm, adaptive=cal.adaptive, tracker=dict(cal.tracker),
+                angle_terms=list(cal.angle_terms))
+    return dataclasses.replace(fresh, **{**kept, **changes})
+
+
+TRACKER_BLOCK_LOG2 = (7, 8, 9, 10)     # fringe_drift's update block (the core needs at least 2^7 samples)
+TRACKER_MU_LOG2 = (0, 1, 2)            # and its step: together the tracker's time constant, 2^(block + mu) samples
+
+
+def choose_tracker(cal: Calibration, state: LoopState, meas: Measurement) -> Calibration:
+    """The drift tracker's constants that leave the least error on the fit data: a fast tracker follows a fast
+    drift but passes more noise into the phase, a slow one the reverse; the best trade-off depends on the drift
+    and the noise of this encoder, so it is measured, not fixed. (The tracker has no fitted weights: its
+    in-sample error is a fair score.)"""
+    best = None
+    for block in TRACKER_BLOCK_LOG2:
+        for mu in TRACKER_MU_LOG2:
+            trial = dataclasses.replace(cal, tracker={"drift_block_log2": block, "drift_mu_log2": mu})
+            rms = evaluate(LoopState(trial, state.artefacts, state.ref_lag_s), meas).rms
+            if best is None or rms < best[0]:
+                best = (rms, trial)
+    return best[1]
+
+
+def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measurement, rounds: int = 3) -> Calibration:
+    """Re-calibrate the declared model with the tones' error (in time, fitted on this recording) held out of it.
+    The first calibration absorbed part of the tones (its long-period table): each round fits them on the
+    residual of the previous round's calibration, which held the previous estimate out, until neither takes
+    the other's error."""
     from .calibrate import CalibrationOptions
 
-    res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
-    ctx = make_context(res.frac, res.position, cal.encoder.lines_per_rev, sample_times(len(res.frac), meas.t_s),
-                       res.magnitude)
-    x = tone_columns(ctx, tone.tone_hz)
-    r = error_arcsec(res.angle_deg, meas.ref_deg)
-    w, *_ = np.linalg.lstsq(x - x.mean(0), r - r.mean(), rcond=None)
-    fresh = calibrate(meas, cal.encoder, CalibrationOptions(known_error_arcsec=cal.direction * (x @ w)))
-    return dataclasses.replace(fresh, rev_norm=cal.rev_norm, adaptive=cal.adaptive, angle_terms=list(cal.angle_terms))
+    t = sample_times(len(meas), meas.t_s)
+    x = np.column_stack([np.cos(2 * np.pi * tone.tone_hz * t) for tone in tones]
+                        + [np.sin(2 * np.pi * tone.tone_hz * t) for tone in tones])
+    x = x - x.mean(0)
+    current = cal
+    for _ in range(rounds):
+        r = error_arcsec(run_float(current, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
+        w, *_ = np.linalg.lstsq(x, r - r.mean(), rcond=None)
+        fresh = calibrate(meas, cal.encoder, CalibrationOptions(known_error_arcsec=cal.direction * (x @ w)))
+        current = carry_loop(fresh, cal)
+    return current
 
 
 def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) -> Calibration:
@@ -595,7 +652,7 @@ def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) ->
             _compose(raw_norm, fit_rev_normalisation(new.waves, *raw_norm.apply(meas.sin, meas.cos, psi), phi, psi))
         s, c = norm.apply(meas.sin, meas.cos, psi)
         fresh = calibrate(dataclasses.replace(meas, sin=s, cos=c), cal.encoder)
-        new = dataclasses.replace(fresh, rev_norm=norm, angle_terms=list(cal.angle_terms), adaptive=cal.adaptive)
+        new = carry_loop(fresh, cal, rev_norm=norm)
     return new
 
 
@@ -611,7 +668,7 @@ def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> C
                            res.magnitude)
         known = cal.direction * sum(t.predict(ctx) for t in cal.angle_terms)   # output frame -> encoder frame
         base = calibrate(meas, cal.encoder, CalibrationOptions(known_error_arcsec=known))
-        base = dataclasses.replace(base, rev_norm=cal.rev_norm, adaptive=cal.adaptive)
+        base = carry_loop(base, cal, angle_terms=[])
         r = error_arcsec(run_float(base, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
         blocks = [_design(t.name, ctx, t.tone_hz) for t in terms]
         x = np.column_stack(blocks)
@@ -669,7 +726,8 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         n = len(ev_fit.r)
         best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
         best = widen(best, strided(ev_fit), sigma)
-        excluded.update({best.name, best.label} - {""})
+        # a line is excluded by its frequency (a recording may hold several), every other term by its name
+        excluded.update({f"{best.name}@{best.tone_hz!r}"} if best.tone_hz else {best.name, best.label} - {""})
         try:
             trial = apply(state, best, fit_data)
             val_after = evaluate(trial, val_data)
@@ -695,6 +753,9 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
             report["effects_rejected"].append(entry)
     report["after"] = _figs(ev_val)
     report["noise_floor_arcsec"] = round(sigma, 4)
+    # the hardware tables' error budget (fixed.closed_loop.choose_map_psi_w) is set against this floor
+    state = dataclasses.replace(state, cal=dataclasses.replace(
+        state.cal, provenance={**state.cal.provenance, "noise_floor_arcsec": round(sigma, 6)}))
     report["unexplained"] = unexplained(ev_fit, sigma)
     report["artefacts"] = [a.to_dict() for a in state.artefacts]
     from .fixed.closed_loop import float_only
@@ -742,8 +803,11 @@ def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
             continue
         t = test_fourier(ev.r, *x, sigma, domain) if isinstance(x, tuple) else test_terms(ev.r, x, sigma, domain)
         if t.p_value < P_VALUE and t.explained_rms > 0.1 * sigma:
+            tied = "revolution" in domain and not absolute(ev.cal)
             out.append({"domain": domain, "description": f"significant structure left ({t.dof} terms, "
-                        f"p = {t.p_value:.1e}); no effect in the library explains it",
+                        f"p = {t.p_value:.1e}); " + ("the encoder has no coarse code, so it cannot be corrected (the "
+                                                     "place in the revolution is not known in another recording)"
+                                                     if tied else "no effect in the library explains it"),
                         "rms_arcsec": round(t.explained_rms, 4)})
     lines, notes = tone_candidates(ev)
     for name, f, p_line in lines:

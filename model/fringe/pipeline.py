@@ -35,6 +35,7 @@ class Calibration:
     amp_low: float = 0.5                         # loss-of-signal thresholds on the corrected magnitude
     amp_high: float = 1.5
     adaptive: bool = False                       # online offset/gain tracker (closed loop: drift)
+    tracker: dict = field(default_factory=dict)  # its constants chosen on the data: drift_block_log2, drift_mu_log2
     rev_norm: object | None = None               # offsets/gains over the revolution (effects.RevNormalisation)
     angle_terms: list = field(default_factory=list)   # closed-loop hardware terms (effects.FittedEffect)
     waves: dict = field(default_factory=dict)    # fitted channel models (for reports and plots)

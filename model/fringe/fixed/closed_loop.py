@@ -183,6 +183,43 @@ def choose_g_shift(grids: TrimGrids, trim_w: int, trim_frac: int) -> int:
     return int(min(48, max(1, g)))
 
 
+MAX_MAP_PSI_W = 8        # fringe_trim's limit
+MAX_MAP_WORDS_LOG2 = 14  # MAP_PSI_W + MAP_PHI_W at most this (the RTL allows 15): 2 banks x 2 dirs x 2^14 words
+SECTOR_BUDGET = 0.1      # the map's sector steps may add this fraction of the noise floor (0.5 % in quadrature)
+SECTOR_SHARE = 0.05      # without a noise floor: this fraction of the map's change over the revolution
+
+
+def sector_error(cal: Calibration, cfg, map_psi_w: int) -> tuple[float, float]:
+    """RMS (fine counts) of what the map's sectors leave of its change over the revolution (each sector holds
+    its centre's value; four points per sector compared), and the RMS of that change itself."""
+    fine = grids_for(cal, dataclasses.replace(cfg, map_psi_w=map_psi_w + 2)).map
+    coarse = grids_for(cal, dataclasses.replace(cfg, map_psi_w=map_psi_w)).map
+    steps = fine - np.repeat(coarse, 4, axis=1)
+    change = fine - fine.mean(axis=1, keepdims=True)
+    return float(np.sqrt(np.mean(steps ** 2))), float(np.sqrt(np.mean(change ** 2)))
+
+
+def choose_map_psi_w(cal: Calibration, cfg) -> int:
+    """The fewest sectors (from the configured MAP_PSI_W up) whose steps stay within the error budget: a tenth of
+    the noise floor the closed loop measured (cal.provenance["noise_floor_arcsec"]), else SECTOR_SHARE of the
+    map's own change over the revolution. A map that does not change over the revolution keeps the configured
+    value."""
+    floor = cal.provenance.get("noise_floor_arcsec")
+    top = min(MAX_MAP_PSI_W, MAX_MAP_WORDS_LOG2 - cfg.map_phi_w)
+    from .trim import sector_mapping
+
+    for w in range(cfg.map_psi_w, max(cfg.map_psi_w, top) + 1):
+        try:
+            sector_mapping(cfg.lines, cfg.fine_w, w)
+        except ValueError:       # no exact multiply-shift for this many sectors: the last that had one
+            return max(cfg.map_psi_w, w - 1)
+        err, change = sector_error(cal, cfg, w)
+        budget = SECTOR_BUDGET * floor * cfg.rev / ARCSEC_PER_REV if floor else SECTOR_SHARE * change
+        if err <= budget or change == 0.0:
+            return w
+    return max(cfg.map_psi_w, top)
+
+
 MAX_TABLE_W = 24         # the widest table word the blocks accept (fringe_trim TRIM_W, fringe_drift TABLE_W)
 
 
@@ -197,6 +234,7 @@ def trim_config(cal: Calibration, cfg):
     if not needs_trim(cal):
         return cfg
     on = dataclasses.replace(cfg, trim=1)
+    on = dataclasses.replace(on, map_psi_w=choose_map_psi_w(cal, on))
     grids = grids_for(cal, on)
     last = None
     for width in range(on.trim_w, max(on.trim_w, MAX_TABLE_W) + 1):
@@ -283,7 +321,7 @@ def drift_config(cal: Calibration, cfg):
     KG_SHIFT. Each choice is checked by building the tables; ValueError when nothing fits."""
     if not cal.adaptive:
         return cfg
-    on = dataclasses.replace(cfg, drift=1)
+    on = dataclasses.replace(cfg, drift=1, **cal.tracker)
     last = None
     for width in range(on.drift_table_w, max(on.drift_table_w, MAX_TABLE_W) + 1):
         for frac in range(on.drift_table_frac, -1, -1):
