@@ -134,12 +134,7 @@ def fitting_rows(meas):
     n = len(meas)
     if n <= FIT_ROWS_MAX:
         return meas
-    run = FIT_ROWS_MAX // FIT_BLOCKS
-    starts = np.linspace(0, n - run, FIT_BLOCKS).astype(np.int64)
-    rows = (starts[:, None] + np.arange(run)[None, :]).ravel()
-    sub = meas.subset(rows)
-    if sub.t_s is None:
-        sub.t_s = rows.astype(float)
+    sub = meas.runs(FIT_ROWS_MAX, FIT_BLOCKS)
     sub.row_lines = None
     sub.full_rows = n
     return sub

@@ -34,6 +34,21 @@ class Measurement:
         """'line N' (or 'row N') of row r, for messages."""
         return _row_line(self.row_lines, r) if self.row_lines is not None else f"row {r + 1}"
 
+    def runs(self, rows: int, runs: int) -> "Measurement":
+        """`runs` evenly spaced runs of consecutive rows, `rows` in all (self when it is not longer): every part of
+        the motion and of the time span is represented. Without t_s the runs keep their row numbers as time,
+        so the gaps between them stay visible."""
+        n = len(self)
+        if n <= rows:
+            return self
+        run = rows // runs
+        starts = np.linspace(0, n - run, runs).astype(np.int64)
+        index = (starts[:, None] + np.arange(run)[None, :]).ravel()
+        sub = self.subset(index)
+        if sub.t_s is None:
+            sub.t_s = index.astype(float)
+        return sub
+
     def subset(self, mask_or_index) -> "Measurement":
         pick = lambda a: None if a is None else a[mask_or_index]  # noqa: E731
         return Measurement(self.path, self.sin[mask_or_index], self.cos[mask_or_index],

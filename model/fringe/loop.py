@@ -47,6 +47,8 @@ P_VALUE = 1e-6
 MIN_GAIN = 0.01          # an effect must remove at least this fraction of the residual RMS
 MAX_EFFECTS = 8
 VALIDATION_BLOCKS = 500  # interleaved blocks when there is no --validate recording
+DECISION_ROWS = 1 << 18  # a longer recording is decided on this many of its rows (fit and validation each)
+DECISION_RUNS = 16       # taken as evenly spaced runs of consecutive rows
 
 
 def noise_sigma(r: np.ndarray) -> float:
@@ -54,6 +56,22 @@ def noise_sigma(r: np.ndarray) -> float:
     interference) inflates it: it is reported as a cross-check, not used for the tests."""
     d = np.diff(r)
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2))
+
+
+def uniform_run(t: np.ndarray) -> slice:
+    """The longest run of rows whose time steps equal the median step (to 0.1 %): the whole recording when its
+    time axis is uniform; one of its runs when it is a set of evenly spaced runs of a longer one."""
+    dt = np.diff(t)
+    if len(dt) == 0:
+        return slice(0, len(t))
+    step = np.median(dt)
+    ok = np.abs(dt - step) <= 1e-3 * abs(step) if step > 0 else np.zeros(len(dt), bool)
+    if ok.all() or not ok.any():
+        return slice(0, len(t))
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(np.int8), [0]])))
+    starts, stops = edges[0::2], edges[1::2]
+    k = int(np.argmax(stops - starts))
+    return slice(int(starts[k]), int(stops[k]) + 1)
 
 
 def sample_rate(t: np.ndarray) -> float:
@@ -347,12 +365,18 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
     """Lines in time: (name, Hz, p-value of the strongest of the searched lines) and notes on what stays
     ambiguous. A line in the angle residual with none in the channels is a vibration ("tone"); a line in
     the channels is additive interference (the angle shows it as sidebands at +- the electrical frequency).
-    Lines at `known_hz` (already corrected or rejected) are not offered again."""
-    fs = sample_rate(ev.ctx.t)
+    Lines at `known_hz` (already corrected or rejected) are not offered again. The spectra are taken on the
+    longest run of evenly spaced samples (a long recording is decided on runs of it), frequencies in the
+    units of its time stamps."""
+    run = uniform_run(ev.ctx.t)
+    t, x = ev.ctx.t[run], ev.r[run]
+    fs = sample_rate(t)
+    bin_hz = fs / len(x)
     rate = steady_rate(ev.ctx)
     electrical = abs(rate) * ev.ctx.lines if rate else None
     out, notes = [], []
     chan = channel_errors(ev)
+    chan = None if chan is None else chan[:, run]
     chan_found = None
     if chan is not None:
         # at a steady speed the waveform's own errors sit at the low multiples of the electrical frequency (a
@@ -362,15 +386,13 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
         if any(found):
             which = int(np.argmax([f[1] if f else -1.0 for f in found]))
             chan_found = found[which]
-            chan_found = (refine_frequency(chan[which], ev.ctx.t if fs != 1.0 else np.arange(len(ev.r)),
-                                           chan_found[0], fs / len(ev.r)), *chan_found[1:])
+            chan_found = (refine_frequency(chan[which], t, chan_found[0], bin_hz), *chan_found[1:])
             p = min(1.0, 2 * line_p_value(chan_found))
             if p < P_VALUE:
                 out.append(("interference", chan_found[0], p))
-    angle = find_line(ev.r, fs, known_hz)
+    angle = find_line(x, fs, known_hz)
     if angle and line_p_value(angle) < P_VALUE:
-        bin_hz = fs / len(ev.r)
-        f = refine_frequency(ev.r, ev.ctx.t if fs != 1.0 else np.arange(len(ev.r)), angle[0], bin_hz)
+        f = refine_frequency(x, t, angle[0], bin_hz)
         sideband = chan_found is not None and electrical and \
             min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
         order = round(f / abs(rate)) if rate else 0
@@ -686,6 +708,18 @@ def _compose(first, second):
                              for k in ("sin", "cos")})
 
 
+def decision_rows(meas: Measurement) -> Measurement:
+    """The rows a long recording is decided on: DECISION_RUNS evenly spaced runs, unless they see less of the
+    revolution than the whole recording (a slow one), which is then used whole."""
+    sub = meas.runs(DECISION_ROWS, DECISION_RUNS)
+    if sub is meas or meas.ref_deg is None:
+        return sub
+
+    def sectors(m):
+        return len(np.unique(np.floor(np.mod(m.ref_deg, 360.0) / 360.0 * 64)))
+    return sub if sectors(sub) >= sectors(meas) else meas
+
+
 def split(meas: Measurement, blocks: int = VALIDATION_BLOCKS) -> tuple[Measurement, Measurement]:
     """Interleaved blocks: both halves cover the revolution and the whole time span."""
     idx = (np.arange(len(meas)) * blocks // len(meas)) % 2
@@ -704,6 +738,10 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         if validate.ref_deg is None:
             raise FringeInputError("the validation recording has no ref_deg column", validate.path)
         fit_data, val_data, val_name = train, validate, validate.path
+    # a long recording is decided on evenly spaced runs of it (ample power for every test, bounded time and
+    # memory); the error before and after is then measured on every validation row
+    full_val = val_data
+    fit_data, val_data = decision_rows(fit_data), decision_rows(val_data)
     state = base = LoopState(calibrate(fit_data, enc))
     ev_fit, ev_val = evaluate(state, fit_data), evaluate(state, val_data)
     sigma, floor_info = noise_floor(ev_fit)
@@ -752,6 +790,9 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
             entry["why_not_kept"] = f"did not lower the error on the validation data ({val_name})"
             report["effects_rejected"].append(entry)
     report["after"] = _figs(ev_val)
+    if len(full_val) > len(val_data):
+        report["decided_on_rows"] = {"fit": len(fit_data), "validation": len(val_data), "runs": DECISION_RUNS}
+        report["before"], report["after"] = _figs(evaluate(base, full_val)), _figs(evaluate(state, full_val))
     report["noise_floor_arcsec"] = round(sigma, 4)
     # the hardware tables' error budget (fixed.closed_loop.choose_map_psi_w) is set against this floor
     state = dataclasses.replace(state, cal=dataclasses.replace(

@@ -25,8 +25,9 @@ def _spectrum(r: np.ndarray, x: np.ndarray, orders: int) -> np.ndarray:
 
 
 def write_plots(base, state, meas, out_dir: str) -> dict[str, str]:
-    from .loop import evaluate
+    from .loop import DECISION_ROWS, DECISION_RUNS, evaluate, uniform_run
 
+    meas = meas.runs(DECISION_ROWS, DECISION_RUNS)      # a long recording: the rows the loop decided on
     before, after = evaluate(base, meas), evaluate(state, meas)
     plots = {}
     k = slice(None, None, -(-len(before.r) // PLOT_POINTS))     # scatter plots: evenly strided points
@@ -39,9 +40,11 @@ def write_plots(base, state, meas, out_dir: str) -> dict[str, str]:
     for label, ev in (("declared model", before), ("with the added effects", after)):
         axes[0].semilogy(np.arange(1, 33), _spectrum(ev.r, ev.ctx.phi, 32) + 1e-6, ".-", label=label)
         axes[1].semilogy(np.arange(1, 65), _spectrum(ev.r, ev.ctx.psi, 64) + 1e-6, ".-", label=label)
-        dt = np.mean(np.diff(ev.ctx.t)) if len(ev.ctx.t) > 1 else 1.0
-        spec = np.abs(np.fft.rfft((ev.r - ev.r.mean()) * np.hanning(len(ev.r)))) * 4 / len(ev.r)
-        axes[2].loglog(np.fft.rfftfreq(len(ev.r), dt)[1:], spec[1:] + 1e-6, "-", lw=0.6, label=label)
+        run = uniform_run(ev.ctx.t)
+        r, t = ev.r[run], ev.ctx.t[run]
+        dt = np.mean(np.diff(t)) if len(t) > 1 else 1.0
+        spec = np.abs(np.fft.rfft((r - r.mean()) * np.hanning(len(r)))) * 4 / len(r)
+        axes[2].loglog(np.fft.rfftfreq(len(r), dt)[1:], spec[1:] + 1e-6, "-", lw=0.6, label=label)
     axes[0].set(xlabel="order per signal period", ylabel="amplitude (arcsec)", title="Residual: fine-phase orders")
     axes[1].set(xlabel="order per revolution", ylabel="amplitude (arcsec)", title="Residual: revolution orders")
     axes[2].set(xlabel="frequency (Hz, or 1/sample without t_s)", ylabel="amplitude (arcsec)",

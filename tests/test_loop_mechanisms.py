@@ -1,0 +1,151 @@
+"""The closed loop's general mechanisms, each on its own: line frequencies, runs of a long recording,
+what an incremental encoder can correct, several tones, the tracker's and the trim map's formats chosen
+from the data."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from fringe import loop
+from fringe.evaluate import measurement_of
+from fringe.simulate import SimulationConfig, simulate
+
+
+def test_refine_frequency_reaches_the_noise_limit():
+    """Random tones between bins: the frequency error stays within 8 sigma of the Cramer-Rao bound
+    (sqrt(6) / (pi * SNR * sqrt(N)) bins for amplitude A, noise sigma, SNR = A / sigma); the old grid's
+    twentieth of a bin would fail."""
+    seed = 5
+    print("seed", seed)
+    rng = np.random.default_rng(seed)
+    n, fs = 16_384, 10_000.0
+    t = np.arange(n) / fs
+    bin_hz = fs / n
+    for _ in range(20):
+        f = rng.uniform(50, 0.45 * fs)
+        x = np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) + rng.normal(0, 0.1, n)
+        found = loop.find_line(x, fs)
+        f_hat = loop.refine_frequency(x, t, found[0], bin_hz)
+        bound = np.sqrt(6) / (np.pi * 10 * np.sqrt(n))
+        assert abs(f_hat - f) / bin_hz <= 8 * bound, (f, f_hat)
+
+
+def test_uniform_run_and_runs_of_a_recording():
+    meas = measurement_of(simulate(SimulationConfig(samples=5000, lines_per_rev=64, coarse_bits=0), 1))
+    sub = meas.runs(1000, 4)
+    assert len(sub) == 1000 and sub.runs(1000, 4) is sub and meas.runs(10_000, 4) is meas
+    run = loop.uniform_run(sub.t_s)
+    assert run.stop - run.start == 250
+    assert np.allclose(np.diff(sub.t_s[run]), 1 / 10_000.0)
+    bare = dataclasses.replace(meas, t_s=None)
+    assert np.array_equal(bare.runs(1000, 4).t_s[:3], [0.0, 1.0, 2.0])      # row numbers keep the gaps visible
+
+
+def _two_tone_config(coarse_bits):
+    return SimulationConfig(lines_per_rev=64, coarse_bits=coarse_bits, samples=16_384, speed_mean_rev_s=8.0,
+                            speed_swing_rev_s=3.0, vibration_arcsec=60.0, vibration_hz=371.3, noise_rms=1e-3,
+                            ref_error_arcsec={})
+
+
+def test_a_long_recording_is_decided_on_runs_and_tones_keep_their_hz(monkeypatch):
+    """Decided on 4 runs of 2048 rows: the vibration is still found at its frequency in Hz (the line search
+    runs on one uniform run), and the error after is measured on every validation row. A slow recording whose
+    runs would see less of the revolution is decided whole."""
+    monkeypatch.setattr(loop, "DECISION_ROWS", 8192)
+    monkeypatch.setattr(loop, "DECISION_RUNS", 4)
+    cfg = _two_tone_config(9)
+    fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
+    _, state, rep = loop.run_loop(fit, cfg.encoder(), val)
+    tones = [a for a in state.artefacts if a.name == "tone"]
+    assert tones and abs(tones[0].tone_hz - 371.3) < 0.05, rep["effects_added"]
+    assert rep["decided_on_rows"] == {"fit": 8192, "validation": 8192, "runs": 4}
+    assert rep["after"]["rms_arcsec"] < 0.5 * rep["before"]["rms_arcsec"]
+    slow = measurement_of(simulate(dataclasses.replace(cfg, speed_mean_rev_s=0.7, speed_swing_rev_s=0.0), 1))
+    assert loop.decision_rows(slow) is slow and len(loop.decision_rows(fit)) == 8192
+
+
+def test_several_tones_are_found():
+    cfg = _two_tone_config(9)
+    fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
+    # a second vibration: the simulator has one, so add the other's angle error to the reference of both
+    for m in (fit, val):
+        t = m.t_s
+        m.ref_deg = np.mod(m.ref_deg - 40.0 / 3600 * np.sin(2 * np.pi * 1234.5 * t + 0.3), 360.0)
+    _, state, rep = loop.run_loop(fit, cfg.encoder(), val)
+    hz = sorted(a.tone_hz for a in state.artefacts if a.name == "tone")
+    assert len(hz) == 2 and abs(hz[0] - 371.3) < 0.05 and abs(hz[1] - 1234.5) < 0.05, rep["effects_added"]
+
+
+def test_an_incremental_encoder_gets_no_revolution_terms():
+    """Without a coarse code the count starts wherever a recording starts: offsets and gains over the revolution
+    are real in the fit recording but would not repeat, so they are not offered."""
+    from fringe.calibrate import calibrate
+
+    cfg = SimulationConfig(lines_per_rev=64, coarse_bits=0, samples=16_384, speed_mean_rev_s=2.0,
+                           speed_swing_rev_s=1.0, rev_offset_mod_sin={1: (0.01, 0.0)}, ref_error_arcsec={})
+    meas = measurement_of(simulate(cfg, 1))
+    cal = calibrate(meas, cfg.encoder())
+    ev = loop.evaluate(loop.LoopState(cal), meas)
+    assert "coarse code" in loop.testable("rev_offset_gain", ev.ctx, cal)
+    absolute = dataclasses.replace(cfg, coarse_bits=8)
+    cal_abs = calibrate(measurement_of(simulate(absolute, 1)), absolute.encoder())
+    assert loop.testable("rev_offset_gain", ev.ctx, cal_abs) is None
+    tests, skipped = loop.candidates(ev, 1.0, set())
+    assert "rev_offset_gain" in skipped and not any("revolution" in t.name for t in tests)
+
+
+def test_tracker_constants_are_chosen_stored_and_used(tmp_path):
+    """A fast drift wants a faster tracker than the default: the loop measures the choice, calibration.json keeps
+    it, and the core configuration built from the folder uses it."""
+    from fringe.calstore import load_calibration, save_calibration
+    from fringe.engines import core_config
+
+    cfg = SimulationConfig(lines_per_rev=64, coarse_bits=8, samples=16_384, speed_mean_rev_s=2.0,
+                           speed_swing_rev_s=1.0, drift_offset_rms=0.02, drift_gain_rms=0.02,
+                           drift_timescale_s=0.4, ref_error_arcsec={})
+    fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
+    _, state, rep = loop.run_loop(fit, cfg.encoder(), val)
+    assert state.cal.adaptive, rep["effects_added"]
+    chosen = state.cal.tracker
+    assert set(chosen) == {"drift_block_log2", "drift_mu_log2"}
+    default = dataclasses.replace(state.cal, tracker={})
+    assert loop.evaluate(state, fit).rms <= loop.evaluate(loop.LoopState(default, state.artefacts), fit).rms
+    save_calibration(state.cal, str(tmp_path / "cal"))
+    back = load_calibration(str(tmp_path / "cal"))
+    assert back.tracker == chosen
+    core = core_config(back)
+    assert (core.drift_block_log2, core.drift_mu_log2) == (chosen["drift_block_log2"], chosen["drift_mu_log2"])
+    data = json.loads((tmp_path / "cal" / "calibration.json").read_text())
+    data["closed_loop"]["tracker"] = {"drift_block_log2": "fast"}
+    (tmp_path / "bad").mkdir()
+    for f in (tmp_path / "cal").iterdir():
+        (tmp_path / "bad" / f.name).write_bytes(f.read_bytes())
+    (tmp_path / "bad" / "calibration.json").write_text(json.dumps(data))
+    from fringe.errors import FringeInputError
+    with pytest.raises(FringeInputError):
+        load_calibration(str(tmp_path / "bad"))
+
+
+def test_trim_sectors_follow_the_revolution_orders():
+    """fringe_trim's map holds one value per sector: a gain that changes four times per revolution needs more
+    sectors than one that changes once, for the same error budget; the chosen format leaves steps within it."""
+    from fringe.calibrate import calibrate
+    from fringe.effects import RevNormalisation
+    from fringe.engines import core_config
+    from fringe.fixed.closed_loop import SECTOR_BUDGET, sector_error
+
+    cfg = SimulationConfig(lines_per_rev=256, coarse_bits=9, samples=16_384, ref_error_arcsec={})
+    cal = calibrate(measurement_of(simulate(cfg, 1)), cfg.encoder())
+    chosen = {}
+    for order in (1, 4):
+        w = np.zeros(8)
+        w[2 * order - 2] = 0.02
+        norm = RevNormalisation({"sin": (np.zeros(8), w), "cos": (np.zeros(8), np.zeros(8))})
+        c = dataclasses.replace(cal, rev_norm=norm, provenance={**cal.provenance, "noise_floor_arcsec": 3.0})
+        core = core_config(c)
+        err, _ = sector_error(c, core, core.map_psi_w)
+        assert core.map_psi_w == 8 or err <= SECTOR_BUDGET * 3.0 * core.rev / 1_296_000
+        chosen[order] = core.map_psi_w
+    assert chosen[4] > chosen[1], chosen
