@@ -45,6 +45,11 @@ WAVEFORM, PHASE_TABLE = "waveform", "phase_table"   # structures of the referenc
 STRUCTURE_BUDGET = 50_000
 STRUCTURE_SAMPLES = 100_000
 LP_ORDER_FOLDS = 10       # folds of the long-period order selection (cheap: binned data)
+# the long-period error is deterministic: where held-out folds cannot tell orders apart (their RMS within this
+# fraction of the best) the richest is kept. Folds are runs of consecutive samples, so a disturbance that is
+# correlated in time (interference) flattens the held-out curve and would otherwise stop the order early; the
+# cost on a recording where the extra orders only fit noise is at most this fraction of the held-out RMS.
+LP_ORDER_TOLERANCE = 0.005
 
 
 @dataclass
@@ -289,7 +294,7 @@ def fit_long_period(cal: Calibration, meas: Measurement, use: np.ndarray, opts: 
         # cannot expose a fit to structured noise (a tone at a fixed sample pattern) otherwise
         n_max = max(1, min(n_max, int(use.sum()) // 16))
         n_fixed, held_out = cv_harmonics(x, err[use], n_max, cv_folds(len(meas), LP_ORDER_FOLDS)[use],
-                                         skip_multiples_of=skip)
+                                         skip_multiples_of=skip, tolerance=LP_ORDER_TOLERANCE)
         cal.fit["lp_held_out_rms_arcsec"] = float(np.nanmin(held_out))
     cal.long_period, n, rms = fit_select(x, err[use], n_max, n_fixed=n_fixed, skip_multiples_of=skip)
     cal.fit["lp_harmonics"] = n

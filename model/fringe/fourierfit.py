@@ -113,8 +113,9 @@ def cv_folds(n: int, k: int = 5, blocks_per_fold: int = 64) -> np.ndarray:
 
 
 def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bins: int = 4096,
-                 skip_multiples_of: int = 0) -> tuple[int, np.ndarray]:
-    """Number of harmonics (0..n_max) with the least held-out squared error, summed over the folds.
+                 skip_multiples_of: int = 0, tolerance: float = 0.0) -> tuple[int, np.ndarray]:
+    """Number of harmonics (0..n_max) with the least held-out squared error, summed over the folds; with a
+    tolerance, the largest number whose held-out RMS is within (1 + tolerance) of the least.
 
     Each fold is predicted by the series fitted on the other folds, for every candidate size at
     once: per fold and angle bin, counts and sums in one pass; the training fold's normal
@@ -152,4 +153,8 @@ def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bi
             press[j] += yy_te - 2 * float(w @ b_te[:k]) + float(w @ g_te[:k, :k] @ w)
     rms = np.full(cap + 1, np.nan)
     rms[[0] + orders] = np.sqrt(np.maximum(press, 0.0) / len(y))
-    return ([0] + orders)[int(np.argmin(press))], rms
+    sizes = [0] + orders
+    if tolerance <= 0:
+        return sizes[int(np.argmin(press))], rms
+    held = np.sqrt(np.maximum(press, 0.0))
+    return sizes[int(np.flatnonzero(held <= (1 + tolerance) * held.min())[-1])], rms

@@ -47,8 +47,8 @@ P_VALUE = 1e-6
 MIN_GAIN = 0.01          # an effect must remove at least this fraction of the residual RMS
 MAX_EFFECTS = 8
 VALIDATION_BLOCKS = 500  # interleaved blocks when there is no --validate recording
-DECISION_ROWS = 1 << 18  # a longer recording is decided on this many of its rows (fit and validation each)
-DECISION_RUNS = 16       # taken as evenly spaced runs of consecutive rows
+DECISION_ROWS = 1 << 17  # a longer recording is decided on this many of its rows (fit and validation each)
+DECISION_RUNS = 8        # taken as evenly spaced runs of consecutive rows
 
 
 def noise_sigma(r: np.ndarray) -> float:

@@ -7,6 +7,7 @@ IDs, so widths and table sizes are written once.
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 from ..encoder import Encoder
@@ -15,6 +16,7 @@ from .period_count import rev_and_pos_w
 from .quadrature import QuadratureParams
 from .wave_lut import WaveLutParams
 
+WAVE_LSB_ARCSEC = 2.0   # default table width: one LSB of a waveform table moves the angle by at most this
 TRIM_FIELDS = ("trim", "speed_log2", "map_psi_w", "map_phi_w", "trim_w", "trim_frac", "g_shift")
 DRIFT_FIELDS = ("drift", "drift_block_log2", "drift_mu_log2", "drift_ofs_frac", "drift_ginv_w", "drift_fwd_w",
                 "drift_table_w", "drift_table_frac", "drift_kg_w", "drift_kg_shift")
@@ -112,11 +114,16 @@ class CoreConfig:
         """Defaults that fit the encoder and a small FPGA.
 
         Tables of 2^min(ADC_W-1, 8..10) points per branch; table values 3 bits wider than the ADC
-        (13 fraction bits for a 12-bit ADC, so their rounding stays below the ADC's); gains of 16
+        (13 fraction bits for a 12-bit ADC, so their rounding stays below the ADC's), wider for encoders of
+        few lines, where a radian of fine phase is a large angle (WAVE_LSB_ARCSEC); gains of 16
         bits, so every quadrature product is one 16x16 DSP (the iCE40 UP5K has eight); a CORDIC of
         FINE_W + 1 stages. `make bench` reports what these cost against 18-bit datapaths.
         """
-        wave_w = min(31, max(15, enc.adc_bits + 3))
+        # table values: 3 bits finer than the ADC, and fine enough that one unit of their last bit moves the angle
+        # by at most WAVE_LSB_ARCSEC (few lines per revolution make a radian of fine phase a large angle)
+        arcsec_per_rad = 1_296_000 / (2 * math.pi * enc.lines_per_rev)
+        angle_bits = math.ceil(math.log2(arcsec_per_rad / WAVE_LSB_ARCSEC)) + 2
+        wave_w = min(31, max(15, enc.adc_bits + 3, angle_bits))
         base = dict(adc_w=enc.adc_bits, lines=enc.lines_per_rev, coarse_w=enc.coarse_bits,
                     wave_addr_w=min(enc.adc_bits - 1, max(8, enc.adc_bits - 4), 10),
                     wave_w=wave_w, coef_w=min(27, max(16, enc.adc_bits + 2)),
