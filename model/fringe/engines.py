@@ -36,11 +36,45 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
             cfg = trim_config(cal, cfg)
         if "drift" not in base:    # and the drift tracker fringe_drift
             cfg = drift_config(cal, cfg)
+        if "lp_w" not in base and "lp_frac" not in base:    # the long-period table's format from its values
+            cfg = long_period_config(cal, cfg)
         check_limits(cfg)
         return cfg
     except (TypeError, ValueError) as e:
         where = " ".join(f"--{k.replace('_', '-')} {v}" for k, v in overrides.items()) or path
         raise FringeInputError(f"core configuration not possible: {e}", where or "core configuration") from None
+
+
+MAX_LP_W = 24     # the widest long-period table word fringe_long_period accepts
+
+
+def long_period_config(cal: Calibration, cfg):
+    """cfg with the long-period table's format chosen for this calibration: at the configured LP_W the most
+    fraction bits (LP_FRAC, from the configured value down to 0) with which every value and slope fits, a wider
+    LP_W (up to 24) only when none does. Each choice is checked by building the table; unchanged when the
+    calibration has no long-period correction or it fits as configured. ValueError when nothing fits."""
+    import dataclasses
+
+    import numpy as np
+
+    from .encoder import ARCSEC_PER_REV
+    from .fixed import long_period as lp_mod
+    from .fixed.core import long_period_params
+
+    if cal.long_period is None:
+        return cfg
+    counts = cfg.rev / ARCSEC_PER_REV
+    last = None
+    for width in range(cfg.lp_w, max(cfg.lp_w, MAX_LP_W) + 1):
+        for frac in range(cfg.lp_frac, -1, -1):
+            trial = dataclasses.replace(cfg, lp_w=width, lp_frac=frac)
+            try:
+                lp_mod.make_table(lambda pos: cal.long_period(2 * np.pi * pos / cfg.rev) * counts,
+                                  long_period_params(trial))
+                return trial
+            except ValueError as e:
+                last = e
+    raise ValueError(f"{last}: the long-period correction does not fit at any LP_W <= {MAX_LP_W}")
 
 
 def check_limits(cfg):

@@ -44,7 +44,10 @@ def draw_case(seed: int) -> dict:
     rng = np.random.default_rng(seed)
     lines = int(round(_log_uniform(rng, 1, 4096)))
     adc = int(rng.integers(10, 17))
-    coarse = 0 if lines == 1 or rng.uniform() < 0.5 else min(24, int(np.ceil(np.log2(lines))) + int(rng.integers(0, 3)))
+    # a coarse code resolves the period: one code a period when the lines are a power of two (its edges follow
+    # the periods), at least two otherwise (edges that drift against the periods must stay within half of one)
+    least_bits = int(np.ceil(np.log2(lines))) + (1 if lines & (lines - 1) else 0)
+    coarse = 0 if lines == 1 or rng.uniform() < 0.5 else min(24, least_bits + int(rng.integers(0, 3)))
     fs = float(max(10_000.0, 5.0 * lines))
     limit = 0.25 * fs / lines                            # the core's overspeed limit, rev/s
     vmax = min(0.8 * limit, 5.0)
@@ -92,7 +95,8 @@ def draw_case(seed: int) -> dict:
     # quadrature phase error, both owned by the declared model): its strength is set on the fit recording's
     # speed spread
     _, theta = trajectory(cfg, np.random.default_rng(fit_seed(seed)))
-    v_std = float(np.std(np.diff(theta) * fs))
+    # (at least a twentieth of the mean speed: a steady trajectory shows none of it, and its lag stays a lag)
+    v_std = max(float(np.std(np.diff(theta) * fs)), 0.05 * abs(mean))
     speed_varies = trajectory_kind != "steady"
     for name in classes:
         s_rel = _log_uniform(rng, *STRENGTH_RANGE)

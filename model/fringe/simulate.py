@@ -208,20 +208,32 @@ def simulate(cfg: SimulationConfig, seed: int = 1) -> Recording:
         return clean, np.clip(np.round(noisy), -half, half - 1).astype(np.int64)
 
     clean_s, adc_s = channel(cfg.sin_channel, phase, cfg.rev_offset_mod_sin)
-    phase_c = np.interp(t + cfg.sampling_skew_s, t, phase) if cfg.sampling_skew_s else phase
+    phase_c = shifted(t, phase, cfg.sampling_skew_s) if cfg.sampling_skew_s else phase
     clean_c, adc_c = channel(cfg.cos_channel, phase_c, cfg.rev_offset_mod_cos)
     cols = {"t_s": t, "sin": adc_s, "cos": adc_c}
     if cfg.coarse_bits:
         cpos = (disc + (cfg.coarse_misalignment_periods
                         + rng.normal(0.0, cfg.coarse_jitter_periods, disc.shape)) / cfg.lines_per_rev)
         cols["coarse"] = np.floor(cpos * (1 << cfg.coarse_bits)).astype(np.int64) % (1 << cfg.coarse_bits)
-    ref_theta = np.interp(t - cfg.ref_lag_s, t, theta) if cfg.ref_lag_s else theta
+    ref_theta = shifted(t, theta, -cfg.ref_lag_s) if cfg.ref_lag_s else theta
     ref_rev = (cfg.ref_direction * ref_theta + cfg.ref_zero_deg / 360.0
                + fourier_arcsec(cfg.ref_error_arcsec, 2 * np.pi * ref_theta) / ARCSEC_PER_REV)
     counts = 1 << cfg.ref_bits
     ref_rev = np.floor(np.mod(ref_rev, 1.0) * counts) / counts
     cols["ref_deg"] = ref_rev * 360.0
     return Recording(cols, theta, phase, clean_s, clean_c, enc)
+
+
+def shifted(t: np.ndarray, x: np.ndarray, dt: float) -> np.ndarray:
+    """x at the times t + dt: interpolated inside the recording, continued at the end slopes outside it (the
+    motion goes on before the first and after the last sample; holding the end values would freeze it)."""
+    y = np.interp(t + dt, t, x)
+    if len(t) < 2:
+        return y
+    before, after = t + dt < t[0], t + dt > t[-1]
+    y[before] = x[0] + (t[before] + dt - t[0]) * (x[1] - x[0]) / (t[1] - t[0])
+    y[after] = x[-1] + (t[after] + dt - t[-1]) * (x[-1] - x[-2]) / (t[-1] - t[-2])
+    return y
 
 
 def _shape(ch: ChannelConfig, psi: np.ndarray, common_gain: np.ndarray, exponent: float) -> np.ndarray:
