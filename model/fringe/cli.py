@@ -268,7 +268,8 @@ class CorrectSummary:
 
 def cmd_loop(a) -> int:
     from .encoder import load_encoder
-    from .loop import run_loop, write_outputs
+    from .loop import run_loop
+    from .loopreport import write_outputs
     from .outputs import check_output_dir
 
     check_output_dir(a.out, "loop", (a.data, a.encoder, a.validate))

@@ -12,8 +12,6 @@ interleaved half of the recording that was not used to fit).
 from __future__ import annotations
 
 import dataclasses
-import json
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -757,21 +755,3 @@ def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
         out.append({"domain": "time (tones)", "description": note, "rms_arcsec": None})
     out.append({"domain": "noise", "description": "random part (the floor)", "rms_arcsec": round(sigma, 4)})
     return out
-
-
-def write_outputs(base: LoopState, state: LoopState, report: dict, train: Measurement,
-                  validate: Measurement | None, out_dir: str):
-    """DIR/report.json, DIR/report.md with plots, DIR/cal/; all or nothing."""
-    from .calstore import save_calibration
-    from .hardware.corefiles import core_files
-    from .loopreport import write_markdown, write_plots
-    from .outputs import atomic_dir
-
-    with atomic_dir(out_dir, "loop", command="fringe loop") as tmp:
-        save_calibration(state.cal, os.path.join(tmp, "cal"), core_files(state.cal, "fringe loop"),
-                         command="fringe loop")
-        plots = write_plots(base, state, train if validate is None else validate, tmp)
-        with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
-            json.dump(report, f, indent=2, default=float)
-            f.write("\n")
-        write_markdown(report, plots, os.path.join(tmp, "report.md"))
