@@ -28,8 +28,7 @@ from pathlib import Path
 
 from fringe import result
 from fringe.fixed import drift, long_period, period_count, quadrature, regmap, trim, wave_lut
-from fringe.fixed.config import HDL_PARAMETER_DOCS, HDL_WIDE_PARAMETERS, CoreConfig
-from fringe.fixed.core import INPUT_LATENCY
+from fringe.fixed.config import HDL_PARAMETER_DOCS, HDL_WIDE_PARAMETERS, INPUT_LATENCY, CoreConfig
 
 REPO = Path(__file__).resolve().parent.parent
 COMMAND = "python sim/hdlgen.py"

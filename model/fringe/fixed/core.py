@@ -23,7 +23,7 @@ from . import period_count as pc_mod
 from . import quadrature as quad_mod
 from . import trim as trim_mod
 from . import wave_lut as wave_mod
-from .config import CoreConfig
+from .config import CoreConfig, drift_pipe_latency, long_period_params, period_count_params
 
 
 @dataclass
@@ -43,14 +43,6 @@ class CoreTables:
     amp_high: int
     trim: object | None = None    # hardware.closed_loop.TrimTables of fringe_trim (TRIM = 1), else None
     drift: object | None = None   # hardware.closed_loop.DriftTables of fringe_drift (DRIFT = 1), else None
-
-
-def long_period_params(cfg: CoreConfig) -> lp_mod.LongPeriodParams:
-    return lp_mod.LongPeriodParams(cfg.lines, cfg.fine_w, cfg.lp_addr_w, cfg.lp_w, cfg.lp_frac, cfg.lp_if)
-
-
-def period_count_params(cfg: CoreConfig) -> pc_mod.PeriodCountParams:
-    return pc_mod.PeriodCountParams(cfg.fine_w, cfg.lines, cfg.coarse_w)
 
 
 def branch_select(own: np.ndarray, other: np.ndarray, regs: tuple[int, int, int]) -> np.ndarray:
@@ -74,25 +66,16 @@ def run_core(t: CoreTables, cfg: CoreConfig, sin: np.ndarray, cos: np.ndarray,
     return run_core_banks([t], cfg, sin, cos, coarse, np.zeros(len(sin), dtype=np.int64), start_pos)
 
 
-#: Clock enables of fringe_core's own input registers (bank thresholds, branch select), see core_latency().
-INPUT_LATENCY = 2
-
-
 def core_latency(cfg: CoreConfig) -> int:
     """LATENCY of rtl/*/fringe_core (and fringe_top): clock enables from in_valid to out_valid.
 
     The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 5, CORDIC
     CORDIC_STAGES + 2, period count 3, long-period table 8; CORDIC_STAGES + 24 in all, plus fringe_trim's
-    LATENCY with TRIM = 1 and fringe_drift's normaliser (NORM_LATENCY) with DRIFT = 1.
+    LATENCY with TRIM = 1 and fringe_drift's normaliser (NORM_LATENCY) with DRIFT = 1 (INPUT_LATENCY and
+    drift_pipe_latency: fixed/config.py).
     """
     return ((drift_mod.NORM_LATENCY if cfg.drift else 0) + drift_pipe_latency(cfg)
             + pc_mod.LATENCY + (trim_mod.LATENCY if cfg.trim else 0) + lp_mod.LATENCY)
-
-
-def drift_pipe_latency(cfg: CoreConfig) -> int:
-    """Clock enables from fringe_drift's normaliser outputs to its observer inputs: the input registers,
-    the waveform tables, the quadrature and the CORDIC (PIPE_LATENCY)."""
-    return INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + cfg.cordic().latency
 
 
 def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreConfig, sin: np.ndarray,

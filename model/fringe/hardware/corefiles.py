@@ -7,7 +7,6 @@ import os
 from ..calibration import Calibration
 from ..errors import FringeInputError
 from ..fixed.config import CoreConfig
-from ..fixed.core import long_period_params, period_count_params
 from .closed_loop import drift_config, trim_config, unsupported
 from .rom import render_roms, write_rendered
 from .tables import build_tables
@@ -38,20 +37,10 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
             cfg = trim_config(cal, cfg)
         if "drift" not in base:    # and the drift tracker fringe_drift
             cfg = drift_config(cal, cfg)
-        check_limits(cfg)
         return cfg
     except (TypeError, ValueError) as e:
         where = " ".join(f"--{k.replace('_', '-')} {v}" for k, v in overrides.items()) or path
         raise FringeInputError(f"core configuration not possible: {e}", where or "core configuration") from None
-
-
-def check_limits(cfg):
-    """ValueError unless every block accepts its parameters (the limits the HDL checks at elaboration)."""
-    cfg.wave_lut(), cfg.quadrature(), cfg.cordic(), long_period_params(cfg), period_count_params(cfg)
-    if cfg.trim:
-        cfg.trim_params()
-    if cfg.drift:
-        cfg.drift_params()
 
 
 def write_core_roms(cal: Calibration, cfg, out_dir: str, formats, command: str, inputs=(),

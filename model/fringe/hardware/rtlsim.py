@@ -33,8 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from ..calibration import Calibration
-from ..fixed.config import CoreConfig
-from ..fixed.core import CoreTables, core_latency, long_period_params, to_adc_codes
+from ..fixed.config import CoreConfig, long_period_params
+from ..fixed.core import CoreTables, core_latency, to_adc_codes
 from ..result import Result
 from .rom import images, render
 from .tables import build_tables

@@ -13,8 +13,8 @@ from ..fixed import cordic as cordic_mod
 from ..fixed import long_period as lp_mod
 from ..fixed import quadrature as quad_mod
 from ..fixed import wave_lut as wave_mod
-from ..fixed.config import CoreConfig
-from ..fixed.core import CoreTables, drift_pipe_latency, long_period_params, run_core, to_adc_codes
+from ..fixed.config import CoreConfig, drift_pipe_latency, long_period_params
+from ..fixed.core import CoreTables, run_core, to_adc_codes
 from ..result import Result
 from ..waveform import WaveformInverse
 from .closed_loop import build_drift_tables, build_trim_tables
