@@ -54,24 +54,26 @@ def modules(root: Path = PACKAGE_ROOT) -> dict[str, tuple[Path, bool]]:
     return out
 
 
-def import_graph(root: Path = PACKAGE_ROOT) -> dict[str, set[str]]:
-    """Module -> the fringe modules it imports anywhere in its text (`from . import x` names x if it is a
-    module, else the package)."""
-    mods = modules(root)
-    graph = {}
-    for name, (path, is_package) in mods.items():
+def imports(root: Path = PACKAGE_ROOT):
+    """(module, imported module, names) for every import statement anywhere in a module's text: `import a.b`
+    gives ("a.b", []), `from .x import y` the absolute name of x and ["y"]."""
+    for name, (path, is_package) in modules(root).items():
         here = name.split(".") if is_package else name.split(".")[:-1]
-        targets = set()
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
             if isinstance(node, ast.Import):
-                targets.update(a.name for a in node.names)
+                yield from ((name, a.name, []) for a in node.names)
             elif isinstance(node, ast.ImportFrom):
-                if node.level:
-                    base = ".".join(here[:len(here) - node.level + 1] + ([node.module] if node.module else []))
-                else:
-                    base = node.module or ""
-                targets.update(f"{base}.{a.name}" if f"{base}.{a.name}" in mods else base for a in node.names)
-        graph[name] = {t for t in targets if t.split(".")[0] == "fringe" and t != name}
+                parent = here[:len(here) - node.level + 1] if node.level else []
+                yield name, ".".join(parent + ([node.module] if node.module else [])), [a.name for a in node.names]
+
+
+def import_graph(root: Path = PACKAGE_ROOT) -> dict[str, set[str]]:
+    """Module -> the fringe modules it imports (`from . import x` names x if it is a module, else the package)."""
+    mods = modules(root)
+    graph = {name: set() for name in mods}
+    for name, base, names in imports(root):
+        targets = [f"{base}.{n}" if f"{base}.{n}" in mods else base for n in names] or [base]
+        graph[name].update(t for t in targets if t.split(".")[0] == "fringe" and t != name)
     return graph
 
 
@@ -106,6 +108,30 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
     return sorted(found)
 
 
+def defined_names(tree: ast.Module) -> set[str]:
+    """Names a module defines itself at top level (functions, classes, assignments), not the ones it imports."""
+    names, todo = set(), list(tree.body)
+    while todo:
+        node = todo.pop()
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
+            for target in node.targets if isinstance(node, ast.Assign) else [node.target]:
+                names.update(n.id for n in ast.walk(target) if isinstance(n, ast.Name))
+        elif isinstance(node, (ast.If, ast.Try)):
+            todo += node.body + node.orelse + getattr(node, "finalbody", []) + [
+                s for h in getattr(node, "handlers", []) for s in h.body]
+    return names
+
+
+def borrowed_names(root: Path = PACKAGE_ROOT) -> list[str]:
+    """`from fringe.X import name` where X does not define name itself (a re-export: every name has one source)."""
+    mods = modules(root)
+    defined = {m: defined_names(ast.parse(path.read_text(encoding="utf-8"))) for m, (path, _) in mods.items()}
+    return [f"{name}: from {base} import {n}" for name, base, names in imports(root) if base in mods
+            for n in names if f"{base}.{n}" not in mods and n not in defined[base]]
+
+
 def layer_of(module: str) -> int | None:
     """Index in LAYERS, None if no entry names the module."""
     for i, (_, names) in enumerate(LAYERS):
@@ -123,18 +149,20 @@ def graph():
 
 
 def test_finds_a_planted_cycle(tmp_path):
-    """The parser sees relative, absolute and function-local imports, and the cycle they close."""
+    """The parser sees relative, absolute and function-local imports, the cycle they close and a re-export."""
     pkg = tmp_path / "fringe"
     (pkg / "sub").mkdir(parents=True)
     (pkg / "__init__.py").write_text("")
     (pkg / "sub" / "__init__.py").write_text("")
-    (pkg / "a.py").write_text("from .sub import b\n")
+    (pkg / "a.py").write_text("from .sub import b\n\nx = 1\n")
     (pkg / "sub" / "b.py").write_text("def f():\n    import fringe.c\n")
     (pkg / "c.py").write_text("def g():\n    from . import a\n")
     (pkg / "d.py").write_text("from .a import x\n")
     g = import_graph(tmp_path)
     assert g["fringe.a"] == {"fringe.sub.b"} and g["fringe.d"] == {"fringe.a"}
     assert cycles(g) == [["fringe.a", "fringe.c", "fringe.sub.b"]]
+    (pkg / "e.py").write_text("from .a import b, x\n")     # b is a's import of fringe.sub.b
+    assert borrowed_names(tmp_path) == ["fringe.e: from fringe.a import b"]
 
 
 def test_no_import_cycle(graph):
@@ -157,6 +185,11 @@ def test_fixed_is_a_leaf(graph):
     outside = [f"{m} imports {t}" for m, targets in sorted(graph.items()) if m.startswith("fringe.fixed")
                for t in sorted(targets) if not t.startswith("fringe.fixed") and t not in FIXED_MAY_IMPORT]
     assert not outside, "the bit-exact models import outside fringe.fixed:\n" + "\n".join(outside)
+
+
+def test_names_come_from_where_they_are_defined():
+    borrowed = borrowed_names()
+    assert not borrowed, "imported from a module that only imports them itself:\n" + "\n".join(borrowed)
 
 
 def test_packages_import_nothing_of_fringe(graph):
