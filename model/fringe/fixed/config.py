@@ -16,7 +16,7 @@ from . import quadrature as quad_mod
 from . import wave_lut as wave_mod
 from .cordic import CordicParams
 from .drift import DriftParams
-from .period_count import rev_and_pos_w
+from .period_count import PositionWidths
 from .quadrature import QuadratureParams
 from .trim import TrimParams
 from .wave_lut import WaveLutParams
@@ -79,7 +79,7 @@ HDL_WIDE_PARAMETERS = ("LP_RECIP", "SECT_RECIP")
 
 
 @dataclass(frozen=True)
-class CoreConfig:
+class CoreConfig(PositionWidths):
     adc_w: int = 12            # ADC_W: ADC code width (signed), 4..24
     lines: int = 256           # LINES: signal periods per revolution, any integer >= 1
     coarse_w: int = 9          # COARSE_W: coarse code width, 0 = none (periods are counted)
@@ -152,15 +152,6 @@ class CoreConfig:
                     cordic_stages=overrides.get("fine_w", cls.fine_w) + 1)
         base.update(overrides)
         return cls(**base)
-
-    @property
-    def rev(self) -> int:
-        """Fine counts per revolution."""
-        return rev_and_pos_w(self.lines, self.fine_w)[0]
-
-    @property
-    def pos_w(self) -> int:
-        return rev_and_pos_w(self.lines, self.fine_w)[1]
 
     def wave_lut(self) -> WaveLutParams:
         return WaveLutParams(self.adc_w, self.wave_addr_w, self.wave_w)
