@@ -1,6 +1,6 @@
 """Write what the HDL repeats from the Python single source into marked regions.
 
-- constants: the register map (``model/fringe/fixed/regmap.py``), the status bits (``fringe.pipeline``)
+- constants: the register map (``model/fringe/fixed/regmap.py``), the status bits (``fringe.result``)
   and the block latencies (the ``LATENCY`` constants of the bit-exact block models), into
   ``rtl/vhdl/fringe_pkg.vhd`` and ``rtl/verilog/fringe_pkg.vh``;
 - parameters/generics and the maps that pass them on: fringe_core, fringe_top (both HDLs) and
@@ -26,10 +26,9 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from fringe import pipeline
+from fringe import result
 from fringe.fixed import drift, long_period, period_count, quadrature, regmap, trim, wave_lut
-from fringe.fixed.config import HDL_PARAMETER_DOCS, HDL_WIDE_PARAMETERS, CoreConfig
-from fringe.fixed.core import INPUT_LATENCY
+from fringe.fixed.config import HDL_PARAMETER_DOCS, HDL_WIDE_PARAMETERS, INPUT_LATENCY, CoreConfig
 
 REPO = Path(__file__).resolve().parent.parent
 COMMAND = "python sim/hdlgen.py"
@@ -60,7 +59,7 @@ def constants() -> list[Const]:
             for name, v in regmap.SPACES.items()]
     out.append(Const("STATUS_W", len(STATUS_NAMES), "bits of the status word"))
     for name in STATUS_NAMES:
-        mask = getattr(pipeline, name)
+        mask = getattr(result, name)
         out.append(Const(f"STATUS_{name}", mask.bit_length() - 1, "status bit"))
     cp = CoreConfig().cordic()
     out += [Const("CORE_INPUT_LATENCY", INPUT_LATENCY, "fringe_core input registers"),
@@ -172,7 +171,7 @@ STATUS_MEANINGS = {
 
 def status_table() -> list[str]:
     rows = ["| bit | name | meaning |", "|---|---|---|"]
-    rows += [f"| {getattr(pipeline, n).bit_length() - 1} | {n} | {STATUS_MEANINGS[n]} |" for n in STATUS_NAMES]
+    rows += [f"| {getattr(result, n).bit_length() - 1} | {n} | {STATUS_MEANINGS[n]} |" for n in STATUS_NAMES]
     return rows
 
 

@@ -10,8 +10,8 @@ Per configuration (``--configs``):
   seed_trim   the seed configuration with fringe_trim (TRIM = 1, the closed loop's corrections)
   seed_drift  the seed configuration with fringe_drift (DRIFT = 1, the closed loop's drift tracker)
 the tables are filled from a real calibration of a short simulated recording (fringe.simulate ->
-fringe.evaluate.measurement_of -> fringe.calibrate -> fringe.fixed.core.build_tables ->
-fringe.rom.write_roms), so block-RAM inference sees what a user's design sees.
+fringe.evaluate.measurement_of -> fringe.calibrate -> fringe.hardware.tables.build_tables ->
+fringe.hardware.rom.write_roms), so block-RAM inference sees what a user's design sees.
 
 Per device (``--devices``):
   ice40   iCE40 UP5K, SG48: synth_ice40 -dsp; nextpnr-ice40 --up5k --package sg48 --freq 48, pins from
@@ -55,9 +55,10 @@ sys.path.insert(0, str(REPO / "model"))
 from fringe.calibrate import calibrate  # noqa: E402
 from fringe.evaluate import measurement_of  # noqa: E402
 from fringe.fixed.config import CoreConfig  # noqa: E402
-from fringe.fixed.core import build_tables, core_latency  # noqa: E402
-from fringe.rom import write_roms  # noqa: E402
-from fringe.rtlsim import init_files  # noqa: E402
+from fringe.fixed.core import core_latency  # noqa: E402
+from fringe.hardware.rom import write_roms  # noqa: E402
+from fringe.hardware.rtlsim import init_files  # noqa: E402
+from fringe.hardware.tables import build_tables  # noqa: E402
 from fringe.simulate import SimulationConfig, seed_encoder, simulate  # noqa: E402
 
 RTL = REPO / "rtl" / "verilog"   # --rtl DIR points it elsewhere; main() then measures a snapshot of it
@@ -132,7 +133,7 @@ def seed_trim_config():
 
 def seed_drift_config():
     # the closed loop's drift tracker fringe_drift (DRIFT = 1), tables from the seed calibration's waveforms
-    from fringe.fixed.closed_loop import drift_config
+    from fringe.hardware.closed_loop import drift_config
 
     cfg, cal = _calibrated(seed_encoder())
     return drift_config(dataclasses.replace(cal, adaptive=True), cfg), cal

@@ -37,8 +37,9 @@ def test_fast_engine_words_equal_model(adc_bits, lines, coarse_bits):
     from fringe.calibrate import calibrate
     from fringe.evaluate import measurement_of
     from fringe.fixed.config import CoreConfig
-    from fringe.fixed.core import build_tables, core_latency, run_core, to_adc_codes
-    from fringe.rtlsim import run_rtl, top_widths
+    from fringe.fixed.core import core_latency, run_core, to_adc_codes
+    from fringe.hardware.rtlsim import run_rtl, top_widths
+    from fringe.hardware.tables import build_tables
     from fringe.simulate import seed_encoder, simulate
 
     if available_simulators()["verilator"]:

@@ -1,4 +1,4 @@
-"""``fringe.rtlsim.run_rtl`` (the RTL engines of ``fringe correct --engine verilog|vhdl``) on a real
+"""``fringe.hardware.rtlsim.run_rtl`` (the RTL engines of ``fringe correct --engine verilog|vhdl``) on a real
 recording: every output word of fringe_top equals the bit-exact model's.
 
 Data: an RLS RM44 recording from ``../shared/data/rm44_hall_vs_tonic`` (skipped when absent),
@@ -26,7 +26,8 @@ def rm44():
     from fringe.calibrate import calibrate
     from fringe.datasets import RM44_ENCODER, halves, read_rm44
     from fringe.fixed.config import CoreConfig
-    from fringe.fixed.core import build_tables, run_core, to_adc_codes
+    from fringe.fixed.core import run_core, to_adc_codes
+    from fringe.hardware.tables import build_tables
 
     meas = read_rm44(str(RM44_FILE))
     cal = calibrate(halves(meas)[0], RM44_ENCODER)
@@ -39,7 +40,7 @@ def rm44():
 
 def test_run_rtl_matches_model(sim, rm44):
     from fringe.fixed.core import core_latency
-    from fringe.rtlsim import run_rtl
+    from fringe.hardware.rtlsim import run_rtl
 
     cal, cfg, tables, meas, expected = rm44
     t0 = time.monotonic()
@@ -56,8 +57,8 @@ def test_run_rtl_matches_model(sim, rm44):
 def test_run_rtl_result_is_the_model_angle(rm44):
     """The engine wrapper gives the model's angle and status (Verilator only: one run is enough)."""
     from cocotb_runner import available_simulators
-    from fringe.fixed.core import run_model
-    from fringe.rtlsim import run_rtl_result
+    from fringe.hardware.rtlsim import run_rtl_result
+    from fringe.hardware.tables import run_model
 
     if available_simulators()["verilator"]:
         pytest.skip(available_simulators()["verilator"])

@@ -37,10 +37,11 @@ import pytest
 
 from fringe.encoder import Encoder
 from fringe.fixed.config import CoreConfig
-from fringe.fixed.core import CoreTables, build_tables, core_latency, run_core, run_core_banks
+from fringe.fixed.core import CoreTables, core_latency, run_core, run_core_banks
 from fringe.fixed.quadrature import QuadratureCoefs
-from fringe.pipeline import AMP_HIGH, AMP_LOW, BANK, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, SATURATED
-from fringe.rtlsim import pack_inputs, top_parameters, top_widths, unpack_outputs, write_init_files
+from fringe.hardware.rtlsim import pack_inputs, top_parameters, top_widths, unpack_outputs, write_init_files
+from fringe.hardware.tables import build_tables
+from fringe.result import AMP_HIGH, AMP_LOW, BANK, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, SATURATED
 
 REPO = Path(__file__).resolve().parent.parent
 TOPLEVEL = "fringe_top"
@@ -549,7 +550,7 @@ N_STREAM = 2500
 
 def cfg_words(t: CoreTables, cfg: CoreConfig) -> list[tuple[int, int]]:
     """(cfg_wr_addr, cfg_wr_data) of one bank of every image: registers, sine, cosine, long period."""
-    from fringe.rom import images
+    from fringe.hardware.rom import images
 
     sel = {"regs": 0, "wave_sin": 1, "wave_cos": 2, "long_period": 3, "trim_map": 4, "trim_speed": 5, "trim_amp": 6,
            "drift_fwd_sin": 7, "drift_fwd_cos": 8}
@@ -563,7 +564,7 @@ def cfg_words(t: CoreTables, cfg: CoreConfig) -> list[tuple[int, int]]:
 def random_trim(cfg: CoreConfig, rng: np.random.Generator):
     """Random fringe_trim tables (any contents are legal: RTL and model must agree on every word).
     Values within a quarter of s(TRIM_W), so the periodic slopes fit."""
-    from fringe.fixed.closed_loop import TrimTables
+    from fringe.hardware.closed_loop import TrimTables
 
     tp = cfg.trim_params()
     lim = 1 << (tp.trim_w - 3)
@@ -588,7 +589,7 @@ def prepare(name: str) -> Path:
     rec_a = simulate(sc, seed=11)
     cal_a = calibrate(measurement_of(rec_a), rec_a.encoder)
     if cfg.drift:      # the gain-loop constants' scale for this encoder
-        from fringe.fixed.closed_loop import choose_kg_shift
+        from fringe.hardware.closed_loop import choose_kg_shift
         cfg = dataclasses.replace(cfg, drift_kg_shift=choose_kg_shift(cal_a, cfg))
     rec_b = simulate(other_channels(sc), seed=12)
     cal_b = calibrate(measurement_of(rec_b), rec_b.encoder)

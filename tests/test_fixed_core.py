@@ -6,11 +6,12 @@ import pytest
 from fringe.calibrate import calibrate
 from fringe.evaluate import measurement_of
 from fringe.fixed.config import CoreConfig
-from fringe.fixed.core import build_tables, error_budget, run_model
+from fringe.fixed.core import error_budget
 from fringe.fixed.long_period import LongPeriodParams, index_mapping, long_period
 from fringe.fixed.period_count import PeriodCountParams, period_count
+from fringe.hardware.rom import FORMATS, write_roms
+from fringe.hardware.tables import build_tables, run_model
 from fringe.pipeline import run_float
-from fringe.rom import FORMATS, write_roms
 from fringe.simulate import SimulationConfig, seed_encoder, simulate
 
 

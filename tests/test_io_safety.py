@@ -344,9 +344,10 @@ def test_correct_in_pieces_gives_the_rows_of_one_run(work, tmp_path, monkeypatch
     """Pieces of random sizes, with and without fringe_trim and a coarse code: the same words."""
     from fringe.calstore import load_calibration
     from fringe.dataio import iter_measurement, read_measurement
-    from fringe.engines import core_config
-    from fringe.fixed.closed_loop import TrimTables
-    from fringe.fixed.core import CoreStream, build_tables, run_core, to_adc_codes
+    from fringe.fixed.core import CoreStream, run_core, to_adc_codes
+    from fringe.hardware.closed_loop import TrimTables
+    from fringe.hardware.corefiles import core_config
+    from fringe.hardware.tables import build_tables
 
     cal = load_calibration(str(work / "cal"))
     m = read_measurement(str(work / "b.csv"), cal.encoder)

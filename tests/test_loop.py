@@ -12,7 +12,7 @@ import pytest
 from fringe.engines import run_engine
 from fringe.errors import FringeInputError
 from fringe.evaluate import measurement_of, noise_floor_arcsec
-from fringe.fixed.closed_loop import unsupported
+from fringe.hardware.closed_loop import unsupported
 from fringe.loop import evaluate, run_loop
 from fringe.scenarios import SCENARIOS, scenario
 from fringe.simulate import simulate

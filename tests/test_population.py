@@ -57,9 +57,9 @@ def test_trim_format_follows_the_fitted_values():
     """Random closed-loop terms over nine decades on random encoders: fringe_trim's format is chosen so the
     tables build, and the tables then hold the float values to within their rounding."""
     from fringe.calibrate import calibrate
-    from fringe.engines import core_config
     from fringe.evaluate import measurement_of
-    from fringe.fixed.closed_loop import build_trim_tables, grids_for
+    from fringe.hardware.closed_loop import build_trim_tables, grids_for
+    from fringe.hardware.corefiles import core_config
     from fringe.simulate import SimulationConfig, simulate
 
     seed = 31

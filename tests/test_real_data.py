@@ -62,9 +62,10 @@ def test_rm44_bit_exact_core_within_its_error_budget(shared_data):
     """The phase-table calibration through the core: every sample within the core's error budget
     of the float engine (the readings as whole ADC codes, as the core's port takes them)."""
     from fringe.bench_real import as_adc_codes
-    from fringe.engines import core_config
     from fringe.evaluate import float_engine
-    from fringe.fixed.core import build_tables, error_budget, run_model
+    from fringe.fixed.core import error_budget
+    from fringe.hardware.corefiles import core_config
+    from fringe.hardware.tables import build_tables, run_model
 
     for name in ("2017_10_02_xs_175u.csv", "2017_10_02_xs_450u.csv"):
         train, val = halves(as_adc_codes(read_rm44(str(shared_data / "rm44_hall_vs_tonic" / name))))

@@ -22,10 +22,11 @@ from .calibrate import calibrate, ellipse_only, seed_method, uncorrected
 from .datasets import RM44_ENCODER, halves, read_rm44
 from .evaluate import figures, float_engine, measurement_of, noise_floor_arcsec
 from .fixed.config import CoreConfig
-from .fixed.core import build_tables, error_budget, run_model
+from .fixed.core import error_budget
+from .hardware.rtlsim import engine_speed
+from .hardware.tables import build_tables, run_model
 from .metrics import error_arcsec
 from .population import loop_speed, population_bench
-from .rtlsim import engine_speed
 from .simulate import seed_encoder, simulate
 
 SHARED_DATA = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data")
@@ -120,7 +121,7 @@ def _model_rms(state, val) -> float | str:
     """Validation RMS of the loop's calibration through the bit-exact core (fringe_trim carrying the
     added corrections), or which correction keeps it in the float engine."""
     from .engines import run_engine
-    from .fixed.closed_loop import unsupported
+    from .hardware.closed_loop import unsupported
     from .loop import evaluate
 
     if unsupported(state.cal):

@@ -20,13 +20,14 @@ import os
 import numpy as np
 
 from .calibrate import calibrate, check_recording, find_direction_and_zero, lp_error_arcsec
+from .calibration import Calibration
 from .dataio import Measurement
 from .datasets import RM44_ENCODER, halves, read_rm44
 from .encoder import ARCSEC_PER_REV, Encoder
-from .engines import core_config
-from .fixed.core import run_model
+from .hardware.corefiles import core_config
+from .hardware.tables import run_model
 from .metrics import error_arcsec
-from .pipeline import Calibration, fine_phase
+from .pipeline import fine_phase
 from .quadrature import fit_conic
 from .simulate import ChannelConfig, SimulationConfig
 

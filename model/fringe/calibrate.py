@@ -25,12 +25,13 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.stats import f as f_dist
 
+from .calibration import Calibration
 from .dataio import Measurement
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
 from .fourierfit import cv_folds, cv_harmonics, fit_select
 from .metrics import error_arcsec
-from .pipeline import Calibration, encoder_position, fine_phase, run_float
+from .pipeline import encoder_position, fine_phase, run_float
 from .position import circular_mean, fit_coarse_offset, wrap
 from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
 from .smoothmotion import MAX_STEP_PERIODS, MotionTooSlow, smooth_motion_phase, times

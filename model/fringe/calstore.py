@@ -6,11 +6,11 @@ import os
 import numpy as np
 
 from . import __version__
+from .calibration import Calibration
 from .encoder import encoder_from_dict
 from .errors import FringeInputError
 from .longperiod import FourierSeries
 from .outputs import atomic_dir, verify_dir
-from .pipeline import Calibration
 from .quadrature import QuadratureCorrection
 from .waveform import ChannelWaveform, WaveformInverse
 

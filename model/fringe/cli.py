@@ -152,7 +152,7 @@ def cmd_calibrate(a) -> int:
     from .calibrate import calibrate
     from .calstore import save_calibration
     from .encoder import load_encoder
-    from .engines import core_files
+    from .hardware.corefiles import core_files
     from .outputs import check_output_dir
 
     inputs = (a.data, a.encoder)
@@ -263,7 +263,8 @@ class CorrectSummary:
 
 def cmd_loop(a) -> int:
     from .encoder import load_encoder
-    from .loop import run_loop, write_outputs
+    from .loop import run_loop
+    from .loopreport import write_outputs
     from .outputs import check_output_dir
 
     check_output_dir(a.out, "loop", (a.data, a.encoder, a.validate))
@@ -289,9 +290,9 @@ ROM_OPTIONS = ("wave_addr_w", "wave_w", "fine_w", "cordic_stages", "lp_addr_w")
 
 def cmd_rom(a) -> int:
     from .calstore import load_calibration
-    from .engines import core_config, write_core_roms
+    from .hardware.corefiles import core_config, write_core_roms
+    from .hardware.rom import FORMATS
     from .outputs import check_output_dir
-    from .rom import FORMATS
 
     formats = [f.strip() for f in a.format.split(",") if f.strip()]
     unknown = [f for f in formats if f not in FORMATS]

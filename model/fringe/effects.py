@@ -300,18 +300,6 @@ def fit_rev_normalisation(waves: dict, sin: np.ndarray, cos: np.ndarray, phi: np
     return RevNormalisation(weights)
 
 
-# ---------------------------------------------------------------- adaptive offset/gain tracker
-
-def tracked_phase(cal, sin: np.ndarray, cos: np.ndarray):
-    """Fine phase with the online offset/gain tracker in front of the tables (fringe_drift's equations,
-    docs/blocks/fringe_drift.md: per block of samples the normalised readings are compared with the calibrated
-    waveform at the measured phase; the mean error steps the offset, its correlation with the waveform
-    the gain; the new values apply from a fixed sample on, causal as in the hardware)."""
-    from .fixed.closed_loop import tracked_phase as track
-
-    return track(cal, sin, cos)
-
-
 # ---------------------------------------------------------------- the general dictionary under the names
 
 #: factors that multiply the fine-phase harmonics, and whether fringe_trim's tables can carry the product

@@ -4,11 +4,13 @@ import dataclasses
 
 import numpy as np
 
+from .calibration import Calibration
 from .dataio import Measurement
 from .encoder import ARCSEC_PER_REV
 from .metrics import ErrorFigures, error_arcsec, error_figures
-from .pipeline import Calibration, Result, run_float
+from .pipeline import run_float
 from .position import wrap
+from .result import Result
 from .simulate import Recording, SimulationConfig, simulate
 
 

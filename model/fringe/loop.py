@@ -12,14 +12,13 @@ interleaved half of the recording that was not used to fit).
 from __future__ import annotations
 
 import dataclasses
-import json
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import ndimage, signal, stats
 
 from .calibrate import calibrate
+from .calibration import Calibration
 from .dataio import Measurement
 from .effects import (
     GENERIC,
@@ -41,7 +40,7 @@ from .effects import (
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
 from .metrics import error_arcsec, error_figures
-from .pipeline import Calibration, run_float, sample_times
+from .pipeline import run_float, sample_times
 
 P_VALUE = 1e-6
 MIN_GAIN = 0.01          # an effect must remove at least this fraction of the residual RMS
@@ -344,7 +343,7 @@ def channel_errors(ev: Evaluation) -> np.ndarray | None:
     """Each channel's reading minus the calibrated waveform at the reference's fine phase (ADC codes,
     shape (2, n)): an additive tone shows here as a line at its frequency; an angle error (a vibration)
     only through the waveform's slope, modulated by the fine phase."""
-    from .fixed.closed_loop import channel_waveforms
+    from .hardware.closed_loop import channel_waveforms
 
     if ev.meas is None or ev.cal is None or not ev.cal.waves or ev.cal.rev_norm is not None or ev.cal.adaptive:
         return None
@@ -799,7 +798,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         state.cal, provenance={**state.cal.provenance, "noise_floor_arcsec": round(sigma, 6)}))
     report["unexplained"] = unexplained(ev_fit, sigma)
     report["artefacts"] = [a.to_dict() for a in state.artefacts]
-    from .fixed.closed_loop import float_only
+    from .hardware.closed_loop import float_only
     report["float_engine_only"] = float_only(state.cal)
     if state.ref_lag_s:
         report["artefacts"].append({"name": "ref_lag", "lag_s": state.ref_lag_s,
@@ -861,21 +860,3 @@ def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
         out.append({"domain": "time (tones)", "description": note, "rms_arcsec": None})
     out.append({"domain": "noise", "description": "random part (the floor)", "rms_arcsec": round(sigma, 4)})
     return out
-
-
-def write_outputs(base: LoopState, state: LoopState, report: dict, train: Measurement,
-                  validate: Measurement | None, out_dir: str):
-    """DIR/report.json, DIR/report.md with plots, DIR/cal/; all or nothing."""
-    from .calstore import save_calibration
-    from .engines import core_files
-    from .loopreport import write_markdown, write_plots
-    from .outputs import atomic_dir
-
-    with atomic_dir(out_dir, "loop", command="fringe loop") as tmp:
-        save_calibration(state.cal, os.path.join(tmp, "cal"), core_files(state.cal, "fringe loop"),
-                         command="fringe loop")
-        plots = write_plots(base, state, train if validate is None else validate, tmp)
-        with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
-            json.dump(report, f, indent=2, default=float)
-            f.write("\n")
-        write_markdown(report, plots, os.path.join(tmp, "report.md"))

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 
 import matplotlib
@@ -10,6 +11,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .dataio import Measurement  # noqa: E402
+from .loop import DECISION_ROWS, DECISION_RUNS, LoopState, evaluate, uniform_run  # noqa: E402
 from .report import error_plot, lissajous_plot  # noqa: E402
 
 PLOT_POINTS = 20_000     # points per scatter plot (the spectra and the map use every sample)
@@ -25,8 +28,6 @@ def _spectrum(r: np.ndarray, x: np.ndarray, orders: int) -> np.ndarray:
 
 
 def write_plots(base, state, meas, out_dir: str) -> dict[str, str]:
-    from .loop import DECISION_ROWS, DECISION_RUNS, evaluate, uniform_run
-
     meas = meas.runs(DECISION_ROWS, DECISION_RUNS)      # a long recording: the rows the loop decided on
     before, after = evaluate(base, meas), evaluate(state, meas)
     plots = {}
@@ -128,3 +129,20 @@ def write_markdown(report: dict, plots: dict, path: str):
         out += [f"## {title}", "", f"![{title}]({file})", ""]
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(out))
+
+
+def write_outputs(base: LoopState, state: LoopState, report: dict, train: Measurement,
+                  validate: Measurement | None, out_dir: str):
+    """DIR/report.json, DIR/report.md with plots, DIR/cal/; all or nothing."""
+    from .calstore import save_calibration
+    from .hardware.corefiles import core_files
+    from .outputs import atomic_dir
+
+    with atomic_dir(out_dir, "loop", command="fringe loop") as tmp:
+        save_calibration(state.cal, os.path.join(tmp, "cal"), core_files(state.cal, "fringe loop"),
+                         command="fringe loop")
+        plots = write_plots(base, state, train if validate is None else validate, tmp)
+        with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
+            json.dump(report, f, indent=2, default=float)
+            f.write("\n")
+        write_markdown(report, plots, os.path.join(tmp, "report.md"))

@@ -6,63 +6,50 @@ Each stage is a swappable object of the `Calibration`; the bit-exact engine repl
 one by one with fixed-point twins.
 """
 
-from dataclasses import dataclass, field
+import dataclasses
 
 import numpy as np
 
-from .encoder import ARCSEC_PER_REV, Encoder
-from .longperiod import FourierSeries
+from .calibration import Calibration, static_phase
+from .encoder import ARCSEC_PER_REV
+from .fixed import drift as drift_mod
+from .hardware.closed_loop import build_drift_tables, drift_config
+from .hardware.corefiles import core_config
 from .position import coarse_fine_combine, count_periods, overspeed
-from .quadrature import QuadratureCorrection
-
-# status bits (docs/architecture.md)
-CLIP_SIN, CLIP_COS, AMP_LOW, AMP_HIGH, OVERSPEED, COARSE_ERR, SATURATED, BANK = (1 << i for i in range(8))
-STATUS_NAMES = ["CLIP_SIN", "CLIP_COS", "AMP_LOW", "AMP_HIGH", "OVERSPEED", "COARSE_ERR", "SATURATED", "BANK"]
-
-
-@dataclass
-class Calibration:
-    """Everything the pipeline needs; stages left as None are skipped (identity)."""
-
-    encoder: Encoder
-    inv_sin: object | None = None        # callable (reading, other reading) -> ideal sine value
-    inv_cos: object | None = None
-    quad: QuadratureCorrection = field(default_factory=QuadratureCorrection)
-    coarse_offset_periods: float | None = None
-    long_period: FourierSeries | None = None    # encoder error (arcsec) against its own angle (rad)
-    direction: int = 1                           # -1: the output runs the other way (the reference's)
-    zero_deg: float = 0.0                        # added last, in the output direction
-    amp_low: float = 0.5                         # loss-of-signal thresholds on the corrected magnitude
-    amp_high: float = 1.5
-    adaptive: bool = False                       # online offset/gain tracker (closed loop: drift)
-    tracker: dict = field(default_factory=dict)  # its constants chosen on the data: drift_block_log2, drift_mu_log2
-    rev_norm: object | None = None               # offsets/gains over the revolution (effects.RevNormalisation)
-    angle_terms: list = field(default_factory=list)   # closed-loop hardware terms (effects.FittedEffect)
-    waves: dict = field(default_factory=dict)    # fitted channel models (for reports and plots)
-    skipped: list = field(default_factory=list)
-    provenance: dict = field(default_factory=dict)
-    fit: dict = field(default_factory=dict)
-
-
-@dataclass
-class Result:
-    angle_deg: np.ndarray       # corrected output angle, [0, 360)
-    status: np.ndarray          # int status word per sample
-    frac: np.ndarray            # fine phase, fraction of a period
-    position: np.ndarray        # encoder position before long-period correction, periods [0, lines)
-    magnitude: np.ndarray       # corrected vector magnitude (1 nominal)
+from .result import AMP_HIGH, AMP_LOW, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, Result
 
 
 def fine_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray, psi: np.ndarray | None = None):
     if cal.rev_norm is not None and psi is not None:
         sin, cos = cal.rev_norm.apply(sin, cos, psi)
     if cal.adaptive:
-        from .effects import tracked_phase
         return tracked_phase(cal, sin, cos)
-    xs = cal.inv_sin(sin, cos) if cal.inv_sin is not None else sin
-    xc = cal.inv_cos(cos, sin) if cal.inv_cos is not None else cos
-    s, c = cal.quad.apply(xs, xc)
-    return (np.arctan2(s, c) / (2 * np.pi)) % 1.0, np.hypot(s, c)
+    return static_phase(cal, sin, cos)
+
+
+def tracked_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
+    """Fine phase with the online offset/gain tracker in front of the tables (the float twin of fringe_drift,
+    docs/blocks/fringe_drift.md): per block of samples the normalised readings are compared with the calibrated
+    waveform at the measured phase; the mean error steps the offset, its correlation with the waveform the gain;
+    the new values apply from a fixed sample on, causal as in the hardware. fringe_drift's equations without
+    rounding (drift.drift_float), with the forward tables of the core configuration's defaults. Returns
+    (fraction of a period, magnitude)."""
+    cfg = drift_config(cal, core_config(cal))
+    p = cfg.drift_params()
+    t = build_drift_tables(cal, cfg)
+    plain = dataclasses.replace(cal, adaptive=False)
+    scale = float(1 << cfg.fine_w)
+    words = np.stack([drift_mod.pack_words(v, p) for v in t.fwd])
+
+    mags = []       # drift_float feeds every sample once, in order
+
+    def phase_of(ys, yc):
+        frac, mag = fine_phase(plain, ys, yc)
+        mags.append(mag)
+        return frac * scale
+
+    r = drift_mod.drift_float(sin, cos, phase_of, p, words, t.w0, t.kg)
+    return r["phase"] / scale, (np.concatenate(mags) if mags else np.zeros(0))
 
 
 def encoder_position(cal: Calibration, frac: np.ndarray, coarse: np.ndarray | None):

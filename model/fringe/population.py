@@ -156,7 +156,7 @@ def population_case(seed: int) -> dict:
     float and the bit-exact engine. Never raises: an abort is a result."""
     from .engines import run_engine
     from .evaluate import measurement_of, noise_floor_arcsec
-    from .fixed.closed_loop import float_only
+    from .hardware.closed_loop import float_only
     from .loop import evaluate, run_loop
     from .simulate import simulate
 

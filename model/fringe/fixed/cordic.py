@@ -29,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .limits import check_integers, check_range
+
 __all__ = [
     "ATAN62",
     "CordicParams",
@@ -93,19 +95,12 @@ class CordicParams:
     guard: int   # GUARD: extra fractional bits of x, y and the angle accumulator, 0..8
 
     def __post_init__(self) -> None:
-        for name in ("in_w", "fine_w", "stages", "guard"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
-                raise ValueError(f"fringe_cordic: {name.upper()} must be an integer, got {v!r}")
-        # Same messages as the HDL's $error / assert (without the instance path).
-        if not 8 <= self.in_w <= 30:
-            raise ValueError(f"fringe_cordic: IN_W = {self.in_w} out of range 8..30")
-        if not 8 <= self.fine_w <= 30:
-            raise ValueError(f"fringe_cordic: FINE_W = {self.fine_w} out of range 8..30")
-        if not 4 <= self.stages <= 32:
-            raise ValueError(f"fringe_cordic: STAGES = {self.stages} out of range 4..32")
-        if not 0 <= self.guard <= 8:
-            raise ValueError(f"fringe_cordic: GUARD = {self.guard} out of range 0..8")
+        block = "fringe_cordic"
+        check_integers(block, self, ("in_w", "fine_w", "stages", "guard"))
+        check_range(block, "IN_W", self.in_w, 8, 30)
+        check_range(block, "FINE_W", self.fine_w, 8, 30)
+        check_range(block, "STAGES", self.stages, 4, 32)
+        check_range(block, "GUARD", self.guard, 0, 8)
 
     # ---- derived constants (names as in the HDL)
     @property

@@ -3,7 +3,8 @@
 The blocks' fixed-point twins chained as `rtl/verilog/fringe_core.v` chains the blocks:
 waveform tables -> quadrature -> CORDIC -> period count -> long-period table, with the
 status word assembled as in docs/architecture.md. `CoreTables` is what the calibration
-becomes once quantised: exactly the words and register values the hardware holds.
+becomes once quantised (`fringe.hardware.tables.build_tables`): exactly the words and register
+values the hardware holds.
 """
 
 from __future__ import annotations
@@ -14,19 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..encoder import ARCSEC_PER_REV
-from ..pipeline import (
-    AMP_HIGH,
-    AMP_LOW,
-    BANK,
-    CLIP_COS,
-    CLIP_SIN,
-    COARSE_ERR,
-    OVERSPEED,
-    SATURATED,
-    Calibration,
-    Result,
-)
-from ..waveform import WaveformInverse
+from ..result import AMP_HIGH, AMP_LOW, BANK, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, SATURATED
 from . import cordic as cordic_mod
 from . import drift as drift_mod
 from . import long_period as lp_mod
@@ -34,7 +23,7 @@ from . import period_count as pc_mod
 from . import quadrature as quad_mod
 from . import trim as trim_mod
 from . import wave_lut as wave_mod
-from .config import CoreConfig
+from .config import CoreConfig, drift_pipe_latency, long_period_params, period_count_params
 
 
 @dataclass
@@ -52,61 +41,8 @@ class CoreTables:
     direction: int                # 1: output runs the other way
     amp_low: int                  # CORDIC magnitude thresholds (mag units)
     amp_high: int
-    trim: object | None = None    # closed_loop.TrimTables of fringe_trim (TRIM = 1), else None
-    drift: object | None = None   # closed_loop.DriftTables of fringe_drift (DRIFT = 1), else None
-
-
-def _ceil_code(v: float) -> int:
-    """`adc >= v` for integer codes is `adc >= ceil(v)`."""
-    return int(math.ceil(v - 1e-9))
-
-
-def branch_registers(inv: WaveformInverse) -> tuple[int, int, int]:
-    """The top's branch select: branch = other >= (own >= MID ? THR_HI : THR_LO)."""
-    return _ceil_code(inv.mid), _ceil_code(inv.threshold_hi), _ceil_code(inv.threshold_lo)
-
-
-def build_tables(cal: Calibration, cfg: CoreConfig) -> CoreTables:
-    """Quantise a float calibration for the hardware; ValueError if something does not fit."""
-    if not isinstance(cal.inv_sin, WaveformInverse) or not isinstance(cal.inv_cos, WaveformInverse):
-        raise ValueError("the bit-exact core needs waveform tables (this calibration has none)")
-    wl = cfg.wave_lut()
-    wave = {k: wave_mod.make_table(lambda codes, b, inv=inv: inv.value_at(codes, b), wl)
-            for k, inv in (("sin", cal.inv_sin), ("cos", cal.inv_cos))}
-    q = cal.quad
-    quad = quad_mod.quantise_coefs(q.k_ss, q.k_sc, q.k_cc, q.ofs_s, q.ofs_c, cfg.quadrature())
-    coarse_ofs = round((cal.coarse_offset_periods or 0.0) * (1 << cfg.fine_w))
-    lpp = long_period_params(cfg)
-    if cal.long_period is not None:
-        counts = cfg.rev / ARCSEC_PER_REV
-        lp = lp_mod.make_table(lambda pos: cal.long_period(2 * np.pi * pos / cfg.rev) * counts, lpp)
-    else:
-        lp = np.zeros(1 << cfg.lp_addr_w, dtype=np.int64)
-    zero = round(cal.zero_deg / 360.0 * cfg.rev) % cfg.rev
-    gain = cordic_mod.cordic_gain(cfg.cordic_stages) * (1 << (cfg.wave_w - 2))
-    trim = None
-    if cfg.trim:
-        from .closed_loop import build_trim_tables
-        trim = build_trim_tables(cal, cfg)
-    elif cal.rev_norm is not None or cal.angle_terms:
-        raise ValueError("this calibration carries closed-loop corrections: the core needs TRIM = 1")
-    drift = None
-    if cfg.drift:
-        from .closed_loop import build_drift_tables
-        drift = build_drift_tables(cal, cfg, drift_pipe_latency(cfg))
-    elif cal.adaptive:
-        raise ValueError("this calibration tracks drift online: the core needs DRIFT = 1")
-    return CoreTables(wave["sin"], wave["cos"], branch_registers(cal.inv_sin), branch_registers(cal.inv_cos),
-                      quad, coarse_ofs, lp, zero, 1 if cal.direction < 0 else 0,
-                      round(cal.amp_low * gain), round(cal.amp_high * gain), trim, drift)
-
-
-def long_period_params(cfg: CoreConfig) -> lp_mod.LongPeriodParams:
-    return lp_mod.LongPeriodParams(cfg.lines, cfg.fine_w, cfg.lp_addr_w, cfg.lp_w, cfg.lp_frac, cfg.lp_if)
-
-
-def period_count_params(cfg: CoreConfig) -> pc_mod.PeriodCountParams:
-    return pc_mod.PeriodCountParams(cfg.fine_w, cfg.lines, cfg.coarse_w)
+    trim: object | None = None    # hardware.closed_loop.TrimTables of fringe_trim (TRIM = 1), else None
+    drift: object | None = None   # hardware.closed_loop.DriftTables of fringe_drift (DRIFT = 1), else None
 
 
 def branch_select(own: np.ndarray, other: np.ndarray, regs: tuple[int, int, int]) -> np.ndarray:
@@ -130,25 +66,16 @@ def run_core(t: CoreTables, cfg: CoreConfig, sin: np.ndarray, cos: np.ndarray,
     return run_core_banks([t], cfg, sin, cos, coarse, np.zeros(len(sin), dtype=np.int64), start_pos)
 
 
-#: Clock enables of fringe_core's own input registers (bank thresholds, branch select), see core_latency().
-INPUT_LATENCY = 2
-
-
 def core_latency(cfg: CoreConfig) -> int:
     """LATENCY of rtl/*/fringe_core (and fringe_top): clock enables from in_valid to out_valid.
 
     The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 5, CORDIC
     CORDIC_STAGES + 2, period count 3, long-period table 8; CORDIC_STAGES + 24 in all, plus fringe_trim's
-    LATENCY with TRIM = 1 and fringe_drift's normaliser (NORM_LATENCY) with DRIFT = 1.
+    LATENCY with TRIM = 1 and fringe_drift's normaliser (NORM_LATENCY) with DRIFT = 1 (INPUT_LATENCY and
+    drift_pipe_latency: fixed/config.py).
     """
     return ((drift_mod.NORM_LATENCY if cfg.drift else 0) + drift_pipe_latency(cfg)
             + pc_mod.LATENCY + (trim_mod.LATENCY if cfg.trim else 0) + lp_mod.LATENCY)
-
-
-def drift_pipe_latency(cfg: CoreConfig) -> int:
-    """Clock enables from fringe_drift's normaliser outputs to its observer inputs: the input registers,
-    the waveform tables, the quadrature and the CORDIC (PIPE_LATENCY)."""
-    return INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + cfg.cordic().latency
 
 
 def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreConfig, sin: np.ndarray,
@@ -255,15 +182,6 @@ def to_adc_codes(values: np.ndarray, adc_w: int, what: str) -> np.ndarray:
     return codes
 
 
-def run_model(cal: Calibration, cfg: CoreConfig, sin, cos, coarse=None, tables: CoreTables | None = None) -> Result:
-    """The bit-exact engine with the float engine's result type (angle in degrees)."""
-    t = tables or build_tables(cal, cfg)
-    o = run_core(t, cfg, to_adc_codes(sin, cfg.adc_w, "sin"), to_adc_codes(cos, cfg.adc_w, "cos"), coarse)
-    mag_unit = cordic_mod.cordic_gain(cfg.cordic_stages) * (1 << (cfg.wave_w - 2))
-    return Result(angle_deg=o.pos * (360.0 / cfg.rev), status=o.status, frac=o.phase / float(1 << cfg.fine_w),
-                  position=o.count_pos / float(1 << cfg.fine_w), magnitude=o.mag / mag_unit)
-
-
 class CoreStream:
     """`run_core` over a stream given in pieces, with the same output words as one run over the whole
     stream and memory bounded by the largest piece: each piece runs after the last rows of the one
@@ -319,7 +237,7 @@ def error_budget(t: CoreTables, cfg: CoreConfig, quad_float=None) -> dict:
     stages = {"wave_tables": wave * counts_per_rad, "quadrature": quad * counts_per_rad, "cordic": cordic,
               "long_period": lp, "output_rounding": 0.5}
     if cfg.trim and t.trim is not None:
-        # fringe_trim against the float functions its tables hold (closed_loop.trim_grids), at speeds below
+        # fringe_trim against the float functions its tables hold (hardware.closed_loop.trim_grids), at speeds below
         # the overspeed limit (a quarter period per sample) and magnitudes up to AMP_HIGH
         tp = cfg.trim_params()
         stages["trim"] = trim_mod.error_budget(tp, speed_max=float(1 << (cfg.fine_w - 2 + tp.speed_log2)),

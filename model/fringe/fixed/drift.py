@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .limits import check_range
 from .table_ram import interpolate, periodic_slopes, split_words
 
 __all__ = [
@@ -86,31 +87,20 @@ class DriftParams:
         for f in ("adc_w", "fine_w", "block_log2", "mu_log2", "ofs_frac", "ginv_w", "fwd_w", "table_w",
                   "table_frac", "kg_w", "kg_shift", "pipe_latency"):
             _check_int(f.upper(), getattr(self, f))
-        if not 4 <= self.adc_w <= 24:
-            raise ValueError(f"{NAME}: ADC_W = {self.adc_w} out of range 4..24")
-        if not 8 <= self.fine_w <= 30:
-            raise ValueError(f"{NAME}: FINE_W = {self.fine_w} out of range 8..30")
-        if not 4 <= self.block_log2 <= 12:
-            raise ValueError(f"{NAME}: BLOCK_LOG2 = {self.block_log2} out of range 4..12")
-        if not 0 <= self.mu_log2 <= 8:
-            raise ValueError(f"{NAME}: MU_LOG2 = {self.mu_log2} out of range 0..8")
-        if not 0 <= self.ofs_frac <= 8:
-            raise ValueError(f"{NAME}: OFS_FRAC = {self.ofs_frac} out of range 0..8")
+        check_range(NAME, "ADC_W", self.adc_w, 4, 24)
+        check_range(NAME, "FINE_W", self.fine_w, 8, 30)
+        check_range(NAME, "BLOCK_LOG2", self.block_log2, 4, 12)
+        check_range(NAME, "MU_LOG2", self.mu_log2, 0, 8)
+        check_range(NAME, "OFS_FRAC", self.ofs_frac, 0, 8)
         if self.adc_w + self.ofs_frac > 32:
             raise ValueError(f"{NAME}: ADC_W + OFS_FRAC = {self.adc_w + self.ofs_frac} exceeds 32")
-        if not 8 <= self.ginv_w <= 24:
-            raise ValueError(f"{NAME}: GINV_W = {self.ginv_w} out of range 8..24")
+        check_range(NAME, "GINV_W", self.ginv_w, 8, 24)
         fwd_max = min(10, self.fine_w - 1)
-        if not 2 <= self.fwd_w <= fwd_max:
-            raise ValueError(f"{NAME}: FWD_W = {self.fwd_w} out of range 2..min(10, FINE_W-1) = {fwd_max}")
-        if not 8 <= self.table_w <= 24:
-            raise ValueError(f"{NAME}: TABLE_W = {self.table_w} out of range 8..24")
-        if not 0 <= self.table_frac <= 12:
-            raise ValueError(f"{NAME}: TABLE_FRAC = {self.table_frac} out of range 0..12")
-        if not 8 <= self.kg_w <= 24:
-            raise ValueError(f"{NAME}: KG_W = {self.kg_w} out of range 8..24")
-        if not 1 <= self.kg_shift <= 60:
-            raise ValueError(f"{NAME}: KG_SHIFT = {self.kg_shift} out of range 1..60")
+        check_range(NAME, "FWD_W", self.fwd_w, 2, fwd_max, f"2..min(10, FINE_W-1) = {fwd_max}")
+        check_range(NAME, "TABLE_W", self.table_w, 8, 24)
+        check_range(NAME, "TABLE_FRAC", self.table_frac, 0, 12)
+        check_range(NAME, "KG_W", self.kg_w, 8, 24)
+        check_range(NAME, "KG_SHIFT", self.kg_shift, 1, 60)
         if self.pipe_latency < 0:
             raise ValueError(f"{NAME}: PIPE_LATENCY = {self.pipe_latency} must be >= 0")
         total = NORM_LATENCY + self.pipe_latency + OBS_LATENCY

@@ -37,7 +37,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from .period_count import check_lines_fine_w, rev_and_pos_w
+from .limits import check_integers, check_range
+from .period_count import PositionWidths, check_lines_fine_w, rev_and_pos_w
 
 __all__ = [
     "LATENCY",
@@ -117,7 +118,7 @@ def index_mapping(lines: int, fine_w: int, lp_addr_w: int, lp_if: int) -> tuple[
 
 
 @dataclass(frozen=True)
-class LongPeriodParams:
+class LongPeriodParams(PositionWidths):
     """Parameters of ``fringe_long_period`` (same names, limits and messages as the HDL).
 
     ``lp_recip`` / ``lp_shift`` default to `index_mapping`; given, they are checked.
@@ -134,20 +135,13 @@ class LongPeriodParams:
 
     def __post_init__(self) -> None:
         check_lines_fine_w(self.lines, self.fine_w, NAME)
-        for name in ("lp_addr_w", "lp_w", "lp_frac", "lp_if"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
-                raise ValueError(f"{NAME}: {name.upper()} must be an integer, got {v!r}")
-        if not 2 <= self.lp_addr_w <= 16:
-            raise ValueError(f"{NAME}: LP_ADDR_W = {self.lp_addr_w} out of range 2..16")
+        check_integers(NAME, self, ("lp_addr_w", "lp_w", "lp_frac", "lp_if"))
+        check_range(NAME, "LP_ADDR_W", self.lp_addr_w, 2, 16)
         if (1 << self.lp_addr_w) > self.rev:
             raise ValueError(f"{NAME}: 2^LP_ADDR_W = {1 << self.lp_addr_w} entries exceed REV = LINES * 2^FINE_W")
-        if not 8 <= self.lp_w <= 32:
-            raise ValueError(f"{NAME}: LP_W = {self.lp_w} out of range 8..32")
-        if not 0 <= self.lp_frac <= 16:
-            raise ValueError(f"{NAME}: LP_FRAC = {self.lp_frac} out of range 0..16")
-        if not 1 <= self.lp_if <= 16:
-            raise ValueError(f"{NAME}: LP_IF = {self.lp_if} out of range 1..16")
+        check_range(NAME, "LP_W", self.lp_w, 8, 32)
+        check_range(NAME, "LP_FRAC", self.lp_frac, 0, 16)
+        check_range(NAME, "LP_IF", self.lp_if, 1, 16)
         if self.lp_w - self.lp_frac >= 0 and (1 << (self.lp_w - self.lp_frac)) > self.rev:
             raise ValueError(f"{NAME}: LP_W - LP_FRAC = {self.lp_w - self.lp_frac}: corrections up to "
                              f"2^{self.lp_w - self.lp_frac} fine counts exceed REV = LINES * 2^FINE_W")
@@ -157,16 +151,6 @@ class LongPeriodParams:
             check_index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if, self.lp_recip, self.lp_shift)
 
     # ---- derived constants (names as in the HDL)
-    @property
-    def rev(self) -> int:
-        """REV: fine counts per revolution, LINES * 2^FINE_W."""
-        return rev_and_pos_w(self.lines, self.fine_w)[0]
-
-    @property
-    def pos_w(self) -> int:
-        """POS_W: bits of a position, FINE_W + clog2(LINES)."""
-        return rev_and_pos_w(self.lines, self.fine_w)[1]
-
     @property
     def entries(self) -> int:
         """Table entries per revolution (per bank), 2^LP_ADDR_W."""

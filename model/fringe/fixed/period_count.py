@@ -37,10 +37,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .limits import check_int, check_range
+
 __all__ = [
     "LATENCY",
     "POS_W_MAX",
     "PeriodCountParams",
+    "PositionWidths",
     "clog2",
     "latency",
     "period_count",
@@ -67,26 +70,33 @@ def rev_and_pos_w(lines: int, fine_w: int) -> tuple[int, int]:
     return int(lines) << int(fine_w), int(fine_w) + clog2(lines)
 
 
-def _check_int(name: str, v, block: str = NAME) -> None:
-    if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
-        raise ValueError(f"{block}: {name} must be an integer, got {v!r}")
+class PositionWidths:
+    """REV and POS_W (the HDL's names) of a parameter set with ``lines`` and ``fine_w``."""
+
+    @property
+    def rev(self) -> int:
+        """REV: fine counts per revolution, LINES * 2^FINE_W."""
+        return rev_and_pos_w(self.lines, self.fine_w)[0]
+
+    @property
+    def pos_w(self) -> int:
+        """POS_W: bits of a position in [0, REV), FINE_W + clog2(LINES) = clog2(REV)."""
+        return rev_and_pos_w(self.lines, self.fine_w)[1]
 
 
-def check_lines_fine_w(lines, fine_w, block: str) -> None:
-    """The FINE_W / LINES checks shared by fringe_period_count and fringe_long_period (HDL messages)."""
-    _check_int("FINE_W", fine_w, block)
-    _check_int("LINES", lines, block)
-    if not 8 <= fine_w <= 30:
-        raise ValueError(f"{block}: FINE_W = {fine_w} out of range 8..30")
-    if not 1 <= lines <= 1 << 20:
-        raise ValueError(f"{block}: LINES = {lines} out of range 1..2^20")
+def check_lines_fine_w(lines, fine_w, block: str, pos_w_max: int = POS_W_MAX) -> None:
+    """The FINE_W / LINES checks shared by fringe_period_count, fringe_long_period and fringe_trim (HDL messages)."""
+    check_int(block, "FINE_W", fine_w)
+    check_int(block, "LINES", lines)
+    check_range(block, "FINE_W", fine_w, 8, 30)
+    check_range(block, "LINES", lines, 1, 1 << 20, "1..2^20")
     pos_w = fine_w + clog2(lines)
-    if pos_w > POS_W_MAX:
-        raise ValueError(f"{block}: POS_W = FINE_W + clog2(LINES) = {pos_w} exceeds {POS_W_MAX}")
+    if pos_w > pos_w_max:
+        raise ValueError(f"{block}: POS_W = FINE_W + clog2(LINES) = {pos_w} exceeds {pos_w_max}")
 
 
 @dataclass(frozen=True)
-class PeriodCountParams:
+class PeriodCountParams(PositionWidths):
     """Parameters of ``fringe_period_count`` (same names, limits and messages as the HDL)."""
 
     fine_w: int     # FINE_W: fine phase bits per signal period, 8..30
@@ -96,7 +106,7 @@ class PeriodCountParams:
 
     def __post_init__(self) -> None:
         check_lines_fine_w(self.lines, self.fine_w, NAME)
-        _check_int("COARSE_W", self.coarse_w)
+        check_int(NAME, "COARSE_W", self.coarse_w)
         if self.coarse_w != 0 and not (1 <= self.coarse_w <= 24 and self.coarse_w <= self.fine_w - 2):
             raise ValueError(f"{NAME}: COARSE_W = {self.coarse_w} out of range: 0 (no coarse code) or "
                              "1..24 with COARSE_W <= FINE_W - 2")
@@ -104,16 +114,6 @@ class PeriodCountParams:
             raise ValueError(f"{NAME}: 2^COARSE_W = {1 << self.coarse_w} is less than LINES = {self.lines}")
 
     # ---- derived constants (names as in the HDL)
-    @property
-    def rev(self) -> int:
-        """REV: fine counts per revolution, LINES * 2^FINE_W."""
-        return rev_and_pos_w(self.lines, self.fine_w)[0]
-
-    @property
-    def pos_w(self) -> int:
-        """POS_W: bits of the position, FINE_W + clog2(LINES) = clog2(REV)."""
-        return rev_and_pos_w(self.lines, self.fine_w)[1]
-
     @property
     def coarse_span(self) -> int:
         """Fine counts per coarse code, REV / 2^COARSE_W = LINES << (FINE_W - COARSE_W) (0 without)."""

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .limits import check_integers, check_range
+
 __all__ = [
     "LATENCY",
     "QuadratureCoefs",
@@ -46,15 +48,10 @@ class QuadratureParams:
     coef_w: int  # COEF_W: gain coefficient width, 8..27
 
     def __post_init__(self) -> None:
-        for name in ("wave_w", "coef_w"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
-                raise ValueError(f"fringe_quadrature: {name.upper()} must be an integer, got {v!r}")
-        # Same messages as the HDL's $error / assert (without the instance path).
-        if not 8 <= self.wave_w <= 32:
-            raise ValueError(f"fringe_quadrature: WAVE_W = {self.wave_w} out of range 8..32")
-        if not 8 <= self.coef_w <= 27:
-            raise ValueError(f"fringe_quadrature: COEF_W = {self.coef_w} out of range 8..27")
+        block = "fringe_quadrature"
+        check_integers(block, self, ("wave_w", "coef_w"))
+        check_range(block, "WAVE_W", self.wave_w, 8, 32)
+        check_range(block, "COEF_W", self.coef_w, 8, 27)
 
     @property
     def wave_frac(self) -> int:

@@ -34,8 +34,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from .limits import check_int, check_integers, check_range
 from .long_period import mapping_ok, smallest_mapping
-from .period_count import clog2
+from .period_count import PositionWidths, check_lines_fine_w
 from .table_ram import interpolate, periodic_slopes, split_words
 
 __all__ = [
@@ -105,13 +106,8 @@ def sector_mapping(lines: int, fine_w: int, map_psi_w: int) -> tuple[int, int]:
 # ---------------------------------------------------------------------------- parameters
 
 
-def _check_int(name: str, v) -> None:
-    if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
-        raise ValueError(f"{NAME}: {name} must be an integer, got {v!r}")
-
-
 @dataclass(frozen=True)
-class TrimParams:
+class TrimParams(PositionWidths):
     """Parameters of ``fringe_trim`` (same names, limits and messages as the HDL).
 
     ``sect_recip`` / ``sect_shift`` default to `sector_mapping`; given, they are checked.
@@ -130,49 +126,25 @@ class TrimParams:
     sect_shift: int | None = None   # SECT_SHIFT, 0..127 (default: sector_mapping)
 
     def __post_init__(self) -> None:
-        for name in ("fine_w", "lines", "amp_w", "speed_log2", "map_psi_w", "map_phi_w", "trim_w", "trim_frac",
-                     "g_shift"):
-            _check_int(name.upper(), getattr(self, name))
-        if not 8 <= self.fine_w <= 30:
-            raise ValueError(f"{NAME}: FINE_W = {self.fine_w} out of range 8..30")
-        if not 1 <= self.lines <= 1 << 20:
-            raise ValueError(f"{NAME}: LINES = {self.lines} out of range 1..2^20")
-        if self.fine_w + clog2(self.lines) > POS_W_MAX:
-            raise ValueError(f"{NAME}: POS_W = FINE_W + clog2(LINES) = {self.fine_w + clog2(self.lines)} "
-                             f"exceeds {POS_W_MAX}")
-        if not 4 <= self.amp_w <= 32:
-            raise ValueError(f"{NAME}: AMP_W = {self.amp_w} out of range 4..32")
-        if not 0 <= self.speed_log2 <= 8:
-            raise ValueError(f"{NAME}: SPEED_LOG2 = {self.speed_log2} out of range 0..8")
-        if not 0 <= self.map_psi_w <= 8:
-            raise ValueError(f"{NAME}: MAP_PSI_W = {self.map_psi_w} out of range 0..8")
+        check_integers(NAME, self, ("fine_w", "lines", "amp_w", "speed_log2", "map_psi_w", "map_phi_w", "trim_w",
+                                    "trim_frac", "g_shift"))
+        check_lines_fine_w(self.lines, self.fine_w, NAME, POS_W_MAX)
+        check_range(NAME, "AMP_W", self.amp_w, 4, 32)
+        check_range(NAME, "SPEED_LOG2", self.speed_log2, 0, 8)
+        check_range(NAME, "MAP_PSI_W", self.map_psi_w, 0, 8)
         phi_max = min(10, self.fine_w - 1)
-        if not 2 <= self.map_phi_w <= phi_max:
-            raise ValueError(f"{NAME}: MAP_PHI_W = {self.map_phi_w} out of range 2..min(10, FINE_W-1) = {phi_max}")
-        if not 8 <= self.trim_w <= 24:
-            raise ValueError(f"{NAME}: TRIM_W = {self.trim_w} out of range 8..24")
-        if not 0 <= self.trim_frac <= 16:
-            raise ValueError(f"{NAME}: TRIM_FRAC = {self.trim_frac} out of range 0..16")
-        if not 1 <= self.g_shift <= 48:
-            raise ValueError(f"{NAME}: G_SHIFT = {self.g_shift} out of range 1..48")
+        check_range(NAME, "MAP_PHI_W", self.map_phi_w, 2, phi_max, f"2..min(10, FINE_W-1) = {phi_max}")
+        check_range(NAME, "TRIM_W", self.trim_w, 8, 24)
+        check_range(NAME, "TRIM_FRAC", self.trim_frac, 0, 16)
+        check_range(NAME, "G_SHIFT", self.g_shift, 1, 48)
         if (self.sect_recip is None) != (self.sect_shift is None):
             raise ValueError(f"{NAME}: give both SECT_RECIP and SECT_SHIFT, or neither")
         if self.sect_recip is not None:
-            _check_int("SECT_RECIP", self.sect_recip)
-            _check_int("SECT_SHIFT", self.sect_shift)
+            check_int(NAME, "SECT_RECIP", self.sect_recip)
+            check_int(NAME, "SECT_SHIFT", self.sect_shift)
             check_sector_mapping(self.lines, self.fine_w, self.map_psi_w, self.sect_recip, self.sect_shift)
 
     # ---- derived constants (names as in the HDL)
-    @property
-    def rev(self) -> int:
-        """REV: fine counts per revolution, LINES * 2^FINE_W."""
-        return self.lines << self.fine_w
-
-    @property
-    def pos_w(self) -> int:
-        """POS_W: bits of a position, FINE_W + clog2(LINES)."""
-        return self.fine_w + clog2(self.lines)
-
     @property
     def fb(self) -> int:
         """FB: fraction bits of the phase within a bin, FINE_W - MAP_PHI_W (>= 1)."""

@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .limits import check_integers, check_range
+
 __all__ = [
     "LATENCY",
     "WaveLutParams",
@@ -46,18 +48,11 @@ class WaveLutParams:
     wave_w: int       # WAVE_W: table value and output width, 8..32
 
     def __post_init__(self) -> None:
-        for name in ("adc_w", "wave_addr_w", "wave_w"):
-            v = getattr(self, name)
-            if not isinstance(v, (int, np.integer)) or isinstance(v, bool):
-                raise ValueError(f"fringe_wave_lut: {name.upper()} must be an integer, got {v!r}")
-        # Same messages as the HDL's $error / assert (without the instance path).
-        if not 4 <= self.adc_w <= 24:
-            raise ValueError(f"fringe_wave_lut: ADC_W = {self.adc_w} out of range 4..24")
-        if not 2 <= self.wave_addr_w <= self.adc_w - 1:
-            raise ValueError(f"fringe_wave_lut: WAVE_ADDR_W = {self.wave_addr_w} out of range "
-                             f"2..ADC_W-1 = {self.adc_w - 1}")
-        if not 8 <= self.wave_w <= 32:
-            raise ValueError(f"fringe_wave_lut: WAVE_W = {self.wave_w} out of range 8..32")
+        block = "fringe_wave_lut"
+        check_integers(block, self, ("adc_w", "wave_addr_w", "wave_w"))
+        check_range(block, "ADC_W", self.adc_w, 4, 24)
+        check_range(block, "WAVE_ADDR_W", self.wave_addr_w, 2, self.adc_w - 1, f"2..ADC_W-1 = {self.adc_w - 1}")
+        check_range(block, "WAVE_W", self.wave_w, 8, 32)
 
     # ---- derived constants (names as in the docs)
     @property

@@ -14,7 +14,7 @@ a calibration, in float, at the tables' points:
   becomes rev/s through the recording's sample interval;
 - ga holds the magnitude terms, per unit of the CORDIC's magnitude.
 Drift is tracked online by fringe_drift (DRIFT = 1): `build_drift_tables` gives its forward waveform
-tables and W0/KG registers, and `tracked_phase` is the float engine's run of the same equations. Terms
+tables and W0/KG registers, and `pipeline.tracked_phase` is the float engine's run of the same equations. Terms
 neither block carries are named by `unsupported`.
 """
 
@@ -25,9 +25,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..calibration import Calibration, static_phase
 from ..effects import MAG_REF, REV_ORDERS
 from ..encoder import ARCSEC_PER_REV
-from ..pipeline import Calibration, fine_phase
+from ..fixed import trim as trim_mod
+from ..fixed.cordic import cordic_gain
+from ..fixed.drift import kg_for, make_fwd_table
 
 #: effects whose terms fringe_trim carries (speed terms, magnitude terms, direction x revolution)
 TRIM_EFFECTS = ("sampling_skew", "amplitude", "hysteresis")
@@ -35,7 +38,7 @@ THETA_POINTS = 4096      # waveform samples per period when the rev_norm map is 
 
 
 def needs_trim(cal: Calibration) -> bool:
-    # fringe/fixed/core.py asks for TRIM = 1 whenever the calibration has closed-loop terms, float-only ones too
+    # hardware/tables.py asks for TRIM = 1 whenever the calibration has closed-loop terms, float-only ones too
     return cal.rev_norm is not None or bool(cal.angle_terms)
 
 
@@ -77,10 +80,9 @@ def rev_norm_error(cal: Calibration, psi: np.ndarray, phi: np.ndarray) -> np.nda
     the correction without the normalisation (measured phase) and with it (true phase); the
     difference is resampled at the measured phases `phi`. Shape (len(psi), len(phi)).
     """
-    plain = dataclasses.replace(cal, rev_norm=None, adaptive=False)
     theta = np.linspace(0.0, 2 * np.pi, THETA_POINTS, endpoint=False)
     ws, wc = cal.waves["sin"](theta), cal.waves["cos"](theta)
-    true_frac, _ = fine_phase(plain, ws, wc)
+    true_frac, _ = static_phase(cal, ws, wc)
     b = cal.rev_norm.basis(np.asarray(psi, float))
     out = np.empty((len(psi), len(phi)))
     for j in range(len(psi)):
@@ -88,7 +90,7 @@ def rev_norm_error(cal: Calibration, psi: np.ndarray, phi: np.ndarray) -> np.nda
         for kind, w in (("sin", ws), ("cos", wc)):
             off, gain = cal.rev_norm.weights[kind]
             raw[kind] = w * (1.0 + b[j] @ gain) + b[j] @ off
-        meas_frac, _ = fine_phase(plain, raw["sin"], raw["cos"])
+        meas_frac, _ = static_phase(cal, raw["sin"], raw["cos"])
         err = (meas_frac - true_frac + 0.5) % 1.0 - 0.5
         order = np.argsort(meas_frac)
         out[j] = np.interp(np.asarray(phi) / (2 * np.pi), meas_frac[order], err[order], period=1.0)
@@ -163,8 +165,6 @@ def _generic_into(term, grid, gs, ga, phi, psi, counts, rev, speed_log2, mag_sca
 
 def mag_scale(cfg) -> float:
     """CORDIC magnitude units per unit of the float magnitude: 2^WAVE_FRAC times the CORDIC gain."""
-    from .cordic import cordic_gain
-
     return float((1 << (cfg.wave_w - 2)) * cordic_gain(cfg.cordic_stages))
 
 
@@ -192,8 +192,11 @@ SECTOR_SHARE = 0.05      # without a noise floor: this fraction of the map's cha
 def sector_error(cal: Calibration, cfg, map_psi_w: int) -> tuple[float, float]:
     """RMS (fine counts) of what the map's sectors leave of its change over the revolution (each sector holds
     its centre's value; four points per sector compared), and the RMS of that change itself."""
-    fine = grids_for(cal, dataclasses.replace(cfg, map_psi_w=map_psi_w + 2)).map
-    coarse = grids_for(cal, dataclasses.replace(cfg, map_psi_w=map_psi_w)).map
+    dt = cal.provenance.get("sample_interval_s") or 1.0
+
+    def grid(w):     # (not through a CoreConfig: the finer grid may lie beyond the block's limits)
+        return trim_grids(cal, cfg.rev, cfg.fine_w, w, cfg.map_phi_w, cfg.speed_log2, mag_scale(cfg), dt).map
+    fine, coarse = grid(map_psi_w + 2), grid(map_psi_w)
     steps = fine - np.repeat(coarse, 4, axis=1)
     change = fine - fine.mean(axis=1, keepdims=True)
     return float(np.sqrt(np.mean(steps ** 2))), float(np.sqrt(np.mean(change ** 2)))
@@ -273,8 +276,6 @@ def build_trim_tables(cal: Calibration, cfg) -> TrimTables:
 
 
 def _quantise_trim(grids: TrimGrids, p) -> TrimTables:
-    from . import trim as trim_mod
-
     m = trim_mod.make_map_table(lambda d, s, ph: grids.map[d, s], p)
     gs = trim_mod.make_gain_table(lambda ph: grids.speed, p)
     ga = trim_mod.make_gain_table(lambda ph: grids.amp, p)
@@ -294,7 +295,7 @@ class DriftTables:
 
 def channel_waveforms(cal: Calibration):
     """The calibrated channel readings (ADC codes) as functions of the core's fine phase (fraction of a
-    period): the phase the CORDIC measures is theta + psi_cos (effects.tracked_phase's convention)."""
+    period): the phase the CORDIC measures is theta + psi_cos (pipeline.tracked_phase's convention)."""
     if not {"sin", "cos"} <= set(cal.waves):
         raise ValueError("fringe_drift needs the calibrated waveform models (this calibration has none)")
     psi_c = cal.waves["cos"].psi
@@ -303,8 +304,6 @@ def channel_waveforms(cal: Calibration):
 
 def choose_kg_shift(cal: Calibration, cfg) -> int:
     """The largest KG_SHIFT (1..60) that keeps both KG constants below half of u(KG_W)."""
-    from .drift import make_fwd_table
-
     p = dataclasses.replace(cfg, drift_kg_shift=1).drift_params()
     m2 = max(float(np.mean(make_fwd_table(f, p)[0].astype(float) ** 2)) for f in channel_waveforms(cal).values())
     # KG = 2^(KG_SHIFT + GINV_W - 2 - MU_LOG2) / (B m2) < 2^(KG_W - 1)
@@ -338,8 +337,6 @@ def drift_config(cal: Calibration, cfg):
 
 def build_drift_tables(cal: Calibration, cfg, pipe_latency: int = 0) -> DriftTables:
     """Forward tables, W0 and KG of a calibration (zero tables for one without waveform models)."""
-    from .drift import kg_for, make_fwd_table
-
     p = cfg.drift_params(pipe_latency)
     if not cal.waves:
         raise ValueError("fringe_drift needs the calibrated waveform models")
@@ -350,27 +347,3 @@ def build_drift_tables(cal: Calibration, cfg, pipe_latency: int = 0) -> DriftTab
         w0.append(w)
         kg.append(kg_for(v, p))
     return DriftTables(np.stack(fwd), np.array(w0, dtype=np.int64), np.array(kg, dtype=np.int64))
-
-
-def tracked_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
-    """The float engine's drift tracker: fringe_drift's equations without rounding (drift.drift_float),
-    with the forward tables of the core configuration's defaults. Returns (fraction of a period, magnitude)."""
-    from ..engines import core_config
-    from . import drift as drift_mod
-
-    cfg = drift_config(cal, core_config(cal))
-    p = cfg.drift_params()
-    t = build_drift_tables(cal, cfg)
-    plain = dataclasses.replace(cal, adaptive=False)
-    scale = float(1 << cfg.fine_w)
-    words = np.stack([drift_mod.pack_words(v, p) for v in t.fwd])
-
-    mags = []       # drift_float feeds every sample once, in order
-
-    def phase_of(ys, yc):
-        frac, mag = fine_phase(plain, ys, yc)
-        mags.append(mag)
-        return frac * scale
-
-    r = drift_mod.drift_float(sin, cos, phase_of, p, words, t.w0, t.kg)
-    return r["phase"] / scale, (np.concatenate(mags) if mags else np.zeros(0))

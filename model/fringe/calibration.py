@@ -1,0 +1,44 @@
+"""What a calibration holds: the stages of the correction, as the float engine (`pipeline`) runs them and
+the hardware compilers (`fringe.hardware`) quantise them for the core."""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .encoder import Encoder
+from .longperiod import FourierSeries
+from .quadrature import QuadratureCorrection
+
+
+@dataclass
+class Calibration:
+    """Everything the pipeline needs; stages left as None are skipped (identity)."""
+
+    encoder: Encoder
+    inv_sin: object | None = None        # callable (reading, other reading) -> ideal sine value
+    inv_cos: object | None = None
+    quad: QuadratureCorrection = field(default_factory=QuadratureCorrection)
+    coarse_offset_periods: float | None = None
+    long_period: FourierSeries | None = None    # encoder error (arcsec) against its own angle (rad)
+    direction: int = 1                           # -1: the output runs the other way (the reference's)
+    zero_deg: float = 0.0                        # added last, in the output direction
+    amp_low: float = 0.5                         # loss-of-signal thresholds on the corrected magnitude
+    amp_high: float = 1.5
+    adaptive: bool = False                       # online offset/gain tracker (closed loop: drift)
+    tracker: dict = field(default_factory=dict)  # its constants chosen on the data: drift_block_log2, drift_mu_log2
+    rev_norm: object | None = None               # offsets/gains over the revolution (effects.RevNormalisation)
+    angle_terms: list = field(default_factory=list)   # closed-loop hardware terms (effects.FittedEffect)
+    waves: dict = field(default_factory=dict)    # fitted channel models (for reports and plots)
+    skipped: list = field(default_factory=list)
+    provenance: dict = field(default_factory=dict)
+    fit: dict = field(default_factory=dict)
+
+
+def static_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
+    """Fine phase (fraction of a period) and magnitude through the calibration's fixed stages: the
+    waveform inverse per channel, the quadrature, the arctan (without the closed loop's revolution
+    normalisation and drift tracker, which `pipeline.fine_phase` adds)."""
+    xs = cal.inv_sin(sin, cos) if cal.inv_sin is not None else sin
+    xc = cal.inv_cos(cos, sin) if cal.inv_cos is not None else cos
+    s, c = cal.quad.apply(xs, xc)
+    return (np.arctan2(s, c) / (2 * np.pi)) % 1.0, np.hypot(s, c)

@@ -1,0 +1,199 @@
+"""The Python package's layers: no import cycle, and every import goes down (or sideways) in LAYERS.
+
+Every module of model/fringe is parsed (not imported): module-level and function-local imports, relative and
+absolute, all count, since a function-local import only defers the cycle to the first call.
+"""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE_ROOT = Path(__file__).resolve().parents[1] / "model"
+
+#: Lowest first: a module may import its own layer and the layers below, never one above. A module is named
+#: exactly, or as a package's module (`fringe.fixed.*`); the exact name wins.
+LAYERS = [
+    # what everything shares: the errors users see, the encoder description, the engines' result and status bits
+    ("base", ["fringe", "fringe.errors", "fringe.encoder", "fringe.result"]),
+    # bit-exact models of the RTL blocks, one module per block (the HDL's names, limits and messages)
+    ("fixed", ["fringe.fixed.*"]),
+    # the float signal model: encoder simulator, fits, the calibration's stages, the loop's effect library
+    ("dsp", ["fringe.position", "fringe.seeds", "fringe.longperiod", "fringe.fourierfit", "fringe.quadrature",
+             "fringe.waveform", "fringe.smoothmotion", "fringe.metrics", "fringe.effects", "fringe.calibration",
+             "fringe.simulate"]),
+    # files: recordings, safe outputs, calibration folders, the shared data sets
+    ("io", ["fringe.outputs", "fringe.dataio", "fringe.datasets", "fringe.diagnose", "fringe.calstore"]),
+    # from a calibration to the core: configuration, tables, ROM images
+    ("hardware", ["fringe.hardware.*"]),
+    # the float engine (its drift tracker runs fringe_drift's equations on the hardware's tables)
+    ("engine", ["fringe.pipeline"]),
+    # fitting a recording and judging a correction
+    ("calibration", ["fringe.calibrate", "fringe.evaluate", "fringe.report"]),
+    # the closed loop and its report
+    ("loop", ["fringe.loop", "fringe.loopreport", "fringe.scenarios"]),
+    # the engines behind `fringe correct` (the RTL in simulation; its speed benchmark calibrates a recording)
+    ("engines", ["fringe.engines", "fringe.hardware.rtlsim"]),
+    ("cli", ["fringe.cli", "fringe.__main__"]),
+    # benchmarks and the demo, which drive the command line
+    ("tools", ["fringe.bench", "fringe.bench_io", "fringe.bench_real", "fringe.bench_reference_free",
+               "fringe.population", "fringe.demo"]),
+]
+
+#: what the bit-exact models may import from outside fringe.fixed
+FIXED_MAY_IMPORT = {"fringe.encoder", "fringe.result"}
+
+
+def modules(root: Path = PACKAGE_ROOT) -> dict[str, tuple[Path, bool]]:
+    """Dotted name -> (file, is a package) for every module under root/fringe."""
+    out = {}
+    for path in sorted((root / "fringe").rglob("*.py")):
+        parts = list(path.relative_to(root).with_suffix("").parts)
+        is_package = parts[-1] == "__init__"
+        out[".".join(parts[:-1] if is_package else parts)] = (path, is_package)
+    return out
+
+
+def imports(root: Path = PACKAGE_ROOT):
+    """(module, imported module, names) for every import statement anywhere in a module's text: `import a.b`
+    gives ("a.b", []), `from .x import y` the absolute name of x and ["y"]."""
+    for name, (path, is_package) in modules(root).items():
+        here = name.split(".") if is_package else name.split(".")[:-1]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+            if isinstance(node, ast.Import):
+                yield from ((name, a.name, []) for a in node.names)
+            elif isinstance(node, ast.ImportFrom):
+                parent = here[:len(here) - node.level + 1] if node.level else []
+                yield name, ".".join(parent + ([node.module] if node.module else [])), [a.name for a in node.names]
+
+
+def import_graph(root: Path = PACKAGE_ROOT) -> dict[str, set[str]]:
+    """Module -> the fringe modules it imports (`from . import x` names x if it is a module, else the package)."""
+    mods = modules(root)
+    graph = {name: set() for name in mods}
+    for name, base, names in imports(root):
+        targets = [f"{base}.{n}" if f"{base}.{n}" in mods else base for n in names] or [base]
+        graph[name].update(t for t in targets if t.split(".")[0] == "fringe" and t != name)
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return sorted(found)
+
+
+def defined_names(tree: ast.Module) -> set[str]:
+    """Names a module defines itself at top level (functions, classes, assignments), not the ones it imports."""
+    names, todo = set(), list(tree.body)
+    while todo:
+        node = todo.pop()
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
+            for target in node.targets if isinstance(node, ast.Assign) else [node.target]:
+                names.update(n.id for n in ast.walk(target) if isinstance(n, ast.Name))
+        elif isinstance(node, (ast.If, ast.Try)):
+            todo += node.body + node.orelse + getattr(node, "finalbody", []) + [
+                s for h in getattr(node, "handlers", []) for s in h.body]
+    return names
+
+
+def borrowed_names(root: Path = PACKAGE_ROOT) -> list[str]:
+    """`from fringe.X import name` where X does not define name itself (a re-export: every name has one source)."""
+    mods = modules(root)
+    defined = {m: defined_names(ast.parse(path.read_text(encoding="utf-8"))) for m, (path, _) in mods.items()}
+    return [f"{name}: from {base} import {n}" for name, base, names in imports(root) if base in mods
+            for n in names if f"{base}.{n}" not in mods and n not in defined[base]]
+
+
+def layer_of(module: str) -> int | None:
+    """Index in LAYERS, None if no entry names the module."""
+    for i, (_, names) in enumerate(LAYERS):
+        if module in names:
+            return i
+    for i, (_, names) in enumerate(LAYERS):
+        if any(n.endswith(".*") and (module == n[:-2] or module.startswith(n[:-1])) for n in names):
+            return i
+    return None
+
+
+@pytest.fixture(scope="module")
+def graph():
+    return import_graph()
+
+
+def test_finds_a_planted_cycle(tmp_path):
+    """The parser sees relative, absolute and function-local imports, the cycle they close and a re-export."""
+    pkg = tmp_path / "fringe"
+    (pkg / "sub").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "sub" / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from .sub import b\n\nx = 1\n")
+    (pkg / "sub" / "b.py").write_text("def f():\n    import fringe.c\n")
+    (pkg / "c.py").write_text("def g():\n    from . import a\n")
+    (pkg / "d.py").write_text("from .a import x\n")
+    g = import_graph(tmp_path)
+    assert g["fringe.a"] == {"fringe.sub.b"} and g["fringe.d"] == {"fringe.a"}
+    assert cycles(g) == [["fringe.a", "fringe.c", "fringe.sub.b"]]
+    (pkg / "e.py").write_text("from .a import b, x\n")     # b is a's import of fringe.sub.b
+    assert borrowed_names(tmp_path) == ["fringe.e: from fringe.a import b"]
+
+
+def test_no_import_cycle(graph):
+    found = cycles(graph)
+    assert not found, "import cycles in model/fringe: " + "; ".join(" <-> ".join(c) for c in found)
+
+
+def test_every_module_has_a_layer(graph):
+    assert not [m for m in graph if layer_of(m) is None], "place these modules in LAYERS"
+
+
+def test_imports_go_down(graph):
+    upward = [f"{m} ({LAYERS[layer_of(m)][0]}) imports {t} ({LAYERS[layer_of(t)][0]})"
+              for m, targets in sorted(graph.items()) for t in sorted(targets)
+              if None not in (layer_of(m), layer_of(t)) and layer_of(t) > layer_of(m)]
+    assert not upward, "imports against the layer order:\n" + "\n".join(upward)
+
+
+def test_fixed_is_a_leaf(graph):
+    outside = [f"{m} imports {t}" for m, targets in sorted(graph.items()) if m.startswith("fringe.fixed")
+               for t in sorted(targets) if not t.startswith("fringe.fixed") and t not in FIXED_MAY_IMPORT]
+    assert not outside, "the bit-exact models import outside fringe.fixed:\n" + "\n".join(outside)
+
+
+def test_names_come_from_where_they_are_defined():
+    borrowed = borrowed_names()
+    assert not borrowed, "imported from a module that only imports them itself:\n" + "\n".join(borrowed)
+
+
+def test_packages_import_nothing_of_fringe(graph):
+    """A package's __init__ runs on every import of its modules: it holds no imports of fringe, so that no
+    cycle can hide in it."""
+    mods = modules()
+    assert not [m for m, (_, is_package) in mods.items() if is_package and graph[m]]
