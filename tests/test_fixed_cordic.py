@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import re
-import time
 from decimal import ROUND_HALF_UP, Decimal, getcontext
 from pathlib import Path
 
@@ -315,18 +314,3 @@ def test_latency_constant():
 # ---------------------------------------------------------------------------- speed
 
 
-def test_model_speed():
-    """Vectorised model: several million samples per second (loose floor for shared machines)."""
-    p = CordicParams(18, 16, 18, 3)
-    rng = np.random.default_rng(0)
-    n = 1_000_000
-    x = rng.integers(-(1 << 17), 1 << 17, n)
-    y = rng.integers(-(1 << 17), 1 << 17, n)
-    best = math.inf
-    for _ in range(3):
-        t0 = time.perf_counter()
-        cordic(x, y, p)
-        best = min(best, time.perf_counter() - t0)
-    rate = n / best
-    print(f"fringe.fixed.cordic: {rate / 1e6:.1f} M samples/s ({_pid(p)})")
-    assert rate > 1e6

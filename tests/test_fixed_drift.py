@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import re
-import time
 from pathlib import Path
 
 import numpy as np
@@ -317,11 +316,3 @@ def test_float_agrees_within_bound():
     assert np.abs(f["y_sin"] - r.y_sin)[100_000:].max() < 2.0
 
 
-def test_speed():
-    p = P1
-    enc = Encoder(p, 300_000, seed=9)
-    enc.run()
-    t0 = time.perf_counter()
-    enc.run()
-    rate = 300_000 / (time.perf_counter() - t0)
-    assert rate >= 2e5, rate

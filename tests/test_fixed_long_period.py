@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import re
-import time
 from pathlib import Path
 
 import numpy as np
@@ -390,17 +389,3 @@ def test_input_validation():
 # ---------------------------------------------------------------------------- speed
 
 
-def test_model_speed():
-    rng = np.random.default_rng(0)
-    n = 1_000_000
-    for p, floor in ((LongPeriodParams(256, 16, 8, 18, 4, 8), 1e6), (LongPeriodParams(100, 12, 6, 14, 0, 6), 1e6),
-                     (LongPeriodParams(999_999, 20, 16, 24, 4, 16), 1e6)):
-        pos = rng.integers(0, p.rev, n)
-        values = np.zeros(p.entries, dtype=np.int64)
-        best = math.inf
-        for _ in range(3):
-            t0 = time.perf_counter()
-            long_period(pos, values, 12, 1, p)
-            best = min(best, time.perf_counter() - t0)
-        print(f"fringe.fixed.long_period: {n / best / 1e6:.1f} M samples/s ({_pid(p)})")
-        assert n / best > floor

@@ -197,6 +197,10 @@ def _header(path):
                 if text.startswith("#"):
                     comments.append(text[1:].strip())
                 elif text:
+                    if "\r" in text:     # csv cannot split it; pyarrow would read it as a row break
+                        raise FringeInputError("a carriage return inside the header line (mixed or old Mac line "
+                                               "endings): save the file with one kind of line ending", path,
+                                               f"line {line_no}")
                     header = [h.strip() for h in next(csv.reader([text]))]
                     return offset, line_no, header, comments
                 offset += len(raw)

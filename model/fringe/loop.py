@@ -793,7 +793,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         report["decided_on_rows"] = {"fit": len(fit_data), "validation": len(val_data), "runs": DECISION_RUNS}
         report["before"], report["after"] = _figs(evaluate(base, full_val)), _figs(evaluate(state, full_val))
     report["noise_floor_arcsec"] = round(sigma, 4)
-    # the hardware tables' error budget (fixed.closed_loop.choose_map_psi_w) is set against this floor
+    # the hardware tables' error budget (hardware.closed_loop.choose_map_psi_w) is set against this floor
     state = dataclasses.replace(state, cal=dataclasses.replace(
         state.cal, provenance={**state.cal.provenance, "noise_floor_arcsec": round(sigma, 6)}))
     report["unexplained"] = unexplained(ev_fit, sigma)

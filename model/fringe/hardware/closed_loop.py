@@ -209,7 +209,7 @@ def choose_map_psi_w(cal: Calibration, cfg) -> int:
     value."""
     floor = cal.provenance.get("noise_floor_arcsec")
     top = min(MAX_MAP_PSI_W, MAX_MAP_WORDS_LOG2 - cfg.map_phi_w)
-    from .trim import sector_mapping
+    from ..fixed.trim import sector_mapping
 
     for w in range(cfg.map_psi_w, max(cfg.map_psi_w, top) + 1):
         try:
