@@ -1,0 +1,114 @@
+-- fringe_interp_table: two-bank table of {slope, value} words, linearly interpolated.
+--
+-- VHDL-2008 twin of rtl/verilog/fringe_interp_table.v (same generics, ports and behaviour).
+-- LATENCY = 4 clock enables from rd_addr/frac to result; ce = 0 freezes every register; no reset
+-- (data only: the caller's fringe_delay carries valid).
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_interp_table.md.
+-- Model: tb/interp_table_model.py (fringe.fixed.table_ram.interpolate with the offset and width).
+
+library ieee;
+use ieee.std_logic_1164.all;
+use ieee.numeric_std.all;
+use work.fringe_pkg.all;
+
+entity fringe_interp_table is
+    generic (
+        ADDR_W      : integer := 8;    -- address bits of one bank, 1..24
+        W           : integer := 18;   -- slope and value field width (word = {slope, value}), 2..32
+        FB          : integer := 4;    -- fraction bits, 1..24
+        OUT_W       : integer := 19;   -- result width, W..W+40 (W: the result wraps modulo 2^W)
+        ROUND_SHIFT : integer := 0;    -- adds 2^(ROUND_SHIFT-1) to the result (0: nothing), 0..40
+        INIT_FILE   : string  := ""    -- $readmemh image, 2*2^ADDR_W words; "" = zeros
+    );
+    port (
+        clk     : in  std_logic;
+        ce      : in  std_logic;                              -- the pipeline advances when 1
+        -- write port (software side)
+        wr_en   : in  std_logic;
+        wr_addr : in  std_logic_vector(ADDR_W downto 0);      -- {bank, address}
+        wr_data : in  std_logic_vector(2 * W - 1 downto 0);   -- {slope, value}, both s(W)
+        -- read (sample side)
+        rd_addr : in  std_logic_vector(ADDR_W downto 0);      -- {bank, address}
+        frac    : in  std_logic_vector(FB - 1 downto 0);      -- u(FB)
+        result  : out std_logic_vector(OUT_W - 1 downto 0)    -- s(OUT_W)
+    );
+end entity fringe_interp_table;
+
+architecture rtl of fringe_interp_table is
+
+    -- Stops elaboration with a clear message on illegal generics (before anything is sized).
+    function generics_ok return boolean is
+    begin
+        assert W >= 2 and W <= 32
+            report "fringe_interp_table: W = " & integer'image(W) & " out of range 2..32"
+            severity failure;
+        assert FB >= 1 and FB <= 24
+            report "fringe_interp_table: FB = " & integer'image(FB) & " out of range 1..24"
+            severity failure;
+        assert OUT_W >= W and OUT_W <= W + 40
+            report "fringe_interp_table: OUT_W = " & integer'image(OUT_W) & " out of range W..W+40 = "
+                   & integer'image(W) & ".." & integer'image(W + 40)
+            severity failure;
+        assert ROUND_SHIFT >= 0 and ROUND_SHIFT <= 40
+            report "fringe_interp_table: ROUND_SHIFT = " & integer'image(ROUND_SHIFT) & " out of range 0..40"
+            severity failure;
+        return true;
+    end function generics_ok;
+    constant GENERICS_CHECKED : boolean := generics_ok;
+
+    constant LATENCY : integer := 4;
+    constant IP_W    : integer := W + FB + 1;                 -- slope x {0, frac}
+    function vx_width return integer is
+    begin
+        if ROUND_SHIFT > 0 then
+            return maximum(W, ROUND_SHIFT) + 2;
+        end if;
+        return W;
+    end function vx_width;
+    constant VX_W    : integer := vx_width;                   -- value + offset
+
+    -- v sign-extended or cut to its low n bits (numeric_std's resize keeps the sign when it cuts)
+    function wrap(v : signed; n : positive) return signed is
+        variable x : signed(v'length - 1 downto 0) := v;
+    begin
+        if n <= v'length then
+            return x(n - 1 downto 0);
+        end if;
+        return resize(x, n);
+    end function wrap;
+
+    signal word_q, word2 : std_logic_vector(2 * W - 1 downto 0);
+    signal frac1, frac2  : std_logic_vector(FB - 1 downto 0);
+    signal prod3         : signed(IP_W - 1 downto 0);
+    signal value3        : signed(VX_W - 1 downto 0);
+
+begin
+
+    -- 1: table read (the RAM's read register)
+    u_table : entity work.fringe_table_ram
+        generic map (ADDR_W => ADDR_W, DATA_W => 2 * W, INIT_FILE => INIT_FILE)
+        port map (clk => clk, wr_en => wr_en, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_en => ce, rd_addr => rd_addr, rd_data => word_q);
+
+    p_pipe : process (clk)
+        variable ip : signed(IP_W - FB - 1 downto 0);
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                -- 2: the RAM's output register (a block RAM's clock-to-out then feeds no logic)
+                frac1 <= frac;
+                frac2 <= frac1;
+                word2 <= word_q;
+                -- 3: slope x frac (bare), value + offset
+                prod3  <= signed(word2(2 * W - 1 downto W)) * signed('0' & frac2);
+                value3 <= resize(signed(word2(W - 1 downto 0)), VX_W) + round_half(VX_W, ROUND_SHIFT);
+                -- 4: value + offset + ((product + 2^(FB-1)) >>> FB), modulo 2^OUT_W (the rounding
+                -- bit is the adder's carry in)
+                ip := prod3(IP_W - 1 downto FB);
+                result <= std_logic_vector(wrap(value3, OUT_W) + wrap(ip, OUT_W)
+                                           + ('0' & prod3(FB - 1 downto FB - 1)));
+            end if;
+        end if;
+    end process p_pipe;
+
+end architecture rtl;
