@@ -31,11 +31,11 @@ module fringe_interp_table #(
     /* verilator lint_off UNUSEDPARAM */
     localparam integer LATENCY = 4;
     /* verilator lint_on UNUSEDPARAM */
-    localparam integer IP_W    = W + FB + 1;                                  // slope x {0, frac}
-    localparam integer VX_W    = (ROUND_SHIFT > 0) ? ((W > ROUND_SHIFT) ? W : ROUND_SHIFT) + 2 : W;
-    localparam integer EX_W    = OUT_W + IP_W + VX_W;                         // wide enough for any field
-    localparam [VX_W-1:0] OFFSET = (ROUND_SHIFT > 0) ? ({{(VX_W-1){1'b0}}, 1'b1} << (ROUND_SHIFT - 1))
-                                                     : {VX_W{1'b0}};
+    localparam integer S_W     = OUT_W + FB;                                  // {result, fraction}
+    localparam [FB:0]    RND_X = {1'b1, {FB{1'b0}}} >> 1;
+    localparam [FB-1:0]  RND   = RND_X[FB-1:0];                                // 2^(FB-1)
+    localparam [S_W-1:0] OFFSET = (ROUND_SHIFT > 0) ? ({{(S_W-1){1'b0}}, 1'b1} << (ROUND_SHIFT - 1 + FB))
+                                                    : {S_W{1'b0}};             // 2^(ROUND_SHIFT-1), above the fraction
 
     generate
         if (W < 2 || W > 32) begin : g_bad_w
@@ -65,45 +65,53 @@ module fringe_interp_table #(
     );
 
     // ---- 2: the RAM's output register (a block RAM's clock-to-out then feeds no logic) -----------
-    reg  [FB-1:0]  frac1, frac2;
+    // The multiplier takes fc = frac - 2^(FB-1) = frac ^ 2^(FB-1), an s(FB) with a live sign bit (a
+    // zero-extended {0, frac} has a constant one: Yosys's ice40_dsp then leaves that operand's register
+    // outside the SB_MAC16, whose multiply delay nextpnr-ice40 does not time).
+    reg  [FB-1:0]  fc1, fc2;
     reg  [2*W-1:0] word2;
 
     always @(posedge clk) begin
         if (ce) begin
-            frac1 <= frac;
-            frac2 <= frac1;
+            fc1   <= frac ^ RND;
+            fc2   <= fc1;
             word2 <= word_q;
         end
     end
 
-    // ---- 3: slope x frac (bare), value + offset ----------------------------------------------------
-    wire signed [W-1:0]    slope2 = word2[2*W-1:W];
-    wire signed [W-1:0]    value2 = word2[W-1:0];
-    wire signed [FB:0]     frac2_s = {1'b0, frac2};
-    reg  signed [IP_W-1:0] prod3;
-    reg  signed [VX_W-1:0] value3;
+    // ---- 3: slope * fc (bare); base = {value, 2^(FB-1)} + slope * 2^(FB-1) + offset * 2^FB ---------
+    // slope * frac = slope * fc + slope * 2^(FB-1) exactly; everything modulo 2^S_W.
+    wire signed [W-1:0]  slope2 = word2[2*W-1:W];
+    wire signed [W-1:0]  value2 = word2[W-1:0];
+    // sign extensions written S_W bits too wide and cut (OUT_W = W leaves no bit to extend)
+    wire [S_W+W-1:0]     slope2_e = {{S_W{slope2[W-1]}}, slope2};
+    wire [OUT_W+W-1:0]   value2_e = {{OUT_W{value2[W-1]}}, value2};
+    wire [S_W-1:0]       slope2_x = slope2_e[S_W-1:0] << (FB - 1);
+    wire [S_W-1:0]       value2_x = {value2_e[OUT_W-1:0], RND};
+    reg  signed [W+FB-1:0] prod3;
+    reg  [S_W-1:0]       base3;
 
     always @(posedge clk) begin
         if (ce) begin
-            prod3  <= slope2 * frac2_s;
-            value3 <= $signed({{(VX_W-W){value2[W-1]}}, value2}) + $signed(OFFSET);
+            prod3 <= slope2 * $signed(fc2);
+            base3 <= value2_x + slope2_x + OFFSET;
         end
     end
 
-    // ---- 4: value + offset + ((product + 2^(FB-1)) >>> FB), modulo 2^OUT_W ---------------------------
-    // (p + 2^(FB-1)) >>> FB = (p >>> FB) + p[FB-1]: the rounding bit is the adder's carry in.
-    wire [EX_W-1:0] ip_x  = {{(EX_W-IP_W){prod3[IP_W-1]}}, prod3} >> FB;
-    wire [EX_W-1:0] val_x = {{(EX_W-VX_W){value3[VX_W-1]}}, value3};
-    wire [OUT_W-1:0] rb   = {{(OUT_W-1){1'b0}}, prod3[FB-1]};
+    // ---- 4: result = (base + product) >>> FB, one add -------------------------------------------------
+    // = value + offset + ((slope * frac + 2^(FB-1)) >>> FB), modulo 2^OUT_W.
+    wire [S_W+W+FB-1:0] prod3_e = {{S_W{prod3[W+FB-1]}}, prod3};
+    wire [S_W-1:0]   sum3    = base3 + prod3_e[S_W-1:0];
 
     always @(posedge clk) begin
         if (ce) begin
-            result <= val_x[OUT_W-1:0] + ip_x[OUT_W-1:0] + rb;
+            result <= sum3[S_W-1:FB];
         end
     end
 
-    // The product's rounded-off bits and the sign extension beyond OUT_W carry nothing.
-    wire unused_ok = &{1'b0, ip_x[EX_W-1:OUT_W], val_x[EX_W-1:OUT_W], prod3[FB-1:0]};
+    // The sum's fraction bits are rounded off.
+    wire unused_ok = &{1'b0, sum3[FB-1:0], slope2_e[S_W+W-1:S_W], value2_e[OUT_W+W-1:OUT_W],
+                       prod3_e[S_W+W+FB-1:S_W]};
 
 endmodule
 

@@ -57,30 +57,24 @@ architecture rtl of fringe_interp_table is
     constant GENERICS_CHECKED : boolean := generics_ok;
 
     constant LATENCY : integer := 4;
-    constant IP_W    : integer := W + FB + 1;                 -- slope x {0, frac}
-    function vx_width return integer is
-    begin
-        if ROUND_SHIFT > 0 then
-            return maximum(W, ROUND_SHIFT) + 2;
-        end if;
-        return W;
-    end function vx_width;
-    constant VX_W    : integer := vx_width;                   -- value + offset
+    constant S_W     : integer := OUT_W + FB;                 -- {result, fraction}
+    constant RND     : unsigned(FB - 1 downto 0) := shift_left(to_unsigned(1, FB), FB - 1);  -- 2^(FB-1)
 
-    -- v sign-extended or cut to its low n bits (numeric_std's resize keeps the sign when it cuts)
-    function wrap(v : signed; n : positive) return signed is
-        variable x : signed(v'length - 1 downto 0) := v;
+    -- 2^(ROUND_SHIFT-1) above the fraction, modulo 2^S_W (0 when ROUND_SHIFT = 0)
+    function offset_value return unsigned is
+        variable v : unsigned(S_W - 1 downto 0) := (others => '0');
     begin
-        if n <= v'length then
-            return x(n - 1 downto 0);
+        if ROUND_SHIFT > 0 and ROUND_SHIFT - 1 + FB < S_W then
+            v(ROUND_SHIFT - 1 + FB) := '1';
         end if;
-        return resize(x, n);
-    end function wrap;
+        return v;
+    end function offset_value;
+    constant OFFSET  : unsigned(S_W - 1 downto 0) := offset_value;
 
     signal word_q, word2 : std_logic_vector(2 * W - 1 downto 0);
-    signal frac1, frac2  : std_logic_vector(FB - 1 downto 0);
-    signal prod3         : signed(IP_W - 1 downto 0);
-    signal value3        : signed(VX_W - 1 downto 0);
+    signal fc1, fc2      : std_logic_vector(FB - 1 downto 0);
+    signal prod3         : signed(W + FB - 1 downto 0);
+    signal base3         : unsigned(S_W - 1 downto 0);
 
 begin
 
@@ -91,22 +85,27 @@ begin
                   rd_en => ce, rd_addr => rd_addr, rd_data => word_q);
 
     p_pipe : process (clk)
-        variable ip : signed(IP_W - FB - 1 downto 0);
+        variable slope2 : signed(W - 1 downto 0);
+        variable value2 : signed(W - 1 downto 0);
+        variable sum3   : unsigned(S_W - 1 downto 0);
+        variable vx     : std_logic_vector(S_W - 1 downto 0);   -- {value, 2^(FB-1)}
     begin
         if rising_edge(clk) then
             if ce = '1' then
-                -- 2: the RAM's output register (a block RAM's clock-to-out then feeds no logic)
-                frac1 <= frac;
-                frac2 <= frac1;
+                -- 2: the RAM's output register (a block RAM's clock-to-out then feeds no logic);
+                -- fc = frac - 2^(FB-1) = frac xor 2^(FB-1), s(FB) with a live sign bit (see the Verilog)
+                fc1   <= frac xor std_logic_vector(RND);
+                fc2   <= fc1;
                 word2 <= word_q;
-                -- 3: slope x frac (bare), value + offset
-                prod3  <= signed(word2(2 * W - 1 downto W)) * signed('0' & frac2);
-                value3 <= resize(signed(word2(W - 1 downto 0)), VX_W) + round_half(VX_W, ROUND_SHIFT);
-                -- 4: value + offset + ((product + 2^(FB-1)) >>> FB), modulo 2^OUT_W (the rounding
-                -- bit is the adder's carry in)
-                ip := prod3(IP_W - 1 downto FB);
-                result <= std_logic_vector(wrap(value3, OUT_W) + wrap(ip, OUT_W)
-                                           + ('0' & prod3(FB - 1 downto FB - 1)));
+                -- 3: slope * fc (bare); base = {value, 2^(FB-1)} + slope * 2^(FB-1) + offset * 2^FB
+                slope2 := signed(word2(2 * W - 1 downto W));
+                value2 := signed(word2(W - 1 downto 0));
+                prod3  <= slope2 * signed(fc2);
+                vx     := std_logic_vector(resize(value2, OUT_W)) & std_logic_vector(RND);
+                base3  <= unsigned(vx) + shift_left(unsigned(resize(slope2, S_W)), FB - 1) + OFFSET;
+                -- 4: result = (base + product) >>> FB, modulo 2^OUT_W
+                sum3   := base3 + unsigned(resize(prod3, S_W));
+                result <= std_logic_vector(sum3(S_W - 1 downto FB));
             end if;
         end if;
     end process p_pipe;
