@@ -30,7 +30,7 @@ def draw_configs(seed: int, n: int) -> list[dict]:
     out = []
     for i in range(n):
         w = int(rng.integers(2, 33))
-        fb = int(rng.integers(1, 25))
+        fb = int(rng.integers(1, 31))
         out_w = w if i == 1 else w + int(rng.integers(1, 6))
         rs = int(rng.integers(1, 41)) if rng.random() < 0.5 else 0
         out.append({"ADDR_W": int(rng.integers(1, 7)), "W": w, "FB": fb, "OUT_W": out_w,
@@ -109,7 +109,7 @@ if cocotb is not None:
 
 @pytest.mark.parametrize("params, msg", [
     ({"W": 33}, "fringe_interp_table: W = 33 out of range 2..32"),
-    ({"FB": 0}, "fringe_interp_table: FB = 0 out of range 1..24"),
+    ({"FB": 0}, "fringe_interp_table: FB = 0 out of range 1..30"),
     ({"W": 18, "OUT_W": 17}, "fringe_interp_table: OUT_W = 17 out of range W..W+40 = 18..58"),
     ({"ROUND_SHIFT": 41}, "fringe_interp_table: ROUND_SHIFT = 41 out of range 0..40"),
 ], ids=lambda v: "_".join(f"{k}{x}" for k, x in v.items()) if isinstance(v, dict) else "")

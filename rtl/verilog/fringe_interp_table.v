@@ -10,7 +10,7 @@
 module fringe_interp_table #(
     parameter integer ADDR_W      = 8,   // address bits of one bank, 1..24
     parameter integer W           = 18,  // slope and value field width (word = {slope, value}), 2..32
-    parameter integer FB          = 4,   // fraction bits, 1..24
+    parameter integer FB          = 4,   // fraction bits, 1..30
     parameter integer OUT_W       = 19,  // result width, W..W+40 (W: the result wraps modulo 2^W)
     parameter integer ROUND_SHIFT = 0,   // adds 2^(ROUND_SHIFT-1) to the result (0: nothing), 0..40
     parameter         INIT_FILE   = ""   // $readmemh image, 2*2^ADDR_W words; "" = zeros
@@ -41,8 +41,8 @@ module fringe_interp_table #(
         if (W < 2 || W > 32) begin : g_bad_w
             $error("fringe_interp_table: W = %0d out of range 2..32 (instance %m)", W);
         end
-        if (FB < 1 || FB > 24) begin : g_bad_fb
-            $error("fringe_interp_table: FB = %0d out of range 1..24 (instance %m)", FB);
+        if (FB < 1 || FB > 30) begin : g_bad_fb
+            $error("fringe_interp_table: FB = %0d out of range 1..30 (instance %m)", FB);
         end
         if (OUT_W < W || OUT_W > W + 40) begin : g_bad_out_w
             $error("fringe_interp_table: OUT_W = %0d out of range W..W+40 = %0d..%0d (instance %m)",

@@ -15,7 +15,7 @@ entity fringe_interp_table is
     generic (
         ADDR_W      : integer := 8;    -- address bits of one bank, 1..24
         W           : integer := 18;   -- slope and value field width (word = {slope, value}), 2..32
-        FB          : integer := 4;    -- fraction bits, 1..24
+        FB          : integer := 4;    -- fraction bits, 1..30
         OUT_W       : integer := 19;   -- result width, W..W+40 (W: the result wraps modulo 2^W)
         ROUND_SHIFT : integer := 0;    -- adds 2^(ROUND_SHIFT-1) to the result (0: nothing), 0..40
         INIT_FILE   : string  := ""    -- $readmemh image, 2*2^ADDR_W words; "" = zeros
@@ -42,8 +42,8 @@ architecture rtl of fringe_interp_table is
         assert W >= 2 and W <= 32
             report "fringe_interp_table: W = " & integer'image(W) & " out of range 2..32"
             severity failure;
-        assert FB >= 1 and FB <= 24
-            report "fringe_interp_table: FB = " & integer'image(FB) & " out of range 1..24"
+        assert FB >= 1 and FB <= 30
+            report "fringe_interp_table: FB = " & integer'image(FB) & " out of range 1..30"
             severity failure;
         assert OUT_W >= W and OUT_W <= W + 40
             report "fringe_interp_table: OUT_W = " & integer'image(OUT_W) & " out of range W..W+40 = "
