@@ -125,8 +125,7 @@ architecture rtl of fringe_core is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert LINES >= 1
-            report "fringe_core: LINES = " & integer'image(LINES) & " must be >= 1" severity failure;
+        check_min("fringe_core", "LINES", LINES, 1);
         assert POS_W <= 31
             report "fringe_core: POS_W = clog2(LINES) + FINE_W = " & integer'image(POS_W)
                    & " > 31: registers are 32-bit" severity failure;

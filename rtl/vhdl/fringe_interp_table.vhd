@@ -39,19 +39,13 @@ architecture rtl of fringe_interp_table is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert W >= 2 and W <= 32
-            report "fringe_interp_table: W = " & integer'image(W) & " out of range 2..32"
-            severity failure;
-        assert FB >= 1 and FB <= 30
-            report "fringe_interp_table: FB = " & integer'image(FB) & " out of range 1..30"
-            severity failure;
+        check_range("fringe_interp_table", "W", W, 2, 32);
+        check_range("fringe_interp_table", "FB", FB, 1, 30);
         assert OUT_W >= W and OUT_W <= W + 40
             report "fringe_interp_table: OUT_W = " & integer'image(OUT_W) & " out of range W..W+40 = "
                    & integer'image(W) & ".." & integer'image(W + 40)
             severity failure;
-        assert ROUND_SHIFT >= 0 and ROUND_SHIFT <= 40
-            report "fringe_interp_table: ROUND_SHIFT = " & integer'image(ROUND_SHIFT) & " out of range 0..40"
-            severity failure;
+        check_range("fringe_interp_table", "ROUND_SHIFT", ROUND_SHIFT, 0, 40);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;

@@ -63,51 +63,28 @@ architecture rtl of fringe_trim is
     function generics_ok return boolean is
         constant PHI_MAX : integer := minimum(10, FINE_W - 1);
     begin
-        assert FINE_W >= 8 and FINE_W <= 30
-            report "fringe_trim: FINE_W = " & integer'image(FINE_W) & " out of range 8..30"
-            severity failure;
-        assert LINES >= 1 and LINES <= 2**20
-            report "fringe_trim: LINES = " & integer'image(LINES) & " out of range 1..2^20"
-            severity failure;
+        check_range("fringe_trim", "FINE_W", FINE_W, 8, 30);
+        check_range("fringe_trim", "LINES", LINES, 1, 2**20, "2^20");
         assert FINE_W + clog2(LINES) <= 31
             report "fringe_trim: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
                    & " exceeds 31"
             severity failure;
-        assert AMP_W >= 4 and AMP_W <= 32
-            report "fringe_trim: AMP_W = " & integer'image(AMP_W) & " out of range 4..32"
-            severity failure;
-        assert SPEED_LOG2 >= 0 and SPEED_LOG2 <= 8
-            report "fringe_trim: SPEED_LOG2 = " & integer'image(SPEED_LOG2) & " out of range 0..8"
-            severity failure;
-        assert MAP_PSI_W >= 0 and MAP_PSI_W <= 8
-            report "fringe_trim: MAP_PSI_W = " & integer'image(MAP_PSI_W) & " out of range 0..8"
-            severity failure;
+        check_range("fringe_trim", "AMP_W", AMP_W, 4, 32);
+        check_range("fringe_trim", "SPEED_LOG2", SPEED_LOG2, 0, 8);
+        check_range("fringe_trim", "MAP_PSI_W", MAP_PSI_W, 0, 8);
         assert MAP_PHI_W >= 2 and MAP_PHI_W <= PHI_MAX
             report "fringe_trim: MAP_PHI_W = " & integer'image(MAP_PHI_W) & " out of range 2..min(10, FINE_W-1) = "
                    & integer'image(PHI_MAX)
             severity failure;
-        assert TRIM_W >= 8 and TRIM_W <= 24
-            report "fringe_trim: TRIM_W = " & integer'image(TRIM_W) & " out of range 8..24"
-            severity failure;
-        assert TRIM_FRAC >= 0 and TRIM_FRAC <= 16
-            report "fringe_trim: TRIM_FRAC = " & integer'image(TRIM_FRAC) & " out of range 0..16"
-            severity failure;
-        assert G_SHIFT >= 1 and G_SHIFT <= 48
-            report "fringe_trim: G_SHIFT = " & integer'image(G_SHIFT) & " out of range 1..48"
-            severity failure;
+        check_range("fringe_trim", "TRIM_W", TRIM_W, 8, 24);
+        check_range("fringe_trim", "TRIM_FRAC", TRIM_FRAC, 0, 16);
+        check_range("fringe_trim", "G_SHIFT", G_SHIFT, 1, 48);
         if MAP_PSI_W > 0 then
-            assert SECT_SHIFT >= 0 and SECT_SHIFT <= 127
-                report "fringe_trim: SECT_SHIFT = " & integer'image(SECT_SHIFT) & " out of range 0..127"
-                severity failure;
-            assert mapping_exact(SECT_RECIP, SECT_SHIFT, MAP_PSI_W, LINES, FINE_W)
-                report "fringe_trim: SECT_RECIP = " & integer'image(SECT_RECIP) & ", SECT_SHIFT = "
-                       & integer'image(SECT_SHIFT) & " do not map every position to floor(pos * 2^MAP_PSI_W / REV);"
-                       & " take them from sector_mapping()"
-                severity failure;
+            check_range("fringe_trim", "SECT_SHIFT", SECT_SHIFT, 0, 127);
+            check_mapping("fringe_trim", "SECT", "MAP_PSI_W", "sector_mapping", SECT_RECIP, SECT_SHIFT, MAP_PSI_W,
+                          LINES, FINE_W);
         end if;
-        assert USER_W >= 1
-            report "fringe_trim: USER_W = " & integer'image(USER_W) & " must be >= 1"
-            severity failure;
+        check_min("fringe_trim", "USER_W", USER_W, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;

@@ -46,19 +46,13 @@ architecture rtl of fringe_wave_lut is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert ADC_W >= 4 and ADC_W <= 24
-            report "fringe_wave_lut: ADC_W = " & integer'image(ADC_W) & " out of range 4..24"
-            severity failure;
+        check_range("fringe_wave_lut", "ADC_W", ADC_W, 4, 24);
         assert WAVE_ADDR_W >= 2 and WAVE_ADDR_W <= ADC_W - 1
             report "fringe_wave_lut: WAVE_ADDR_W = " & integer'image(WAVE_ADDR_W)
                    & " out of range 2..ADC_W-1 = " & integer'image(ADC_W - 1)
             severity failure;
-        assert WAVE_W >= 8 and WAVE_W <= 32
-            report "fringe_wave_lut: WAVE_W = " & integer'image(WAVE_W) & " out of range 8..32"
-            severity failure;
-        assert USER_W >= 1
-            report "fringe_wave_lut: USER_W = " & integer'image(USER_W) & " must be >= 1"
-            severity failure;
+        check_range("fringe_wave_lut", "WAVE_W", WAVE_W, 8, 32);
+        check_min("fringe_wave_lut", "USER_W", USER_W, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
