@@ -14,6 +14,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -21,18 +22,24 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from cocotb_runner import RTL_VERILOG, RTL_VHDL, setup_path, vhdl_compile_order  # noqa: E402
 
 
+def _run(cmd: list[str], label: str, clean: Callable[[int, str], bool]) -> int:
+    """Run one lint command, print ``ok``/``FAIL`` and the label (and the output on failure); 1 if it failed."""
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    out = (r.stdout + r.stderr).strip()
+    ok = clean(r.returncode, out)
+    print(f"{'ok  ' if ok else 'FAIL'} {label}")
+    if not ok:
+        print(out)
+    return 0 if ok else 1
+
+
 def lint_verilog(files: list[Path]) -> int:
     bad = 0
     for f in files:
         cmd = ["verilator", "--lint-only", "-Wall", "-y", str(RTL_VERILOG), f"-I{RTL_VERILOG}", "--top-module", f.stem,
                str(f)]
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        out = (r.stdout + r.stderr).strip()
-        ok = r.returncode == 0 and "%Warning" not in out and "%Error" not in out
-        print(f"{'ok  ' if ok else 'FAIL'} verilator -Wall {f.relative_to(RTL_VERILOG.parent.parent)}")
-        if not ok:
-            bad += 1
-            print(out)
+        bad += _run(cmd, f"verilator -Wall {f.relative_to(RTL_VERILOG.parent.parent)}",
+                    lambda rc, out: rc == 0 and "%Warning" not in out and "%Error" not in out)
     return bad
 
 
@@ -41,13 +48,8 @@ def lint_vhdl(files: list[Path]) -> int:
     with tempfile.TemporaryDirectory(prefix="fringe_ghdl_lint_") as work:
         for f in vhdl_compile_order(files):
             cmd = ["ghdl", "-a", "--std=08", "-Werror", f"--workdir={work}", str(f)]
-            r = subprocess.run(cmd, capture_output=True, text=True)
-            out = (r.stdout + r.stderr).strip()
-            ok = r.returncode == 0 and not out
-            print(f"{'ok  ' if ok else 'FAIL'} ghdl -a --std=08 {f.relative_to(RTL_VHDL.parent.parent)}")
-            if not ok:
-                bad += 1
-                print(out)
+            bad += _run(cmd, f"ghdl -a --std=08 {f.relative_to(RTL_VHDL.parent.parent)}",
+                        lambda rc, out: rc == 0 and not out)
     return bad
 
 

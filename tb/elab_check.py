@@ -34,3 +34,10 @@ def elaborate(toplevel: str, sim: str, parameters: Mapping[str, object]) -> tupl
                             *[f"-g{k}={v}" for k, v in parameters.items()], "--stop-time=0ns"],
                            capture_output=True, text=True, timeout=120, cwd=work)
         return r.returncode, r.stdout + r.stderr
+
+
+def assert_refused(toplevel: str, sim: str, parameters: Mapping[str, object], message: str) -> None:
+    """Elaborating ``toplevel`` with ``parameters`` fails, and the tools' output holds ``message``."""
+    __tracebackhide__ = True
+    rc, out = elaborate(toplevel, sim, parameters)
+    assert rc != 0 and message in out, f"{message!r} not in:\n{out[-3000:]}"

@@ -127,8 +127,8 @@ async def drive(dut, cycles: Sequence[Cycle], latency: int, read_output: Callabl
     return st
 
 
-async def measure_latency(dut, apply_sample: Callable[[], None], max_clocks: int = 40) -> int:
-    """Enabled clocks from one sample's edge to out_valid (ce = 1 throughout, pipeline idle and reset)."""
+async def measure_latency(dut, apply_sample: Callable[[], None], max_clocks: int = 40, valid: str = "out_valid") -> int:
+    """Enabled clocks from one sample's edge to ``valid`` (ce = 1 throughout, pipeline idle and reset)."""
     dut.rst.value = 1
     dut.ce.value = 1
     dut.in_valid.value = 0
@@ -143,12 +143,13 @@ async def measure_latency(dut, apply_sample: Callable[[], None], max_clocks: int
     await FallingEdge(dut.clk)
     dut.in_valid.value = 0
     n = 1
-    while not int(dut.out_valid.value):
+    out_valid = getattr(dut, valid)
+    while not int(out_valid.value):
         await RisingEdge(dut.clk)
         await FallingEdge(dut.clk)
         n += 1
         if n > max_clocks:
-            raise AssertionError(f"no out_valid within {max_clocks} clocks")
+            raise AssertionError(f"no {valid} within {max_clocks} clocks")
     return n
 
 
@@ -158,3 +159,16 @@ def hdl_constant(dut, name: str) -> int | None:
         return int(getattr(dut, name).value)
     except (AttributeError, TypeError, ValueError):
         return None
+
+
+async def play_plan(dut, cycles: Sequence[Cycle], latency: int, read_output: Callable[[], tuple],
+                    tag: str) -> DriveStats:
+    """Start the clock, `drive` the plan, and require that a reset dropped a sample in flight (the
+    plans put resets in mid-stream: a run without one did not test them); logs what was checked."""
+    await start_clock(dut)
+    st = await drive(dut, cycles, latency, read_output, tag)
+    if st.dropped == 0:
+        raise AssertionError(f"[{tag}] no reset dropped a sample in flight: test not effective")
+    dut._log.info("%d cycles, %d samples taken, %d words checked bit-exact, %d dropped by resets",
+                  st.cycles, st.accepted, st.checked, st.dropped)
+    return st

@@ -675,7 +675,6 @@ def test_latency_documented():
     ({"LP_ADDR_W": 17}, "fringe_core: LP_ADDR_W = 17 > 16"),
 ], ids=["pos_w", "wave_addr_w", "lp_addr_w"])
 def test_illegal_parameters_stop_elaboration(sim, params, message):
-    from elab_check import elaborate
+    from elab_check import assert_refused
 
-    rc, out = elaborate("fringe_core", sim, params)
-    assert rc != 0 and message in out, out[-3000:]
+    assert_refused("fringe_core", sim, params, message)

@@ -100,7 +100,7 @@ def test_tracker_constants_are_chosen_stored_and_used(tmp_path):
     """A fast drift wants a faster tracker than the default: the loop measures the choice, calibration.json keeps
     it, and the core configuration built from the folder uses it."""
     from fringe.calstore import load_calibration, save_calibration
-    from fringe.engines import core_config
+    from fringe.hardware.corefiles import core_config
 
     cfg = SimulationConfig(lines_per_rev=64, coarse_bits=8, samples=16_384, speed_mean_rev_s=2.0,
                            speed_swing_rev_s=1.0, drift_offset_rms=0.02, drift_gain_rms=0.02,
@@ -133,8 +133,8 @@ def test_trim_sectors_follow_the_revolution_orders():
     sectors than one that changes once, for the same error budget; the chosen format leaves steps within it."""
     from fringe.calibrate import calibrate
     from fringe.effects import RevNormalisation
-    from fringe.engines import core_config
-    from fringe.fixed.closed_loop import SECTOR_BUDGET, sector_error
+    from fringe.hardware.corefiles import core_config
+    from fringe.hardware.closed_loop import SECTOR_BUDGET, sector_error
 
     cfg = SimulationConfig(lines_per_rev=256, coarse_bits=9, samples=16_384, ref_error_arcsec={})
     cal = calibrate(measurement_of(simulate(cfg, 1)), cfg.encoder())

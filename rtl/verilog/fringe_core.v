@@ -157,117 +157,33 @@ module fringe_core #(
         end
     endgenerate
 
-    // ---- register file and bank control (configuration, not reset) ----------------------------
-    // regs[{bank, index}], index as in model/fringe/fixed/regmap.py
-    // register indices REG_*, CTRL_WORD: fringe_pkg.vh (generated from model/fringe/fixed/regmap.py)
+    // ---- register file, CTRL and write decode (configuration, not reset): fringe_regs ------------
+    wire [2*N_REGS*REG_W-1:0] regs_q;
+    wire                      bank_r;
+    wire                      wr_sin, wr_cos, wr_lp, wr_trim, wr_fwd, wr_fwd_sel;
+    wire [1:0]                wr_trim_sel;
+    wire [15:0]               wr_word;
+    wire                      wr_bank_r;
+    wire [63:0]               wr_data;
 
-    reg [REG_W-1:0] regs [0:2*N_REGS-1];
-    reg             bank_r;
+    fringe_regs #(
+        .WAVE_ADDR_W(WAVE_ADDR_W), .LP_ADDR_W(LP_ADDR_W), .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W),
+        .FWD_W(DRIFT_FWD_W), .REGS_INIT(REGS_INIT)
+    ) u_regs (
+        .clk(clk), .cfg_wr_en(cfg_wr_en), .cfg_wr_addr(cfg_wr_addr), .cfg_wr_data(cfg_wr_data),
+        .regs_q(regs_q), .active_bank(bank_r),
+        .wr_sin(wr_sin), .wr_cos(wr_cos), .wr_lp(wr_lp), .wr_trim(wr_trim), .wr_trim_sel(wr_trim_sel),
+        .wr_fwd(wr_fwd), .wr_fwd_sel(wr_fwd_sel), .wr_word(wr_word), .wr_bank(wr_bank_r), .wr_data(wr_data)
+    );
 
-    initial bank_r = 1'b0;   // power-up value (configuration: rst does not touch it)
-
-    generate
-        if (REGS_INIT != "") begin : g_regs_file
-            initial $readmemh(REGS_INIT, regs);
-        end else begin : g_regs_zero
-            integer i;
-            initial begin
-                for (i = 0; i < 64; i = i + 1) begin
-                    regs[i] = {REG_W{1'b0}};
-                end
-            end
-        end
-    endgenerate
-
-    wire [3:0]  cfg_sel  = cfg_wr_addr[19:16];
-    wire [15:0] cfg_word = cfg_wr_addr[15:0];
-    wire        wr_bank  = ~bank_r;   // writes go to the inactive bank
-
-    // The write decode is two registered steps (the iCE40's routing cannot take the 22-input compare and
-    // the 32-way fan-out in one clock): step 1 registers partial decodes of the presented write, step 2
-    // the one-hot register enables and the table enables; the write lands at the clock after step 2,
-    // two clocks after it was presented, in the bank that was inactive when it was presented.
-    reg               st1_en_reg, st1_en_ctrl_a, st1_en_ctrl_b;
-    reg  [7:0]        st1_sel;                  // one-hot: sin, cos, lp, trim map, trim speed, trim amp, fwd sin, fwd cos
-    reg               st1_wave_ok, st1_lp_ok, st1_trim_ok, st1_fwd_ok;
-    reg  [15:0]       st1_word;
-    reg               st1_bank;
-    reg  [63:0]       st1_data;
-    reg  [63:0]       reg_we;
-    reg               wr_sin, wr_cos, wr_lp, wr_trim, wr_fwd, wr_fwd_sel, ctrl_swap;
-    reg  [1:0]        wr_trim_sel;
-    reg  [15:0]       wr_word;
-    reg               wr_bank_r;
-    reg  [63:0]       wr_data;
-
-    // power-up values: no write lands before the first one presented (as bank_r, not reset)
-    initial begin
-        st1_en_reg    = 1'b0;
-        st1_en_ctrl_a = 1'b0;
-        st1_sel       = 8'd0;
-        reg_we        = 64'd0;
-        wr_sin        = 1'b0;
-        wr_cos        = 1'b0;
-        wr_lp         = 1'b0;
-        wr_trim       = 1'b0;
-        wr_fwd        = 1'b0;
-        ctrl_swap     = 1'b0;
-    end
-
-    // step 1: which space, whether the word lies inside one bank (table words), CTRL in two halves
-    always @(posedge clk) begin
-        st1_en_reg    <= cfg_wr_en && cfg_sel == SPACE_REGS && cfg_word[15:5] == 11'd0;
-        st1_en_ctrl_a <= cfg_wr_en && cfg_sel == SPACE_REGS && cfg_word[15:8] == 8'd0;
-        st1_en_ctrl_b <= cfg_word[7:0] == CTRL_WORD[7:0] && cfg_wr_data[CTRL_SWAP];
-        st1_sel       <= {cfg_sel == SPACE_DRIFT_FWD_COS, cfg_sel == SPACE_DRIFT_FWD_SIN, cfg_sel == SPACE_TRIM_AMP,
-                          cfg_sel == SPACE_TRIM_SPEED, cfg_sel == SPACE_TRIM_MAP, cfg_sel == SPACE_LONG_PERIOD,
-                          cfg_sel == SPACE_WAVE_COS, cfg_sel == SPACE_WAVE_SIN} & {8{cfg_wr_en}};
-        st1_wave_ok   <= (cfg_word >> (WAVE_ADDR_W + 1)) == 16'd0;
-        st1_lp_ok     <= (cfg_word >> LP_ADDR_W) == 16'd0;
-        st1_trim_ok   <= (cfg_word >> (MAP_PSI_W + MAP_PHI_W + 1)) == 16'd0;
-        st1_fwd_ok    <= (cfg_word >> DRIFT_FWD_W) == 16'd0;
-        st1_word      <= cfg_word;
-        st1_bank      <= wr_bank;
-        st1_data      <= cfg_wr_data;
-    end
-
-    // step 2: one-hot register enables {bank, index}, table enables, CTRL
-    integer wi;
-    always @(posedge clk) begin
-        for (wi = 0; wi < 64; wi = wi + 1) begin
-            reg_we[wi] <= st1_en_reg && st1_word[4:0] == wi[4:0] && st1_bank == wi[5];
-        end
-        wr_sin      <= st1_sel[0] && st1_wave_ok;
-        wr_cos      <= st1_sel[1] && st1_wave_ok;
-        wr_lp       <= st1_sel[2] && st1_lp_ok;
-        wr_trim     <= (st1_sel[3] || st1_sel[4] || st1_sel[5]) && st1_trim_ok;
-        wr_trim_sel <= {st1_sel[5], st1_sel[4]};   // 4, 5, 6 -> 0 map, 1 speed, 2 magnitude
-        wr_fwd      <= (st1_sel[6] || st1_sel[7]) && st1_fwd_ok;
-        wr_fwd_sel  <= st1_sel[7];                 // 7, 8 -> 0 sine, 1 cosine
-        ctrl_swap   <= st1_en_ctrl_a && st1_en_ctrl_b;
-        wr_word     <= st1_word;
-        wr_bank_r   <= st1_bank;
-        wr_data     <= st1_data;
-    end
-
+    // regs[{bank, index}]: the bank taps below read the words of their sample's bank
+    wire [REG_W-1:0] regs [0:2*N_REGS-1];
     genvar ri;
     generate
-        for (ri = 0; ri < 64; ri = ri + 1) begin : g_reg_wr
-            always @(posedge clk) begin
-                if (reg_we[ri]) begin
-                    regs[ri] <= wr_data[REG_W-1:0];
-                end
-            end
+        for (ri = 0; ri < 2 * N_REGS; ri = ri + 1) begin : g_regs
+            assign regs[ri] = regs_q[REG_W*ri +: REG_W];
         end
     endgenerate
-
-    // CTRL swaps at the clock after step 2, as a write presented at the same time would land: every
-    // write presented before it has landed by then (each carries its bank in wr_bank_r)
-    always @(posedge clk) begin
-        if (ctrl_swap) begin
-            bank_r <= ~bank_r;
-        end
-    end
 
     assign active_bank = bank_r;
 

@@ -127,7 +127,6 @@ module fringe_drift #(
     localparam integer QW     = PW - SHN;                             // that >>> SHN (ADC_W + 4)
     localparam integer TW     = TABLE_W;
     localparam integer FB     = FINE_W - FWD_W;                       // >= 1
-    localparam integer IP_W   = TW + FB + 1;                          // slope * frac + 2^(FB-1)
     localparam integer AW     = TW + 1;                               // a
     localparam integer YW     = ADC_W + TABLE_FRAC + 1;               // y * 2^TABLE_FRAC - W0
     localparam integer E_W    = ((YW > AW) ? YW : AW) + 1;            // e
@@ -248,24 +247,24 @@ module fringe_drift #(
         end
     end
 
-    // ---- observer: tables --------------------------------------------------------------------------
-    wire [2*TW-1:0] fs_q, fc_q;       // the RAMs' read registers
-    wire [FWD_W:0]  rd_addr = {obs_bank, obs_phase[FINE_W-1:FB]};
+    // ---- observer: tables, stages 1..4: a = value + ((slope * frac + 2^(FB-1)) >>> FB) --------------
+    wire [FWD_W:0]       rd_addr = {obs_bank, obs_phase[FINE_W-1:FB]};
+    wire signed [AW-1:0] o4_as, o4_ac;
 
-    fringe_table_ram #(
-        .ADDR_W(FWD_W), .DATA_W(2 * TW), .INIT_FILE(FWD_SIN_INIT)
+    fringe_interp_table #(
+        .ADDR_W(FWD_W), .W(TW), .FB(FB), .OUT_W(AW), .ROUND_SHIFT(0), .INIT_FILE(FWD_SIN_INIT)
     ) u_fwd_sin (
-        .clk(clk),
+        .clk(clk), .ce(ce),
         .wr_en(wr_en && !wr_sel), .wr_addr(wr_addr), .wr_data(wr_data),
-        .rd_en(ce), .rd_addr(rd_addr), .rd_data(fs_q)
+        .rd_addr(rd_addr), .frac(obs_phase[FB-1:0]), .result(o4_as)
     );
 
-    fringe_table_ram #(
-        .ADDR_W(FWD_W), .DATA_W(2 * TW), .INIT_FILE(FWD_COS_INIT)
+    fringe_interp_table #(
+        .ADDR_W(FWD_W), .W(TW), .FB(FB), .OUT_W(AW), .ROUND_SHIFT(0), .INIT_FILE(FWD_COS_INIT)
     ) u_fwd_cos (
-        .clk(clk),
+        .clk(clk), .ce(ce),
         .wr_en(wr_en && wr_sel), .wr_addr(wr_addr), .wr_data(wr_data),
-        .rd_en(ce), .rd_addr(rd_addr), .rd_data(fc_q)
+        .rd_addr(rd_addr), .frac(obs_phase[FB-1:0]), .result(o4_ac)
     );
 
     // ---- observer: pipeline --------------------------------------------------------------------------
@@ -286,24 +285,18 @@ module fringe_drift #(
         end
     end
 
-    localparam [IP_W-1:0] RND_FB = {{(IP_W-1){1'b0}}, 1'b1} << (FB - 1);
     // 1
     reg  [FINE_W-1:0]        o1_phase, o1_prev;
     reg                      o1_nz;
     reg  signed [ADC_W-1:0]  o1_ys, o1_yc;
     reg  signed [YW-2:0]     o1_w0s, o1_w0c;
     // 2
-    reg  [2*TW-1:0]          o2_ws, o2_wc;
-    reg  [FB-1:0]            o2_frac;
     reg  [FINE_W-1:0]        o2_dl;
     reg  signed [YW-1:0]     o2_yws, o2_ywc;
     // 3
-    reg  signed [IP_W-1:0]   o3_ps, o3_pc;
-    reg  signed [TW-1:0]     o3_vs, o3_vc;
     reg  signed [YW-1:0]     o3_yws, o3_ywc;
     reg  [FINE_W-1:0]        o3_abs;
     // 4
-    reg  signed [AW-1:0]     o4_as, o4_ac;
     reg  signed [YW-1:0]     o4_yws, o4_ywc;
     reg  [FINE_W-1:0]        o4_abs;
     // 5
@@ -317,11 +310,6 @@ module fringe_drift #(
     wire signed [YW-1:0] ys_x  = {{(TABLE_FRAC+1){o1_ys[ADC_W-1]}}, o1_ys} <<< TABLE_FRAC;
     wire signed [YW-1:0] yc_x  = {{(TABLE_FRAC+1){o1_yc[ADC_W-1]}}, o1_yc} <<< TABLE_FRAC;
     wire [FINE_W-1:0]    delta = o1_phase - o1_prev;     // wraps into [-2^(FINE_W-1), 2^(FINE_W-1))
-    wire signed [FB:0]   frac_s = {1'b0, o2_frac};
-    wire signed [TW-1:0] sl_s = o2_ws[2*TW-1:TW];
-    wire signed [TW-1:0] sl_c = o2_wc[2*TW-1:TW];
-    wire signed [AW-1:0] ip_s = o3_ps[FB +: AW];         // (slope * frac + 2^(FB-1)) >>> FB
-    wire signed [AW-1:0] ip_c = o3_pc[FB +: AW];
 
     always @(posedge clk) begin
         if (ce) begin
@@ -333,24 +321,15 @@ module fringe_drift #(
             o1_yc    <= obs_y_cos;
             o1_w0s   <= w0_sin;
             o1_w0c   <= w0_cos;
-            // 2: RAM output registers; phase delta; y * 2^TABLE_FRAC - W0
-            o2_ws   <= fs_q;
-            o2_wc   <= fc_q;
-            o2_frac <= o1_phase[FB-1:0];
+            // 2: phase delta; y * 2^TABLE_FRAC - W0
             o2_dl   <= o1_nz ? delta : {FINE_W{1'b0}};
             o2_yws  <= ys_x - {o1_w0s[YW-2], o1_w0s};
             o2_ywc  <= yc_x - {o1_w0c[YW-2], o1_w0c};
-            // 3: slope * frac + 2^(FB-1); |delta| (2^(FINE_W-1) fits unsigned)
-            o3_ps  <= sl_s * frac_s + $signed(RND_FB);
-            o3_pc  <= sl_c * frac_s + $signed(RND_FB);
-            o3_vs  <= o2_ws[TW-1:0];
-            o3_vc  <= o2_wc[TW-1:0];
+            // 3: |delta| (2^(FINE_W-1) fits unsigned)
             o3_yws <= o2_yws;
             o3_ywc <= o2_ywc;
             o3_abs <= o2_dl[FINE_W-1] ? -o2_dl : o2_dl;
-            // 4: a = value + (product >>> FB)
-            o4_as  <= {o3_vs[TW-1], o3_vs} + ip_s;
-            o4_ac  <= {o3_vc[TW-1], o3_vc} + ip_c;
+            // 4: a from the tables
             o4_yws <= o3_yws;
             o4_ywc <= o3_ywc;
             o4_abs <= o3_abs;
@@ -666,7 +645,7 @@ module fringe_drift #(
     end
 
     // Bits that carry nothing: the rounded-off bits of the products and of the offset step.
-    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], o3_ps, o3_pc, p_s, p_c, kgx_s, kgx_c, sx_s, sx_c,
+    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], p_s, p_c, kgx_s, kgx_c, sx_s, sx_c,
                     snap_sweep[FINE_W-1:0], olast[7]};
 
 endmodule

@@ -112,7 +112,6 @@ module fringe_trim #(
     localparam integer PSI_R   = (MAP_PSI_W > 0) ? MAP_PSI_W : 1;   // sector register width
     localparam integer TW      = TRIM_W;
     localparam integer GW      = TW + 1;                       // gs, ga: value + interpolated step, s(TW+1)
-    localparam integer IP_W    = TW + FB + 1;                  // slope x frac
     localparam integer P1_W    = POS_W + GW;                   // speed x gs, s(POS_W) x s(TW+1)
     localparam integer P2_W0   = AMP_W + GW;                   // mag x ga, u(AMP_W) x s(TW+1)
     localparam integer P2_W    = ((P2_W0 > G_SHIFT) ? P2_W0 : G_SHIFT) + 1;   // + 2^(G_SHIFT-1)
@@ -222,26 +221,26 @@ module fringe_trim #(
         end
     end
 
-    // ---- 3: pos - old; gain table reads ---------------------------------------------------------------
+    // ---- 3..6: pos - old; gs, ga = value + ((slope * frac + 2^(FB-1)) >>> FB) at {bank, bin} ---------
     wire [MAP_PHI_W-1:0] s2_bin = s2_pos[FINE_W-1:FB];
-    wire [2*TW-1:0] spd_q, amp_q;      // the RAMs' read registers
     wire wr_small = (wr_addr[MA_W-1:MAP_PHI_W] == {(MA_W-MAP_PHI_W){1'b0}});
     wire [MAP_PHI_W:0] wr_addr_small = {wr_addr[MA_W], wr_addr[MAP_PHI_W-1:0]};
+    wire signed [GW-1:0] s6_gs, s6_ga;
 
-    fringe_table_ram #(
-        .ADDR_W(MAP_PHI_W), .DATA_W(2 * TW), .INIT_FILE(SPEED_INIT)
+    fringe_interp_table #(
+        .ADDR_W(MAP_PHI_W), .W(TW), .FB(FB), .OUT_W(GW), .ROUND_SHIFT(0), .INIT_FILE(SPEED_INIT)
     ) u_speed (
-        .clk(clk),
+        .clk(clk), .ce(ce),
         .wr_en(wr_en && wr_sel == 2'd1 && wr_small), .wr_addr(wr_addr_small), .wr_data(wr_data),
-        .rd_en(ce), .rd_addr({s2_bank, s2_bin}), .rd_data(spd_q)
+        .rd_addr({s2_bank, s2_bin}), .frac(s2_pos[FB-1:0]), .result(s6_gs)
     );
 
-    fringe_table_ram #(
-        .ADDR_W(MAP_PHI_W), .DATA_W(2 * TW), .INIT_FILE(AMP_INIT)
+    fringe_interp_table #(
+        .ADDR_W(MAP_PHI_W), .W(TW), .FB(FB), .OUT_W(GW), .ROUND_SHIFT(0), .INIT_FILE(AMP_INIT)
     ) u_amp (
-        .clk(clk),
+        .clk(clk), .ce(ce),
         .wr_en(wr_en && wr_sel == 2'd2 && wr_small), .wr_addr(wr_addr_small), .wr_data(wr_data),
-        .rd_en(ce), .rd_addr({s2_bank, s2_bin}), .rd_data(amp_q)
+        .rd_addr({s2_bank, s2_bin}), .frac(s2_pos[FB-1:0]), .result(s6_ga)
     );
 
     reg  signed [POS_W:0] s3_d;        // pos - old, in (-REV, REV)
@@ -272,7 +271,6 @@ module fringe_trim #(
     wire signed [POS_W-1:0] speed4 = s3_full ? d_wrap[POS_W-1:0] : {POS_W{1'b0}};
     reg  signed [POS_W-1:0] s4_speed;
     reg                   s4_dir;
-    reg  [2*TW-1:0]       spd_word, amp_word;  // the gain RAMs' output registers
     reg  [POS_W-1:0]      s4_pos;
     reg  [AMP_W-1:0]      s4_mag;
     reg                   s4_bank;
@@ -282,8 +280,6 @@ module fringe_trim #(
         if (ce) begin
             s4_speed  <= speed4;
             s4_dir    <= speed4[POS_W-1];
-            spd_word     <= spd_q;
-            amp_word     <= amp_q;
             s4_pos    <= s3_pos;
             s4_mag    <= s3_mag;
             s4_bank   <= s3_bank;
@@ -291,11 +287,11 @@ module fringe_trim #(
         end
     end
 
-    // ---- 5: map read at {bank, dir, sector, bin}; gain slope x frac (bare) -------------------------
+    // ---- 5..8: map at {bank, dir, sector, bin}: m + 2^(TRIM_FRAC-1) = value + 2^(TRIM_FRAC-1)
+    // + ((slope * frac + 2^(FB-1)) >>> FB) --------------------------------------------------------------
     wire [MAP_PHI_W-1:0] s4_bin  = s4_pos[FINE_W-1:FB];
-    wire [FB-1:0]        s4_frac = s4_pos[FB-1:0];
     wire [MA_W:0]        map_rd_addr;
-    wire [2*TW-1:0]      map_q;        // the map RAM's read register
+    wire signed [MR_W-1:0] s8_m;
 
     generate
         if (MAP_PSI_W > 0) begin : g_addr_sector
@@ -306,57 +302,25 @@ module fringe_trim #(
         end
     endgenerate
 
-    fringe_table_ram #(
-        .ADDR_W(MA_W), .DATA_W(2 * TW), .INIT_FILE(MAP_INIT)
+    fringe_interp_table #(
+        .ADDR_W(MA_W), .W(TW), .FB(FB), .OUT_W(MR_W), .ROUND_SHIFT(TRIM_FRAC), .INIT_FILE(MAP_INIT)
     ) u_map (
-        .clk(clk),
+        .clk(clk), .ce(ce),
         .wr_en(wr_en && wr_sel == 2'd0), .wr_addr(wr_addr), .wr_data(wr_data),
-        .rd_en(ce), .rd_addr(map_rd_addr), .rd_data(map_q)
+        .rd_addr(map_rd_addr), .frac(s4_pos[FB-1:0]), .result(s8_m)
     );
 
-    wire signed [TW-1:0]   spd_slope = spd_word[2*TW-1:TW];
-    wire signed [TW-1:0]   spd_value = spd_word[TW-1:0];
-    wire signed [TW-1:0]   amp_slope = amp_word[2*TW-1:TW];
-    wire signed [TW-1:0]   amp_value = amp_word[TW-1:0];
-    wire signed [FB:0]     s4_frac_s = {1'b0, s4_frac};
-    reg  signed [IP_W-1:0] s5_sprod, s5_aprod;          // slope * frac
-    reg  signed [TW-1:0]   s5_svalue, s5_avalue;
-    reg  signed [POS_W-1:0] s5_speed;
-    reg                    s5_dir;
-    reg  [POS_W-1:0]       s5_pos;
-    reg  [AMP_W-1:0]       s5_mag;
+    reg  signed [POS_W-1:0] s5_speed, s6_speed;
+    reg                    s5_dir, s6_dir;
+    reg  [POS_W-1:0]       s5_pos, s6_pos;
+    reg  [AMP_W-1:0]       s5_mag, s6_mag;
 
     always @(posedge clk) begin
         if (ce) begin
-            s5_sprod  <= spd_slope * s4_frac_s;
-            s5_aprod  <= amp_slope * s4_frac_s;
-            s5_svalue <= spd_value;
-            s5_avalue <= amp_value;
-            s5_speed  <= s4_speed;
-            s5_dir    <= s4_dir;
-            s5_pos    <= s4_pos;
-            s5_mag    <= s4_mag;
-        end
-    end
-
-    // ---- 6: map RAM output register; gs, ga = value + ((product + 2^(FB-1)) >>> FB) ---------------
-    // (p + 2^(FB-1)) >>> FB = (p >>> FB) + p[FB-1]: the rounding bit is the adder's carry in.
-    wire signed [GW-1:0]   s_ip = s5_sprod[FB +: GW];           // slope * frac >>> FB
-    wire signed [GW-1:0]   a_ip = s5_aprod[FB +: GW];
-    wire signed [GW-1:0]   s_rb = {{(GW-1){1'b0}}, s5_sprod[FB-1]};
-    wire signed [GW-1:0]   a_rb = {{(GW-1){1'b0}}, s5_aprod[FB-1]};
-    reg  [2*TW-1:0]        map_word;
-    reg  signed [GW-1:0]   s6_gs, s6_ga;
-    reg  signed [POS_W-1:0] s6_speed;
-    reg                    s6_dir;
-    reg  [POS_W-1:0]       s6_pos;
-    reg  [AMP_W-1:0]       s6_mag;
-
-    always @(posedge clk) begin
-        if (ce) begin
-            map_word <= map_q;
-            s6_gs    <= $signed({s5_svalue[TW-1], s5_svalue}) + s_ip + s_rb;
-            s6_ga    <= $signed({s5_avalue[TW-1], s5_avalue}) + a_ip + a_rb;
+            s5_speed <= s4_speed;
+            s5_dir   <= s4_dir;
+            s5_pos   <= s4_pos;
+            s5_mag   <= s4_mag;
             s6_speed <= s5_speed;
             s6_dir   <= s5_dir;
             s6_pos   <= s5_pos;
@@ -364,12 +328,11 @@ module fringe_trim #(
         end
     end
 
-    // ---- 7: map slope x frac (bare), value + 2^(TRIM_FRAC-1); the partial products of speed x gs and
+    // ---- 7: the partial products of speed x gs and
     // mag x ga (bare). An operand wider than 18 bits is split, x = x_hi * 2^17 + x_lo (x_lo unsigned,
     // 17 bits, as s18), so that every partial product is at most 18x18 signed, registered on both
     // sides; an operand of at most 18 bits is x_hi = x, x_lo = 0 (its x_lo products are constant 0).
     // a * b = hh * 2^(AL+BL) + hl * 2^AL + lh * 2^BL + ll, with ll < 2^(AL+BL) (0 unless both split).
-    localparam [VR_W-1:0] RND_TF = (TRIM_FRAC > 0) ? ({{(VR_W-1){1'b0}}, 1'b1} << (TRIM_FRAC - 1)) : {VR_W{1'b0}};
     localparam integer L    = 17;
     localparam integer MG_W = AMP_W + 1;                        // mag as a signed operand
     localparam integer SP_L = (POS_W > 18) ? L : 0;             // low part bits of speed, gs/ga, mag
@@ -379,10 +342,6 @@ module fringe_trim #(
     localparam integer GN_H = GW - GN_L;
     localparam integer MG_H = MG_W - MG_L;
     localparam integer LL_W = 2 * L + 2;                        // x_lo * y_lo, s18 x s18
-    wire signed [TW-1:0]   map_slope = map_word[2*TW-1:TW];
-    wire signed [TW-1:0]   map_value = map_word[TW-1:0];
-    wire [FB-1:0]          s6_frac   = s6_pos[FB-1:0];
-    wire signed [FB:0]     s6_frac_s = {1'b0, s6_frac};
     wire signed [MG_W-1:0] s6_mag_s  = {1'b0, s6_mag};
     wire [POS_W+L-1:0]     sp_x      = {{L{s6_speed[POS_W-1]}}, s6_speed};
     wire [GW+L-1:0]        gs_x      = {{L{s6_gs[GW-1]}}, s6_gs};
@@ -396,8 +355,6 @@ module fringe_trim #(
     wire signed [GN_H-1:0] gs_hi     = s6_gs[GW-1:GN_L];
     wire signed [GN_H-1:0] ga_hi     = s6_ga[GW-1:GN_L];
     wire signed [MG_H-1:0] mg_hi     = s6_mag_s[MG_W-1:MG_L];
-    reg  signed [IP_W-1:0] s7_mprod;                           // map slope * frac
-    reg  signed [VR_W-1:0] s7_mvalue;
     reg  signed [SP_H+GN_H-1:0] s7_shh;                        // speed x gs
     reg  signed [SP_H+L:0]      s7_shl;
     reg  signed [L+GN_H:0]      s7_slh;
@@ -411,8 +368,6 @@ module fringe_trim #(
 
     always @(posedge clk) begin
         if (ce) begin
-            s7_mprod  <= map_slope * s6_frac_s;
-            s7_mvalue <= $signed({{(VR_W-TW){map_value[TW-1]}}, map_value}) + $signed(RND_TF);
             s7_shh    <= sp_hi * gs_hi;
             s7_shl    <= sp_hi * gs_lo;
             s7_slh    <= sp_lo * gs_hi;
@@ -426,8 +381,7 @@ module fringe_trim #(
         end
     end
 
-    // ---- 8: m + 2^(TRIM_FRAC-1) = value + 2^(TRIM_FRAC-1) + ((product + 2^(FB-1)) >>> FB) (the
-    // rounding bit as carry in); the partial products summed in pairs (terms below) ----------------
+    // ---- 8: the partial products summed in pairs (terms below) ---------------------------------------
     // From here on the sum A = (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) + speed * gs + mag * ga
     // is formed, A >>> G_SHIFT = total + 2^(TRIM_FRAC-1) (m * 2^G_SHIFT has no bits below G_SHIFT):
     // A = total' * 2^G_SHIFT + r, 0 <= r < 2^G_SHIFT, fits s(TT_W + G_SHIFT); every adder works modulo
@@ -439,8 +393,6 @@ module fringe_trim #(
     localparam [E_W-1:0] ONE_E  = {{(E_W-1){1'b0}}, 1'b1};
     localparam [E_W-1:0] MASK_S = (ONE_E << LL_S) - ONE_E;      // ll's bits (no overlap with hh)
     localparam [E_W-1:0] MASK_A = (ONE_E << LL_A) - ONE_E;
-    wire signed [GW-1:0]   m_ip  = s7_mprod[FB +: GW];          // map slope * frac >>> FB
-    wire signed [GW-1:0]   m_rb  = {{(GW-1){1'b0}}, s7_mprod[FB-1]};
     wire [E_W-1:0] t_s1 = ({{(E_W-SP_H-GN_H){s7_shh[SP_H+GN_H-1]}}, s7_shh} << LL_S)
                         | ({{(E_W-LL_W){1'b0}}, s7_sll} & MASK_S);
     wire [E_W-1:0] t_s2 = {{(E_W-SP_H-L-1){s7_shl[SP_H+L]}}, s7_shl} << SP_L;
@@ -449,15 +401,12 @@ module fringe_trim #(
                         | ({{(E_W-LL_W){1'b0}}, s7_all} & MASK_A);
     wire [E_W-1:0] t_a2 = {{(E_W-MG_H-L-1){s7_ahl[MG_H+L]}}, s7_ahl} << MG_L;
     wire [E_W-1:0] t_a3 = {{(E_W-GN_H-L-1){s7_alh[GN_H+L]}}, s7_alh} << GN_L;
-    reg  signed [MR_W-1:0] s8_m;
     reg  [A_W-1:0]         s8_u1, s8_u2, s8_u3;
     reg                    s8_dir;
     reg  [POS_W-1:0]       s8_pos;
 
     always @(posedge clk) begin
         if (ce) begin
-            s8_m   <= $signed({s7_mvalue[VR_W-1], s7_mvalue}) + $signed({{(MR_W-GW){m_ip[GW-1]}}, m_ip})
-                      + $signed({{(MR_W-GW){1'b0}}, m_rb});
             s8_u1  <= t_s1[A_W-1:0] + t_a1[A_W-1:0];
             s8_u2  <= t_s2[A_W-1:0] + t_s3[A_W-1:0];
             s8_u3  <= t_a2[A_W-1:0] + t_a3[A_W-1:0];
@@ -537,7 +486,7 @@ module fringe_trim #(
     // Bits that carry nothing: the products' rounded-off bits and sign extension, the terms beyond
     // A_W bits, the fraction bits of A, the sign bits of the wrapped speed and of positions in [0, REV),
     // the low parts of operands that are not split.
-    wire unused = &{1'b0, s5_sprod, s5_aprod, s7_mprod, t_s1, t_s2, t_s3, t_a1, t_a2, t_a3, t_m,
+    wire unused = &{1'b0, t_s1, t_s2, t_s3, t_a1, t_a2, t_a3, t_m,
                     s10_a[G_SHIFT+TRIM_FRAC:0], d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x,
                     sp_x, gs_x, ga_x, mg_x};
 

@@ -41,21 +41,11 @@ architecture rtl of fringe_cordic is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert IN_W >= 8 and IN_W <= 30
-            report "fringe_cordic: IN_W = " & integer'image(IN_W) & " out of range 8..30"
-            severity failure;
-        assert FINE_W >= 8 and FINE_W <= 30
-            report "fringe_cordic: FINE_W = " & integer'image(FINE_W) & " out of range 8..30"
-            severity failure;
-        assert STAGES >= 4 and STAGES <= 32
-            report "fringe_cordic: STAGES = " & integer'image(STAGES) & " out of range 4..32"
-            severity failure;
-        assert GUARD >= 0 and GUARD <= 8
-            report "fringe_cordic: GUARD = " & integer'image(GUARD) & " out of range 0..8"
-            severity failure;
-        assert USER_W >= 1
-            report "fringe_cordic: USER_W = " & integer'image(USER_W) & " must be >= 1"
-            severity failure;
+        check_range("fringe_cordic", "IN_W", IN_W, 8, 30);
+        check_range("fringe_cordic", "FINE_W", FINE_W, 8, 30);
+        check_range("fringe_cordic", "STAGES", STAGES, 4, 32);
+        check_range("fringe_cordic", "GUARD", GUARD, 0, 8);
+        check_min("fringe_cordic", "USER_W", USER_W, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;

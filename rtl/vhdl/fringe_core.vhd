@@ -125,8 +125,7 @@ architecture rtl of fringe_core is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert LINES >= 1
-            report "fringe_core: LINES = " & integer'image(LINES) & " must be >= 1" severity failure;
+        check_min("fringe_core", "LINES", LINES, 1);
         assert POS_W <= 31
             report "fringe_core: POS_W = clog2(LINES) + FINE_W = " & integer'image(POS_W)
                    & " > 31: registers are 32-bit" severity failure;
@@ -162,8 +161,9 @@ architecture rtl of fringe_core is
 
     subtype regs_t is word_array(0 to 2 * N_REGS - 1)(REG_W - 1 downto 0);   -- bank 0, then bank 1
 
-    signal regs   : regs_t := read_memh(REGS_INIT, 2 * N_REGS, REG_W, "fringe_core: REGS_INIT");
-    signal bank_r : std_logic := '0';
+    signal regs   : regs_t;                 -- from fringe_regs
+    signal regs_q : std_logic_vector(2 * N_REGS * REG_W - 1 downto 0);
+    signal bank_r : std_logic;
 
     -- field `lo`..`lo+w-1` of register `idx` of bank `b`
     function reg_field(r : regs_t; b : std_logic; idx : integer; w : integer) return std_logic_vector is
@@ -174,35 +174,10 @@ architecture rtl of fringe_core is
         return r(idx)(w - 1 downto 0);
     end function reg_field;
 
-    -- configuration decode; the writes registered (one-hot register enables {bank, index})
-    signal cfg_sel      : std_logic_vector(3 downto 0);
-    -- the spaces of st1_sel's bits: sine, cosine, long period, trim map, speed, magnitude, drift sine, cosine
-    constant SEL_SPACES : integer_vector(0 to 7) := (SPACE_WAVE_SIN, SPACE_WAVE_COS, SPACE_LONG_PERIOD, SPACE_TRIM_MAP,
-                                                     SPACE_TRIM_SPEED, SPACE_TRIM_AMP, SPACE_DRIFT_FWD_SIN,
-                                                     SPACE_DRIFT_FWD_COS);
-    signal cfg_word     : unsigned(15 downto 0);
-    signal wr_bank      : std_logic;
-    -- power-up values: no write lands before the first one issued (as bank_r, not reset)
-    -- step 1 of the write decode (partial decodes of the presented write)
-    signal st1_en_reg    : std_logic := '0';
-    signal st1_en_ctrl_a : std_logic := '0';
-    signal st1_en_ctrl_b : std_logic;
-    signal st1_sel       : std_logic_vector(7 downto 0) := (others => '0');  -- one-hot: sin, cos, lp, map, speed, amp, fwd sin, fwd cos
-    signal st1_wave_ok, st1_lp_ok, st1_trim_ok, st1_fwd_ok : std_logic;
-    signal wr_fwd        : std_logic := '0';
-    signal wr_fwd_sel    : std_logic;
-    signal st1_word      : unsigned(15 downto 0);
-    signal st1_bank      : std_logic;
-    signal st1_data      : std_logic_vector(63 downto 0);
-    signal ctrl_swap     : std_logic := '0';
-    -- step 2: enables, address, data of the landing write
-    signal reg_we       : std_logic_vector(63 downto 0) := (others => '0');
-    signal wr_sin       : std_logic := '0';
-    signal wr_cos       : std_logic := '0';
-    signal wr_lp        : std_logic := '0';
-    signal wr_trim      : std_logic := '0';
+    -- the landing table write (fringe_regs)
+    signal wr_sin, wr_cos, wr_lp, wr_trim, wr_fwd, wr_fwd_sel : std_logic;
     signal wr_trim_sel  : std_logic_vector(1 downto 0);
-    signal wr_word      : unsigned(15 downto 0);
+    signal wr_word      : std_logic_vector(15 downto 0);
     signal wr_bank_r    : std_logic;
     signal wr_data      : std_logic_vector(63 downto 0);
     signal wave_wr_addr : std_logic_vector(WAVE_ADDR_W + 1 downto 0);
@@ -306,91 +281,20 @@ architecture rtl of fringe_core is
 
 begin
 
-    -- ---- register file and bank control (configuration, not reset) ----------------------------
-    cfg_sel  <= cfg_wr_addr(19 downto 16);
-    cfg_word <= unsigned(cfg_wr_addr(15 downto 0));
-    wr_bank  <= not bank_r;                 -- writes go to the inactive bank
+    -- ---- register file, CTRL and write decode (configuration, not reset): fringe_regs ------------
+    u_regs : entity work.fringe_regs
+        generic map (WAVE_ADDR_W => WAVE_ADDR_W, LP_ADDR_W => LP_ADDR_W, MAP_PSI_W => MAP_PSI_W,
+                     MAP_PHI_W => MAP_PHI_W, FWD_W => DRIFT_FWD_W, REGS_INIT => REGS_INIT)
+        port map (clk => clk, cfg_wr_en => cfg_wr_en, cfg_wr_addr => cfg_wr_addr, cfg_wr_data => cfg_wr_data,
+                  regs_q => regs_q, active_bank => bank_r,
+                  wr_sin => wr_sin, wr_cos => wr_cos, wr_lp => wr_lp, wr_trim => wr_trim, wr_trim_sel => wr_trim_sel,
+                  wr_fwd => wr_fwd, wr_fwd_sel => wr_fwd_sel, wr_word => wr_word, wr_bank => wr_bank_r,
+                  wr_data => wr_data);
 
-    -- The write decode is two registered steps (the iCE40's routing cannot take the 22-input compare and
-    -- the 32-way fan-out in one clock): step 1 registers partial decodes of the presented write, step 2
-    -- the one-hot register enables and the table enables; the write lands at the clock after step 2,
-    -- two clocks after it was presented, in the bank that was inactive when it was presented.
-    p_cfg_step1 : process (clk)
-        function b(c : boolean) return std_logic is
-        begin
-            if c then
-                return '1';
-            end if;
-            return '0';
-        end function b;
-    begin
-        if rising_edge(clk) then
-            st1_en_reg    <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SPACE_REGS
-                               and cfg_word(15 downto 5) = 0);
-            st1_en_ctrl_a <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SPACE_REGS
-                               and cfg_word(15 downto 8) = 0);
-            -- (the package's CTRL_SWAP by its full name: the signal ctrl_swap hides it)
-            st1_en_ctrl_b <= b(cfg_word(7 downto 0) = to_unsigned(CTRL_WORD mod 256, 8)
-                               and cfg_wr_data(work.fringe_pkg.CTRL_SWAP) = '1');
-            for k in 0 to 7 loop
-                st1_sel(k) <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SEL_SPACES(k));
-            end loop;
-            st1_wave_ok <= b(shift_right(cfg_word, WAVE_ADDR_W + 1) = 0);
-            st1_lp_ok   <= b(shift_right(cfg_word, LP_ADDR_W) = 0);
-            st1_trim_ok <= b(shift_right(cfg_word, MAP_PSI_W + MAP_PHI_W + 1) = 0);
-            st1_fwd_ok  <= b(shift_right(cfg_word, DRIFT_FWD_W) = 0);
-            st1_word    <= cfg_word;
-            st1_bank    <= wr_bank;
-            st1_data    <= cfg_wr_data;
-        end if;
-    end process p_cfg_step1;
-
-    p_cfg_dec : process (clk)
-    begin
-        if rising_edge(clk) then
-            for i in 0 to 63 loop
-                if st1_en_reg = '1' and st1_word(4 downto 0) = to_unsigned(i mod 32, 5)
-                   and (st1_bank = '1') = (i >= 32) then
-                    reg_we(i) <= '1';
-                else
-                    reg_we(i) <= '0';
-                end if;
-            end loop;
-            wr_sin      <= st1_sel(0) and st1_wave_ok;
-            wr_cos      <= st1_sel(1) and st1_wave_ok;
-            wr_lp       <= st1_sel(2) and st1_lp_ok;
-            wr_trim     <= (st1_sel(3) or st1_sel(4) or st1_sel(5)) and st1_trim_ok;
-            wr_trim_sel <= st1_sel(5) & st1_sel(4);   -- 4, 5, 6 -> 0 map, 1 speed, 2 magnitude
-            wr_fwd      <= (st1_sel(6) or st1_sel(7)) and st1_fwd_ok;
-            wr_fwd_sel  <= st1_sel(7);                -- 7, 8 -> 0 sine, 1 cosine
-            ctrl_swap   <= st1_en_ctrl_a and st1_en_ctrl_b;
-            wr_word     <= st1_word;
-            wr_bank_r   <= st1_bank;
-            wr_data     <= st1_data;
-        end if;
-    end process p_cfg_dec;
-
-    p_regs : process (clk)
-    begin
-        if rising_edge(clk) then
-            for i in 0 to 63 loop
-                if reg_we(i) = '1' then
-                    regs(i) <= wr_data(REG_W - 1 downto 0);
-                end if;
-            end loop;
-        end if;
-    end process p_regs;
-
-    -- CTRL swaps at the clock after step 2, as a write presented at the same time would land: every
-    -- write presented before it has landed by then (each carries its bank in wr_bank_r)
-    p_ctrl : process (clk)
-    begin
-        if rising_edge(clk) then
-            if ctrl_swap = '1' then
-                bank_r <= not bank_r;
-            end if;
-        end if;
-    end process p_ctrl;
+    -- regs({bank, index}): the bank taps below read the words of their sample's bank
+    g_regs : for i in 0 to 2 * N_REGS - 1 generate
+        regs(i) <= regs_q(REG_W * i + REG_W - 1 downto REG_W * i);
+    end generate g_regs;
 
     active_bank <= bank_r;
 

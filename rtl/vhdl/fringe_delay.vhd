@@ -7,6 +7,7 @@
 
 library ieee;
 use ieee.std_logic_1164.all;
+use work.fringe_pkg.all;
 
 entity fringe_delay is
     generic (
@@ -29,10 +30,8 @@ architecture rtl of fringe_delay is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert WIDTH >= 1
-            report "fringe_delay: WIDTH = " & integer'image(WIDTH) & " must be >= 1" severity failure;
-        assert DEPTH >= 0
-            report "fringe_delay: DEPTH = " & integer'image(DEPTH) & " must be >= 0" severity failure;
+        check_min("fringe_delay", "WIDTH", WIDTH, 1);
+        check_min("fringe_delay", "DEPTH", DEPTH, 0);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;

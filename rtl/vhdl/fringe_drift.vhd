@@ -81,55 +81,31 @@ architecture rtl of fringe_drift is
         constant TOTAL   : integer := NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY;
         constant D1      : integer := 2 ** (BLOCK_LOG2 - 1) + 1;
     begin
-        assert ADC_W >= 4 and ADC_W <= 24
-            report "fringe_drift: ADC_W = " & integer'image(ADC_W) & " out of range 4..24"
-            severity failure;
-        assert FINE_W >= 8 and FINE_W <= 30
-            report "fringe_drift: FINE_W = " & integer'image(FINE_W) & " out of range 8..30"
-            severity failure;
-        assert BLOCK_LOG2 >= 4 and BLOCK_LOG2 <= 12
-            report "fringe_drift: BLOCK_LOG2 = " & integer'image(BLOCK_LOG2) & " out of range 4..12"
-            severity failure;
-        assert MU_LOG2 >= 0 and MU_LOG2 <= 8
-            report "fringe_drift: MU_LOG2 = " & integer'image(MU_LOG2) & " out of range 0..8"
-            severity failure;
-        assert OFS_FRAC >= 0 and OFS_FRAC <= 8
-            report "fringe_drift: OFS_FRAC = " & integer'image(OFS_FRAC) & " out of range 0..8"
-            severity failure;
+        check_range("fringe_drift", "ADC_W", ADC_W, 4, 24);
+        check_range("fringe_drift", "FINE_W", FINE_W, 8, 30);
+        check_range("fringe_drift", "BLOCK_LOG2", BLOCK_LOG2, 4, 12);
+        check_range("fringe_drift", "MU_LOG2", MU_LOG2, 0, 8);
+        check_range("fringe_drift", "OFS_FRAC", OFS_FRAC, 0, 8);
         assert ADC_W + OFS_FRAC <= 32
             report "fringe_drift: ADC_W + OFS_FRAC = " & integer'image(ADC_W + OFS_FRAC) & " exceeds 32"
             severity failure;
-        assert GINV_W >= 8 and GINV_W <= 24
-            report "fringe_drift: GINV_W = " & integer'image(GINV_W) & " out of range 8..24"
-            severity failure;
+        check_range("fringe_drift", "GINV_W", GINV_W, 8, 24);
         assert FWD_W >= 2 and FWD_W <= FWD_MAX
             report "fringe_drift: FWD_W = " & integer'image(FWD_W) & " out of range 2..min(10, FINE_W-1) = "
                    & integer'image(FWD_MAX)
             severity failure;
-        assert TABLE_W >= 8 and TABLE_W <= 24
-            report "fringe_drift: TABLE_W = " & integer'image(TABLE_W) & " out of range 8..24"
-            severity failure;
-        assert TABLE_FRAC >= 0 and TABLE_FRAC <= 12
-            report "fringe_drift: TABLE_FRAC = " & integer'image(TABLE_FRAC) & " out of range 0..12"
-            severity failure;
-        assert KG_W >= 8 and KG_W <= 24
-            report "fringe_drift: KG_W = " & integer'image(KG_W) & " out of range 8..24"
-            severity failure;
-        assert KG_SHIFT >= 1 and KG_SHIFT <= 60
-            report "fringe_drift: KG_SHIFT = " & integer'image(KG_SHIFT) & " out of range 1..60"
-            severity failure;
-        assert PIPE_LATENCY >= 0
-            report "fringe_drift: PIPE_LATENCY = " & integer'image(PIPE_LATENCY) & " must be >= 0"
-            severity failure;
+        check_range("fringe_drift", "TABLE_W", TABLE_W, 8, 24);
+        check_range("fringe_drift", "TABLE_FRAC", TABLE_FRAC, 0, 12);
+        check_range("fringe_drift", "KG_W", KG_W, 8, 24);
+        check_range("fringe_drift", "KG_SHIFT", KG_SHIFT, 1, 60);
+        check_min("fringe_drift", "PIPE_LATENCY", PIPE_LATENCY, 0);
         assert TOTAL <= D1
             report "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = " & integer'image(NORM_LATENCY)
                    & " + " & integer'image(PIPE_LATENCY) & " + " & integer'image(OBS_LATENCY) & " = "
                    & integer'image(TOTAL) & " exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = " & integer'image(D1)
                    & ": the update would come too late"
             severity failure;
-        assert USER_W >= 1
-            report "fringe_drift: USER_W = " & integer'image(USER_W) & " must be >= 1"
-            severity failure;
+        check_min("fringe_drift", "USER_W", USER_W, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
@@ -141,7 +117,6 @@ architecture rtl of fringe_drift is
     constant QW     : integer := PW - SHN;                          -- that >>> SHN
     constant TW     : integer := TABLE_W;
     constant FB     : integer := FINE_W - FWD_W;                    -- >= 1
-    constant IP_W   : integer := TW + FB + 1;                       -- slope * frac + 2^(FB-1)
     constant AW     : integer := TW + 1;                            -- a
     constant YW     : integer := ADC_W + TABLE_FRAC + 1;            -- y * 2^TABLE_FRAC - W0
     constant E_W    : integer := maximum(YW, AW) + 1;               -- e
@@ -187,22 +162,18 @@ architecture rtl of fringe_drift is
     signal kg_hold_s, kg_hold_c : unsigned(KG_W - 1 downto 0);
     signal rd_addr    : std_logic_vector(FWD_W downto 0);
     signal wr_en_s, wr_en_c : std_logic;
-    signal fs_q, fc_q : std_logic_vector(2 * TW - 1 downto 0);
+    signal obs_frac   : std_logic_vector(FB - 1 downto 0);
+    signal a_s, a_c   : std_logic_vector(AW - 1 downto 0);   -- from the forward tables
     signal ovalid     : std_logic_vector(1 to 8);
     signal olast      : std_logic_vector(1 to 8);
     signal o1_phase, o1_prev : unsigned(FINE_W - 1 downto 0);
     signal o1_nz      : std_logic;
     signal o1_ys, o1_yc   : signed(ADC_W - 1 downto 0);
     signal o1_w0s, o1_w0c : signed(YW - 2 downto 0);
-    signal o2_ws, o2_wc   : std_logic_vector(2 * TW - 1 downto 0);
-    signal o2_frac    : unsigned(FB - 1 downto 0);
     signal o2_dl      : unsigned(FINE_W - 1 downto 0);
     signal o2_yws, o2_ywc : signed(YW - 1 downto 0);
-    signal o3_ps, o3_pc   : signed(IP_W - 1 downto 0);
-    signal o3_vs, o3_vc   : signed(TW - 1 downto 0);
     signal o3_yws, o3_ywc : signed(YW - 1 downto 0);
     signal o3_abs     : unsigned(FINE_W - 1 downto 0);
-    signal o4_as, o4_ac   : signed(AW - 1 downto 0);
     signal o4_yws, o4_ywc : signed(YW - 1 downto 0);
     signal o4_abs     : unsigned(FINE_W - 1 downto 0);
     signal o5_es, o5_ec   : signed(E_W - 1 downto 0);
@@ -442,26 +413,27 @@ begin
         end if;
     end process p_ocnt;
 
-    -- ---- observer: tables ------------------------------------------------------------------------------
-    rd_addr <= obs_bank & obs_phase(FINE_W - 1 downto FB);
+    -- ---- observer: tables, stages 1..4: a = value + ((slope * frac + 2^(FB-1)) >>> FB) ----------------
+    rd_addr  <= obs_bank & obs_phase(FINE_W - 1 downto FB);
+    obs_frac <= obs_phase(FB - 1 downto 0);
     wr_en_s <= wr_en and not wr_sel;
     wr_en_c <= wr_en and wr_sel;
 
-    u_fwd_sin : entity work.fringe_table_ram
-        generic map (ADDR_W => FWD_W, DATA_W => 2 * TW, INIT_FILE => FWD_SIN_INIT)
-        port map (clk => clk, wr_en => wr_en_s, wr_addr => wr_addr, wr_data => wr_data,
-                  rd_en => ce, rd_addr => rd_addr, rd_data => fs_q);
+    u_fwd_sin : entity work.fringe_interp_table
+        generic map (ADDR_W => FWD_W, W => TW, FB => FB, OUT_W => AW, ROUND_SHIFT => 0,
+                     INIT_FILE => FWD_SIN_INIT)
+        port map (clk => clk, ce => ce, wr_en => wr_en_s, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_addr => rd_addr, frac => obs_frac, result => a_s);
 
-    u_fwd_cos : entity work.fringe_table_ram
-        generic map (ADDR_W => FWD_W, DATA_W => 2 * TW, INIT_FILE => FWD_COS_INIT)
-        port map (clk => clk, wr_en => wr_en_c, wr_addr => wr_addr, wr_data => wr_data,
-                  rd_en => ce, rd_addr => rd_addr, rd_data => fc_q);
+    u_fwd_cos : entity work.fringe_interp_table
+        generic map (ADDR_W => FWD_W, W => TW, FB => FB, OUT_W => AW, ROUND_SHIFT => 0,
+                     INIT_FILE => FWD_COS_INIT)
+        port map (clk => clk, ce => ce, wr_en => wr_en_c, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_addr => rd_addr, frac => obs_frac, result => a_c);
 
     -- ---- observer: pipeline ------------------------------------------------------------------------------
     p_obs : process (clk)
-        variable frac_s : signed(FB downto 0);
         variable dl     : unsigned(FINE_W - 1 downto 0);
-        variable ip     : signed(IP_W - 1 downto 0);
     begin
         if rising_edge(clk) then
             if rst = '1' then
@@ -483,10 +455,7 @@ begin
                 o1_yc    <= signed(obs_y_cos);
                 o1_w0s   <= signed(w0_sin);
                 o1_w0c   <= signed(w0_cos);
-                -- 2: RAM output registers; phase delta (wraps); y * 2^TABLE_FRAC - W0
-                o2_ws   <= fs_q;
-                o2_wc   <= fc_q;
-                o2_frac <= o1_phase(FB - 1 downto 0);
+                -- 2: phase delta (wraps); y * 2^TABLE_FRAC - W0
                 if o1_nz = '1' then
                     o2_dl <= o1_phase - o1_prev;
                 else
@@ -494,12 +463,7 @@ begin
                 end if;
                 o2_yws <= shift_left(resize(o1_ys, YW), TABLE_FRAC) - resize(o1_w0s, YW);
                 o2_ywc <= shift_left(resize(o1_yc, YW), TABLE_FRAC) - resize(o1_w0c, YW);
-                -- 3: slope * frac + 2^(FB-1); |delta|
-                frac_s := signed('0' & o2_frac);
-                o3_ps  <= signed(o2_ws(2 * TW - 1 downto TW)) * frac_s + round_half(IP_W, FB);
-                o3_pc  <= signed(o2_wc(2 * TW - 1 downto TW)) * frac_s + round_half(IP_W, FB);
-                o3_vs  <= signed(o2_ws(TW - 1 downto 0));
-                o3_vc  <= signed(o2_wc(TW - 1 downto 0));
+                -- 3: |delta|
                 o3_yws <= o2_yws;
                 o3_ywc <= o2_ywc;
                 dl := o2_dl;
@@ -508,19 +472,15 @@ begin
                 else
                     o3_abs <= dl;
                 end if;
-                -- 4: a = value + (product >>> FB)
-                ip := o3_ps;
-                o4_as  <= resize(o3_vs, AW) + ip(FB + AW - 1 downto FB);
-                ip := o3_pc;
-                o4_ac  <= resize(o3_vc, AW) + ip(FB + AW - 1 downto FB);
+                -- 4: a from the tables
                 o4_yws <= o3_yws;
                 o4_ywc <= o3_ywc;
                 o4_abs <= o3_abs;
                 -- 5: e = yw - a
-                o5_es  <= resize(o4_yws, E_W) - resize(o4_as, E_W);
-                o5_ec  <= resize(o4_ywc, E_W) - resize(o4_ac, E_W);
-                o5_as  <= o4_as;
-                o5_ac  <= o4_ac;
+                o5_es  <= resize(o4_yws, E_W) - resize(signed(a_s), E_W);
+                o5_ec  <= resize(o4_ywc, E_W) - resize(signed(a_c), E_W);
+                o5_as  <= signed(a_s);
+                o5_ac  <= signed(a_c);
                 o5_abs <= o4_abs;
                 -- 6..8: e * a; e and |delta| carried along
                 for i in 0 to 2 loop

@@ -55,33 +55,21 @@ architecture rtl of fringe_long_period is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert FINE_W >= 8 and FINE_W <= 30
-            report "fringe_long_period: FINE_W = " & integer'image(FINE_W) & " out of range 8..30"
-            severity failure;
-        assert LINES >= 1 and LINES <= 2**20
-            report "fringe_long_period: LINES = " & integer'image(LINES) & " out of range 1..2^20"
-            severity failure;
+        check_range("fringe_long_period", "FINE_W", FINE_W, 8, 30);
+        check_range("fringe_long_period", "LINES", LINES, 1, 2**20, "2^20");
         assert FINE_W + clog2(LINES) <= 48
             report "fringe_long_period: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
                    & " exceeds 48"
             severity failure;
-        assert LP_ADDR_W >= 2 and LP_ADDR_W <= 16
-            report "fringe_long_period: LP_ADDR_W = " & integer'image(LP_ADDR_W) & " out of range 2..16"
-            severity failure;
+        check_range("fringe_long_period", "LP_ADDR_W", LP_ADDR_W, 2, 16);
         -- 2^LP_ADDR_W <= REV = LINES * 2^FINE_W
         assert LP_ADDR_W <= FINE_W or LINES >= 2**(LP_ADDR_W - FINE_W)
             report "fringe_long_period: 2^LP_ADDR_W = " & integer'image(2**LP_ADDR_W)
                    & " entries exceed REV = LINES * 2^FINE_W"
             severity failure;
-        assert LP_W >= 8 and LP_W <= 32
-            report "fringe_long_period: LP_W = " & integer'image(LP_W) & " out of range 8..32"
-            severity failure;
-        assert LP_FRAC >= 0 and LP_FRAC <= 16
-            report "fringe_long_period: LP_FRAC = " & integer'image(LP_FRAC) & " out of range 0..16"
-            severity failure;
-        assert LP_IF >= 1 and LP_IF <= 16
-            report "fringe_long_period: LP_IF = " & integer'image(LP_IF) & " out of range 1..16"
-            severity failure;
+        check_range("fringe_long_period", "LP_W", LP_W, 8, 32);
+        check_range("fringe_long_period", "LP_FRAC", LP_FRAC, 0, 16);
+        check_range("fringe_long_period", "LP_IF", LP_IF, 1, 16);
         -- 2^(LP_W - LP_FRAC) <= REV
         assert LP_W - LP_FRAC <= FINE_W or LINES >= 2**(LP_W - LP_FRAC - FINE_W)
             report "fringe_long_period: LP_W - LP_FRAC = " & integer'image(LP_W - LP_FRAC)
@@ -92,14 +80,9 @@ architecture rtl of fringe_long_period is
             report "fringe_long_period: LP_SHIFT = " & integer'image(LP_SHIFT) & " out of range LP_IF = "
                    & integer'image(LP_IF) & " .. 127"
             severity failure;
-        assert mapping_exact(LP_RECIP, LP_SHIFT, LP_ADDR_W, LINES, FINE_W)
-            report "fringe_long_period: LP_RECIP = " & integer'image(LP_RECIP) & ", LP_SHIFT = "
-                   & integer'image(LP_SHIFT) & " do not map every position to floor(pos * 2^LP_ADDR_W / REV);"
-                   & " take them from index_mapping()"
-            severity failure;
-        assert USER_W >= 1
-            report "fringe_long_period: USER_W = " & integer'image(USER_W) & " must be >= 1"
-            severity failure;
+        check_mapping("fringe_long_period", "LP", "LP_ADDR_W", "index_mapping", LP_RECIP, LP_SHIFT, LP_ADDR_W,
+                      LINES, FINE_W);
+        check_min("fringe_long_period", "USER_W", USER_W, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;

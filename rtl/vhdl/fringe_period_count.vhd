@@ -45,12 +45,8 @@ architecture rtl of fringe_period_count is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert FINE_W >= 8 and FINE_W <= 30
-            report "fringe_period_count: FINE_W = " & integer'image(FINE_W) & " out of range 8..30"
-            severity failure;
-        assert LINES >= 1 and LINES <= 2**20
-            report "fringe_period_count: LINES = " & integer'image(LINES) & " out of range 1..2^20"
-            severity failure;
+        check_range("fringe_period_count", "FINE_W", FINE_W, 8, 30);
+        check_range("fringe_period_count", "LINES", LINES, 1, 2**20, "2^20");
         assert FINE_W + clog2(LINES) <= 48
             report "fringe_period_count: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
                    & " exceeds 48"
@@ -63,9 +59,7 @@ architecture rtl of fringe_period_count is
             report "fringe_period_count: 2^COARSE_W = " & integer'image(2**COARSE_W) & " is less than LINES = "
                    & integer'image(LINES)
             severity failure;
-        assert USER_W >= 1
-            report "fringe_period_count: USER_W = " & integer'image(USER_W) & " must be >= 1"
-            severity failure;
+        check_min("fringe_period_count", "USER_W", USER_W, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;

@@ -25,6 +25,15 @@ package fringe_pkg is
     -- 2^G = gcd(2^addr_w, REV), E >= 0 and (REV - 1) * E < 2^(G + shift). 256-bit arithmetic.
     function mapping_exact(recip, shift, addr_w, lines, fine_w : natural) return boolean;
 
+    -- The generic checks of every block (called in its generics_ok, at elaboration): fail with
+    -- "<unit>: <name> = <v> out of range <lo>..<hi>" / "<unit>: <name> = <v> must be >= <lo>";
+    -- hi_text, when given, is printed for hi ("2^20").
+    procedure check_range(unit, name : string; v, lo, hi : integer; hi_text : string := "");
+    procedure check_min(unit, name : string; v, lo : integer);
+    -- mapping_exact, or fail with "<unit>: <prefix>_RECIP = .., <prefix>_SHIFT = .. do not map every
+    -- position to floor(pos * 2^<addr_name> / REV); take them from <helper>()"
+    procedure check_mapping(unit, prefix, addr_name, helper : string; recip, shift, addr_w, lines, fine_w : natural);
+
     -- 2^(k-1) as s(w), the rounding constant of (v + 2^(k-1)) >>> k; 0 when k = 0
     function round_half(w, k : natural) return signed;
     -- v saturated to s(w) (v at least w bits wide)
@@ -150,6 +159,37 @@ package body fringe_pkg is
         rhs := shift_left(to_unsigned(1, 256), g_log + shift);
         return lhs < rhs;
     end function mapping_exact;
+
+    procedure check_range(unit, name : string; v, lo, hi : integer; hi_text : string := "") is
+    begin
+        if hi_text'length > 0 then
+            assert v >= lo and v <= hi
+                report unit & ": " & name & " = " & integer'image(v) & " out of range "
+                       & integer'image(lo) & ".." & hi_text
+                severity failure;
+        else
+            assert v >= lo and v <= hi
+                report unit & ": " & name & " = " & integer'image(v) & " out of range "
+                       & integer'image(lo) & ".." & integer'image(hi)
+                severity failure;
+        end if;
+    end procedure check_range;
+
+    procedure check_min(unit, name : string; v, lo : integer) is
+    begin
+        assert v >= lo
+            report unit & ": " & name & " = " & integer'image(v) & " must be >= " & integer'image(lo)
+            severity failure;
+    end procedure check_min;
+
+    procedure check_mapping(unit, prefix, addr_name, helper : string; recip, shift, addr_w, lines, fine_w : natural) is
+    begin
+        assert mapping_exact(recip, shift, addr_w, lines, fine_w)
+            report unit & ": " & prefix & "_RECIP = " & integer'image(recip) & ", " & prefix & "_SHIFT = "
+                   & integer'image(shift) & " do not map every position to floor(pos * 2^" & addr_name & " / REV);"
+                   & " take them from " & helper & "()"
+            severity failure;
+    end procedure check_mapping;
 
     function round_half(w, k : natural) return signed is
     begin

@@ -46,15 +46,9 @@ architecture rtl of fringe_quadrature is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert WAVE_W >= 8 and WAVE_W <= 32
-            report "fringe_quadrature: WAVE_W = " & integer'image(WAVE_W) & " out of range 8..32"
-            severity failure;
-        assert COEF_W >= 8 and COEF_W <= 27
-            report "fringe_quadrature: COEF_W = " & integer'image(COEF_W) & " out of range 8..27"
-            severity failure;
-        assert USER_W >= 1
-            report "fringe_quadrature: USER_W = " & integer'image(USER_W) & " must be >= 1"
-            severity failure;
+        check_range("fringe_quadrature", "WAVE_W", WAVE_W, 8, 32);
+        check_range("fringe_quadrature", "COEF_W", COEF_W, 8, 27);
+        check_min("fringe_quadrature", "USER_W", USER_W, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;

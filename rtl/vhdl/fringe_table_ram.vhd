@@ -34,12 +34,8 @@ architecture rtl of fringe_table_ram is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert ADDR_W >= 1 and ADDR_W <= 24
-            report "fringe_table_ram: ADDR_W = " & integer'image(ADDR_W) & " out of range 1..24"
-            severity failure;
-        assert DATA_W >= 1 and DATA_W <= 64
-            report "fringe_table_ram: DATA_W = " & integer'image(DATA_W) & " out of range 1..64"
-            severity failure;
+        check_range("fringe_table_ram", "ADDR_W", ADDR_W, 1, 24);
+        check_range("fringe_table_ram", "DATA_W", DATA_W, 1, 64);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;

@@ -63,51 +63,28 @@ architecture rtl of fringe_trim is
     function generics_ok return boolean is
         constant PHI_MAX : integer := minimum(10, FINE_W - 1);
     begin
-        assert FINE_W >= 8 and FINE_W <= 30
-            report "fringe_trim: FINE_W = " & integer'image(FINE_W) & " out of range 8..30"
-            severity failure;
-        assert LINES >= 1 and LINES <= 2**20
-            report "fringe_trim: LINES = " & integer'image(LINES) & " out of range 1..2^20"
-            severity failure;
+        check_range("fringe_trim", "FINE_W", FINE_W, 8, 30);
+        check_range("fringe_trim", "LINES", LINES, 1, 2**20, "2^20");
         assert FINE_W + clog2(LINES) <= 31
             report "fringe_trim: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
                    & " exceeds 31"
             severity failure;
-        assert AMP_W >= 4 and AMP_W <= 32
-            report "fringe_trim: AMP_W = " & integer'image(AMP_W) & " out of range 4..32"
-            severity failure;
-        assert SPEED_LOG2 >= 0 and SPEED_LOG2 <= 8
-            report "fringe_trim: SPEED_LOG2 = " & integer'image(SPEED_LOG2) & " out of range 0..8"
-            severity failure;
-        assert MAP_PSI_W >= 0 and MAP_PSI_W <= 8
-            report "fringe_trim: MAP_PSI_W = " & integer'image(MAP_PSI_W) & " out of range 0..8"
-            severity failure;
+        check_range("fringe_trim", "AMP_W", AMP_W, 4, 32);
+        check_range("fringe_trim", "SPEED_LOG2", SPEED_LOG2, 0, 8);
+        check_range("fringe_trim", "MAP_PSI_W", MAP_PSI_W, 0, 8);
         assert MAP_PHI_W >= 2 and MAP_PHI_W <= PHI_MAX
             report "fringe_trim: MAP_PHI_W = " & integer'image(MAP_PHI_W) & " out of range 2..min(10, FINE_W-1) = "
                    & integer'image(PHI_MAX)
             severity failure;
-        assert TRIM_W >= 8 and TRIM_W <= 24
-            report "fringe_trim: TRIM_W = " & integer'image(TRIM_W) & " out of range 8..24"
-            severity failure;
-        assert TRIM_FRAC >= 0 and TRIM_FRAC <= 16
-            report "fringe_trim: TRIM_FRAC = " & integer'image(TRIM_FRAC) & " out of range 0..16"
-            severity failure;
-        assert G_SHIFT >= 1 and G_SHIFT <= 48
-            report "fringe_trim: G_SHIFT = " & integer'image(G_SHIFT) & " out of range 1..48"
-            severity failure;
+        check_range("fringe_trim", "TRIM_W", TRIM_W, 8, 24);
+        check_range("fringe_trim", "TRIM_FRAC", TRIM_FRAC, 0, 16);
+        check_range("fringe_trim", "G_SHIFT", G_SHIFT, 1, 48);
         if MAP_PSI_W > 0 then
-            assert SECT_SHIFT >= 0 and SECT_SHIFT <= 127
-                report "fringe_trim: SECT_SHIFT = " & integer'image(SECT_SHIFT) & " out of range 0..127"
-                severity failure;
-            assert mapping_exact(SECT_RECIP, SECT_SHIFT, MAP_PSI_W, LINES, FINE_W)
-                report "fringe_trim: SECT_RECIP = " & integer'image(SECT_RECIP) & ", SECT_SHIFT = "
-                       & integer'image(SECT_SHIFT) & " do not map every position to floor(pos * 2^MAP_PSI_W / REV);"
-                       & " take them from sector_mapping()"
-                severity failure;
+            check_range("fringe_trim", "SECT_SHIFT", SECT_SHIFT, 0, 127);
+            check_mapping("fringe_trim", "SECT", "MAP_PSI_W", "sector_mapping", SECT_RECIP, SECT_SHIFT, MAP_PSI_W,
+                          LINES, FINE_W);
         end if;
-        assert USER_W >= 1
-            report "fringe_trim: USER_W = " & integer'image(USER_W) & " must be >= 1"
-            severity failure;
+        check_min("fringe_trim", "USER_W", USER_W, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
@@ -120,7 +97,6 @@ architecture rtl of fringe_trim is
     constant PSI_R   : integer := maximum(MAP_PSI_W, 1);            -- sector register width
     constant TW      : integer := TRIM_W;
     constant GW      : integer := TW + 1;                           -- gs, ga, s(TW+1)
-    constant IP_W    : integer := TW + FB + 1;                      -- slope x frac
     constant P1_W    : integer := POS_W + GW;                       -- speed x gs
     constant P2_W    : integer := maximum(AMP_W + GW, G_SHIFT) + 1; -- mag x ga + 2^(G_SHIFT-1)
     constant S_W     : integer := maximum(P1_W, P2_W) + 1;          -- their sum
@@ -203,11 +179,7 @@ architecture rtl of fringe_trim is
     signal s3_d     : signed(POS_W downto 0);
     signal s4_speed, s5_speed, s6_speed : signed(POS_W - 1 downto 0);
     signal s4_dir, s5_dir, s6_dir, s7_dir, s8_dir, s9_dir, s10_dir, s11_dir : std_logic;
-    signal spd_q, amp_q, map_q, spd_word, amp_word, map_word : std_logic_vector(2 * TW - 1 downto 0);
-    signal s5_sprod, s5_aprod, s7_mprod : signed(IP_W - 1 downto 0);
-    signal s5_svalue, s5_avalue : signed(TW - 1 downto 0);
-    signal s6_gs, s6_ga : signed(GW - 1 downto 0);
-    signal s7_mvalue : signed(VR_W - 1 downto 0);
+    signal s6_gs, s6_ga : std_logic_vector(GW - 1 downto 0);   -- from the gain tables
     signal s7_shh   : signed(SP_H + GN_H - 1 downto 0);        -- speed x gs, partial products
     signal s7_shl   : signed(SP_H + L downto 0);
     signal s7_slh   : signed(L + GN_H downto 0);
@@ -216,7 +188,7 @@ architecture rtl of fringe_trim is
     signal s7_ahl   : signed(MG_H + L downto 0);
     signal s7_alh   : signed(L + GN_H downto 0);
     signal s7_all   : signed(2 * L + 1 downto 0);
-    signal s8_m     : signed(MR_W - 1 downto 0);
+    signal s8_m     : std_logic_vector(MR_W - 1 downto 0);      -- from the map
     signal s8_u1, s8_u2, s8_u3, s9_v1, s9_v2, s10_a : unsigned(A_W - 1 downto 0);
     signal s11_corr : signed(FINE_W - 1 downto 0);
     signal s11_sat, s11_neg : std_logic;
@@ -224,6 +196,8 @@ architecture rtl of fringe_trim is
 
     signal gain_rd_addr : std_logic_vector(MAP_PHI_W downto 0);
     signal map_rd_addr  : std_logic_vector(MA_W downto 0);
+    signal gain_frac    : std_logic_vector(FB - 1 downto 0);
+    signal map_frac     : std_logic_vector(FB - 1 downto 0);
     signal wr_small     : boolean;
     signal wr_addr_small : std_logic_vector(MAP_PHI_W downto 0);
     signal wr_en_map, wr_en_speed, wr_en_amp : std_logic;
@@ -267,6 +241,8 @@ begin
     wr_en_speed   <= '1' when wr_en = '1' and wr_sel = "01" and wr_small else '0';
     wr_en_amp     <= '1' when wr_en = '1' and wr_sel = "10" and wr_small else '0';
     gain_rd_addr  <= s2_bank & std_logic_vector(s2_pos(FINE_W - 1 downto FB));
+    gain_frac     <= std_logic_vector(s2_pos(FB - 1 downto 0));
+    map_frac      <= std_logic_vector(s4_pos(FB - 1 downto 0));
 
     g_addr_sector : if MAP_PSI_W > 0 generate
         map_rd_addr <= s4_bank & s4_dir & std_logic_vector(s4_sector) & std_logic_vector(s4_pos(FINE_W - 1 downto FB));
@@ -274,28 +250,31 @@ begin
         map_rd_addr <= s4_bank & s4_dir & std_logic_vector(s4_pos(FINE_W - 1 downto FB));
     end generate g_addr_sector;
 
-    u_speed : entity work.fringe_table_ram
-        generic map (ADDR_W => MAP_PHI_W, DATA_W => 2 * TW, INIT_FILE => SPEED_INIT)
-        port map (clk => clk, wr_en => wr_en_speed, wr_addr => wr_addr_small, wr_data => wr_data,
-                  rd_en => ce, rd_addr => gain_rd_addr, rd_data => spd_q);
+    -- gs, ga (stages 3..6) and m + 2^(TRIM_FRAC-1) (stages 5..8) = value (+ 2^(TRIM_FRAC-1))
+    -- + ((slope * frac + 2^(FB-1)) >>> FB)
+    u_speed : entity work.fringe_interp_table
+        generic map (ADDR_W => MAP_PHI_W, W => TW, FB => FB, OUT_W => GW, ROUND_SHIFT => 0,
+                     INIT_FILE => SPEED_INIT)
+        port map (clk => clk, ce => ce, wr_en => wr_en_speed, wr_addr => wr_addr_small, wr_data => wr_data,
+                  rd_addr => gain_rd_addr, frac => gain_frac, result => s6_gs);
 
-    u_amp : entity work.fringe_table_ram
-        generic map (ADDR_W => MAP_PHI_W, DATA_W => 2 * TW, INIT_FILE => AMP_INIT)
-        port map (clk => clk, wr_en => wr_en_amp, wr_addr => wr_addr_small, wr_data => wr_data,
-                  rd_en => ce, rd_addr => gain_rd_addr, rd_data => amp_q);
+    u_amp : entity work.fringe_interp_table
+        generic map (ADDR_W => MAP_PHI_W, W => TW, FB => FB, OUT_W => GW, ROUND_SHIFT => 0,
+                     INIT_FILE => AMP_INIT)
+        port map (clk => clk, ce => ce, wr_en => wr_en_amp, wr_addr => wr_addr_small, wr_data => wr_data,
+                  rd_addr => gain_rd_addr, frac => gain_frac, result => s6_ga);
 
-    u_map : entity work.fringe_table_ram
-        generic map (ADDR_W => MA_W, DATA_W => 2 * TW, INIT_FILE => MAP_INIT)
-        port map (clk => clk, wr_en => wr_en_map, wr_addr => wr_addr, wr_data => wr_data,
-                  rd_en => ce, rd_addr => map_rd_addr, rd_data => map_q);
+    u_map : entity work.fringe_interp_table
+        generic map (ADDR_W => MA_W, W => TW, FB => FB, OUT_W => MR_W, ROUND_SHIFT => TRIM_FRAC,
+                     INIT_FILE => MAP_INIT)
+        port map (clk => clk, ce => ce, wr_en => wr_en_map, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_addr => map_rd_addr, frac => map_frac, result => s8_m);
 
     -- ---- the data pipeline --------------------------------------------------------------------------
     p_data : process (clk)
         variable t       : unsigned(T_W - 1 downto 0);
         variable d_x, d_hi, d_lo, d_wrap : signed(WW - 1 downto 0);
         variable speed4  : signed(POS_W - 1 downto 0);
-        variable frac4, frac6 : signed(FB downto 0);
-        variable ip      : signed(IP_W - 1 downto 0);
         variable corr_x  : signed(CX_W - 1 downto 0);
         variable over    : boolean;
         variable pos_x, corr_w, a, b : signed(WW - 1 downto 0);
@@ -358,44 +337,28 @@ begin
                 end if;
                 s4_speed  <= speed4;
                 s4_dir    <= speed4(POS_W - 1);
-                spd_word     <= spd_q;
-                amp_word     <= amp_q;
                 s4_pos    <= s3_pos;
                 s4_mag    <= s3_mag;
                 s4_bank   <= s3_bank;
                 s4_sector <= s3_sector;
 
-                -- 5: the map read at {bank, dir, sector, bin}; gain slope x frac (bare)
-                frac4 := signed('0' & s4_pos(FB - 1 downto 0));
-                s5_sprod  <= resize(signed(spd_word(2 * TW - 1 downto TW)) * frac4, IP_W);
-                s5_aprod  <= resize(signed(amp_word(2 * TW - 1 downto TW)) * frac4, IP_W);
-                s5_svalue <= signed(spd_word(TW - 1 downto 0));
-                s5_avalue <= signed(amp_word(TW - 1 downto 0));
+                -- 5, 6: carried beside the tables
                 s5_speed  <= s4_speed;
                 s5_dir    <= s4_dir;
                 s5_pos    <= s4_pos;
                 s5_mag    <= s4_mag;
 
-                -- 6: the map RAM output register; gs, ga = value + ((product + 2^(FB-1)) >>> FB)
-                -- (p + 2^(FB-1)) >>> FB = (p >>> FB) + p[FB-1]: the rounding bit is the adder's carry in
-                map_word <= map_q;
-                s6_gs    <= resize(s5_svalue, GW) + s5_sprod(FB + GW - 1 downto FB) + ('0' & s5_sprod(FB - 1 downto FB - 1));
-                s6_ga    <= resize(s5_avalue, GW) + s5_aprod(FB + GW - 1 downto FB) + ('0' & s5_aprod(FB - 1 downto FB - 1));
                 s6_speed <= s5_speed;
                 s6_dir   <= s5_dir;
                 s6_pos   <= s5_pos;
                 s6_mag   <= s5_mag;
 
-                -- 7: map slope x frac (bare), value + 2^(TRIM_FRAC-1); the partial products of speed x gs
-                -- and mag x ga (bare): an operand wider than 18 bits is x_hi * 2^17 + x_lo (x_lo unsigned),
-                -- one of at most 18 bits is x_hi = x, x_lo = 0
-                frac6 := signed('0' & s6_pos(FB - 1 downto 0));
-                s7_mprod  <= resize(signed(map_word(2 * TW - 1 downto TW)) * frac6, IP_W);
-                s7_mvalue <= resize(signed(map_word(TW - 1 downto 0)), VR_W) + round_half(VR_W, TRIM_FRAC);
+                -- 7: the partial products of speed x gs and mag x ga (bare): an operand wider than 18
+                -- bits is x_hi * 2^17 + x_lo (x_lo unsigned), one of at most 18 bits is x_hi = x, x_lo = 0
                 mag_s := signed('0' & s6_mag);
                 sp_x  := resize(s6_speed, POS_W + L);
-                gs_x  := resize(s6_gs, GW + L);
-                ga_x  := resize(s6_ga, GW + L);
+                gs_x  := resize(signed(s6_gs), GW + L);
+                ga_x  := resize(signed(s6_ga), GW + L);
                 mg_x  := resize(mag_s, MG_W + L);
                 sp_lo := (others => '0');
                 gs_lo := (others => '0');
@@ -412,8 +375,8 @@ begin
                     mg_lo := '0' & mg_x(L - 1 downto 0);
                 end if;
                 sp_hi := s6_speed(POS_W - 1 downto SP_L);
-                gs_hi := s6_gs(GW - 1 downto GN_L);
-                ga_hi := s6_ga(GW - 1 downto GN_L);
+                gs_hi := signed(s6_gs(GW - 1 downto GN_L));
+                ga_hi := signed(s6_ga(GW - 1 downto GN_L));
                 mg_hi := mag_s(MG_W - 1 downto MG_L);
                 s7_shh <= sp_hi * gs_hi;
                 s7_shl <= sp_hi * gs_lo;
@@ -426,9 +389,7 @@ begin
                 s7_dir <= s6_dir;
                 s7_pos <= s6_pos;
 
-                -- 8: m + 2^(TRIM_FRAC-1) (the rounding bit as carry in); the partial products in pairs
-                ip     := s7_mprod;
-                s8_m   <= resize(s7_mvalue, MR_W) + resize(ip(FB + GW - 1 downto FB), MR_W) + ('0' & ip(FB - 1 downto FB - 1));
+                -- 8: the partial products in pairs
                 s8_u1  <= (term(s7_shh, LL_S) or low_bits(s7_sll, LL_S)) + (term(s7_ahh, LL_A) or low_bits(s7_all, LL_A));
                 s8_u2  <= term(s7_shl, SP_L) + term(s7_slh, GN_L);
                 s8_u3  <= term(s7_ahl, MG_L) + term(s7_alh, GN_L);
@@ -436,7 +397,7 @@ begin
                 s8_pos <= s7_pos;
 
                 -- 9: the pairs summed; (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) joins (bit fields)
-                tm     := term(s8_m, G_SHIFT);
+                tm     := term(signed(s8_m), G_SHIFT);
                 tm(G_SHIFT - 1) := '1';
                 s9_v1  <= s8_u1 + s8_u2;
                 s9_v2  <= s8_u3 + tm;

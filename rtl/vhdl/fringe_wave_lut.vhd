@@ -46,44 +46,24 @@ architecture rtl of fringe_wave_lut is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert ADC_W >= 4 and ADC_W <= 24
-            report "fringe_wave_lut: ADC_W = " & integer'image(ADC_W) & " out of range 4..24"
-            severity failure;
+        check_range("fringe_wave_lut", "ADC_W", ADC_W, 4, 24);
         assert WAVE_ADDR_W >= 2 and WAVE_ADDR_W <= ADC_W - 1
             report "fringe_wave_lut: WAVE_ADDR_W = " & integer'image(WAVE_ADDR_W)
                    & " out of range 2..ADC_W-1 = " & integer'image(ADC_W - 1)
             severity failure;
-        assert WAVE_W >= 8 and WAVE_W <= 32
-            report "fringe_wave_lut: WAVE_W = " & integer'image(WAVE_W) & " out of range 8..32"
-            severity failure;
-        assert USER_W >= 1
-            report "fringe_wave_lut: USER_W = " & integer'image(USER_W) & " must be >= 1"
-            severity failure;
+        check_range("fringe_wave_lut", "WAVE_W", WAVE_W, 8, 32);
+        check_min("fringe_wave_lut", "USER_W", USER_W, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
     constant LATENCY : integer := WAVE_LUT_LATENCY;
     constant FB      : integer := ADC_W - WAVE_ADDR_W;   -- fraction bits of the index, >= 1
-    constant PROD_W  : integer := WAVE_W + FB + 1;        -- s(WAVE_W) * u(FB+1)
-    constant RND_X   : signed(FB downto 0) := shift_left(to_signed(1, FB + 1), FB - 1);  -- 2^(FB-1)
 
-    -- stage 0 (combinational)
     signal u0      : std_logic_vector(ADC_W - 1 downto 0);
     signal clip0   : std_logic;
     signal rd_addr : std_logic_vector(WAVE_ADDR_W + 1 downto 0);
-    -- stage 1
-    signal word1   : std_logic_vector(2 * WAVE_W - 1 downto 0);
-    signal frac1   : unsigned(FB - 1 downto 0);
-    signal clip1   : std_logic;
-    -- stage 2
-    signal prod2   : signed(PROD_W - 1 downto 0);
-    signal value2  : signed(WAVE_W - 1 downto 0);
-    signal frac0r  : unsigned(FB - 1 downto 0);
-    signal clip0r  : std_logic;
-    signal word1r  : std_logic_vector(2 * WAVE_W - 1 downto 0);
-    signal clip2   : std_logic;
-    -- valid and sideband
+    signal side_in, side_out : std_logic_vector(USER_W downto 0);   -- {clip, user}
 
 begin
 
@@ -92,51 +72,21 @@ begin
     clip0   <= '1' when u0 = (u0'range => '0') or u0 = (u0'range => '1') else '0';
     rd_addr <= bank & branch & u0(ADC_W - 1 downto FB);
 
-    -- ---- stage 1: table read ---------------------------------------------------------------
-    u_table : entity work.fringe_table_ram
-        generic map (
-            ADDR_W    => WAVE_ADDR_W + 1,
-            DATA_W    => 2 * WAVE_W,
-            INIT_FILE => INIT_FILE
-        )
-        port map (
-            clk     => clk,
-            wr_en   => wr_en,
-            wr_addr => wr_addr,
-            wr_data => wr_data,
-            rd_en   => ce,
-            rd_addr => rd_addr,
-            rd_data => word1
-        );
+    -- ---- stages 1..4: x = value + ((slope * frac + 2^(FB-1)) >>> FB) --------------------------
+    -- Exact modulo 2^WAVE_W: x lies between value[k] and value[k+1].
+    u_table : entity work.fringe_interp_table
+        generic map (ADDR_W => WAVE_ADDR_W + 1, W => WAVE_W, FB => FB, OUT_W => WAVE_W, ROUND_SHIFT => 0,
+                     INIT_FILE => INIT_FILE)
+        port map (clk => clk, ce => ce, wr_en => wr_en, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_addr => rd_addr, frac => u0(FB - 1 downto 0), result => x);
 
-    p_data : process (clk)
-        variable sum2 : signed(WAVE_W + FB - 1 downto 0);
-    begin
-        if rising_edge(clk) then
-            if ce = '1' then
-                -- stage 1: table read; stage 1b: the RAM's output register
-                frac0r <= unsigned(u0(FB - 1 downto 0));
-                clip0r <= clip0;
-                word1r <= word1;
-                frac1  <= frac0r;
-                clip1  <= clip0r;
-                -- stage 2: slope * frac
-                prod2  <= signed(word1r(2 * WAVE_W - 1 downto WAVE_W)) * signed('0' & frac1);
-                value2 <= signed(word1r(WAVE_W - 1 downto 0));
-                clip2  <= clip1;
-                -- stage 3: ({value, 2^(FB-1)} + product) >>> FB = value + ((product + 2^(FB-1))
-                -- >>> FB), one add, exact modulo 2^WAVE_W (x lies between two table values)
-                sum2   := (value2 & RND_X(FB - 1 downto 0)) + prod2(FB + WAVE_W - 1 downto 0);
-                x      <= std_logic_vector(sum2(WAVE_W + FB - 1 downto FB));
-                clip   <= clip2;
-            end if;
-        end if;
-    end process p_data;
-
-    -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
+    -- ---- valid (the only reset registers), clip and sideband, LATENCY stages -------------------
     u_valid : entity work.fringe_delay
-        generic map (WIDTH => USER_W, DEPTH => LATENCY)
-        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
-                  out_valid => out_valid, out_data => out_user);
+        generic map (WIDTH => USER_W + 1, DEPTH => LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => side_in,
+                  out_valid => out_valid, out_data => side_out);
+    side_in  <= clip0 & in_user;
+    clip     <= side_out(USER_W);
+    out_user <= side_out(USER_W - 1 downto 0);
 
 end architecture rtl;

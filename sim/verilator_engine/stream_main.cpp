@@ -1,4 +1,4 @@
-// Verilator harness of the fast RTL engine (fringe.rtlsim, `fringe correct --engine verilog`):
+// Verilator harness of the fast RTL engine (fringe.hardware.rtlsim, `fringe correct --engine verilog`):
 // streams a file of samples through fringe_top with no Python per sample.
 //
 //   fringe_stream IN.bin OUT.bin ADC_W ADC_LANE COARSE_W [verilator plusargs]

@@ -100,7 +100,7 @@ def top_parameters(cfg: CoreConfig, init_dir: str | os.PathLike | None = None,
 
 
 def write_init_files(t: CoreTables, cfg: CoreConfig, init_dir: str | os.PathLike,
-                     command: str = "fringe.rtlsim") -> dict[str, Path]:
+                     command: str = "fringe.hardware.rtlsim") -> dict[str, Path]:
     """The ROM images (both banks) as $readmemh files; returns {generic: path}."""
     d = Path(init_dir)
     d.mkdir(parents=True, exist_ok=True)

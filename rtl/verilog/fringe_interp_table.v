@@ -1,0 +1,118 @@
+// fringe_interp_table: two-bank table of {slope, value} words, linearly interpolated.
+//
+// LATENCY = 4 clock enables from rd_addr/frac to result; ce = 0 freezes every register; no reset
+// (data only: the caller's fringe_delay carries valid).
+// Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_interp_table.md.
+// Model: tb/interp_table_model.py (fringe.fixed.table_ram.interpolate with the offset and width).
+
+`default_nettype none
+
+module fringe_interp_table #(
+    parameter integer ADDR_W      = 8,   // address bits of one bank, 1..24
+    parameter integer W           = 18,  // slope and value field width (word = {slope, value}), 2..32
+    parameter integer FB          = 4,   // fraction bits, 1..30
+    parameter integer OUT_W       = 19,  // result width, W..W+40 (W: the result wraps modulo 2^W)
+    parameter integer ROUND_SHIFT = 0,   // adds 2^(ROUND_SHIFT-1) to the result (0: nothing), 0..40
+    parameter         INIT_FILE   = ""   // $readmemh image, 2*2^ADDR_W words; "" = zeros
+) (
+    input  wire                    clk,
+    input  wire                    ce,       // clock enable: the pipeline advances when 1
+    // write port (software side)
+    input  wire                    wr_en,
+    input  wire [ADDR_W:0]         wr_addr,  // {bank, address}
+    input  wire [2*W-1:0]          wr_data,  // {slope, value}, both s(W)
+    // read (sample side)
+    input  wire [ADDR_W:0]         rd_addr,  // {bank, address}
+    input  wire [FB-1:0]           frac,     // u(FB): position between entry and entry + 1
+    output reg  [OUT_W-1:0]        result    // s(OUT_W): value + ((slope * frac + 2^(FB-1)) >>> FB) + offset
+);
+
+    // The testbench reads LATENCY (tb/test_fringe_interp_table.py); the pipeline below spells it out.
+    /* verilator lint_off UNUSEDPARAM */
+    localparam integer LATENCY = 4;
+    /* verilator lint_on UNUSEDPARAM */
+    localparam integer S_W     = OUT_W + FB;                                  // {result, fraction}
+    localparam [FB:0]    RND_X = {1'b1, {FB{1'b0}}} >> 1;
+    localparam [FB-1:0]  RND   = RND_X[FB-1:0];                                // 2^(FB-1)
+    localparam [S_W-1:0] OFFSET = (ROUND_SHIFT > 0) ? ({{(S_W-1){1'b0}}, 1'b1} << (ROUND_SHIFT - 1 + FB))
+                                                    : {S_W{1'b0}};             // 2^(ROUND_SHIFT-1), above the fraction
+
+    generate
+        if (W < 2 || W > 32) begin : g_bad_w
+            $error("fringe_interp_table: W = %0d out of range 2..32 (instance %m)", W);
+        end
+        if (FB < 1 || FB > 30) begin : g_bad_fb
+            $error("fringe_interp_table: FB = %0d out of range 1..30 (instance %m)", FB);
+        end
+        if (OUT_W < W || OUT_W > W + 40) begin : g_bad_out_w
+            $error("fringe_interp_table: OUT_W = %0d out of range W..W+40 = %0d..%0d (instance %m)",
+                   OUT_W, W, W + 40);
+        end
+        if (ROUND_SHIFT < 0 || ROUND_SHIFT > 40) begin : g_bad_round_shift
+            $error("fringe_interp_table: ROUND_SHIFT = %0d out of range 0..40 (instance %m)", ROUND_SHIFT);
+        end
+    endgenerate
+
+    // ---- 1: table read (the RAM's read register) -------------------------------------------------
+    wire [2*W-1:0] word_q;
+
+    fringe_table_ram #(
+        .ADDR_W(ADDR_W), .DATA_W(2 * W), .INIT_FILE(INIT_FILE)
+    ) u_table (
+        .clk(clk),
+        .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),
+        .rd_en(ce), .rd_addr(rd_addr), .rd_data(word_q)
+    );
+
+    // ---- 2: the RAM's output register (a block RAM's clock-to-out then feeds no logic) -----------
+    // The multiplier takes fc = frac - 2^(FB-1) = frac ^ 2^(FB-1), an s(FB) with a live sign bit (a
+    // zero-extended {0, frac} has a constant one: Yosys's ice40_dsp then leaves that operand's register
+    // outside the SB_MAC16, whose multiply delay nextpnr-ice40 does not time).
+    reg  [FB-1:0]  fc1, fc2;
+    reg  [2*W-1:0] word2;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            fc1   <= frac ^ RND;
+            fc2   <= fc1;
+            word2 <= word_q;
+        end
+    end
+
+    // ---- 3: slope * fc (bare); base = {value, 2^(FB-1)} + slope * 2^(FB-1) + offset * 2^FB ---------
+    // slope * frac = slope * fc + slope * 2^(FB-1) exactly; everything modulo 2^S_W.
+    wire signed [W-1:0]  slope2 = word2[2*W-1:W];
+    wire signed [W-1:0]  value2 = word2[W-1:0];
+    // sign extensions written S_W bits too wide and cut (OUT_W = W leaves no bit to extend)
+    wire [S_W+W-1:0]     slope2_e = {{S_W{slope2[W-1]}}, slope2};
+    wire [OUT_W+W-1:0]   value2_e = {{OUT_W{value2[W-1]}}, value2};
+    wire [S_W-1:0]       slope2_x = slope2_e[S_W-1:0] << (FB - 1);
+    wire [S_W-1:0]       value2_x = {value2_e[OUT_W-1:0], RND};
+    reg  signed [W+FB-1:0] prod3;
+    reg  [S_W-1:0]       base3;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            prod3 <= slope2 * $signed(fc2);
+            base3 <= value2_x + slope2_x + OFFSET;
+        end
+    end
+
+    // ---- 4: result = (base + product) >>> FB, one add -------------------------------------------------
+    // = value + offset + ((slope * frac + 2^(FB-1)) >>> FB), modulo 2^OUT_W.
+    wire [S_W+W+FB-1:0] prod3_e = {{S_W{prod3[W+FB-1]}}, prod3};
+    wire [S_W-1:0]   sum3    = base3 + prod3_e[S_W-1:0];
+
+    always @(posedge clk) begin
+        if (ce) begin
+            result <= sum3[S_W-1:FB];
+        end
+    end
+
+    // The sum's fraction bits are rounded off.
+    wire unused_ok = &{1'b0, sum3[FB-1:0], slope2_e[S_W+W-1:S_W], value2_e[OUT_W+W-1:OUT_W],
+                       prod3_e[S_W+W+FB-1:S_W]};
+
+endmodule
+
+`default_nettype wire

@@ -1,0 +1,107 @@
+-- fringe_interp_table: two-bank table of {slope, value} words, linearly interpolated.
+--
+-- VHDL-2008 twin of rtl/verilog/fringe_interp_table.v (same generics, ports and behaviour).
+-- LATENCY = 4 clock enables from rd_addr/frac to result; ce = 0 freezes every register; no reset
+-- (data only: the caller's fringe_delay carries valid).
+-- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_interp_table.md.
+-- Model: tb/interp_table_model.py (fringe.fixed.table_ram.interpolate with the offset and width).
+
+library ieee;
+use ieee.std_logic_1164.all;
+use ieee.numeric_std.all;
+use work.fringe_pkg.all;
+
+entity fringe_interp_table is
+    generic (
+        ADDR_W      : integer := 8;    -- address bits of one bank, 1..24
+        W           : integer := 18;   -- slope and value field width (word = {slope, value}), 2..32
+        FB          : integer := 4;    -- fraction bits, 1..30
+        OUT_W       : integer := 19;   -- result width, W..W+40 (W: the result wraps modulo 2^W)
+        ROUND_SHIFT : integer := 0;    -- adds 2^(ROUND_SHIFT-1) to the result (0: nothing), 0..40
+        INIT_FILE   : string  := ""    -- $readmemh image, 2*2^ADDR_W words; "" = zeros
+    );
+    port (
+        clk     : in  std_logic;
+        ce      : in  std_logic;                              -- the pipeline advances when 1
+        -- write port (software side)
+        wr_en   : in  std_logic;
+        wr_addr : in  std_logic_vector(ADDR_W downto 0);      -- {bank, address}
+        wr_data : in  std_logic_vector(2 * W - 1 downto 0);   -- {slope, value}, both s(W)
+        -- read (sample side)
+        rd_addr : in  std_logic_vector(ADDR_W downto 0);      -- {bank, address}
+        frac    : in  std_logic_vector(FB - 1 downto 0);      -- u(FB)
+        result  : out std_logic_vector(OUT_W - 1 downto 0)    -- s(OUT_W)
+    );
+end entity fringe_interp_table;
+
+architecture rtl of fringe_interp_table is
+
+    -- Stops elaboration with a clear message on illegal generics (before anything is sized).
+    function generics_ok return boolean is
+    begin
+        check_range("fringe_interp_table", "W", W, 2, 32);
+        check_range("fringe_interp_table", "FB", FB, 1, 30);
+        assert OUT_W >= W and OUT_W <= W + 40
+            report "fringe_interp_table: OUT_W = " & integer'image(OUT_W) & " out of range W..W+40 = "
+                   & integer'image(W) & ".." & integer'image(W + 40)
+            severity failure;
+        check_range("fringe_interp_table", "ROUND_SHIFT", ROUND_SHIFT, 0, 40);
+        return true;
+    end function generics_ok;
+    constant GENERICS_CHECKED : boolean := generics_ok;
+
+    constant LATENCY : integer := 4;
+    constant S_W     : integer := OUT_W + FB;                 -- {result, fraction}
+    constant RND     : unsigned(FB - 1 downto 0) := shift_left(to_unsigned(1, FB), FB - 1);  -- 2^(FB-1)
+
+    -- 2^(ROUND_SHIFT-1) above the fraction, modulo 2^S_W (0 when ROUND_SHIFT = 0)
+    function offset_value return unsigned is
+        variable v : unsigned(S_W - 1 downto 0) := (others => '0');
+    begin
+        if ROUND_SHIFT > 0 and ROUND_SHIFT - 1 + FB < S_W then
+            v(ROUND_SHIFT - 1 + FB) := '1';
+        end if;
+        return v;
+    end function offset_value;
+    constant OFFSET  : unsigned(S_W - 1 downto 0) := offset_value;
+
+    signal word_q, word2 : std_logic_vector(2 * W - 1 downto 0);
+    signal fc1, fc2      : std_logic_vector(FB - 1 downto 0);
+    signal prod3         : signed(W + FB - 1 downto 0);
+    signal base3         : unsigned(S_W - 1 downto 0);
+
+begin
+
+    -- 1: table read (the RAM's read register)
+    u_table : entity work.fringe_table_ram
+        generic map (ADDR_W => ADDR_W, DATA_W => 2 * W, INIT_FILE => INIT_FILE)
+        port map (clk => clk, wr_en => wr_en, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_en => ce, rd_addr => rd_addr, rd_data => word_q);
+
+    p_pipe : process (clk)
+        variable slope2 : signed(W - 1 downto 0);
+        variable value2 : signed(W - 1 downto 0);
+        variable sum3   : unsigned(S_W - 1 downto 0);
+        variable vx     : std_logic_vector(S_W - 1 downto 0);   -- {value, 2^(FB-1)}
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                -- 2: the RAM's output register (a block RAM's clock-to-out then feeds no logic);
+                -- fc = frac - 2^(FB-1) = frac xor 2^(FB-1), s(FB) with a live sign bit (see the Verilog)
+                fc1   <= frac xor std_logic_vector(RND);
+                fc2   <= fc1;
+                word2 <= word_q;
+                -- 3: slope * fc (bare); base = {value, 2^(FB-1)} + slope * 2^(FB-1) + offset * 2^FB
+                slope2 := signed(word2(2 * W - 1 downto W));
+                value2 := signed(word2(W - 1 downto 0));
+                prod3  <= slope2 * signed(fc2);
+                vx     := std_logic_vector(resize(value2, OUT_W)) & std_logic_vector(RND);
+                base3  <= unsigned(vx) + shift_left(unsigned(resize(slope2, S_W)), FB - 1) + OFFSET;
+                -- 4: result = (base + product) >>> FB, modulo 2^OUT_W
+                sum3   := base3 + unsigned(resize(prod3, S_W));
+                result <= std_logic_vector(sum3(S_W - 1 downto FB));
+            end if;
+        end if;
+    end process p_pipe;
+
+end architecture rtl;
