@@ -133,8 +133,8 @@ def test_trim_sectors_follow_the_revolution_orders():
     sectors than one that changes once, for the same error budget; the chosen format leaves steps within it."""
     from fringe.calibrate import calibrate
     from fringe.effects import RevNormalisation
-    from fringe.hardware.corefiles import core_config
     from fringe.hardware.closed_loop import SECTOR_BUDGET, sector_error
+    from fringe.hardware.corefiles import core_config
 
     cfg = SimulationConfig(lines_per_rev=256, coarse_bits=9, samples=16_384, ref_error_arcsec={})
     cal = calibrate(measurement_of(simulate(cfg, 1)), cfg.encoder())

@@ -7,7 +7,7 @@
 //          COARSE_W = 0); the codes are masked to their lanes here, as rtlsim.pack_inputs does.
 // OUT.bin: n little-endian uint64, every m_axis_tdata word in order.
 // stdout:  one JSON line {"samples", "latency", "cycles"}.
-// The protocol is tb/rtl_stream.py's (the cocotb path): rst high for 3 clocks, then one sample
+// The protocol is model/fringe/hardware/rtl_stream.py's (the cocotb path): rst high for 3 clocks, then one sample
 // per clock with m_axis_tready = 1; the ROM images and registers come from the init-file
 // parameters the binary was built with (read by $readmemh when the model starts).
 #include <cstdint>
