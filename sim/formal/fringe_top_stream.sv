@@ -11,8 +11,10 @@
 //            duplicated or reordered sample shifts the tag sequence, which the solver can make
 //            differ at any place); s_axis_tready is the clock enable.
 //   stable:  m_axis_tdata and m_axis_tvalid hold while m_axis_tvalid && !m_axis_tready (AXI4-Stream).
-//   reset:   the clock after rst, m_axis_tvalid = 0, and the reference (emptied by rst) says no
-//            sample accepted before the reset ever comes out.
+//   reset:   the clock after rst, m_axis_tvalid = 0 and fringe_period_count has no previous sample;
+//            with stream (the reference is emptied by rst): no sample accepted before a reset ever
+//            comes out after it.
+//   bank_taps: every bank select of fringe_core takes the bank of the sample it serves (below).
 // None of this depends on the data widths: run.py uses a small legal parameter set.
 
 `default_nettype none
@@ -110,9 +112,41 @@ module fringe_top_stream #(
     end
 `endif
 
+`ifdef CHECK_BANK_TAPS
+    // bank_taps (white-box): every bank select of fringe_core equals the bank of the sample it
+    // serves. The probes are connected by run.py (Yosys `connect` after flattening) to the core's
+    // wires; a sample of age A (clock enables since its handshake) sits in ref_tag[A-1]. The ages
+    // come from the block latencies of fringe_pkg.vh (docs/architecture.md): a block taking its
+    // sample at age A reads its tables with the sample's bank then, and fringe_core reads a block's
+    // registers one clock enable ahead, at age A-1.
+    `include "fringe_pkg.vh"
+    localparam integer AGE_LUT  = CORE_INPUT_LATENCY;                                     // fringe_wave_lut
+    localparam integer AGE_QUAD = AGE_LUT + WAVE_LUT_LATENCY;                             // fringe_quadrature
+    localparam integer AGE_CNT  = AGE_QUAD + QUADRATURE_LATENCY + CORDIC_STAGES + CORDIC_LATENCY_BASE;
+    localparam integer AGE_LONG = AGE_CNT + PERIOD_COUNT_LATENCY;                         // (TRIM = 0)
+    wire probe_lut_sin, probe_lut_cos, probe_quad_regs, probe_count_regs, probe_long_regs, probe_long;
+    always @(*) begin
+        if (!f_init) begin
+            if (ref_valid[AGE_LUT-1])  assert (probe_lut_sin == ref_tag[AGE_LUT-1][2]);
+            if (ref_valid[AGE_LUT-1])  assert (probe_lut_cos == ref_tag[AGE_LUT-1][2]);
+            if (ref_valid[AGE_QUAD-2]) assert (probe_quad_regs == ref_tag[AGE_QUAD-2][2]);
+            if (ref_valid[AGE_CNT-2])  assert (probe_count_regs == ref_tag[AGE_CNT-2][2]);
+            if (ref_valid[AGE_LONG-2]) assert (probe_long_regs == ref_tag[AGE_LONG-2][2]);
+            if (ref_valid[AGE_LONG-1]) assert (probe_long == ref_tag[AGE_LONG-1][2]);
+        end
+    end
+`endif
+
 `ifdef CHECK_RESET
+    // and the state that links a sample to the one before it starts afresh: fringe_period_count's
+    // "a previous sample exists" (white-box: run.py connects the probe), so the first sample after a
+    // reset is counted from its own phase, with no overspeed against a sample from before the reset
+    wire probe_have_prev;
     always @(posedge clk) begin
-        if (f_past_valid && $past(rst)) assert (!m_axis_tvalid);
+        if (f_past_valid && $past(rst)) begin
+            assert (!m_axis_tvalid);
+            assert (!probe_have_prev);
+        end
     end
 `endif
 

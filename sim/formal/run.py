@@ -51,7 +51,8 @@ from fringe.rtlsim import top_parameters  # noqa: E402
 #: the small legal configuration of the proofs (COARSE_W > 0: the bank miter needs it)
 FORMAL_CONFIG = CoreConfig(adc_w=4, lines=4, coarse_w=2, wave_addr_w=2, wave_w=8, coef_w=8, fine_w=8,
                            cordic_stages=4, cordic_guard=1, lp_addr_w=2, lp_w=8, lp_frac=2, lp_if=2)
-EXTRA_DEPTH = 12   # bmc: clocks beyond LATENCY (issue 11: at least 8)
+EXTRA_DEPTH = 12       # bmc: clocks beyond LATENCY
+MIN_EXTRA_DEPTH = 8    # issue 11: at least LATENCY + 8 (the two-copy miters, the slowest, run to exactly that)
 #: prove (k-induction): k; the proof then holds at every depth (the base case runs to k as well)
 INDUCTION_DEPTH = 4
 #: sby's exit status for a failed property (0 = pass)
@@ -65,17 +66,36 @@ class Task:
     mode: str           # sby mode: bmc or prove (k-induction)
     defines: tuple[str, ...] = ()
     params: tuple[tuple[str, int], ...] = ()
-    slow: bool = False  # not in the default run (--all): z3 does not finish it in minutes
+    slow: bool = False  # not in the default run (--all): the solver does not finish it in minutes
+    probes: tuple[tuple[str, str], ...] = ()   # (wrapper wire, flattened RTL wire) joined by Yosys `connect`
+    extra_depth: int = EXTRA_DEPTH                # bmc: clocks beyond LATENCY
+    map_memories: bool = False                    # memories as flip-flops (yices: 5x faster on the miters)
+
+
+#: bank_taps: the wires of fringe_core that choose a bank for a sample (fringe_core.v, the bank pipeline)
+BANK_PROBES = (
+    ("probe_lut_sin", "dut.u_core.u_wave_sin.bank"),
+    ("probe_lut_cos", "dut.u_core.u_wave_cos.bank"),
+    ("probe_quad_regs", "dut.u_core.bank_q"),
+    ("probe_count_regs", "dut.u_core.bank_c"),
+    ("probe_long_regs", "dut.u_core.bank_p"),
+    ("probe_long", "dut.u_core.u_long.bank"),
+)
 
 
 TASKS = {t.name: t for t in (
     Task("stream", "fringe_top_stream.sv", "bmc", ("CHECK_STREAM",)),
     Task("stable", "fringe_top_stream.sv", "prove", ("CHECK_STABLE",)),
     Task("stable_valid", "fringe_top_stream.sv", "bmc", ("CHECK_STABLE", "STABLE_VALID_ONLY")),
-    Task("reset", "fringe_top_stream.sv", "prove", ("CHECK_RESET",)),
-    Task("reset_miter", "fringe_top_miter.sv", "bmc", (), (("MODE", 1),), slow=True),
-    Task("bank0", "fringe_top_miter.sv", "bmc", (), (("MODE", 0), ("CHECK_BANK", 0)), slow=True),
-    Task("bank1", "fringe_top_miter.sv", "bmc", (), (("MODE", 0), ("CHECK_BANK", 1)), slow=True),
+    Task("reset", "fringe_top_stream.sv", "prove", ("CHECK_RESET",),
+         probes=(("probe_have_prev", "dut.u_core.u_count.have_prev"),)),
+    Task("bank_taps", "fringe_top_stream.sv", "bmc", ("CHECK_BANK_TAPS",), probes=BANK_PROBES),
+    Task("reset_miter", "fringe_top_miter.sv", "bmc", (), (("MODE", 1),), slow=True, extra_depth=MIN_EXTRA_DEPTH,
+         map_memories=True),
+    Task("bank0", "fringe_top_miter.sv", "bmc", (), (("MODE", 0), ("CHECK_BANK", 0)), slow=True,
+         extra_depth=MIN_EXTRA_DEPTH, map_memories=True),
+    Task("bank1", "fringe_top_miter.sv", "bmc", (), (("MODE", 0), ("CHECK_BANK", 1)), slow=True,
+         extra_depth=MIN_EXTRA_DEPTH, map_memories=True),
 )}
 
 
@@ -94,19 +114,18 @@ MUTANTS = (
     Mutant("ready_ignores_stall", "fringe_top.v", "assign s_axis_tready = ce;", "assign s_axis_tready = 1'b1;",
            ("stream",), "s_axis_tready stays 1 during a stall: samples offered then are lost"),
     Mutant("write_moves_stalled_output", "fringe_top.v", ".clk(clk), .rst(rst), .ce(ce),",
-           ".clk(clk), .rst(rst), .ce(ce | cfg_wr_en),", ("stable_valid",),
-           "a configuration write advances the pipeline while the sink stalls", slow=True),
-    Mutant("write_moves_stalled_output_tdata", "fringe_top.v", ".clk(clk), .rst(rst), .ce(ce),",
-           ".clk(clk), .rst(rst), .ce(ce | cfg_wr_en),", ("stable",),
-           "the same, seen in m_axis_tdata (bmc to a valid output with the datapath: slow)", slow=True),
-    Mutant("valid_survives_reset", "fringe_long_period.v", "        if (rst) begin\n",
-           "        if (1'b0) begin\n", ("reset",),
-           "the last block's valid bits are not cleared by rst"),
+           ".clk(clk), .rst(rst), .ce(ce | cfg_wr_en),", ("stable_valid", "stable"),
+           "a configuration write advances the pipeline while the sink stalls"),
+    Mutant("valid_survives_reset", "fringe_delay.v", "valid_sr <= {DEPTH{1'b0}};", "valid_sr <= valid_sr;",
+           ("reset", "stream"), "fringe_delay's valid stages (every block's valid pipeline) are not cleared by rst"),
     Mutant("counter_survives_reset", "fringe_period_count.v", "have_prev <= 1'b0;", "have_prev <= have_prev;",
-           ("reset_miter",), "the period count keeps its previous sample across a reset"),
+           ("reset", "reset_miter"), "the period count keeps its previous sample across a reset"),
     Mutant("quadrature_tap_late", "fringe_core.v", "wire bank_q = bank_d[TAP_Q];",
-           "wire bank_q = bank_d[TAP_Q + 1];", ("bank0", "bank1"),
+           "wire bank_q = bank_d[TAP_Q + 1];", ("bank_taps", "bank0", "bank1"),
            "the quadrature gains are read with the previous sample's bank"),
+    Mutant("long_period_active_bank", "fringe_core.v", ".in_valid(t_valid), .pos(t_pos), .bank(t_status[7]),",
+           ".in_valid(t_valid), .pos(t_pos), .bank(bank_r),", ("bank_taps", "bank0"),
+           "the long-period table is read with the active bank, not the sample's"),
 )
 
 
@@ -151,9 +170,9 @@ def hdl_parameters(cfg: CoreConfig) -> dict[str, int]:
     return {k: int(v) for k, v in p.items()}
 
 
-def sby_text(task: Task, sources: list[str], includes: list[str], cfg: CoreConfig, engine: str) -> str:
+def sby_text(task: Task, sources: list[str], includes: list[str], cfg: CoreConfig, engine: str, mode: str) -> str:
     """sby reads every file from its src folder, where [files] copies the sources and includes."""
-    depth = INDUCTION_DEPTH if task.mode == "prove" else core_latency(cfg) + EXTRA_DEPTH
+    depth = INDUCTION_DEPTH if mode == "prove" else core_latency(cfg) + task.extra_depth
     top = Path(task.wrapper).stem
     params = hdl_parameters(cfg)
     if task.wrapper == "fringe_top_stream.sv":
@@ -163,26 +182,32 @@ def sby_text(task: Task, sources: list[str], includes: list[str], cfg: CoreConfi
     chparam = " ".join(f"-set {k} {v}" for k, v in params.items())
     names = [Path(s).name for s in sources]
     return "\n".join([
-        "[options]", f"mode {task.mode}", f"depth {depth}", "",
+        "[options]", f"mode {mode}", f"depth {depth}", "",
         "[engines]", f"smtbmc {engine}", "",
         "[script]",
         *[f"read_verilog -sv -formal -I. {defines} {n}" for n in names],
         f"chparam {chparam} {top}",
+        # probes: joined to the RTL's wires after flattening, before any optimisation can remove those
+        *([f"hierarchy -top {top}", "proc", "flatten"] if task.probes else []),
+        *[f"connect -set {probe} {wire}" for probe, wire in task.probes],
         f"prep -flatten -top {top}",
-        "splitcells", "opt_clean", "",
+        "splitcells", "opt_clean",
+        *(["memory_map", "opt -fast"] if task.map_memories else []), "",
         "[files]", *sources, *includes, "",
     ])
 
 
 def run_task(task: Task, rtl_dir: Path, out_dir: Path, sby: list[str], cfg: CoreConfig,
-             timeout_s: float) -> dict:
-    """Run one task on the Verilog in rtl_dir; returns {task, status, seconds, workdir}."""
+             timeout_s: float, mode: str | None = None) -> dict:
+    """Run one task on the Verilog in rtl_dir (in its own mode, or `mode`); returns {task, mode, depth,
+    status, seconds, workdir}."""
+    mode = mode or task.mode
     out_dir.mkdir(parents=True, exist_ok=True)
     order = [Path(f).name for f in cocotb_runner.block_sources("fringe_top", "verilator")]
     includes = [str(rtl_dir / Path(f).name) for f in cocotb_runner.include_files()]   # fringe_pkg.vh
     sources = [str(rtl_dir / n) for n in order] + [str(HERE / task.wrapper)]
     sby_file = out_dir / f"{task.name}.sby"
-    sby_file.write_text(sby_text(task, sources, includes, cfg, solver()))
+    sby_file.write_text(sby_text(task, sources, includes, cfg, solver(), mode))
     t0 = time.monotonic()
     try:
         r = subprocess.run([*sby, "-f", sby_file.name], cwd=out_dir, capture_output=True, text=True, env=tool_env(),
@@ -193,7 +218,9 @@ def run_task(task: Task, rtl_dir: Path, out_dir: Path, sby: list[str], cfg: Core
     secs = time.monotonic() - t0
     (out_dir / f"{task.name}.log").write_text(log)
     status = {0: "PASS", SBY_FAIL: "FAIL"}.get(code, "TIMEOUT" if code is None else f"ERROR({code})")
-    return {"task": task.name, "status": status, "seconds": round(secs, 1), "workdir": str(out_dir / task.name)}
+    depth = INDUCTION_DEPTH if mode == "prove" else core_latency(cfg) + task.extra_depth
+    return {"task": task.name, "mode": mode, "depth": depth, "status": status, "seconds": round(secs, 1),
+            "workdir": str(out_dir / task.name)}
 
 
 def broken_copy(m: Mutant, dest: Path) -> Path:
@@ -247,7 +274,9 @@ def main(argv: list[str] | None = None) -> int:
                 if name not in names or (m.slow and not a.all):
                     continue
                 rtl = broken_copy(m, root / "mutants" / m.name / "rtl")
-                r = run_task(TASKS[name], rtl, root / "mutants" / m.name, sby, cfg, a.timeout)
+                # bmc on the broken copy: a counterexample trace from reset (an induction step that fails
+                # without one would say nothing)
+                r = run_task(TASKS[name], rtl, root / "mutants" / m.name, sby, cfg, a.timeout, mode="bmc")
                 r.update(expect="FAIL", mutant=m.name, why=m.why)
                 ok &= r["status"] == "FAIL"
                 results.append(r)
