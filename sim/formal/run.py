@@ -170,9 +170,8 @@ def hdl_parameters(cfg: CoreConfig) -> dict[str, int]:
     return {k: int(v) for k, v in p.items()}
 
 
-def sby_text(task: Task, sources: list[str], includes: list[str], cfg: CoreConfig, engine: str, mode: str) -> str:
-    """sby reads every file from its src folder, where [files] copies the sources and includes."""
-    depth = INDUCTION_DEPTH if mode == "prove" else core_latency(cfg) + task.extra_depth
+def script_lines(task: Task, names: list[str], cfg: CoreConfig) -> list[str]:
+    """The Yosys script of a task, on the source files `names` in the current folder."""
     top = Path(task.wrapper).stem
     params = hdl_parameters(cfg)
     if task.wrapper == "fringe_top_stream.sv":
@@ -180,11 +179,7 @@ def sby_text(task: Task, sources: list[str], includes: list[str], cfg: CoreConfi
     params.update(dict(task.params))
     defines = " ".join(f"-D{d}" for d in task.defines)
     chparam = " ".join(f"-set {k} {v}" for k, v in params.items())
-    names = [Path(s).name for s in sources]
-    return "\n".join([
-        "[options]", f"mode {mode}", f"depth {depth}", "",
-        "[engines]", f"smtbmc {engine}", "",
-        "[script]",
+    return [
         *[f"read_verilog -sv -formal -I. {defines} {n}" for n in names],
         f"chparam {chparam} {top}",
         # probes: joined to the RTL's wires after flattening, before any optimisation can remove those
@@ -192,7 +187,17 @@ def sby_text(task: Task, sources: list[str], includes: list[str], cfg: CoreConfi
         *[f"connect -set {probe} {wire}" for probe, wire in task.probes],
         f"prep -flatten -top {top}",
         "splitcells", "opt_clean",
-        *(["memory_map", "opt -fast"] if task.map_memories else []), "",
+        *(["memory_map", "opt -fast"] if task.map_memories else []),
+    ]
+
+
+def sby_text(task: Task, sources: list[str], includes: list[str], cfg: CoreConfig, engine: str, mode: str) -> str:
+    """sby reads every file from its src folder, where [files] copies the sources and includes."""
+    depth = INDUCTION_DEPTH if mode == "prove" else core_latency(cfg) + task.extra_depth
+    return "\n".join([
+        "[options]", f"mode {mode}", f"depth {depth}", "",
+        "[engines]", f"smtbmc {engine}", "",
+        "[script]", *script_lines(task, [Path(s).name for s in sources], cfg), "",
         "[files]", *sources, *includes, "",
     ])
 
