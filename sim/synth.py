@@ -358,6 +358,7 @@ def measure(work: Path, top: str, params: dict, device: Device, sources: list[Pa
     row["pnr_s"] = round(time.time() - t0, 1)
     # resources with nothing available are nextpnr's internal cell kinds (GateMate's CPE_MULT, CPE_BRIDGE)
     util = {k: (v["used"], v["available"]) for k, v in rep.get("utilization", {}).items() if v["available"]}
+    internal = {k: v["used"] for k, v in rep.get("utilization", {}).items() if not v["available"] and v["used"]}
 
     def count(how: str):
         src, name = how.split(":")
@@ -376,7 +377,9 @@ def measure(work: Path, top: str, params: dict, device: Device, sources: list[Pa
         luts=count(device.lut), flip_flops=count(device.ff), dsp=total(device.dsp),
         bram=total(device.bram), fmax_mhz=round(fmax, 1), target_mhz=device.target_mhz,
         fits=fits, meets_target=bool(fits and fmax >= device.target_mhz),
-        utilization={k: f"{u}/{a}" for k, (u, a) in util.items() if u},
+        # "-": a cell kind nextpnr counts without a site of its own (e.g. GateMate's CPE_MULT)
+        utilization={**{k: f"{u}/{a}" for k, (u, a) in util.items() if u},
+                     **{k: f"{u}/-" for k, u in internal.items()}},
         logic_cells=f"{total(device.cells)}/{util.get(device.cells[0], (0, 0))[1]}",
         critical_path=critical_path(rep, (work / "nextpnr.log").read_text(errors="replace")),
     )

