@@ -34,7 +34,7 @@ def test_broken_copy_applies_one_edit(mutant, tmp_path):
 
 
 def test_every_default_task_has_a_failing_broken_copy():
-    # each property the default run proves is shown to fail on a broken copy in the same run
+    # each property the default (and --trim) run proves is shown to fail on a broken copy in the same run
     default = {t.name for t in formal.TASKS.values() if not t.slow}
     covered = {name for m in formal.MUTANTS if not m.slow for name in m.tasks}
     assert default <= covered, f"no broken copy for {sorted(default - covered)}"
@@ -60,7 +60,7 @@ def test_probes_name_wires_of_the_flattened_design(task):
         names.append(Path(f).name)
     for f in formal.cocotb_runner.include_files():
         shutil.copy2(f, work / f.name)
-    lines = formal.script_lines(task, names, formal.FORMAL_CONFIG)
+    lines = formal.script_lines(task, names, task.config)
     upto = max(i for i, ln in enumerate(lines) if ln.startswith("connect "))
     (work / "probes.ys").write_text("\n".join(lines[:upto + 1]) + "\n")
     r = subprocess.run([yosys, "-q", "-s", "probes.ys"], cwd=work, capture_output=True, text=True, timeout=300)

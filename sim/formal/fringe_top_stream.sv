@@ -25,6 +25,10 @@ module fringe_top_stream #(
     parameter integer FINE_W = 8, parameter integer CORDIC_STAGES = 4, parameter integer CORDIC_GUARD = 1,
     parameter integer LP_ADDR_W = 2, parameter integer LP_W = 8, parameter integer LP_FRAC = 2,
     parameter integer LP_IF = 2, parameter [63:0] LP_RECIP = 64'd1, parameter integer LP_SHIFT = 8,
+    // fringe_trim (TRIM = 1): the defaults of fringe_top, run.py sets them for the TRIM tasks
+    parameter integer TRIM = 0, parameter integer SPEED_LOG2 = 5, parameter integer MAP_PSI_W = 6,
+    parameter integer MAP_PHI_W = 5, parameter integer TRIM_W = 18, parameter integer TRIM_FRAC = 4,
+    parameter integer G_SHIFT = 24, parameter [63:0] SECT_RECIP = 64'd1, parameter integer SECT_SHIFT = 18,
     parameter integer LATENCY = 28
 ) (
     input wire clk,
@@ -49,7 +53,8 @@ module fringe_top_stream #(
         .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
         .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
         .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
-        .LP_SHIFT(LP_SHIFT)
+        .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W),
+        .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT), .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT)
     ) dut (
         .clk(clk), .rst(rst),
         .s_axis_tdata(s_axis_tdata), .s_axis_tvalid(s_axis_tvalid), .s_axis_tready(s_axis_tready),
@@ -123,7 +128,8 @@ module fringe_top_stream #(
     localparam integer AGE_LUT  = CORE_INPUT_LATENCY;                                     // fringe_wave_lut
     localparam integer AGE_QUAD = AGE_LUT + WAVE_LUT_LATENCY;                             // fringe_quadrature
     localparam integer AGE_CNT  = AGE_QUAD + QUADRATURE_LATENCY + CORDIC_STAGES + CORDIC_LATENCY_BASE;
-    localparam integer AGE_LONG = AGE_CNT + PERIOD_COUNT_LATENCY;                         // (TRIM = 0)
+    localparam integer AGE_TRIM = AGE_CNT + PERIOD_COUNT_LATENCY;                         // fringe_trim
+    localparam integer AGE_LONG = AGE_TRIM + TRIM * TRIM_LATENCY;                         // fringe_long_period
     wire probe_lut_sin, probe_lut_cos, probe_quad_regs, probe_count_regs, probe_long_regs, probe_long;
     always @(*) begin
         if (!f_init) begin
@@ -135,6 +141,12 @@ module fringe_top_stream #(
             if (ref_valid[AGE_LONG-1]) assert (probe_long == ref_tag[AGE_LONG-1][2]);
         end
     end
+    generate
+        if (TRIM != 0) begin : g_trim_bank
+            wire probe_trim;    // fringe_trim's table bank
+            always @(*) if (!f_init && ref_valid[AGE_TRIM-1]) assert (probe_trim == ref_tag[AGE_TRIM-1][2]);
+        end
+    endgenerate
 `endif
 
 `ifdef CHECK_RESET

@@ -1,6 +1,6 @@
 """Formal proofs of fringe_top's stream (SymbiYosys, `make formal`), and the broken copies.
 
-    .venv/bin/python sim/formal/run.py [--all | --tasks stream,stable,...] [--no-mutants] [--json OUT]
+    .venv/bin/python sim/formal/run.py [--trim | --all | --tasks stream,stable,...] [--no-mutants] [--json OUT]
 
 Each task proves properties of the wrappers in this folder (their headers say what, exactly):
   stream       every sample comes out once, in order, after exactly LATENCY clock enables, with the
@@ -11,6 +11,7 @@ Each task proves properties of the wrappers in this folder (their headers say wh
                sample (k-induction)
   bank_taps    every bank select of fringe_core (each table's read bank, the register taps) is the
                bank of the sample it serves, around any pattern of swaps (bmc)
+  stream_trim, bank_taps_trim  the same two with fringe_trim built (TRIM = 1; --trim, a minute each)
   reset_miter  two copies: nothing accepted before a reset changes any output after it (bmc, slow)
   bank0/bank1  two copies: a sample served by one bank reads nothing of the other bank (bmc, slow)
 for any tvalid/tready pattern, configuration writes (bank swaps among them) and resets: bmc to
@@ -37,6 +38,7 @@ under /tmp. Exit status 0 when every proof passes and every broken copy fails.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import hashlib
 import json
 import os
@@ -60,6 +62,8 @@ from fringe.rtlsim import top_parameters  # noqa: E402
 #: the small legal configuration of the proofs (COARSE_W > 0: the bank miter needs it)
 FORMAL_CONFIG = CoreConfig(adc_w=4, lines=4, coarse_w=2, wave_addr_w=2, wave_w=8, coef_w=8, fine_w=8,
                            cordic_stages=4, cordic_guard=1, lp_addr_w=2, lp_w=8, lp_frac=2, lp_if=2)
+#: with fringe_trim (TRIM = 1): its smallest legal tables (2 sectors x 4 bins, 8-bit values)
+TRIM_CONFIG = dataclasses.replace(FORMAL_CONFIG, trim=1, map_psi_w=1, map_phi_w=2, trim_w=8, speed_log2=1)
 EXTRA_DEPTH = 12       # bmc: clocks beyond LATENCY
 MIN_EXTRA_DEPTH = 8    # issue 11: at least LATENCY + 8 (the two-copy miters, the slowest, run to exactly that)
 #: prove (k-induction): k; the proof then holds at every depth (the base case runs to k as well)
@@ -79,6 +83,11 @@ class Task:
     probes: tuple[tuple[str, str], ...] = ()   # (wrapper wire, flattened RTL wire) joined by Yosys `connect`
     extra_depth: int = EXTRA_DEPTH                # bmc: clocks beyond LATENCY
     map_memories: bool = False                    # memories as flip-flops (yices: 5x faster on the miters)
+    trim: bool = False                            # built with fringe_trim (TRIM_CONFIG), else FORMAL_CONFIG
+
+    @property
+    def config(self) -> CoreConfig:
+        return TRIM_CONFIG if self.trim else FORMAL_CONFIG
 
 
 #: bank_taps: the wires of fringe_core that choose a bank for a sample (fringe_core.v, the bank pipeline)
@@ -99,6 +108,9 @@ TASKS = {t.name: t for t in (
     Task("reset", "fringe_top_stream.sv", "prove", ("CHECK_RESET",),
          probes=(("probe_have_prev", "dut.u_core.u_count.have_prev"),)),
     Task("bank_taps", "fringe_top_stream.sv", "bmc", ("CHECK_BANK_TAPS",), probes=BANK_PROBES),
+    Task("stream_trim", "fringe_top_stream.sv", "bmc", ("CHECK_STREAM",), trim=True),
+    Task("bank_taps_trim", "fringe_top_stream.sv", "bmc", ("CHECK_BANK_TAPS",), trim=True,
+         probes=(*BANK_PROBES, ("g_trim_bank.probe_trim", "dut.u_core.g_trim.u_trim.bank"))),
     Task("reset_miter", "fringe_top_miter.sv", "bmc", (), (("MODE", 1),), slow=True, extra_depth=MIN_EXTRA_DEPTH,
          map_memories=True),
     Task("bank0", "fringe_top_miter.sv", "bmc", (), (("MODE", 0), ("CHECK_BANK", 0)), slow=True,
@@ -135,6 +147,11 @@ MUTANTS = (
     Mutant("long_period_active_bank", "fringe_core.v", ".in_valid(t_valid), .pos(t_pos), .bank(t_status[7]),",
            ".in_valid(t_valid), .pos(t_pos), .bank(bank_r),", ("bank_taps", "bank0"),
            "the long-period table is read with the active bank, not the sample's"),
+    Mutant("trim_bank_zero", "fringe_core.v", ".mag(p_user[U_P-1:6]), .bank(p_status[7]),",
+           ".mag(p_user[U_P-1:6]), .bank(1'b0),", ("bank_taps_trim",), "fringe_trim always reads bank 0"),
+    Mutant("trim_valid_dropped", "fringe_core.v", ".in_valid(p_valid), .pos(p_pos),",
+           ".in_valid(p_valid & ~p_status[0]), .pos(p_pos),", ("stream_trim",),
+           "fringe_trim drops the samples whose sine clipped"),
 )
 
 
@@ -233,7 +250,8 @@ def run_task(task: Task, rtl_dir: Path, out_dir: Path, sby: list[str], cfg: Core
     (out_dir / f"{task.name}.log").write_text(log)
     status = {0: "PASS", SBY_FAIL: "FAIL"}.get(code, "TIMEOUT" if code is None else f"ERROR({code})")
     depth = INDUCTION_DEPTH if mode == "prove" else core_latency(cfg) + task.extra_depth
-    return {"task": task.name, "mode": mode, "depth": depth, "status": status, "seconds": round(secs, 1),
+    return {"task": task.name, "mode": mode, "depth": depth, "latency": core_latency(cfg), "trim": task.trim,
+            "status": status, "seconds": round(secs, 1),
             "workdir": str(out_dir / task.name)}
 
 
@@ -254,13 +272,15 @@ def broken_copy(m: Mutant, dest: Path) -> Path:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tasks", help="comma-separated tasks (default: all but the slow ones)")
-    ap.add_argument("--all", action="store_true", help="include the slow tasks and broken copies")
+    ap.add_argument("--trim", action="store_true", help="add the TRIM = 1 tasks (about 4 minutes more)")
+    ap.add_argument("--all", action="store_true", help="every task: --trim and the miters, which do not finish in "
+                    "minutes (--timeout each)")
     ap.add_argument("--no-mutants", action="store_true", help="skip the broken copies")
     ap.add_argument("--timeout", type=float, default=1800, help="seconds per sby run")
     ap.add_argument("--json", type=Path, help="write the results here")
     a = ap.parse_args(argv)
     names = ([t for t in a.tasks.split(",") if t] if a.tasks
-             else [t.name for t in TASKS.values() if a.all or not t.slow])
+             else [t.name for t in TASKS.values() if a.all or (not t.slow and (a.trim or not t.trim))])
     unknown = [t for t in names if t not in TASKS]
     if unknown:
         ap.error(f"unknown task(s) {unknown}; choose from {', '.join(TASKS)}")
@@ -279,7 +299,7 @@ def main(argv: list[str] | None = None) -> int:
           f"work folder {root}", flush=True)
     results, ok = [], True
     for name in names:
-        r = run_task(TASKS[name], real, root / "proofs", sby, cfg, a.timeout)
+        r = run_task(TASKS[name], real, root / "proofs", sby, TASKS[name].config, a.timeout)
         r["expect"] = "PASS"
         ok &= r["status"] == "PASS"
         results.append(r)
@@ -292,7 +312,8 @@ def main(argv: list[str] | None = None) -> int:
                 rtl = broken_copy(m, root / "mutants" / m.name / "rtl")
                 # bmc on the broken copy: a counterexample trace from reset (an induction step that fails
                 # without one would say nothing)
-                r = run_task(TASKS[name], rtl, root / "mutants" / m.name, sby, cfg, a.timeout, mode="bmc")
+                r = run_task(TASKS[name], rtl, root / "mutants" / m.name, sby, TASKS[name].config, a.timeout,
+                             mode="bmc")
                 r.update(expect="FAIL", mutant=m.name, why=m.why)
                 ok &= r["status"] == "FAIL"
                 results.append(r)
