@@ -145,7 +145,7 @@ MUTANTS = (
            "wire bank_q = bank_d[TAP_Q + 1];", ("bank_taps", "bank0", "bank1"),
            "the quadrature gains are read with the previous sample's bank"),
     Mutant("long_period_active_bank", "fringe_core.v", ".in_valid(t_valid), .pos(t_pos), .bank(t_status[7]),",
-           ".in_valid(t_valid), .pos(t_pos), .bank(bank_r),", ("bank_taps", "bank0"),
+           ".in_valid(t_valid), .pos(t_pos), .bank(active_bank),", ("bank_taps", "bank0"),
            "the long-period table is read with the active bank, not the sample's"),
     Mutant("trim_bank_zero", "fringe_core.v", ".mag(p_user[U_P-1:6]), .bank(p_status[7]),",
            ".mag(p_user[U_P-1:6]), .bank(1'b0),", ("bank_taps_trim",), "fringe_trim always reads bank 0"),
