@@ -11,7 +11,7 @@ Each task proves properties of the wrappers in this folder (their headers say wh
                sample (k-induction)
   bank_taps    every bank select of fringe_core (each table's read bank, the register taps) is the
                bank of the sample it serves, around any pattern of swaps (bmc)
-  stream_trim, bank_taps_trim  the same two with fringe_trim built (TRIM = 1; --trim, a minute each)
+  stream_trim, bank_taps_trim  the same two with fringe_trim built (TRIM = 1; --trim)
   reset_miter  two copies: nothing accepted before a reset changes any output after it (bmc, slow)
   bank0/bank1  two copies: a sample served by one bank reads nothing of the other bank (bmc, slow)
 for any tvalid/tready pattern, configuration writes (bank swaps among them) and resets: bmc to
@@ -272,7 +272,7 @@ def broken_copy(m: Mutant, dest: Path) -> Path:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tasks", help="comma-separated tasks (default: all but the slow ones)")
-    ap.add_argument("--trim", action="store_true", help="add the TRIM = 1 tasks (about 4 minutes more)")
+    ap.add_argument("--trim", action="store_true", help="add the TRIM = 1 tasks (20-70 s each here)")
     ap.add_argument("--all", action="store_true", help="every task: --trim and the miters, which do not finish in "
                     "minutes (--timeout each)")
     ap.add_argument("--no-mutants", action="store_true", help="skip the broken copies")
