@@ -227,8 +227,12 @@ def run(cmd: list[str], log: Path, cwd: Path) -> int:
 
 def first_errors(log: Path, n: int = 2) -> str:
     """The tool's own ERROR lines (the reason the JSON gives for a failed run)."""
-    errors = [ln.strip() for ln in log.read_text(errors="replace").splitlines() if "ERROR" in ln]
-    return "; ".join(errors[:n]) or "no ERROR line (see the log)"
+    lines = [ln.strip() for ln in log.read_text(errors="replace").splitlines() if ln.strip()]
+    errors = [ln for ln in lines if "ERROR" in ln]
+    if not errors:   # a crash of the WebAssembly tool ends with its trap, after the last Info line
+        last_info = next((ln for ln in reversed(lines) if ln.startswith("Info:")), "")
+        return f"crashed after {last_info!r}: {lines[-1] if lines else 'empty log'}"
+    return "; ".join(errors[:n])
 
 
 def log_tail(log: Path, n: int = 15) -> str:
