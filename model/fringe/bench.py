@@ -167,13 +167,27 @@ def loop_rm44(folder: str) -> dict | str:
     return {"setup": "fringe loop, fitted on the even samples, validated on the odd ones", "files": rows}
 
 
-def synthesis(out_dir: str) -> dict | str:
-    """The figures of the last `make synth` (sim/synth.py writes OUT/synth.json)."""
-    path = os.path.join(out_dir, "synth.json")
+def _written_by(path: str, target: str) -> dict | str:
+    """The JSON a make target wrote, or why it is not there."""
     if not os.path.exists(path):
-        return "not run: make synth writes results/synth.json (make bench runs it first)"
+        return f"not run: make {target} writes {path} (make bench runs it first)"
     with open(path) as f:
         return json.load(f)
+
+
+def synthesis(out_dir: str) -> dict | str:
+    """The figures of the last `make synth` (sim/synth.py writes OUT/synth.json)."""
+    return _written_by(os.path.join(out_dir, "synth.json"), "synth")
+
+
+def synthesis_families(out_dir: str) -> dict | str:
+    """Gowin, Nexus and GateMate (`make synth-families`: OUT/families/synth.json)."""
+    return _written_by(os.path.join(out_dir, "families", "synth.json"), "synth-families")
+
+
+def formal(out_dir: str) -> dict | str:
+    """The proofs of the last `make formal` (sim/formal/run.py writes OUT/formal.json)."""
+    return _written_by(os.path.join(out_dir, "formal.json"), "formal")
 
 
 def markdown(results: dict) -> str:
@@ -245,7 +259,8 @@ def markdown(results: dict) -> str:
 
 
 OTHER_SECTIONS = {"reference_free": reference_free_markdown, "real_vs_plain_fit": None, "one_line_population": None,
-                  "io_and_memory": None, "loop_population": None, "loop_speed": None, "rtl_engine_speed": None}
+                  "io_and_memory": None, "loop_population": None, "loop_speed": None, "rtl_engine_speed": None,
+                  "synthesis_families": None, "formal": None}
 
 
 def main(argv=None) -> int:
@@ -269,7 +284,9 @@ def main(argv=None) -> int:
              ("loop_population", lambda: population_bench(20 if a.quick else 200, 9000, workers=2)),
              ("loop_speed", lambda: loop_speed(200_000 if a.quick else 1_000_000)),
              ("rtl_engine_speed", lambda: engine_speed(samples=100_000 if a.quick else 1_000_000)),
-             ("synthesis", lambda: synthesis(a.out))]
+             ("synthesis", lambda: synthesis(a.out)),
+             ("synthesis_families", lambda: synthesis_families(a.out)),
+             ("formal", lambda: formal(a.out))]
     for name, fn in steps:
         t0 = time.perf_counter()
         print(f"bench: {name} ...", flush=True)

@@ -41,6 +41,7 @@ from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
 from .metrics import error_arcsec, error_figures
 from .pipeline import run_float, sample_times
+from .position import shifted
 
 P_VALUE = 1e-6
 MIN_GAIN = 0.01          # an effect must remove at least this fraction of the residual RMS
@@ -153,7 +154,7 @@ def shift_reference(meas: Measurement, lag_s: float) -> Measurement:
         return meas
     t = sample_times(len(meas), meas.t_s)
     unwrapped = np.rad2deg(np.unwrap(np.deg2rad(meas.ref_deg)))
-    return dataclasses.replace(meas, ref_deg=np.mod(np.interp(t + lag_s, t, unwrapped), 360.0))
+    return dataclasses.replace(meas, ref_deg=np.mod(shifted(t, unwrapped, lag_s, span=16), 360.0))
 
 
 def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:

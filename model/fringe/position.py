@@ -71,3 +71,17 @@ def count_periods(frac: np.ndarray, lines: int) -> tuple[np.ndarray, np.ndarray]
 
 def overspeed(frac: np.ndarray) -> np.ndarray:
     return np.concatenate([[False], np.abs(wrap(np.diff(frac))) >= 0.25])
+
+
+def shifted(t: np.ndarray, x: np.ndarray, dt: float, span: int = 1) -> np.ndarray:
+    """x at the times t + dt: interpolated inside the recording, continued at the end slopes (over `span`
+    samples, more for a noisy x) outside it: the motion goes on before the first and after the last sample,
+    and holding the end values would freeze it."""
+    y = np.interp(t + dt, t, x)
+    k = min(span, len(t) - 1)
+    if k < 1:
+        return y
+    before, after = t + dt < t[0], t + dt > t[-1]
+    y[before] = x[0] + (t[before] + dt - t[0]) * (x[k] - x[0]) / (t[k] - t[0])
+    y[after] = x[-1] + (t[after] + dt - t[-1]) * (x[-1] - x[-1 - k]) / (t[-1] - t[-1 - k])
+    return y

@@ -20,6 +20,7 @@ import numpy as np
 from . import seeds
 from .encoder import ARCSEC_PER_REV, Encoder
 from .errors import FringeInputError
+from .position import shifted
 
 
 @dataclass
@@ -222,18 +223,6 @@ def simulate(cfg: SimulationConfig, seed: int = 1) -> Recording:
     ref_rev = np.floor(np.mod(ref_rev, 1.0) * counts) / counts
     cols["ref_deg"] = ref_rev * 360.0
     return Recording(cols, theta, phase, clean_s, clean_c, enc)
-
-
-def shifted(t: np.ndarray, x: np.ndarray, dt: float) -> np.ndarray:
-    """x at the times t + dt: interpolated inside the recording, continued at the end slopes outside it (the
-    motion goes on before the first and after the last sample; holding the end values would freeze it)."""
-    y = np.interp(t + dt, t, x)
-    if len(t) < 2:
-        return y
-    before, after = t + dt < t[0], t + dt > t[-1]
-    y[before] = x[0] + (t[before] + dt - t[0]) * (x[1] - x[0]) / (t[1] - t[0])
-    y[after] = x[-1] + (t[after] + dt - t[-1]) * (x[-1] - x[-2]) / (t[-1] - t[-2])
-    return y
 
 
 def _shape(ch: ChannelConfig, psi: np.ndarray, common_gain: np.ndarray, exponent: float) -> np.ndarray:

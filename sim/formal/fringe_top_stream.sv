@@ -11,8 +11,10 @@
 //            duplicated or reordered sample shifts the tag sequence, which the solver can make
 //            differ at any place); s_axis_tready is the clock enable.
 //   stable:  m_axis_tdata and m_axis_tvalid hold while m_axis_tvalid && !m_axis_tready (AXI4-Stream).
-//   reset:   the clock after rst, m_axis_tvalid = 0, and the reference (emptied by rst) says no
-//            sample accepted before the reset ever comes out.
+//   reset:   the clock after rst, m_axis_tvalid = 0 and fringe_period_count has no previous sample;
+//            with stream (the reference is emptied by rst): no sample accepted before a reset ever
+//            comes out after it.
+//   bank_taps: every bank select of fringe_core takes the bank of the sample it serves (below).
 // None of this depends on the data widths: run.py uses a small legal parameter set.
 
 `default_nettype none
@@ -23,6 +25,10 @@ module fringe_top_stream #(
     parameter integer FINE_W = 8, parameter integer CORDIC_STAGES = 4, parameter integer CORDIC_GUARD = 1,
     parameter integer LP_ADDR_W = 2, parameter integer LP_W = 8, parameter integer LP_FRAC = 2,
     parameter integer LP_IF = 2, parameter [63:0] LP_RECIP = 64'd1, parameter integer LP_SHIFT = 8,
+    // fringe_trim (TRIM = 1): the defaults of fringe_top, run.py sets them for the TRIM tasks
+    parameter integer TRIM = 0, parameter integer SPEED_LOG2 = 5, parameter integer MAP_PSI_W = 6,
+    parameter integer MAP_PHI_W = 5, parameter integer TRIM_W = 18, parameter integer TRIM_FRAC = 4,
+    parameter integer G_SHIFT = 24, parameter [63:0] SECT_RECIP = 64'd1, parameter integer SECT_SHIFT = 18,
     parameter integer LATENCY = 28
 ) (
     input wire clk,
@@ -47,7 +53,8 @@ module fringe_top_stream #(
         .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
         .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
         .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
-        .LP_SHIFT(LP_SHIFT)
+        .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W),
+        .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT), .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT)
     ) dut (
         .clk(clk), .rst(rst),
         .s_axis_tdata(s_axis_tdata), .s_axis_tvalid(s_axis_tvalid), .s_axis_tready(s_axis_tready),
@@ -110,9 +117,48 @@ module fringe_top_stream #(
     end
 `endif
 
+`ifdef CHECK_BANK_TAPS
+    // bank_taps (white-box): every bank select of fringe_core equals the bank of the sample it
+    // serves. The probes are connected by run.py (Yosys `connect` after flattening) to the core's
+    // wires; a sample of age A (clock enables since its handshake) sits in ref_tag[A-1]. The ages
+    // come from the block latencies of fringe_pkg.vh (docs/architecture.md): a block taking its
+    // sample at age A reads its tables with the sample's bank then, and fringe_core reads a block's
+    // registers one clock enable ahead, at age A-1.
+    `include "fringe_pkg.vh"
+    localparam integer AGE_LUT  = CORE_INPUT_LATENCY;                                     // fringe_wave_lut
+    localparam integer AGE_QUAD = AGE_LUT + WAVE_LUT_LATENCY;                             // fringe_quadrature
+    localparam integer AGE_CNT  = AGE_QUAD + QUADRATURE_LATENCY + CORDIC_STAGES + CORDIC_LATENCY_BASE;
+    localparam integer AGE_TRIM = AGE_CNT + PERIOD_COUNT_LATENCY;                         // fringe_trim
+    localparam integer AGE_LONG = AGE_TRIM + TRIM * TRIM_LATENCY;                         // fringe_long_period
+    wire probe_lut_sin, probe_lut_cos, probe_quad_regs, probe_count_regs, probe_long_regs, probe_long;
+    always @(*) begin
+        if (!f_init) begin
+            if (ref_valid[AGE_LUT-1])  assert (probe_lut_sin == ref_tag[AGE_LUT-1][2]);
+            if (ref_valid[AGE_LUT-1])  assert (probe_lut_cos == ref_tag[AGE_LUT-1][2]);
+            if (ref_valid[AGE_QUAD-2]) assert (probe_quad_regs == ref_tag[AGE_QUAD-2][2]);
+            if (ref_valid[AGE_CNT-2])  assert (probe_count_regs == ref_tag[AGE_CNT-2][2]);
+            if (ref_valid[AGE_LONG-2]) assert (probe_long_regs == ref_tag[AGE_LONG-2][2]);
+            if (ref_valid[AGE_LONG-1]) assert (probe_long == ref_tag[AGE_LONG-1][2]);
+        end
+    end
+    generate
+        if (TRIM != 0) begin : g_trim_bank
+            wire probe_trim;    // fringe_trim's table bank
+            always @(*) if (!f_init && ref_valid[AGE_TRIM-1]) assert (probe_trim == ref_tag[AGE_TRIM-1][2]);
+        end
+    endgenerate
+`endif
+
 `ifdef CHECK_RESET
+    // and the state that links a sample to the one before it starts afresh: fringe_period_count's
+    // "a previous sample exists" (white-box: run.py connects the probe), so the first sample after a
+    // reset is counted from its own phase, with no overspeed against a sample from before the reset
+    wire probe_have_prev;
     always @(posedge clk) begin
-        if (f_past_valid && $past(rst)) assert (!m_axis_tvalid);
+        if (f_past_valid && $past(rst)) begin
+            assert (!m_axis_tvalid);
+            assert (!probe_have_prev);
+        end
     end
 `endif
 
