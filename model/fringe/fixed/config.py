@@ -153,10 +153,12 @@ class CoreConfig(PositionWidths):
         arcsec_per_rad = 1_296_000 / (2 * math.pi * enc.lines_per_rev)
         angle_bits = math.ceil(math.log2(arcsec_per_rad / WAVE_LSB_ARCSEC)) + 2
         wave_w = min(31, max(15, enc.adc_bits + 3, angle_bits))
+        # the period count needs COARSE_W <= FINE_W - 2: a fine coarse code gets a finer phase
+        fine_w = overrides.get("fine_w", max(cls.fine_w, enc.coarse_bits + 2))
         base = dict(adc_w=enc.adc_bits, lines=enc.lines_per_rev, coarse_w=enc.coarse_bits,
                     wave_addr_w=min(enc.adc_bits - 1, max(8, enc.adc_bits - 4), 10),
-                    wave_w=wave_w, coef_w=min(27, max(16, enc.adc_bits + 2)),
-                    cordic_stages=overrides.get("fine_w", cls.fine_w) + 1)
+                    wave_w=wave_w, coef_w=min(27, max(16, enc.adc_bits + 2)), fine_w=fine_w,
+                    cordic_stages=fine_w + 1)
         base.update(overrides)
         return cls(**base)
 
