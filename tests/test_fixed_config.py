@@ -14,12 +14,17 @@ import subprocess
 import sysconfig
 from pathlib import Path
 
+import numpy as np
 import pytest
-from conftest import rng
 
 from fringe.fixed.config import CoreConfig
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+def rng(seed: int = 0) -> np.random.Generator:
+    # tests/conftest.py's rng: a test module cannot import it (tb/conftest.py shadows the name under xdist)
+    return np.random.default_rng(int(os.environ.get("FRINGE_SEED", seed)))
 RTL_VERILOG = REPO / "rtl" / "verilog"
 
 #: (legal range, drawn range) per field; legal is the block's own range, the core's combined checks come on top

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hdl_text import vhdl_block_text, vhdl_checks_range
 
 from fringe.fixed.long_period import (
     LATENCY,
@@ -356,15 +357,17 @@ def test_corrections_up_to_rev_are_allowed():
 def test_hdl_messages_match_model():
     """The HDL checks carry the model's messages (plus the instance path in Verilog)."""
     v = (REPO / "rtl/verilog/fringe_long_period.v").read_text()
-    h = (REPO / "rtl/vhdl/fringe_long_period.vhd").read_text()
+    h = vhdl_block_text(REPO, "fringe_long_period")
     for name, rng in (("FINE_W", "8..30"), ("LINES", "1..2^20"), ("LP_ADDR_W", "2..16"), ("LP_W", "8..32"),
                       ("LP_FRAC", "0..16"), ("LP_IF", "1..16")):
         assert f'"fringe_long_period: {name} = %0d out of range {rng} (instance %m)"' in v
-        assert f'"fringe_long_period: {name} = " & integer\'image({name}) & " out of range {rng}"' in h
+        assert vhdl_checks_range(h, "fringe_long_period", name, rng)
     for frag in ("entries exceed REV = LINES * 2^FINE_W", "fine counts exceed REV = LINES * 2^FINE_W",
-                 "do not map every position to floor(pos * 2^LP_ADDR_W / REV);", "take them from index_mapping()",
                  " .. 127", "POS_W = FINE_W + clog2(LINES) = "):
         assert frag in v and frag in h, frag
+    # the mapping message: written out in Verilog, built by fringe_pkg's check_mapping in VHDL
+    assert "do not map every position to floor(pos * 2^LP_ADDR_W / REV);" in v and "take them from index_mapping()" in v
+    assert 'check_mapping("fringe_long_period", "LP", "LP_ADDR_W", "index_mapping"' in h
 
 
 def test_input_validation():

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hdl_text import vhdl_block_text, vhdl_checks_range
 
 from fringe.fixed.period_count import (
     LATENCY,
@@ -285,10 +286,10 @@ def test_parameter_validation(args, msg):
 def test_hdl_messages_match_model():
     """The HDL checks carry the model's messages (plus the instance path in Verilog)."""
     v = (REPO / "rtl/verilog/fringe_period_count.v").read_text()
-    h = (REPO / "rtl/vhdl/fringe_period_count.vhd").read_text()
+    h = vhdl_block_text(REPO, "fringe_period_count")
     for name, rng in (("FINE_W", "8..30"), ("LINES", "1..2^20")):
         assert f'"fringe_period_count: {name} = %0d out of range {rng} (instance %m)"' in v
-        assert f'"fringe_period_count: {name} = " & integer\'image({name}) & " out of range {rng}"' in h
+        assert vhdl_checks_range(h, "fringe_period_count", name, rng)
     assert "POS_W = FINE_W + clog2(LINES) = %0d exceeds 48 (instance %m)" in v
     assert '" exceeds 48"' in h
     tail = "out of range: 0 (no coarse code) or 1..24 with COARSE_W <= FINE_W - 2"

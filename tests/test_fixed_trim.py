@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hdl_text import vhdl_block_text, vhdl_checks_range
 
 from fringe.fixed.trim import (
     LATENCY,
@@ -108,16 +109,20 @@ def test_parameter_validation(over, msg):
 def test_hdl_messages_match_model():
     """The HDL checks carry the model's messages (plus the instance path in Verilog)."""
     v = (REPO / "rtl/verilog/fringe_trim.v").read_text()
-    h = (REPO / "rtl/vhdl/fringe_trim.vhd").read_text()
+    h = vhdl_block_text(REPO, "fringe_trim")
     for name, rng in (("FINE_W", "8..30"), ("LINES", "1..2^20"), ("AMP_W", "4..32"), ("SPEED_LOG2", "0..8"),
                       ("MAP_PSI_W", "0..8"), ("TRIM_W", "8..24"), ("TRIM_FRAC", "0..16"), ("G_SHIFT", "1..48"),
                       ("SECT_SHIFT", "0..127")):
         assert f'"fringe_trim: {name} = %0d out of range {rng} (instance %m)"' in v, name
-        assert f'"fringe_trim: {name} = " & integer\'image({name}) & " out of range {rng}"' in h, name
+        assert vhdl_checks_range(h, "fringe_trim", name, rng), name
     for frag in ("out of range 2..min(10, FINE_W-1) = ", "POS_W = FINE_W + clog2(LINES) = ", " exceeds 31",
-                 "do not map every position to floor(pos * 2^MAP_PSI_W / REV);", "take them from sector_mapping()",
-                 "USER_W = "):
+                 "take them from "):
         assert frag in v and frag in h, frag
+    # written out in Verilog, built by fringe_pkg's check_mapping / check_min in VHDL
+    assert "do not map every position to floor(pos * 2^MAP_PSI_W / REV);" in v
+    assert "take them from sector_mapping()" in v
+    assert 'check_mapping("fringe_trim", "SECT", "MAP_PSI_W", "sector_mapping"' in h
+    assert "USER_W = " in v and 'check_min("fringe_trim", "USER_W", USER_W, 1)' in h
 
 
 # ---------------------------------------------------------------------------- sector mapping
