@@ -147,6 +147,7 @@ def draw_case(seed: int) -> dict:
             fields.setdefault("rev_gain_mod", {})[2] = (rng.uniform(0.02, 0.1), 0.0)
     cfg = dataclasses.replace(cfg, **fields)
     return {"seed": seed, "config": cfg, "classes": classes, "strengths": strengths, "expected": expected,
+            "floor_arcsec": float(floor_rad * period / (2 * np.pi)),
             "trajectory": trajectory_kind, "lines": lines, "adc_bits": adc, "coarse_bits": coarse}
 
 
@@ -169,7 +170,7 @@ def population_case(seed: int) -> dict:
         fit, val = measurement_of(simulate(cfg, fit_seed(seed))), measurement_of(simulate(cfg, fit_seed(seed) + 1))
         base, state, rep = run_loop(fit, cfg.encoder(), val)
         if "common_gain" in case["classes"]:
-            expected = set(case["expected"]) | ({"amplitude"} if common_gain_shows(cfg, base.cal, seed) else set())
+            expected = set(case["expected"]) | ({"amplitude"} if common_gain_shows(cfg, base.cal, seed, case["floor_arcsec"]) else set())
             out["expected"] = sorted(expected)
         # names only: terms of the general dictionary are corrections without a name, counted apart
         found = {e["name"] for e in rep["effects_added"] if not e["name"].startswith("generic:")}
@@ -190,7 +191,7 @@ def population_case(seed: int) -> dict:
     return out
 
 
-def common_gain_shows(cfg: SimulationConfig, cal, seed: int) -> bool:
+def common_gain_shows(cfg: SimulationConfig, cal, seed: int, floor_arcsec: float) -> bool:
     """Whether a common gain change moves the angle through the calibrated tables by at least half the noise
     floor (noise-free fit recording with and without it). atan2 alone would not see it, but the per-channel
     waveform inverse assumes the amplitude it was calibrated at: then it is an amplitude-dependent error."""
@@ -205,8 +206,6 @@ def common_gain_shows(cfg: SimulationConfig, cal, seed: int) -> bool:
         m = measurement_of(simulate(dataclasses.replace(c, noise_rms=0.0), fit_seed(seed)))
         angles.append(run_float(cal, m.sin, m.cos, m.coarse, m.t_s).angle_deg)
     d = wrap((angles[0] - angles[1]) / 360.0) * ARCSEC_PER_REV
-    noise = np.hypot(cfg.noise_rms, 2.0 ** (1 - cfg.adc_bits) / np.sqrt(12)) / cfg.sin_channel.gain
-    floor_arcsec = noise * ARCSEC_PER_REV / (2 * np.pi * cfg.lines_per_rev)
     return bool(np.std(d) >= 0.5 * floor_arcsec)
 
 
