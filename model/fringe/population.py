@@ -170,7 +170,8 @@ def population_case(seed: int) -> dict:
         fit, val = measurement_of(simulate(cfg, fit_seed(seed))), measurement_of(simulate(cfg, fit_seed(seed) + 1))
         base, state, rep = run_loop(fit, cfg.encoder(), val)
         if "common_gain" in case["classes"]:
-            expected = set(case["expected"]) | ({"amplitude"} if common_gain_shows(cfg, base.cal, seed, case["floor_arcsec"]) else set())
+            shows = common_gain_shows(cfg, base.cal, seed, case["floor_arcsec"])
+            expected = set(case["expected"]) | ({"amplitude"} if shows else set())
             out["expected"] = sorted(expected)
         # names only: terms of the general dictionary are corrections without a name, counted apart
         found = {e["name"] for e in rep["effects_added"] if not e["name"].startswith("generic:")}
