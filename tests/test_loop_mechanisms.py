@@ -149,3 +149,53 @@ def test_trim_sectors_follow_the_revolution_orders():
         assert core.map_psi_w == 8 or err <= SECTOR_BUDGET * 3.0 * core.rev / 1_296_000
         chosen[order] = core.map_psi_w
     assert chosen[4] > chosen[1], chosen
+
+
+@pytest.mark.parametrize("draw", range(3))
+def test_a_common_gain_change_is_met_in_the_phase_domain(draw):
+    """A gain common to both channels that changes over the revolution moves no angle through atan2, but every
+    reading through the per-channel waveform inverse (calibrated at one amplitude). On random encoders (lines,
+    ADC bits, gain swing, speed drawn at random; seed printed) the loop must take the phase-domain remedy and end
+    within 1.25x the floor on the bit-exact engine: the same encoder and validation recording without the gain
+    change, through the same correction (what noise alone leaves)."""
+    from fringe.engines import run_engine
+
+    seed = 5100 + draw
+    rng = np.random.default_rng(seed)
+    lines = int(rng.choice([16, 50, 256, 343, 1000]))
+    cfg = SimulationConfig(lines_per_rev=lines, coarse_bits=0, adc_bits=int(rng.integers(12, 17)), samples=16_384,
+                           speed_mean_rev_s=float(rng.uniform(0.3, 1.0)) * 1500 / lines, speed_swing_rev_s=0.0,
+                           rev_gain_mod={2: (float(rng.uniform(0.04, 0.1)), 0.0)}, ref_error_arcsec={})
+    print("seed", seed, "lines", lines, "adc", cfg.adc_bits, "gain swing", cfg.rev_gain_mod)
+    fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
+    _, state, rep = loop.run_loop(fit, cfg.encoder(), val)
+    remedies = [e.get("remedy", "") for e in rep["effects_added"]]
+    assert any(r.startswith("phase-domain") for r in remedies), rep["effects_added"]
+    assert state.cal.fit.get("phase_domain")
+    quiet = measurement_of(simulate(dataclasses.replace(cfg, rev_gain_mod={}, noise_rms=cfg.noise_rms), 2))
+    floor = loop.evaluate(state, quiet, run_engine("model", state.cal, quiet, None)).rms
+    model = loop.evaluate(state, val, run_engine("model", state.cal, val, None)).rms
+    assert model <= 1.25 * floor, (model, floor)
+
+
+def test_trim_bins_follow_the_phase_orders():
+    """fringe_trim interpolates its phase tables linearly between 2^MAP_PHI_W bins: a fine-phase term of order 24
+    needs more bins than one of order 2 for the same budget, and the chosen format keeps within it."""
+    from fringe.calibrate import calibrate
+    from fringe.effects import FittedEffect
+    from fringe.hardware.closed_loop import SECTOR_BUDGET, bin_error
+    from fringe.hardware.corefiles import core_config
+
+    cfg = SimulationConfig(lines_per_rev=64, coarse_bits=0, samples=16_384, ref_error_arcsec={})
+    cal = calibrate(measurement_of(simulate(cfg, 1)), cfg.encoder())
+    chosen = {}
+    for order in (2, 24):
+        w = np.zeros(2 * order)
+        w[2 * order - 2] = 5.0          # 5" at that order alone
+        c = dataclasses.replace(cal, angle_terms=[FittedEffect(f"generic:1:{order}:0", w)],
+                                provenance={**cal.provenance, "noise_floor_arcsec": 0.5})
+        core = core_config(c)
+        err, _, _ = bin_error(c, core, core.map_phi_w)
+        assert err <= SECTOR_BUDGET * 0.5 * core.rev / 1_296_000
+        chosen[order] = core.map_phi_w
+    assert chosen[24] > chosen[2], chosen

@@ -62,8 +62,9 @@ class CalibrationOptions:
     wave_harmonics_max: int = 31     # general model: BIC chooses up to this many
     lp_harmonics_max: int = 64       # cross-validation chooses up to this many
     lp_order_selection: str = "cv"   # "cv": held-out error; "bic": in-sample BIC
-    # WAVEFORM (per-channel inverse) or PHASE_TABLE (lines_per_rev = 1: the long-period table
-    # carries the phase error); None: chosen on held-out data where both apply
+    # WAVEFORM (per-channel inverse) or PHASE_TABLE (the waveform stage straight: a common gain change
+    # then moves no angle; lines_per_rev = 1: the long-period table carries the phase error, else the
+    # closed loop's fine-phase map in fringe_trim); None: chosen on held-out data where both apply
     structure: str | None = None
     # PHASE_TABLE: move the centre to where gain changes move no angle (centre_from_gain_changes);
     # None: chosen on held-out data together with the structure
@@ -158,6 +159,24 @@ def linear_inverse(kind: str, peak: float, enc: Encoder, opts: CalibrationOption
     lo, hi, n = _table_grid(enc, opts.table_points)
     line = np.clip(np.linspace(lo, hi, n) / peak, -LINEAR_LIMIT, LINEAR_LIMIT)
     return WaveformInverse(kind, lo, (hi - lo) / (n - 1), np.vstack([line, line]), 0.0, 0.0, 0.0)
+
+
+def straight_inverses(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+    cal.inv_sin, cal.inv_cos = (linear_inverse(k, max(float(np.max(np.abs(y[use]))), 1.0), cal.encoder, opts)
+                                for k, y in (("sin", meas.sin), ("cos", meas.cos)))
+
+
+def straight_conic(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions) -> Calibration:
+    """PHASE_TABLE without a long-period fit (an incremental encoder): the waveform stage straight and the
+    conic; what the channels' shape does to the phase is left to the closed loop's fine-phase map."""
+    cal = Calibration(encoder=enc)
+    cal.fit["structure"] = PHASE_TABLE
+    straight_inverses(cal, meas, use, opts)
+    _fit_quadrature(cal, meas, use)
+    theta, _ = _phase(cal, meas)     # the channels against the phase the core measures (reports, drift tables)
+    cal.waves = _fit_waveforms(meas, use, theta, opts)
+    cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in cal.waves.items()}
+    return cal
 
 
 def reference_free(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions) -> Calibration:
@@ -348,8 +367,7 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     cal = Calibration(encoder=enc)   # the reference gives the phase: only the conic is needed to start
     cal.fit["structure"] = structure
     if structure == PHASE_TABLE:
-        cal.inv_sin, cal.inv_cos = (linear_inverse(k, max(float(np.max(np.abs(y[use]))), 1.0), enc, opts)
-                                    for k, y in (("sin", meas.sin), ("cos", meas.cos)))
+        straight_inverses(cal, meas, use, opts)
     _fit_quadrature(cal, meas, use)
     sync_coarse(cal, meas)
     check_revolution_coverage(meas, encoder_rev(cal, meas))
@@ -512,6 +530,8 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
         cal = reference_calibration(meas, enc, use, dataclasses.replace(opts, gain_centre=centre), structure)
         if choice:
             cal.fit["model_choice"] = choice
+    elif opts.structure == PHASE_TABLE:
+        cal = straight_conic(meas, enc, use, opts)
     else:
         cal = reference_free(meas, enc, use, opts)
     sync_coarse(cal, meas)

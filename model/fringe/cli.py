@@ -263,7 +263,7 @@ class CorrectSummary:
 
 def cmd_loop(a) -> int:
     from .encoder import load_encoder
-    from .loop import run_loop
+    from .loop import decision_rows, run_loop
     from .loopreport import write_outputs
     from .outputs import check_output_dir
 
@@ -272,7 +272,9 @@ def cmd_loop(a) -> int:
     train = _read_for_calibration(a.data, enc)
     val = _read_for_calibration(a.validate, enc) if a.validate else None
     base, state, report = run_loop(train, enc, val)
-    write_outputs(base, state, report, train, val, a.out)
+    shown = decision_rows(val if val is not None else train)    # the plots need no more rows than the decision
+    del train, val            # bounded memory: the recordings are not needed for writing
+    write_outputs(base, state, report, shown, None, a.out)
     b, f = report["before"], report["after"]
     print(f"declared model: RMS {b['rms_arcsec']:.3f}\"; with the added effects: RMS {f['rms_arcsec']:.3f}\" "
           f"(noise floor {report['noise_floor_arcsec']:.3f}\", on {report['validation']})")

@@ -173,6 +173,9 @@ LIBRARY = {
 }
 
 
+PREDICT_ROWS = 1 << 14
+
+
 @dataclass
 class FittedEffect:
     name: str
@@ -197,6 +200,13 @@ class FittedEffect:
         return cls(d["name"], np.asarray(d["weights"], float), float(d.get("tone_hz", 0.0)), d.get("engine", "core"))
 
     def predict(self, ctx: Context) -> np.ndarray:
+        """The term's error (arcsec) per sample, evaluated in blocks of rows (bounded memory)."""
+        n = len(ctx.phi)
+        if n <= PREDICT_ROWS:
+            return self._predict(ctx)
+        return np.concatenate([self._predict(ctx.rows(slice(s, s + PREDICT_ROWS))) for s in range(0, n, PREDICT_ROWS)])
+
+    def _predict(self, ctx: Context) -> np.ndarray:
         if self.name == "tone":
             return tone_columns(ctx, self.tone_hz) @ self.weights
         if self.name == "interference":

@@ -199,6 +199,7 @@ class Test:
     dof: int
     tone_hz: float = 0.0
     label: str = ""          # the library's name when the term is a general-dictionary shape for that effect
+    ambiguous: bool = False  # a line at a steady revolution harmonic: as well a position error at that order
 
 
 CHUNK = 1 << 12     # rows per block of a design matrix: memory stays bounded however long the recording
@@ -361,13 +362,23 @@ def channel_errors(ev: Evaluation) -> np.ndarray | None:
     return best[1]
 
 
-def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float, float]], list[str]]:
-    """Lines in time: (name, Hz, p-value of the strongest of the searched lines) and notes on what stays
-    ambiguous. A line in the angle residual with none in the channels is a vibration ("tone"); a line in
-    the channels is additive interference (the angle shows it as sidebands at +- the electrical frequency).
-    Lines at `known_hz` (already corrected or rejected) are not offered again. The spectra are taken on the
-    longest run of evenly spaced samples (a long recording is decided on runs of it), frequencies in the
-    units of its time stamps."""
+def revolution_order(f: float, rate: float, fs: float, lines: int, tol: float) -> int:
+    """The lowest revolution order n whose frequency n x rate, folded into 0..fs/2 by the sampling, lies within
+    `tol` of f (0: none). Orders up to WAVE_HARMONICS times the lines: a position error at a high fine-phase order
+    (sidebands of the electrical frequency's harmonics) is sampled as well as a low one."""
+    n = np.arange(1, WAVE_HARMONICS * max(lines, 1) + 3)
+    folded = np.abs((n * rate + fs / 2) % fs - fs / 2)
+    hits = np.flatnonzero(np.abs(folded - f) <= tol)
+    return int(n[hits[0]]) if len(hits) else 0
+
+
+def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float, float, bool]], list[str]]:
+    """Lines in time: (name, Hz, p-value of the strongest of the searched lines, whether it lies on a steady
+    revolution harmonic) and notes on what stays ambiguous. A line in the angle residual with none in the
+    channels is a vibration ("tone"); a line in the channels is additive interference (the angle shows it as
+    sidebands at +- the electrical frequency). Lines at `known_hz` (already corrected or rejected) are not
+    offered again. The spectra are taken on the longest run of evenly spaced samples (a long recording is
+    decided on runs of it), frequencies in the units of its time stamps."""
     run = uniform_run(ev.ctx.t)
     t, x = ev.ctx.t[run], ev.r[run]
     fs = sample_rate(t)
@@ -389,20 +400,20 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
             chan_found = (refine_frequency(chan[which], t, chan_found[0], bin_hz), *chan_found[1:])
             p = min(1.0, 2 * line_p_value(chan_found))
             if p < P_VALUE:
-                out.append(("interference", chan_found[0], p))
+                out.append(("interference", chan_found[0], p, False))
     angle = find_line(x, fs, known_hz)
     if angle and line_p_value(angle) < P_VALUE:
         f = refine_frequency(x, t, angle[0], bin_hz)
         sideband = chan_found is not None and electrical and \
             min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
-        order = round(f / abs(rate)) if rate else 0
-        harmonic = order >= 1 and abs(f - order * abs(rate)) <= 1.5 * bin_hz
+        order = revolution_order(f, abs(rate), fs, ev.ctx.lines, 1.5 * bin_hz) if rate else 0
+        harmonic = order >= 1
         if harmonic:     # at a steady speed a revolution harmonic covers every few bins: say so, do not drop it
             notes.append(f"the line at {f:.3f} Hz is harmonic {order} of the steady revolution rate "
                          f"({abs(rate):.4g} rev/s): in the angle alone a vibration and a position error at that order "
                          "look the same within one recording; it is corrected as a tone in time (ambiguous)")
         if not sideband:
-            out.append(("tone", f, line_p_value(angle)))
+            out.append(("tone", f, line_p_value(angle), harmonic))
     if chan is None:
         notes.append("channel-domain test not run (the calibration normalises the channels over the revolution or "
                      "tracks drift): a line in the angle cannot be told from interference")
@@ -436,9 +447,10 @@ def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Te
         tests.append(test_terms(ev.r, lambda sl, e=LIBRARY[name]: e.design(ev.ctx.rows(sl)), sigma, name))
     known_hz = [float(e.split("@")[1]) for e in exclude if "@" in e]
     lines, notes = tone_candidates(ev_full, known_hz)
-    for name, f, p_line in lines:
+    for name, f, p_line, harmonic in lines:
         t = test_terms(ev_full.r, _design(name, ev_full.ctx, f), sigma, name, f)
         t.p_value = max(t.p_value, p_line)      # the line must stand out of its neighbours, and the term explain
+        t.ambiguous = harmonic
         tests.append(t)
     if notes:
         skipped["tones"] = "; ".join(notes)
@@ -588,7 +600,7 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
         w = float(t.weights[0])
         for _ in range(8):     # each round leaves a fraction of the lag: iterate until it is negligible
             new.ref_lag_s += w * state.cal.direction / ARCSEC_PER_REV
-            fresh = calibrate(shift_reference(fit_data, new.ref_lag_s), state.cal.encoder)
+            fresh = recalibrate(shift_reference(fit_data, new.ref_lag_s), state.cal)
             new.cal = carry_loop(fresh, state.cal)
             ev = evaluate(LoopState(new.cal, [], new.ref_lag_s), fit_data)
             w = float(test_terms(ev.r, LIBRARY["ref_lag"].design(ev.ctx), 1.0, "ref_lag").weights[0])
@@ -607,6 +619,18 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
             new.cal = refit_around_tone(new.cal, [a for a in new.artefacts if a.name == "tone"],
                                         shift_reference(fit_data, state.ref_lag_s))
     return new
+
+
+def recalibrate(meas: Measurement, cal: Calibration, known_error_arcsec: np.ndarray | None = None) -> Calibration:
+    """The declared model calibrated again, in the structure the loop chose for `cal` (the per-channel waveform
+    inverse, or the phase-domain structure of `phase_domain`), with a known error held out of it."""
+    from .calibrate import PHASE_TABLE, CalibrationOptions
+
+    structure = PHASE_TABLE if cal.fit.get("phase_domain") else None
+    fresh = calibrate(meas, cal.encoder, CalibrationOptions(structure=structure, known_error_arcsec=known_error_arcsec))
+    if structure:
+        fresh.fit["phase_domain"] = True
+    return fresh
 
 
 def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
@@ -640,8 +664,6 @@ def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measure
     The first calibration absorbed part of the tones (its long-period table): each round fits them on the
     residual of the previous round's calibration, which held the previous estimate out, until neither takes
     the other's error."""
-    from .calibrate import CalibrationOptions
-
     t = sample_times(len(meas), meas.t_s)
     x = np.column_stack([np.cos(2 * np.pi * tone.tone_hz * t) for tone in tones]
                         + [np.sin(2 * np.pi * tone.tone_hz * t) for tone in tones])
@@ -650,7 +672,7 @@ def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measure
     for _ in range(rounds):
         r = error_arcsec(run_float(current, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
         w, *_ = np.linalg.lstsq(x, r - r.mean(), rcond=None)
-        fresh = calibrate(meas, cal.encoder, CalibrationOptions(known_error_arcsec=cal.direction * (x @ w)))
+        fresh = recalibrate(meas, cal, cal.direction * (x @ w))
         current = carry_loop(fresh, cal)
     return current
 
@@ -673,32 +695,77 @@ def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) ->
         norm = fit_rev_normalisation(new.waves, meas.sin, meas.cos, phi, psi) if raw_norm is None else \
             _compose(raw_norm, fit_rev_normalisation(new.waves, *raw_norm.apply(meas.sin, meas.cos, psi), phi, psi))
         s, c = norm.apply(meas.sin, meas.cos, psi)
-        fresh = calibrate(dataclasses.replace(meas, sin=s, cos=c), cal.encoder)
+        fresh = recalibrate(dataclasses.replace(meas, sin=s, cos=c), cal)
         new = carry_loop(fresh, cal, rev_norm=norm)
     return new
+
+
+def joint_fit(r: np.ndarray, ctx: Context, terms: list[FittedEffect]) -> np.ndarray:
+    """Least squares of r on the terms' columns together (plus a constant, dropped), accumulated block by block
+    as normal equations: no design matrix of the whole recording is held."""
+    design = lambda sl: np.column_stack([_design(t.name, ctx.rows(sl), t.tone_hz) for t in terms])  # noqa: E731
+    gram = rhs = None
+    for start in range(0, len(r), CHUNK):
+        sl = slice(start, min(len(r), start + CHUNK))
+        xa = np.column_stack([design(sl), np.ones(sl.stop - sl.start)])
+        g, b = xa.T @ xa, xa.T @ r[sl]
+        gram, rhs = (g, b) if gram is None else (gram + g, rhs + b)
+    scale = np.sqrt(np.maximum(np.diag(gram), 1e-300))
+    return (np.linalg.lstsq(gram / np.outer(scale, scale), rhs / scale, rcond=None)[0] / scale)[:-1]
 
 
 def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> Calibration:
     """Re-calibrate the declared model with the terms' error held out of it, then refit the terms
     jointly on what the declared model leaves: neither absorbs the other's error."""
-    from .calibrate import CalibrationOptions
-
     terms = list(cal.angle_terms)
     for _ in range(rounds):
         res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
         ctx = make_context(res.frac, res.position, cal.encoder.lines_per_rev, sample_times(len(res.frac), meas.t_s),
                            res.magnitude)
         known = cal.direction * sum(t.predict(ctx) for t in cal.angle_terms)   # output frame -> encoder frame
-        base = calibrate(meas, cal.encoder, CalibrationOptions(known_error_arcsec=known))
+        base = recalibrate(meas, cal, known)
         base = carry_loop(base, cal, angle_terms=[])
         r = error_arcsec(run_float(base, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
-        blocks = [_design(t.name, ctx, t.tone_hz) for t in terms]
-        x = np.column_stack(blocks)
-        w, *_ = np.linalg.lstsq(x - x.mean(0), r - r.mean(), rcond=None)
-        splits = np.cumsum([b.shape[1] for b in blocks])[:-1]
-        terms = [dataclasses.replace(t, weights=ww) for t, ww in zip(terms, np.split(w, splits), strict=True)]
+        w = joint_fit(r, ctx, terms)
+        widths = [len(t.weights) for t in terms]
+        terms = [dataclasses.replace(t, weights=ww)
+                 for t, ww in zip(terms, np.split(w, np.cumsum(widths)[:-1]), strict=True)]
         cal = dataclasses.replace(base, angle_terms=terms)
     return cal
+
+
+PHASE_DOMAIN_ORDERS = (2, 4, 6, 8, 12, 16, 24, 32)   # fine-phase orders of the phase-domain map (chosen by CV)
+AMPLITUDE_TERMS = ("amplitude", "generic:magnitude:", "generic:magnitude2:")
+
+
+def amplitude_like(t: Test) -> bool:
+    return any((t.label or t.name).startswith(a) for a in AMPLITUDE_TERMS)
+
+
+def phase_orders(ev: Evaluation) -> str:
+    """The fine-phase map's orders 1..K with the least two-fold held-out error."""
+    kmax = max(PHASE_DOMAIN_ORDERS)
+    grams, rhs, rr = _fold_grams(ev, lambda sl: generic_design(generic_name("1", kmax), ev.ctx.rows(sl)), 2 * kmax)
+    held = {k: _held_out(grams, rhs, rr, list(range(2 * k)) + [2 * kmax])[0] for k in PHASE_DOMAIN_ORDERS}
+    return generic_name("1", min(held, key=held.get))
+
+
+def phase_domain(state: LoopState, meas: Measurement, keep_amplitude: bool) -> LoopState:
+    """The remedy for an amplitude that changes, where the per-channel waveform inverse cannot serve: the waveform
+    stage straight and the conic (a common gain then moves no angle: atan2 of two channels scaled alike is
+    unchanged), and the phase error of the channels' shape corrected after the arctan, by the fine-phase map in
+    fringe_trim (orders chosen on held-out data). With `keep_amplitude` the magnitude terms stay beside it (a
+    waveform whose shape itself changes with the amplitude)."""
+    meas = shift_reference(meas, state.ref_lag_s)
+    terms = [t for t in state.cal.angle_terms if not t.name.startswith("generic:1:")
+             and (keep_amplitude or not any(t.name.startswith(a) for a in AMPLITUDE_TERMS))]
+    marked = dataclasses.replace(state.cal, fit={**state.cal.fit, "phase_domain": True}, angle_terms=terms)
+    cal = carry_loop(recalibrate(meas, marked), marked)
+    ev = strided(evaluate(LoopState(cal, state.artefacts), meas))
+    name = phase_orders(ev)
+    t = test_terms(ev.r, lambda sl: generic_design(name, ev.ctx.rows(sl)), 1.0, name)
+    cal = dataclasses.replace(cal, angle_terms=terms + [FittedEffect(name, t.weights)])
+    return LoopState(refit_angle_terms(cal, meas), list(state.artefacts), state.ref_lag_s)
 
 
 def _compose(first, second):
@@ -753,8 +820,9 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         tests, skipped = candidates(ev_fit, sigma, excluded)
         good = [t for t in tests if t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * ev_fit.rms]
         # the library's names first: the general dictionary corrects what none of them explains
-        named = [t for t in good if not t.name.startswith("generic:")]
-        good = named or good
+        # a line on a steady revolution harmonic is as well a position error: it competes with the general
+        # dictionary's shapes, not ahead of them
+        good = [t for t in good if not t.name.startswith("generic:") and not t.ambiguous] or good
         report["iterations"].append({"residual_rms_arcsec": round(ev_fit.rms, 4), "tests": [
             {"effect": t.name, "explained_rms_arcsec": round(t.explained_rms, 4), "p_value": t.p_value,
              "dof": t.dof} for t in sorted(tests, key=lambda t: t.rms_after)], "not_testable": skipped})
@@ -764,11 +832,16 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         n = len(ev_fit.r)
         best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
         best = widen(best, strided(ev_fit), sigma)
+        if best.name.startswith("generic:magnitude") and not best.label:
+            best.label = "amplitude"     # fine-phase shapes that follow the magnitude: the amplitude effect's
         # a line is excluded by its frequency (a recording may hold several), every other term by its name
         excluded.update({f"{best.name}@{best.tone_hz!r}"} if best.tone_hz else {best.name, best.label} - {""})
+        remedy = ""
         try:
             trial = apply(state, best, fit_data)
             val_after = evaluate(trial, val_data)
+            if amplitude_like(best) and not state.cal.fit.get("phase_domain"):
+                trial, val_after, remedy = best_amplitude_remedy(state, trial, val_after, fit_data, val_data)
         except (FringeInputError, ValueError, TypeError, KeyError, np.linalg.LinAlgError) as e:
             # never abort on the data: an effect whose fit fails is reported and left out
             report["effects_rejected"].append({"name": best.name, **describe(best.name), "evidence": "",
@@ -781,6 +854,8 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                              f"p = {best.p_value:.1e} against the {sigma:.3f}\" noise floor)"
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
                  "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
+        if remedy:
+            entry.update(correction="hardware", where=PHASE_DOMAIN_WHERE, remedy=remedy)
         if val_after.rms < (1 - 0.5 * MIN_GAIN) * ev_val.rms:
             report["effects_added"].append(entry)
             state, ev_val = trial, val_after
@@ -805,6 +880,26 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         report["artefacts"].append({"name": "ref_lag", "lag_s": state.ref_lag_s,
                                     "correction": "artefact", "where": LIBRARY["ref_lag"].where})
     return base, state, report
+
+
+PHASE_DOMAIN_WHERE = ("the waveform stage made straight (a common gain change then moves no angle), and the "
+                      "phase error of the channels' shape in fringe_trim's fine-phase map after the arctan")
+
+
+def best_amplitude_remedy(state: LoopState, trial: LoopState, val_after: Evaluation, fit_data: Measurement,
+                          val_data: Measurement) -> tuple[LoopState, Evaluation, str]:
+    """Of the magnitude-dependent term (`trial`) and the phase-domain structure (with and without that term),
+    the one with the least error on the validation data."""
+    best = (val_after.rms, trial, val_after, "")
+    for keep, label in ((False, "phase-domain structure"), (True, "phase-domain structure and magnitude term")):
+        try:
+            alt = phase_domain(trial if keep else state, fit_data, keep)
+            ev = evaluate(alt, val_data)
+        except (FringeInputError, ValueError, TypeError, KeyError, np.linalg.LinAlgError):
+            continue
+        if ev.rms < (1 - 0.5 * MIN_GAIN) * best[0]:
+            best = (ev.rms, alt, ev, label)
+    return best[1], best[2], best[3]
 
 
 def _figs(ev: Evaluation) -> dict:
@@ -851,7 +946,7 @@ def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
                                                      if tied else "no effect in the library explains it"),
                         "rms_arcsec": round(t.explained_rms, 4)})
     lines, notes = tone_candidates(ev)
-    for name, f, p_line in lines:
+    for name, f, p_line, _ in lines:
         t = test_terms(ev.r, _design(name, ctx, f), sigma, name, f)
         if max(t.p_value, p_line) < P_VALUE and t.explained_rms > 0.1 * sigma:
             what = "in the channels (additive interference)" if name == "interference" else "in the angle only"

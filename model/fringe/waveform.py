@@ -74,6 +74,9 @@ class PaperChannel:
 
 # ---------------------------------------------------------------- Fourier channel model
 
+EVAL_ROWS = 1 << 14
+
+
 @dataclass
 class ChannelWaveform:
     """y(theta) = w0 + sum_n a_n cos(n theta) + b_n sin(n theta), theta the common fine phase.
@@ -95,7 +98,13 @@ class ChannelWaveform:
         return self.weights[0], self.weights[1:h + 1], self.weights[h + 1:]
 
     def __call__(self, theta: np.ndarray) -> np.ndarray:
-        return design_matrix(np.ravel(theta), self.harmonics) @ self.weights
+        # in blocks of rows: the design matrix of a long recording would hold 2H+1 values a sample
+        theta = np.ravel(theta)
+        out = np.empty(len(theta))
+        for start in range(0, len(theta), EVAL_ROWS):
+            sl = slice(start, start + EVAL_ROWS)
+            out[sl] = design_matrix(theta[sl], self.harmonics) @ self.weights
+        return out
 
     def derivative(self, theta: np.ndarray) -> np.ndarray:
         _, a, b = self.coefficients()

@@ -211,16 +211,65 @@ def choose_map_psi_w(cal: Calibration, cfg) -> int:
     top = min(MAX_MAP_PSI_W, MAX_MAP_WORDS_LOG2 - cfg.map_phi_w)
     from ..fixed.trim import sector_mapping
 
-    for w in range(cfg.map_psi_w, max(cfg.map_psi_w, top) + 1):
+    start = min(cfg.map_psi_w, top)
+    for w in range(start, max(start, top) + 1):
         try:
             sector_mapping(cfg.lines, cfg.fine_w, w)
         except ValueError:       # no exact multiply-shift for this many sectors: the last that had one
-            return max(cfg.map_psi_w, w - 1)
+            return max(start, w - 1)
         err, change = sector_error(cal, cfg, w)
         budget = SECTOR_BUDGET * floor * cfg.rev / ARCSEC_PER_REV if floor else SECTOR_SHARE * change
         if err <= budget or change == 0.0:
             return w
-    return max(cfg.map_psi_w, top)
+    return max(start, top)
+
+
+def map_changes_over_revolution(cal: Calibration, cfg) -> bool:
+    dt = cal.provenance.get("sample_interval_s") or 1.0     # many sectors: no revolution order aliases away
+    grid = trim_grids(cal, cfg.rev, cfg.fine_w, MAX_MAP_PSI_W, cfg.map_phi_w, cfg.speed_log2, mag_scale(cfg), dt).map
+    return bool(np.max(np.abs(grid - grid[:, :1])) > 1e-9 * max(float(np.max(np.abs(grid))), 1e-300))
+
+
+MAX_MAP_PHI_W = 10       # fringe_trim's limit (and FINE_W - 1)
+BIN_SHARE = 0.02         # the speed and magnitude tables' interpolation may leave this fraction of their own size
+
+
+def bin_error(cal: Calibration, cfg, map_phi_w: int) -> tuple[float, float, float]:
+    """What linear interpolation between 2^MAP_PHI_W bins leaves of the three tables' phase shapes: the map's RMS
+    (fine counts), and the speed and magnitude tables' RMS relative to their own RMS (0 when they are empty).
+    Compared against a grid four times finer."""
+    dt = cal.provenance.get("sample_interval_s") or 1.0
+
+    def grids(w):
+        return trim_grids(cal, cfg.rev, cfg.fine_w, cfg.map_psi_w, w, cfg.speed_log2, mag_scale(cfg), dt)
+    fine, coarse = grids(map_phi_w + 2), grids(map_phi_w)
+
+    def left(f, c):       # f on the fine grid, c on the coarse one (periodic in the last axis)
+        c = np.concatenate([c, c[..., :1]], axis=-1)
+        x = np.arange(f.shape[-1]) / 4.0
+        i = np.floor(x).astype(int)
+        interp = c[..., i] + (x - i) * (c[..., i + 1] - c[..., i])
+        return f - interp
+    err = float(np.sqrt(np.mean(left(fine.map, coarse.map) ** 2)))
+    rel = [float(np.sqrt(np.mean(left(f, c) ** 2)) / np.sqrt(np.mean(f ** 2))) if np.any(f) else 0.0
+           for f, c in ((fine.speed, coarse.speed), (fine.amp, coarse.amp))]
+    return err, rel[0], rel[1]
+
+
+def choose_map_phi_w(cal: Calibration, cfg) -> int:
+    """The fewest phase bins per period (from the configured MAP_PHI_W up to the block's limit) whose linear
+    interpolation stays within the error budget: for the map, a tenth of the measured noise floor (as the
+    sectors, choose_map_psi_w); for the speed and magnitude tables, BIN_SHARE of their own size. A fine-phase
+    term of high order (the phase-domain structure's map) needs many bins, a smooth one few."""
+    floor = cal.provenance.get("noise_floor_arcsec")
+    top = min(MAX_MAP_PHI_W, cfg.fine_w - 1, MAX_MAP_WORDS_LOG2 - cfg.map_psi_w)
+    for w in range(cfg.map_phi_w, max(cfg.map_phi_w, top) + 1):
+        err, rel_speed, rel_amp = bin_error(cal, cfg, w)
+        budget = SECTOR_BUDGET * floor * cfg.rev / ARCSEC_PER_REV if floor else 0.0
+        if (err <= budget or err == 0.0 or (not floor and w == cfg.map_phi_w)) and \
+                max(rel_speed, rel_amp) <= BIN_SHARE:
+            return w
+    return max(cfg.map_phi_w, top)
 
 
 MAX_TABLE_W = 24         # the widest table word the blocks accept (fringe_trim TRIM_W, fringe_drift TABLE_W)
@@ -237,6 +286,9 @@ def trim_config(cal: Calibration, cfg):
     if not needs_trim(cal):
         return cfg
     on = dataclasses.replace(cfg, trim=1)
+    if not map_changes_over_revolution(cal, on):     # one sector: every word of the map for the phase
+        on = dataclasses.replace(on, map_psi_w=0)
+    on = dataclasses.replace(on, map_phi_w=choose_map_phi_w(cal, on))
     on = dataclasses.replace(on, map_psi_w=choose_map_psi_w(cal, on))
     grids = grids_for(cal, on)
     last = None
