@@ -199,3 +199,25 @@ def test_trim_bins_follow_the_phase_orders():
         assert err <= SECTOR_BUDGET * 0.5 * core.rev / 1_296_000
         chosen[order] = core.map_phi_w
     assert chosen[24] > chosen[2], chosen
+
+
+@pytest.mark.parametrize("coarse_bits, drift", [(8, False), (0, False), (0, True)])
+def test_validation_figures_in_blocks_equal_the_whole(monkeypatch, coarse_bits, drift):
+    """The error before and after on a long validation recording is measured block by block (bounded memory):
+    the figures must be those of the recording taken whole, for an absolute and an incremental encoder (whose
+    period count restarts with every block) and with the drift tracker (run in before each block)."""
+    from fringe.calibrate import calibrate
+
+    cfg = SimulationConfig(lines_per_rev=64, coarse_bits=coarse_bits, samples=40_000, speed_mean_rev_s=2.0,
+                           speed_swing_rev_s=1.0, ref_error_arcsec={})
+    meas = measurement_of(simulate(cfg, 3))
+    cal = calibrate(meas, cfg.encoder())
+    if drift:
+        cal = dataclasses.replace(cal, adaptive=True, tracker={"drift_block_log2": 7, "drift_mu_log2": 1})
+    state = loop.LoopState(cal)
+    whole = loop._figs(loop.evaluate(state, meas))
+    monkeypatch.setattr(loop, "EVAL_ROWS", 8192)
+    monkeypatch.setattr(loop, "EVAL_LEAD", 2048)
+    blocks = loop.validation_figures(state, meas)
+    assert blocks["rms_arcsec"] == pytest.approx(whole["rms_arcsec"], rel=1e-3), (blocks, whole)
+    assert blocks["pp_arcsec"] == pytest.approx(whole["pp_arcsec"], rel=1e-2), (blocks, whole)

@@ -263,18 +263,17 @@ class CorrectSummary:
 
 def cmd_loop(a) -> int:
     from .encoder import load_encoder
-    from .loop import decision_rows, run_loop
+    from .loop import run_loop
     from .loopreport import write_outputs
     from .outputs import check_output_dir
 
     check_output_dir(a.out, "loop", (a.data, a.encoder, a.validate))
     enc = load_encoder(a.encoder)
-    train = _read_for_calibration(a.data, enc)
     val = _read_for_calibration(a.validate, enc) if a.validate else None
-    base, state, report = run_loop(train, enc, val)
-    shown = decision_rows(val if val is not None else train)    # the plots need no more rows than the decision
-    del train, val            # bounded memory: the recordings are not needed for writing
-    write_outputs(base, state, report, shown, None, a.out)
+    shown = []    # the plots need no more rows than the decision; no reference to the recordings is kept here
+    base, state, report = run_loop(_read_for_calibration(a.data, enc), enc, val, shown)
+    del val
+    write_outputs(base, state, report, shown[0], None, a.out)
     b, f = report["before"], report["after"]
     print(f"declared model: RMS {b['rms_arcsec']:.3f}\"; with the added effects: RMS {f['rms_arcsec']:.3f}\" "
           f"(noise floor {report['noise_floor_arcsec']:.3f}\", on {report['validation']})")

@@ -793,14 +793,19 @@ def split(meas: Measurement, blocks: int = VALIDATION_BLOCKS) -> tuple[Measureme
     return meas.subset(idx == 0), meas.subset(idx == 1)
 
 
-def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = None
+def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = None, shown: list | None = None
              ) -> tuple[LoopState, LoopState, dict]:
+    """The closed loop on `train` (validated on `validate`, else on the interleaved half of `train` left out of
+    the fit). `shown`, a list, receives the validation rows the decision was made on (for the plots). A caller
+    that keeps no reference to `train` lets it go once it is split (bounded memory)."""
     if train.ref_deg is None:
         raise FringeInputError("the closed loop needs a reference (a ref_deg column) to measure the residual; "
                                "without one, run 'fringe calibrate' (reference-free: conic and waveform "
                                "against the smooth-motion phase)", train.path)
+    data_path = train.path
     if validate is None:
         fit_data, val_data, val_name = (*split(train), "interleaved half of the recording")
+        del train
     else:
         if validate.ref_deg is None:
             raise FringeInputError("the validation recording has no ref_deg column", validate.path)
@@ -812,7 +817,9 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
     state = base = LoopState(calibrate(fit_data, enc))
     ev_fit, ev_val = evaluate(state, fit_data), evaluate(state, val_data)
     sigma, floor_info = noise_floor(ev_fit)
-    report = {"data": train.path, "validation": val_name, "noise_floor_arcsec": round(sigma, 4),
+    if shown is not None:
+        shown.append(val_data)
+    report = {"data": data_path, "validation": val_name, "noise_floor_arcsec": round(sigma, 4),
               "noise_floor_method": floor_info["used"], "noise_floor_estimates": floor_info,
               "before": _figs(ev_val), "effects_added": [], "effects_rejected": [], "iterations": []}
     excluded: set = set()
@@ -867,7 +874,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
     report["after"] = _figs(ev_val)
     if len(full_val) > len(val_data):
         report["decided_on_rows"] = {"fit": len(fit_data), "validation": len(val_data), "runs": DECISION_RUNS}
-        report["before"], report["after"] = _figs(evaluate(base, full_val)), _figs(evaluate(state, full_val))
+        report["before"], report["after"] = validation_figures(base, full_val), validation_figures(state, full_val)
     report["noise_floor_arcsec"] = round(sigma, 4)
     # the hardware tables' error budget (hardware.closed_loop.choose_map_psi_w) is set against this floor
     state = dataclasses.replace(state, cal=dataclasses.replace(
@@ -900,6 +907,42 @@ def best_amplitude_remedy(state: LoopState, trial: LoopState, val_after: Evaluat
         if ev.rms < (1 - 0.5 * MIN_GAIN) * best[0]:
             best = (ev.rms, alt, ev, label)
     return best[1], best[2], best[3]
+
+
+EVAL_ROWS = 1 << 18      # the error before and after on a long validation recording: evaluated this many rows at
+EVAL_LEAD = 1 << 14      # a time, each block run in from this many rows before it (speed window, drift tracker)
+
+
+def _uses_time(state: LoopState) -> bool:
+    return any(t.name.startswith("generic:time:") for t in state.cal.angle_terms + state.artefacts)
+
+
+def validation_figures(state: LoopState, meas: Measurement) -> dict:
+    """The error figures of `meas` through the state, in blocks of EVAL_ROWS rows (bounded memory however long
+    the recording). Each block is run in from the EVAL_LEAD rows before it and joined to the previous block on
+    the second half of that overlap, where both see the same samples with settled state: an incremental
+    encoder's period count restarts with every block, and each block's mean is its own, so the offset is taken
+    out there, and the figures are those of the whole recording as one."""
+    n = len(meas)
+    if n <= EVAL_ROWS + EVAL_LEAD or _uses_time(state):
+        return _figs(evaluate(state, meas))
+    r, frac, rev = np.empty(n), np.empty(n), np.empty(n)
+    for start in range(0, n, EVAL_ROWS):
+        a, b = max(0, start - EVAL_LEAD), min(n, start + EVAL_ROWS)
+        sub = meas.subset(slice(a, b))
+        if meas.t_s is None:     # the rows' own numbers as time, as for the whole recording
+            sub = dataclasses.replace(sub, t_s=np.arange(a, b, dtype=float))
+        ev = evaluate(state, sub)
+        block = ev.r
+        if start:
+            join = slice(start - EVAL_LEAD // 2, start)
+            block = block - float(np.median(block[join.start - a:join.stop - a] - r[join]))
+        r[start:b], frac[start:b] = block[start - a:], ev.ctx.phi[start - a:] / (2 * np.pi)
+        rev[start:b] = ev.ctx.psi[start - a:] / (2 * np.pi)
+    r -= r.mean()
+    fig = error_figures(r, frac, rev).to_dict()
+    return {"rms_arcsec": round(fig["rms_arcsec"], 4), "pp_arcsec": round(float(np.ptp(r)), 4),
+            "interp_pp_arcsec": fig["interp_pp_arcsec"], "lp_pp_arcsec": fig["lp_pp_arcsec"]}
 
 
 def _figs(ev: Evaluation) -> dict:
