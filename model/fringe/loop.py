@@ -839,8 +839,6 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         n = len(ev_fit.r)
         best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
         best = widen(best, strided(ev_fit), sigma)
-        if best.name.startswith("generic:magnitude") and not best.label:
-            best.label = "amplitude"     # fine-phase shapes that follow the magnitude: the amplitude effect's
         # a line is excluded by its frequency (a recording may hold several), every other term by its name
         excluded.update({f"{best.name}@{best.tone_hz!r}"} if best.tone_hz else {best.name, best.label} - {""})
         remedy = ""
@@ -862,7 +860,9 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
                  "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
         if remedy:
-            entry.update(correction="hardware", where=PHASE_DOMAIN_WHERE, remedy=remedy)
+            entry.update(where=PHASE_DOMAIN_WHERE, remedy=remedy, correction="hardware")
+        if remedy == PHASE_DOMAIN:     # gain invariance alone explains the magnitude's shapes: the amplitude changes
+            entry.update(name="amplitude", **{k: v for k, v in describe("amplitude").items() if k != "where"})
         if val_after.rms < (1 - 0.5 * MIN_GAIN) * ev_val.rms:
             report["effects_added"].append(entry)
             state, ev_val = trial, val_after
@@ -889,6 +889,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
     return base, state, report
 
 
+PHASE_DOMAIN = "phase-domain structure"
 PHASE_DOMAIN_WHERE = ("the waveform stage made straight (a common gain change then moves no angle), and the "
                       "phase error of the channels' shape in fringe_trim's fine-phase map after the arctan")
 
@@ -898,7 +899,7 @@ def best_amplitude_remedy(state: LoopState, trial: LoopState, val_after: Evaluat
     """Of the magnitude-dependent term (`trial`) and the phase-domain structure (with and without that term),
     the one with the least error on the validation data."""
     best = (val_after.rms, trial, val_after, "")
-    for keep, label in ((False, "phase-domain structure"), (True, "phase-domain structure and magnitude term")):
+    for keep, label in ((False, PHASE_DOMAIN), (True, PHASE_DOMAIN + " and magnitude term")):
         try:
             alt = phase_domain(trial if keep else state, fit_data, keep)
             ev = evaluate(alt, val_data)
