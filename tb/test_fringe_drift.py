@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from elab_check import refusal_tests
 
 from fringe.fixed.drift import (
     NORM_LATENCY,
@@ -415,31 +416,8 @@ ILLEGAL = [
 ]
 
 
-def _model_error(d: dict) -> str | None:
-    try:
-        params_of(d)
-    except ValueError as e:
-        return str(e)
-    return None
-
-
-@pytest.mark.parametrize("over", ILLEGAL, ids=lambda d: "_".join(f"{k}{v}" for k, v in d.items()))
-def test_illegal_parameters_stop_elaboration(sim, over):
-    from elab_check import assert_refused, elaborate
-
-    params = {**BASE, **over}
-    msg = _model_error(params)
-    if msg is None:       # legal (ADC_W 24 + OFS_FRAC 8 = 32): elaborates
-        rc, out = elaborate(TOPLEVEL, sim, params)
-        assert rc == 0, out[-3000:]
-        return
-    assert_refused(TOPLEVEL, sim, params, msg)
-
-
-def test_illegal_user_w_stops_elaboration(sim):
-    from elab_check import assert_refused
-
-    assert_refused(TOPLEVEL, sim, {**BASE, "USER_W": 0}, "fringe_drift: USER_W = 0 must be >= 1")
+test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration = refusal_tests(
+    TOPLEVEL, ILLEGAL, params_of, BASE, some_legal=True)   # ADC_W 24 + OFS_FRAC 8 = 32 is legal
 
 
 def _init_files(p: DriftParams) -> dict[str, Path]:

@@ -3,8 +3,8 @@
 The model is Python's integer product. Operands are random over their whole range (with the
 extremes, where a split into chunks would lose a carry or a sign, drawn often), a new pair on
 every clock, ce random: after every edge the output must be the product of the pair that has seen
-exactly LATENCY clock enables. Parameter sets: a fixed seed draws widths 1..80, signedness and
-LATENCY 2..5, plus the corners 1 x 1 bits and one 18 x 18 multiplier.
+exactly LATENCY clock enables. Parameter sets: a fixed seed draws widths 1..80, signedness,
+LATENCY 2..5 and chunk widths LO_W 4..17, plus the corners 1 x 1 bits and one 18 x 18 multiplier.
 Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_split_mul.py``.
 """
 
@@ -79,11 +79,11 @@ if cocotb is not None:
 
 def param_sets(seed: int = DEFAULT_SEED, n_random: int = 4) -> list[dict[str, int]]:
     rng = np.random.default_rng(seed)
-    sets = [{"A_W": 1, "A_SIGNED": 0, "B_W": 1, "B_SIGNED": 1, "LATENCY": 2},
-            {"A_W": 18, "A_SIGNED": 1, "B_W": 18, "B_SIGNED": 1, "LATENCY": 2}]
+    sets = [{"A_W": 1, "A_SIGNED": 0, "B_W": 1, "B_SIGNED": 1, "LATENCY": 2, "LO_W": 17},
+            {"A_W": 18, "A_SIGNED": 1, "B_W": 18, "B_SIGNED": 1, "LATENCY": 2, "LO_W": 17}]
     sets += [{"A_W": int(rng.integers(1, 81)), "A_SIGNED": int(rng.integers(0, 2)),
               "B_W": int(rng.integers(1, 81)), "B_SIGNED": int(rng.integers(0, 2)),
-              "LATENCY": int(rng.integers(2, 6))} for _ in range(n_random)]
+              "LATENCY": int(rng.integers(2, 6)), "LO_W": int(rng.integers(4, 18))} for _ in range(n_random)]
     return sets
 
 
@@ -91,7 +91,7 @@ PARAM_SETS = param_sets(int(os.environ.get("FRINGE_SEED", DEFAULT_SEED)))
 
 
 def _id(p: dict[str, int]) -> str:
-    return f"{'su'[1 - p['A_SIGNED']]}{p['A_W']}x{'su'[1 - p['B_SIGNED']]}{p['B_W']}-L{p['LATENCY']}"
+    return f"{'us'[p['A_SIGNED']]}{p['A_W']}x{'us'[p['B_SIGNED']]}{p['B_W']}-L{p['LATENCY']}-C{p['LO_W']}"
 
 
 @pytest.mark.parametrize("params", PARAM_SETS, ids=[_id(p) for p in PARAM_SETS])

@@ -268,22 +268,12 @@ module fringe_drift #(
     );
 
     // ---- observer: pipeline --------------------------------------------------------------------------
-    reg  [7:0] ovalid;                // stages 1..8 (9: o9_go)
-    reg  [7:0] olast;                 // the block's last sample, stages 1..8
+    wire o8_valid, o8_last;           // stage 8: valid, the block's last sample (9: o9_go)
 
-    always @(posedge clk) begin
-        if (rst) begin
-            ovalid <= 8'd0;
-        end else if (ce) begin
-            ovalid <= {ovalid[6:0], obs_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            olast <= {olast[6:0], ocnt == CNT_LAST};
-        end
-    end
+    fringe_delay #(.WIDTH(1), .DEPTH(8)) u_obs_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(obs_valid), .in_data(ocnt == CNT_LAST),
+        .out_valid(o8_valid), .out_data(o8_last)
+    );
 
     // 1
     reg  [FINE_W-1:0]        o1_phase, o1_prev;
@@ -303,9 +293,9 @@ module fringe_drift #(
     reg  signed [E_W-1:0]    o5_es, o5_ec;
     reg  signed [AW-1:0]     o5_as, o5_ac;
     reg  [FINE_W-1:0]        o5_abs;
-    // 6..8 (e * a in g_ea)
-    reg  signed [E_W-1:0]    o6_es, o6_ec, o7_es, o7_ec, o8_es, o8_ec;
-    reg  [FINE_W-1:0]        o6_abs, o7_abs, o8_abs;
+    // 6..8 (e * a in u_ea_*)
+    wire signed [E_W-1:0]    o8_es, o8_ec;
+    wire [FINE_W-1:0]        o8_abs;
 
     wire signed [YW-1:0] ys_x  = {{(TABLE_FRAC+1){o1_ys[ADC_W-1]}}, o1_ys} <<< TABLE_FRAC;
     wire signed [YW-1:0] yc_x  = {{(TABLE_FRAC+1){o1_yc[ADC_W-1]}}, o1_yc} <<< TABLE_FRAC;
@@ -339,20 +329,17 @@ module fringe_drift #(
             o5_as  <= o4_as;
             o5_ac  <= o4_ac;
             o5_abs <= o4_abs;
-            // 6..8: e * a (g_ea below); e and |delta| carried along
-            o6_es  <= o5_es;
-            o6_ec  <= o5_ec;
-            o6_abs <= o5_abs;
-            o7_es  <= o6_es;
-            o7_ec  <= o6_ec;
-            o7_abs <= o6_abs;
-            o8_es  <= o7_es;
-            o8_ec  <= o7_ec;
-            o8_abs <= o7_abs;
         end
     end
 
-    // ---- e * a (stages 6..8): 18x18 partial products (fringe_split_mul) ----------------------------
+    // ---- e * a (stages 6..8): 18x18 partial products (fringe_split_mul); e and |delta| carried along --
+    wire o8_carry_valid;
+
+    fringe_delay #(.WIDTH(2 * E_W + FINE_W), .DEPTH(3)) u_obs_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({o5_es, o5_ec, o5_abs}),
+        .out_valid(o8_carry_valid), .out_data({o8_es, o8_ec, o8_abs})
+    );
+
     wire signed [EA_W-1:0] o8_eas, o8_eac;
 
     fringe_split_mul #(.A_W(E_W), .A_SIGNED(1), .B_W(AW), .B_SIGNED(1), .LATENCY(3)) u_ea_sin (
@@ -373,7 +360,7 @@ module fringe_drift #(
     wire signed [SEA_W-1:0] sea_s_n = sea_s + {{BLOCK_LOG2{o8_eas[EA_W-1]}}, o8_eas};
     wire signed [SEA_W-1:0] sea_c_n = sea_c + {{BLOCK_LOG2{o8_eac[EA_W-1]}}, o8_eac};
     wire [SW_W-1:0]         sweep_n = sweep + {{BLOCK_LOG2{1'b0}}, o8_abs};
-    wire                    blk_end = ovalid[7] & olast[7];
+    wire                    blk_end = o8_valid & o8_last;
 
     always @(posedge clk) begin
         if (rst) begin
@@ -391,7 +378,7 @@ module fringe_drift #(
                 sea_s <= {SEA_W{1'b0}};
                 sea_c <= {SEA_W{1'b0}};
                 sweep <= {SW_W{1'b0}};
-            end else if (ovalid[7]) begin
+            end else if (o8_valid) begin
                 se_s  <= se_s_n;
                 se_c  <= se_c_n;
                 sea_s <= sea_s_n;
@@ -433,10 +420,11 @@ module fringe_drift #(
     wire signed [XW-1:0]   stp_s = (sex_s <<< OFS_FRAC) >>> SH_O;
     wire signed [XW-1:0]   stp_c = (sex_c <<< OFS_FRAC) >>> SH_O;
     reg  signed [OS_W-1:0] u1_os, u1_oc;
-    reg  [4:0]             u_v;             // stages 10..14 valid
-    reg                    u1_ok, u2_ok, u3_ok, u4_ok, u5_ok;
-    reg  signed [OW-1:0]   u2_os, u2_oc, u3_os, u3_oc, u4_os, u4_oc, u5_os, u5_oc;
-    reg                    u2_sat, u3_sat, u4_sat, u5_sat;
+    wire                   u5_valid, u5_ok; // stage 14: valid, the SWEEP test
+    reg  signed [OW-1:0]   u2_os, u2_oc;
+    reg                    u2_sat;
+    wire signed [OW-1:0]   u5_os, u5_oc;
+    wire                   u5_sat, u5_carry_valid;
     reg  signed [GS_W-1:0] u5_gs, u5_gc;
     // (P + 2^(KG_SHIFT-1)) >>> KG_SHIFT = (P >>> KG_SHIFT) + P[KG_SHIFT-1]
     wire signed [DG_W-1:0] dg_s = px_s[PR_W-1:KG_SHIFT];
@@ -456,32 +444,29 @@ module fringe_drift #(
     wire gs_high = ~gs_neg & |u5_gs[GS_W-2:GINV_W];
     wire gc_high = ~gc_neg & |u5_gc[GS_W-2:GINV_W];
 
-    always @(posedge clk) begin
-        if (rst) begin
-            u_v <= 5'd0;
-        end else if (ce) begin
-            u_v <= {u_v[3:0], o9_go};
-        end
-    end
+    fringe_delay #(.WIDTH(1), .DEPTH(5)) u_upd_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(o9_go), .in_data(|snap_sweep[SW_W-1:FINE_W]),
+        .out_valid(u5_valid), .out_data(u5_ok)
+    );
+
+    // 12..14: OFF carried along
+    fringe_delay #(.WIDTH(2 * OW + 1), .DEPTH(3)) u_upd_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({u2_os, u2_oc, u2_sat}),
+        .out_valid(u5_carry_valid), .out_data({u5_os, u5_oc, u5_sat})
+    );
 
     always @(posedge clk) begin
         if (ce) begin
             // 10
             u1_os <= {{(OS_W-OW){off_sin[OW-1]}}, off_sin} + {stp_s[XW-1], stp_s};
             u1_oc <= {{(OS_W-OW){off_cos[OW-1]}}, off_cos} + {stp_c[XW-1], stp_c};
-            u1_ok <= |snap_sweep[SW_W-1:FINE_W];
             // 11
             u2_os  <= os_over ? (u1_os[OS_W-1] ? o_min : o_max) : u1_os[OW-1:0];
             u2_oc  <= oc_over ? (u1_oc[OS_W-1] ? o_min : o_max) : u1_oc[OW-1:0];
             u2_sat <= os_over | oc_over;
-            u2_ok  <= u1_ok;
-            // 12, 13: carried along
-            u3_os <= u2_os;  u3_oc <= u2_oc;  u3_sat <= u2_sat;  u3_ok <= u2_ok;
-            u4_os <= u3_os;  u4_oc <= u3_oc;  u4_sat <= u3_sat;  u4_ok <= u3_ok;
             // 14: GINV - step
             u5_gs  <= {{(GS_W-GINV_W){1'b0}}, ginv_sin} + dgn_s + rbn_s;
             u5_gc  <= {{(GS_W-GINV_W){1'b0}}, ginv_cos} + dgn_c + rbn_c;
-            u5_os  <= u4_os;  u5_oc <= u4_oc;  u5_sat <= u4_sat;  u5_ok <= u4_ok;
         end
     end
 
@@ -489,7 +474,7 @@ module fringe_drift #(
     always @(posedge clk) begin
         if (rst) begin
             pend_valid <= 1'b0;
-        end else if (ce && u_v[4] && u5_ok) begin
+        end else if (ce && u5_valid && u5_ok) begin
             pend_valid <= 1'b1;
         end else if (take) begin
             pend_valid <= 1'b0;
@@ -497,7 +482,7 @@ module fringe_drift #(
     end
 
     always @(posedge clk) begin
-        if (ce && u_v[4] && u5_ok) begin
+        if (ce && u5_valid && u5_ok) begin
             pend_off_s  <= u5_os;
             pend_off_c  <= u5_oc;
             pend_ginv_s <= gs_neg ? {GINV_W{1'b0}} : (gs_high ? {GINV_W{1'b1}} : u5_gs[GINV_W-1:0]);
@@ -506,9 +491,10 @@ module fringe_drift #(
         end
     end
 
-    // Bits that carry nothing: the rounded-off bits of the products and of the offset step.
+    // Bits that carry nothing: the rounded-off bits of the products and of the offset step; the
+    // valid outputs of the delays that carry data only.
     wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], px_s, px_c,
-                    snap_sweep[FINE_W-1:0], olast[7]};
+                    snap_sweep[FINE_W-1:0], o8_carry_valid, u5_carry_valid};
 
 endmodule
 

@@ -143,7 +143,7 @@ module fringe_long_period #(
     );
 
     reg [LP_IF-1:0] s1b_frac;
-    reg [LP_IF-1:0] s2_frac;
+    reg signed [LP_IF-1:0] s2_fc;   // frac - 2^(LP_IF-1)
     reg [POS_W-1:0] s1b_pos, s1b_zero, s2_pos, s2_zero;
     reg             s1b_dir, s2_dir;
 
@@ -154,7 +154,7 @@ module fringe_long_period #(
             s1b_zero <= s1_zero;
             s1b_dir  <= s1_dir;
             word     <= word_ram;
-            s2_frac  <= s1b_frac;
+            s2_fc    <= s1b_frac ^ RND_IF;
             s2_pos   <= s1b_pos;
             s2_zero  <= s1b_zero;
             s2_dir   <= s1b_dir;
@@ -166,9 +166,9 @@ module fringe_long_period #(
     wire signed [LP_W-1:0]  slope = word[2*LP_W-1:LP_W];
     wire signed [C_W-1:0]   value_x = {{(C_W-LP_W){value[LP_W-1]}}, value};
     wire signed [C_W-1:0]   value_rnd;
-    wire signed [PR_W-1:0]  s3_prod;                    // after stage 3b: slope * frac
+    wire signed [PR_W-1:0]  s3_prod;                    // after stage 3b: slope * fc
     reg  signed [C_W-1:0]   s3a_value;
-    reg  [SX_W-1:0]         s3_base;                    // {s3a_value, 2^(LP_IF-1)}
+    reg  [SX_W-1:0]         s3_base;                    // {s3a_value, 2^(LP_IF-1)} + slope * 2^(LP_IF-1)
     reg  [POS_W-1:0]        s3a_pos, s3a_zero, s3_pos, s3_zero;
     reg                     s3a_dir, s3_dir;
 
@@ -180,17 +180,21 @@ module fringe_long_period #(
         end
     endgenerate
 
-    // slope x frac in 18x18 partial products (stages 3a, 3b)
-    wire [LP_W+LP_IF-1:0] prod;
+    // slope x fc (fc = frac - 2^(LP_IF-1), a live sign bit) in 16x16 partial products (stages 3a, 3b:
+    // slope split above 15 bits); the base takes slope * 2^(LP_IF-1) back, modulo 2^SX_W
+    wire [LP_W+LP_IF-1:0]  prod;
+    reg  signed [LP_W-1:0] s3a_slope;
+    wire [SX_W-1:0]        diff = {{(SX_W-LP_W){s3a_slope[LP_W-1]}}, s3a_slope} << (LP_IF - 1);
 
-    fringe_split_mul #(.A_W(LP_W), .A_SIGNED(1), .B_W(LP_IF), .B_SIGNED(0), .LATENCY(2)) u_prod (
-        .clk(clk), .ce(ce), .a(slope), .b(s2_frac), .p(prod)
+    fringe_split_mul #(.A_W(LP_W), .A_SIGNED(1), .B_W(LP_IF), .B_SIGNED(1), .LATENCY(2), .LO_W(15)) u_prod (
+        .clk(clk), .ce(ce), .a(slope), .b(s2_fc), .p(prod)
     );
     assign s3_prod = {prod[LP_W+LP_IF-1], prod};
 
     always @(posedge clk) begin
         if (ce) begin
-            s3_base <= {s3a_value, RND_IF};
+            s3a_slope <= slope;
+            s3_base   <= {s3a_value, RND_IF} + diff;
         end
     end
 

@@ -1,5 +1,6 @@
 // fringe_split_mul: an exact pipelined product p = a * b of operands of any width, built from
-// partial products that each fit one 18x18 signed multiplier. Document: docs/blocks/fringe_split_mul.md.
+// partial products that each fit one 18x18 signed multiplier (LO_W = 17; 15 for 16x16).
+// Document: docs/blocks/fringe_split_mul.md.
 //
 // LATENCY clock enables (>= 2): stage 1 registers the bare partial products, stages 2..LATENCY add
 // them in groups of G (the smallest G with G^(LATENCY-1) >= the number of partial products), one
@@ -12,7 +13,8 @@ module fringe_split_mul #(
     parameter integer A_SIGNED = 1,   // 1: a is two's complement, 0: unsigned
     parameter integer B_W      = 18,  // width of b, >= 1
     parameter integer B_SIGNED = 1,   // 1: b is two's complement, 0: unsigned
-    parameter integer LATENCY  = 2    // clock enables from a, b to p, >= 2
+    parameter integer LATENCY  = 2,   // clock enables from a, b to p, >= 2
+    parameter integer LO_W     = 17   // bits of a low chunk, >= 1: partial products of (LO_W+1)-bit signed chunks
 ) (
     input  wire               clk,
     input  wire               ce,     // clock enable: the stages advance when 1
@@ -21,8 +23,8 @@ module fringe_split_mul #(
     output wire [A_W+B_W-1:0] p       // a * b, signed if either operand is signed, else unsigned
 );
 
-    // ---- chunks: x = sum_i C_i * 2^(17 i); C_i = {0, 17 bits} below the top, the top chunk signed --
-    localparam integer L   = 17;
+    // ---- chunks: x = sum_i C_i * 2^(L i); C_i = {0, L bits} below the top, the top chunk signed ----
+    localparam integer L   = LO_W;
     localparam integer P_W = A_W + B_W;                    // holds the product exactly
     localparam integer AS_W  = A_W + ((A_SIGNED != 0) ? 0 : 1);   // a as a signed operand
     localparam integer BS_W  = B_W + ((B_SIGNED != 0) ? 0 : 1);
@@ -58,7 +60,7 @@ module fringe_split_mul #(
     endfunction
 
     // lowest bit and signed width (from bit 0) of term t after stage s: its partial products
-    // k in [t G^s, (t + 1) G^s) have no bits below 17 (i + j) and fit s(17 (i + j) + chunk widths)
+    // k in [t G^s, (t + 1) G^s) have no bits below L (i + j) and fit s(L (i + j) + chunk widths)
     function integer term_lo(input integer s, input integer t);
         integer span, k, lo;
         begin
@@ -100,14 +102,9 @@ module fringe_split_mul #(
 
     // ---- parameter checks -------------------------------------------------------------------------
     generate
-        if (A_W < 1) begin : g_bad_a_w
-            $error("fringe_split_mul: A_W = %0d must be >= 1 (instance %m)", A_W);
-        end
-        if (B_W < 1) begin : g_bad_b_w
-            $error("fringe_split_mul: B_W = %0d must be >= 1 (instance %m)", B_W);
-        end
-        if (LATENCY < 2) begin : g_bad_latency
-            $error("fringe_split_mul: LATENCY = %0d must be >= 2 (instance %m)", LATENCY);
+        if (A_W < 1 || B_W < 1 || LO_W < 1 || LATENCY < 2) begin : g_bad_generics
+            $error("fringe_split_mul: A_W = %0d, B_W = %0d, LO_W = %0d must be >= 1 and LATENCY = %0d >= 2 (instance %m)",
+                   A_W, B_W, LO_W, LATENCY);
         end
     endgenerate
 

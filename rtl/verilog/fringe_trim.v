@@ -310,31 +310,29 @@ module fringe_trim #(
         .rd_addr(map_rd_addr), .frac(s4_pos[FB-1:0]), .result(s8_m)
     );
 
-    reg  signed [POS_W-1:0] s5_speed, s6_speed;
-    reg                    s5_dir, s6_dir;
-    reg  [POS_W-1:0]       s5_pos, s6_pos;
-    reg  [AMP_W-1:0]       s5_mag, s6_mag;
+    // 5, 6: speed and magnitude carried beside the tables; 5..10: direction and position
+    wire signed [POS_W-1:0] s6_speed;
+    wire [AMP_W-1:0]        s6_mag;
+    wire                    s10_dir;
+    wire [POS_W-1:0]        s10_pos;
+    wire                    s6_carry_valid, s10_carry_valid;
 
-    always @(posedge clk) begin
-        if (ce) begin
-            s5_speed <= s4_speed;
-            s5_dir   <= s4_dir;
-            s5_pos   <= s4_pos;
-            s5_mag   <= s4_mag;
-            s6_speed <= s5_speed;
-            s6_dir   <= s5_dir;
-            s6_pos   <= s5_pos;
-            s6_mag   <= s5_mag;
-        end
-    end
+    fringe_delay #(.WIDTH(POS_W + AMP_W), .DEPTH(2)) u_gain_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({s4_speed, s4_mag}),
+        .out_valid(s6_carry_valid), .out_data({s6_speed, s6_mag})
+    );
 
-    // ---- 7, 8: speed x gs and mag x ga in 18x18 partial products (fringe_split_mul) ---------------
+    fringe_delay #(.WIDTH(1 + POS_W), .DEPTH(6)) u_pos_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({s4_dir, s4_pos}),
+        .out_valid(s10_carry_valid), .out_data({s10_dir, s10_pos})
+    );
+
+    // ---- 7..9: speed x gs (3 stages: products, pairs, product) and mag x ga (2 stages) in 18x18
+    // partial products (fringe_split_mul); every stage one two-input carry chain for the seed widths
     wire [POS_W+GW-1:0] p_sg;
     wire [AMP_W+GW-1:0] p_ma;
-    reg                 s7_dir, s8_dir;
-    reg  [POS_W-1:0]    s7_pos, s8_pos;
 
-    fringe_split_mul #(.A_W(POS_W), .A_SIGNED(1), .B_W(GW), .B_SIGNED(1), .LATENCY(2)) u_speed_gain (
+    fringe_split_mul #(.A_W(POS_W), .A_SIGNED(1), .B_W(GW), .B_SIGNED(1), .LATENCY(3)) u_speed_gain (
         .clk(clk), .ce(ce), .a(s6_speed), .b(s6_gs), .p(p_sg)
     );
 
@@ -342,16 +340,7 @@ module fringe_trim #(
         .clk(clk), .ce(ce), .a(s6_mag), .b(s6_ga), .p(p_ma)
     );
 
-    always @(posedge clk) begin
-        if (ce) begin
-            s7_dir <= s6_dir;
-            s7_pos <= s6_pos;
-            s8_dir <= s7_dir;
-            s8_pos <= s7_pos;
-        end
-    end
-
-    // ---- 9: the products summed; (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields) ---
+    // ---- 9: mag x ga + (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields) --------------
     // From here on the sum A = (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) + speed * gs + mag * ga
     // is formed, A >>> G_SHIFT = total + 2^(TRIM_FRAC-1) (m * 2^G_SHIFT has no bits below G_SHIFT):
     // A = total' * 2^G_SHIFT + r, 0 <= r < 2^G_SHIFT, fits s(TT_W + G_SHIFT); every adder works modulo
@@ -362,29 +351,20 @@ module fringe_trim #(
     wire [E_W-1:0] t_sg = {{(E_W-POS_W-GW){p_sg[POS_W+GW-1]}}, p_sg};
     wire [E_W-1:0] t_ma = {{(E_W-AMP_W-GW){p_ma[AMP_W+GW-1]}}, p_ma};
     wire [E_W-1:0] t_m  = ({{(E_W-MR_W){s8_m[MR_W-1]}}, s8_m} << G_SHIFT) | (ONE_E << (G_SHIFT - 1));
-    reg  [A_W-1:0]         s9_v1, s9_v2;
-    reg                    s9_dir;
-    reg  [POS_W-1:0]       s9_pos;
+    reg  [A_W-1:0]         s9_am;
 
     always @(posedge clk) begin
         if (ce) begin
-            s9_v1  <= t_sg[A_W-1:0] + t_ma[A_W-1:0];
-            s9_v2  <= t_m[A_W-1:0];
-            s9_dir <= s8_dir;
-            s9_pos <= s8_pos;
+            s9_am <= t_ma[A_W-1:0] + t_m[A_W-1:0];
         end
     end
 
     // ---- 10: A; A >>> G_SHIFT = total + 2^(TRIM_FRAC-1) ---------------------------------------------
     reg  [A_W-1:0]         s10_a;
-    reg                    s10_dir;
-    reg  [POS_W-1:0]       s10_pos;
 
     always @(posedge clk) begin
         if (ce) begin
-            s10_a   <= s9_v1 + s9_v2;
-            s10_dir <= s9_dir;
-            s10_pos <= s9_pos;
+            s10_a <= t_sg[A_W-1:0] + s9_am;
         end
     end
 
@@ -429,8 +409,9 @@ module fringe_trim #(
     end
 
     // Bits that carry nothing: the products' rounded-off bits and sign extension, the terms beyond
-    // A_W bits, the fraction bits of A, the sign bits of the wrapped speed and of positions in [0, REV).
-    wire unused = &{1'b0, t_sg, t_ma, t_m,
+    // A_W bits, the fraction bits of A, the sign bits of the wrapped speed and of positions in [0, REV),
+    // the valid outputs of the delays that carry data only.
+    wire unused = &{1'b0, t_sg, t_ma, t_m, s6_carry_valid, s10_carry_valid,
                     s10_a[G_SHIFT+TRIM_FRAC:0], d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x};
 
 endmodule

@@ -164,8 +164,8 @@ architecture rtl of fringe_drift is
     signal wr_en_s, wr_en_c : std_logic;
     signal obs_frac   : std_logic_vector(FB - 1 downto 0);
     signal a_s, a_c   : std_logic_vector(AW - 1 downto 0);   -- from the forward tables
-    signal ovalid     : std_logic_vector(1 to 8);
-    signal olast      : std_logic_vector(1 to 8);
+    signal o_last     : std_logic;                      -- the block's last sample (observer input)
+    signal o8_valid, o8_last : std_logic;               -- stage 8: valid, the block's last sample
     signal o1_phase, o1_prev : unsigned(FINE_W - 1 downto 0);
     signal o1_nz      : std_logic;
     signal o1_ys, o1_yc   : signed(ADC_W - 1 downto 0);
@@ -179,8 +179,10 @@ architecture rtl of fringe_drift is
     signal o5_es, o5_ec   : signed(E_W - 1 downto 0);
     signal o5_as, o5_ac   : signed(AW - 1 downto 0);
     signal o5_abs     : unsigned(FINE_W - 1 downto 0);
-    signal o6_es, o6_ec, o7_es, o7_ec, o8_es, o8_ec : signed(E_W - 1 downto 0);
-    signal o6_abs, o7_abs, o8_abs : unsigned(FINE_W - 1 downto 0);
+    signal o8_es, o8_ec   : signed(E_W - 1 downto 0);
+    signal o8_abs         : unsigned(FINE_W - 1 downto 0);
+    signal o8_carry       : std_logic_vector(2 * E_W + FINE_W - 1 downto 0);
+    signal o8_carry_valid : std_logic;
     signal o8_eas, o8_eac : signed(EA_W - 1 downto 0);
     signal se_s, se_c, snap_se_s, snap_se_c     : signed(SE_W - 1 downto 0);
     signal sea_s, sea_c, snap_sea_s, snap_sea_c : signed(SEA_W - 1 downto 0);
@@ -192,10 +194,13 @@ architecture rtl of fringe_drift is
     signal p_s, p_c       : std_logic_vector(SEA_W + KG_W - 1 downto 0);
     signal px_s, px_c     : signed(PR_W - 1 downto 0);
     signal u1_os, u1_oc : signed(OS_W - 1 downto 0);
-    signal u_v          : std_logic_vector(1 to 5);
-    signal u1_ok, u2_ok, u3_ok, u4_ok, u5_ok : std_logic;
-    signal u2_os, u2_oc, u3_os, u3_oc, u4_os, u4_oc, u5_os, u5_oc : signed(OW - 1 downto 0);
-    signal u2_sat, u3_sat, u4_sat, u5_sat : std_logic;
+    signal sweep_ok     : std_logic;                    -- the SWEEP test of the snapshot
+    signal u5_valid     : std_logic;                    -- stage 14: valid
+    signal u5_ok        : std_logic_vector(0 downto 0); -- stage 14: the SWEEP test
+    signal u2_os, u2_oc, u5_os, u5_oc : signed(OW - 1 downto 0);
+    signal u2_sat, u5_sat : std_logic;
+    signal u5_carry     : std_logic_vector(2 * OW downto 0);
+    signal u5_carry_valid : std_logic;
     signal u5_gs, u5_gc : signed(GS_W - 1 downto 0);
 
 begin
@@ -319,21 +324,18 @@ begin
                   rd_addr => rd_addr, frac => obs_frac, result => a_c);
 
     -- ---- observer: pipeline ------------------------------------------------------------------------------
+    o_last <= '1' when ocnt = CNT_LAST else '0';
+
+    u_obs_valid : entity work.fringe_delay
+        generic map (WIDTH => 1, DEPTH => 8)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => obs_valid, in_data(0) => o_last,
+                  out_valid => o8_valid, out_data(0) => o8_last);
+
     p_obs : process (clk)
         variable dl     : unsigned(FINE_W - 1 downto 0);
     begin
         if rising_edge(clk) then
-            if rst = '1' then
-                ovalid <= (others => '0');
-            elsif ce = '1' then
-                ovalid <= obs_valid & ovalid(1 to 7);
-            end if;
             if ce = '1' then
-                if ocnt = CNT_LAST then
-                    olast <= '1' & olast(1 to 7);
-                else
-                    olast <= '0' & olast(1 to 7);
-                end if;
                 -- 1: input registers (the table read is in the RAMs)
                 o1_phase <= unsigned(obs_phase);
                 o1_prev  <= last_phase;
@@ -369,16 +371,7 @@ begin
                 o5_as  <= signed(a_s);
                 o5_ac  <= signed(a_c);
                 o5_abs <= o4_abs;
-                -- 6..8: e * a (u_ea_*); e and |delta| carried along
-                o6_es  <= o5_es;
-                o6_ec  <= o5_ec;
-                o6_abs <= o5_abs;
-                o7_es  <= o6_es;
-                o7_ec  <= o6_ec;
-                o7_abs <= o6_abs;
-                o8_es  <= o7_es;
-                o8_ec  <= o7_ec;
-                o8_abs <= o7_abs;
+                -- 6..8: e * a (u_ea_*); e and |delta| carried along (u_obs_carry)
             end if;
         end if;
     end process p_obs;
@@ -395,6 +388,15 @@ begin
     o8_eas <= signed(ea_p_s);
     o8_eac <= signed(ea_p_c);
 
+    u_obs_carry : entity work.fringe_delay
+        generic map (WIDTH => 2 * E_W + FINE_W, DEPTH => 3)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
+                  in_data => std_logic_vector(o5_es) & std_logic_vector(o5_ec) & std_logic_vector(o5_abs),
+                  out_valid => o8_carry_valid, out_data => o8_carry);
+    o8_es  <= signed(o8_carry(2 * E_W + FINE_W - 1 downto E_W + FINE_W));
+    o8_ec  <= signed(o8_carry(E_W + FINE_W - 1 downto FINE_W));
+    o8_abs <= unsigned(o8_carry(FINE_W - 1 downto 0));
+
     -- 9: accumulators; the block's last sample goes to the snapshot and clears them
     p_acc : process (clk)
         variable se_s_n, se_c_n   : signed(SE_W - 1 downto 0);
@@ -408,7 +410,7 @@ begin
             sea_s_n := sea_s + resize(o8_eas, SEA_W);
             sea_c_n := sea_c + resize(o8_eac, SEA_W);
             sweep_n := sweep + resize(o8_abs, SW_W);
-            blk_end := ovalid(8) = '1' and olast(8) = '1';
+            blk_end := o8_valid = '1' and o8_last = '1';
             if rst = '1' then
                 se_s  <= (others => '0');
                 se_c  <= (others => '0');
@@ -424,7 +426,7 @@ begin
                     sea_s <= (others => '0');
                     sea_c <= (others => '0');
                     sweep <= (others => '0');
-                elsif ovalid(8) = '1' then
+                elsif o8_valid = '1' then
                     se_s  <= se_s_n;
                     se_c  <= se_c_n;
                     sea_s <= sea_s_n;
@@ -456,6 +458,23 @@ begin
     px_s <= resize(signed(p_s), PR_W);
     px_c <= resize(signed(p_c), PR_W);
 
+    sweep_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
+
+    u_upd_valid : entity work.fringe_delay
+        generic map (WIDTH => 1, DEPTH => 5)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => o9_go, in_data(0) => sweep_ok,
+                  out_valid => u5_valid, out_data => u5_ok);
+
+    -- 12..14: OFF carried along
+    u_upd_carry : entity work.fringe_delay
+        generic map (WIDTH => 2 * OW + 1, DEPTH => 3)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
+                  in_data => std_logic_vector(u2_os) & std_logic_vector(u2_oc) & u2_sat,
+                  out_valid => u5_carry_valid, out_data => u5_carry);
+    u5_os  <= signed(u5_carry(2 * OW downto OW + 1));
+    u5_oc  <= signed(u5_carry(OW downto 1));
+    u5_sat <= u5_carry(0);
+
     p_upd : process (clk)
         variable stp_s, stp_c : signed(XW - 1 downto 0);
         variable dg_s, dg_c   : signed(DG_W - 1 downto 0);
@@ -463,28 +482,18 @@ begin
         variable gs_neg, gc_neg, gs_high, gc_high, os_over, oc_over : boolean;
     begin
         if rising_edge(clk) then
-            if rst = '1' then
-                u_v <= (others => '0');
-            elsif ce = '1' then
-                u_v <= o9_go & u_v(1 to 4);
-            end if;
             if ce = '1' then
                 -- 10: OFF + step, SWEEP test
                 stp_s := shift_right(shift_left(resize(snap_se_s, XW), OFS_FRAC), SH_O);
                 stp_c := shift_right(shift_left(resize(snap_se_c, XW), OFS_FRAC), SH_O);
                 u1_os <= resize(off_s, OS_W) + resize(stp_s, OS_W);
                 u1_oc <= resize(off_c, OS_W) + resize(stp_c, OS_W);
-                u1_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
                 -- 11: OFF saturated
                 os_over := outside(u1_os, OW);
                 oc_over := outside(u1_oc, OW);
                 u2_os  <= saturate(u1_os, OW);
                 u2_oc  <= saturate(u1_oc, OW);
                 u2_sat <= '1' when os_over or oc_over else '0';
-                u2_ok  <= u1_ok;
-                -- 12, 13: carried along
-                u3_os <= u2_os;  u3_oc <= u2_oc;  u3_sat <= u2_sat;  u3_ok <= u2_ok;
-                u4_os <= u3_os;  u4_oc <= u3_oc;  u4_sat <= u3_sat;  u4_ok <= u3_ok;
                 -- 14: GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] = GINV + not dg + not P[KG_SHIFT-1]
                 dg_s := px_s(PR_W - 1 downto KG_SHIFT);
                 dg_c := px_c(PR_W - 1 downto KG_SHIFT);
@@ -494,7 +503,6 @@ begin
                 rbn_c(0) := not px_c(KG_SHIFT - 1);
                 u5_gs <= signed(resize(ginv_s, GS_W)) + (not resize(dg_s, GS_W)) + rbn_s;
                 u5_gc <= signed(resize(ginv_c, GS_W)) + (not resize(dg_c, GS_W)) + rbn_c;
-                u5_os <= u4_os;  u5_oc <= u4_oc;  u5_sat <= u4_sat;  u5_ok <= u4_ok;
             end if;
             -- 15: the pending update (taken by the normaliser at its application sample)
             gs_neg  := u5_gs(GS_W - 1) = '1';
@@ -503,12 +511,12 @@ begin
             gc_high := not gc_neg and u5_gc(GS_W - 2 downto GINV_W) /= 0;
             if rst = '1' then
                 pend_valid <= '0';
-            elsif ce = '1' and u_v(5) = '1' and u5_ok = '1' then
+            elsif ce = '1' and u5_valid = '1' and u5_ok(0) = '1' then
                 pend_valid <= '1';
             elsif take = '1' then
                 pend_valid <= '0';
             end if;
-            if ce = '1' and u_v(5) = '1' and u5_ok = '1' then
+            if ce = '1' and u5_valid = '1' and u5_ok(0) = '1' then
                 pend_off_s <= u5_os;
                 pend_off_c <= u5_oc;
                 if gs_neg then

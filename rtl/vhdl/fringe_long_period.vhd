@@ -136,9 +136,9 @@ begin
         port map (clk => clk, wr_en => wr_en, wr_addr => wr_addr, wr_data => wr_data,
                   rd_en => ce, rd_addr => rd_addr, rd_data => word_ram);
 
-    -- ---- 3, 3b: slope x fraction in 18x18 partial products ---------------------------------------
+    -- ---- 3, 3b: slope x fraction in 16x16 partial products (slope split above 15 bits) -----------
     u_prod : entity work.fringe_split_mul
-        generic map (A_W => LP_W, A_SIGNED => 1, B_W => LP_IF, B_SIGNED => 0, LATENCY => 2)
+        generic map (A_W => LP_W, A_SIGNED => 1, B_W => LP_IF, B_SIGNED => 0, LATENCY => 2, LO_W => 15)
         port map (clk => clk, ce => ce, a => word(2 * LP_W - 1 downto LP_W), b => std_logic_vector(s2_frac),
                   p => prod);
     s3_prod <= resize(signed(prod), PR_W);

@@ -1,6 +1,6 @@
 -- fringe_split_mul: an exact pipelined product p = a * b of operands of any width, built from
--- partial products that each fit one 18x18 signed multiplier. VHDL-2008 twin of
--- rtl/verilog/fringe_split_mul.v. Document: docs/blocks/fringe_split_mul.md.
+-- partial products that each fit one 18x18 signed multiplier (LO_W = 17; 15 for 16x16).
+-- VHDL-2008 twin of rtl/verilog/fringe_split_mul.v. Document: docs/blocks/fringe_split_mul.md.
 --
 -- LATENCY clock enables (>= 2): stage 1 registers the bare partial products, stages 2..LATENCY add
 -- them in groups of G (the smallest G with G^(LATENCY-1) >= the number of partial products), one
@@ -17,7 +17,8 @@ entity fringe_split_mul is
         A_SIGNED : integer := 1;   -- 1: a is two's complement, 0: unsigned
         B_W      : integer := 18;  -- width of b, >= 1
         B_SIGNED : integer := 1;   -- 1: b is two's complement, 0: unsigned
-        LATENCY  : integer := 2    -- clock enables from a, b to p, >= 2
+        LATENCY  : integer := 2;   -- clock enables from a, b to p, >= 2
+        LO_W     : integer := 17   -- bits of a low chunk, >= 1: partial products of (LO_W+1)-bit signed chunks
     );
     port (
         clk : in  std_logic;
@@ -33,15 +34,16 @@ architecture rtl of fringe_split_mul is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        check_min("fringe_split_mul", "A_W", A_W, 1);
-        check_min("fringe_split_mul", "B_W", B_W, 1);
-        check_min("fringe_split_mul", "LATENCY", LATENCY, 2);
+        assert A_W >= 1 and B_W >= 1 and LO_W >= 1 and LATENCY >= 2
+            report "fringe_split_mul: A_W = " & integer'image(A_W) & ", B_W = " & integer'image(B_W) & ", LO_W = "
+                   & integer'image(LO_W) & " must be >= 1 and LATENCY = " & integer'image(LATENCY) & " >= 2"
+            severity failure;
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    -- ---- chunks: x = sum_i C_i * 2^(17 i); C_i = {0, 17 bits} below the top, the top chunk signed
-    constant L   : integer := 17;
+    -- ---- chunks: x = sum_i C_i * 2^(L i); C_i = {0, L bits} below the top, the top chunk signed
+    constant L   : integer := LO_W;
     constant P_W : integer := A_W + B_W;                 -- holds the product exactly
 
     function signed_w(w, is_signed : integer) return integer is
@@ -89,7 +91,7 @@ architecture rtl of fringe_split_mul is
     end function chunk_w;
 
     -- lowest bit and signed width (from bit 0) of term tm after stage s: its partial products
-    -- k in [tm G^s, (tm + 1) G^s) have no bits below 17 (i + j) and fit s(17 (i + j) + chunk widths)
+    -- k in [tm G^s, (tm + 1) G^s) have no bits below L (i + j) and fit s(L (i + j) + chunk widths)
     function term_lo(s, tm : integer) return integer is
         variable lo : integer := P_W;
     begin

@@ -135,20 +135,23 @@ architecture rtl of fringe_trim is
     signal fill     : unsigned(SPEED_LOG2 downto 0);   -- accepted samples since reset, saturating at N
     signal accept   : std_logic;
 
-    signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s5_pos, s6_pos, s7_pos, s8_pos, s9_pos, s10_pos
+    signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s10_pos
                     : unsigned(POS_W - 1 downto 0);
-    signal s1_mag, s2_mag, s3_mag, s4_mag, s5_mag, s6_mag : unsigned(AMP_W - 1 downto 0);
+    signal s1_mag, s2_mag, s3_mag, s4_mag, s6_mag : unsigned(AMP_W - 1 downto 0);
     signal s1_bank, s2_bank, s3_bank, s4_bank : std_logic;
     signal s1_full, s2_full, s3_full : std_logic;
     signal s2_sector, s3_sector, s4_sector : unsigned(PSI_R - 1 downto 0);
     signal s3_d     : signed(POS_W downto 0);
-    signal s4_speed, s5_speed, s6_speed : signed(POS_W - 1 downto 0);
-    signal s4_dir, s5_dir, s6_dir, s7_dir, s8_dir, s9_dir, s10_dir, s11_dir : std_logic;
+    signal s4_speed, s6_speed : signed(POS_W - 1 downto 0);
+    signal s4_dir, s10_dir, s11_dir : std_logic;
+    signal s6_carry  : std_logic_vector(POS_W + AMP_W - 1 downto 0);   -- {speed, mag} at stage 6
+    signal s10_carry : std_logic_vector(POS_W downto 0);               -- {dir, pos} at stage 10
+    signal s6_carry_valid, s10_carry_valid : std_logic;
     signal s6_gs, s6_ga : std_logic_vector(GW - 1 downto 0);   -- from the gain tables
     signal p_sg     : std_logic_vector(POS_W + GW - 1 downto 0);   -- speed x gs
     signal p_ma     : std_logic_vector(AMP_W + GW - 1 downto 0);   -- mag x ga
     signal s8_m     : std_logic_vector(MR_W - 1 downto 0);      -- from the map
-    signal s9_v1, s9_v2, s10_a : unsigned(A_W - 1 downto 0);
+    signal s9_am, s10_a : unsigned(A_W - 1 downto 0);
     signal s11_corr : signed(FINE_W - 1 downto 0);
     signal s11_sat, s11_neg : std_logic;
     signal s11_pos, s11_alt : signed(WW - 1 downto 0);
@@ -229,9 +232,25 @@ begin
         port map (clk => clk, ce => ce, wr_en => wr_en_map, wr_addr => wr_addr, wr_data => wr_data,
                   rd_addr => map_rd_addr, frac => map_frac, result => s8_m);
 
-    -- ---- 7, 8: the gain products in 18x18 partial products ---------------------------------------------
+    -- ---- 5, 6: speed and magnitude carried beside the tables; 5..10: direction and position -------------
+    u_gain_carry : entity work.fringe_delay
+        generic map (WIDTH => POS_W + AMP_W, DEPTH => 2)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
+                  in_data => std_logic_vector(s4_speed) & std_logic_vector(s4_mag),
+                  out_valid => s6_carry_valid, out_data => s6_carry);
+    s6_speed <= signed(s6_carry(POS_W + AMP_W - 1 downto AMP_W));
+    s6_mag   <= unsigned(s6_carry(AMP_W - 1 downto 0));
+
+    u_pos_carry : entity work.fringe_delay
+        generic map (WIDTH => 1 + POS_W, DEPTH => 6)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0', in_data => s4_dir & std_logic_vector(s4_pos),
+                  out_valid => s10_carry_valid, out_data => s10_carry);
+    s10_dir <= s10_carry(POS_W);
+    s10_pos <= unsigned(s10_carry(POS_W - 1 downto 0));
+
+    -- ---- 7..9: the gain products in 18x18 partial products (speed x gs 3 stages, mag x ga 2) ----------
     u_speed_gain : entity work.fringe_split_mul
-        generic map (A_W => POS_W, A_SIGNED => 1, B_W => GW, B_SIGNED => 1, LATENCY => 2)
+        generic map (A_W => POS_W, A_SIGNED => 1, B_W => GW, B_SIGNED => 1, LATENCY => 3)
         port map (clk => clk, ce => ce, a => std_logic_vector(s6_speed), b => s6_gs, p => p_sg);
 
     u_amp_gain : entity work.fringe_split_mul
@@ -302,35 +321,17 @@ begin
                 s4_bank   <= s3_bank;
                 s4_sector <= s3_sector;
 
-                -- 5, 6: carried beside the tables
-                s5_speed  <= s4_speed;
-                s5_dir    <= s4_dir;
-                s5_pos    <= s4_pos;
-                s5_mag    <= s4_mag;
+                -- 5, 6: speed and magnitude carried beside the tables (u_gain_carry); 5..10: direction
+                -- and position (u_pos_carry); 7..9: speed x gs (u_speed_gain, 3 stages), mag x ga
+                -- (u_amp_gain, 2 stages)
 
-                s6_speed <= s5_speed;
-                s6_dir   <= s5_dir;
-                s6_pos   <= s5_pos;
-                s6_mag   <= s5_mag;
-
-                -- 7, 8: speed x gs and mag x ga (u_speed_gain, u_amp_gain)
-                s7_dir <= s6_dir;
-                s7_pos <= s6_pos;
-                s8_dir <= s7_dir;
-                s8_pos <= s7_pos;
-
-                -- 9: the products summed; (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields)
-                tm     := term(signed(s8_m), G_SHIFT);
+                -- 9: mag x ga + (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields)
+                tm    := term(signed(s8_m), G_SHIFT);
                 tm(G_SHIFT - 1) := '1';
-                s9_v1  <= term(signed(p_sg), 0) + term(signed(p_ma), 0);
-                s9_v2  <= tm;
-                s9_dir <= s8_dir;
-                s9_pos <= s8_pos;
+                s9_am <= term(signed(p_ma), 0) + tm;
 
                 -- 10: A; A >>> G_SHIFT = total + 2^(TRIM_FRAC-1)
-                s10_a   <= s9_v1 + s9_v2;
-                s10_dir <= s9_dir;
-                s10_pos <= s9_pos;
+                s10_a <= term(signed(p_sg), 0) + s9_am;
 
                 -- 11: corr = total >>> TRIM_FRAC clipped to s(FINE_W); pos -+ REV for stage 12
                 corr_x := resize(signed(s10_a(A_W - 1 downto G_SHIFT + TRIM_FRAC)), CX_W);
