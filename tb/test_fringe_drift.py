@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.hdl_constants import constants_test
 
 from fringe.fixed.drift import (
     NORM_LATENCY,
@@ -210,7 +211,7 @@ def _s(v: int, w: int) -> int:
 
 
 if cocotb is not None:
-    from planned_stream import hdl_constant, measure_latency, start_clock
+    from planned_stream import apply_cycle, hdl_constant, measure_latency, start_clock
 
     async def _measure(dut, apply_sample, max_clocks: int = 40) -> int:
         """Enabled clocks from one sample's edge to norm_valid (ce = 1, pipeline idle and reset), which
@@ -288,12 +289,9 @@ if cocotb is not None:
         def fail(i, msg):
             raise AssertionError(f"[{tag}] cycle {i} ({cycles[i].note if i < len(cycles) else 'end'}): {msg}")
 
+        handles: dict[str, object] = {}
         for i, c in enumerate(cycles):
-            dut.rst.value = c.rst
-            dut.ce.value = c.ce
-            dut.in_valid.value = c.valid
-            for name, v in c.drive.items():
-                getattr(dut, name).value = v
+            apply_cycle(dut, c, handles)
             src = pipe[-1] if p.pipe_latency else cur
             if src is None:
                 _idle_obs(dut, p, rng)
@@ -398,12 +396,7 @@ def test_plan_is_effective(ps):
     assert any(c.drive.get("wr_en") and not c.ce for c in cycles)
 
 
-def test_latency_constants_match_model():
-    from lib.hdl_constants import block_constant, both_languages
-
-    for f in both_languages("fringe_drift"):
-        assert block_constant(f, "NORM_LATENCY") == NORM_LATENCY
-        assert block_constant(f, "OBS_LATENCY") == OBS_LATENCY
+test_latency_constant_matches_model = constants_test(TOPLEVEL, NORM_LATENCY=NORM_LATENCY, OBS_LATENCY=OBS_LATENCY)
 
 
 BASE = PARAM_SETS[0][0].hdl_parameters()       # at the limit: PIPE_LATENCY 15 is one over

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.hdl_constants import constants_test
 
 from fringe.fixed.long_period import (
     LATENCY,
@@ -280,11 +281,7 @@ def test_plan_is_effective():
         assert any(b - a > p.rev // 2 for (a, _), b in zip(steps, pc, strict=True))
 
 
-def test_latency_constant_matches_model():
-    from lib.hdl_constants import block_constant, both_languages
-
-    for f in both_languages("fringe_long_period"):
-        assert block_constant(f, "LATENCY") == LATENCY, f
+test_latency_constant_matches_model = constants_test(TOPLEVEL, LATENCY=LATENCY)
 
 
 def _hdl_params(lines, fine_w, addr, lp_w, frac, lp_if, recip=None, shift=None) -> dict:

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.hdl_constants import constants_test
 
 from fringe.fixed.period_count import LATENCY, PeriodCountParams, period_count
 
@@ -313,11 +314,7 @@ def test_plan_is_effective():
         assert any(c.rst and not c.ce for c in cycles) and any(c.rst and c.valid for c in cycles)
 
 
-def test_latency_constant_matches_model():
-    from lib.hdl_constants import block_constant, both_languages
-
-    for f in both_languages("fringe_period_count"):
-        assert block_constant(f, "LATENCY") == LATENCY, f
+test_latency_constant_matches_model = constants_test(TOPLEVEL, LATENCY=LATENCY)
 
 
 ILLEGAL = [

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.hdl_constants import constants_test
 
 from fringe.fixed.trim import (
     LATENCY,
@@ -355,11 +356,7 @@ def test_plan_is_effective():
             assert corr == {half - 1, p.rev - half}, _id((p, user_w))
 
 
-def test_latency_constant_matches_model():
-    from lib.hdl_constants import block_constant, both_languages
-
-    for f in both_languages("fringe_trim"):
-        assert block_constant(f, "LATENCY") == LATENCY, f
+test_latency_constant_matches_model = constants_test(TOPLEVEL, LATENCY=LATENCY)
 
 
 BASE = {"LINES": 256, "FINE_W": 16, "AMP_W": 12, "SPEED_LOG2": 5, "MAP_PSI_W": 4, "MAP_PHI_W": 6, "TRIM_W": 18,

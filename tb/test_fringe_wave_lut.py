@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.hdl_constants import constants_test
 
 from fringe.fixed.wave_lut import LATENCY, WaveLutParams, make_table, pack_words, wave_lut
 
@@ -213,11 +214,7 @@ if cocotb is not None:
 # --------------------------------------------------------------------------- pytest launcher
 
 
-def test_latency_constant_matches_model():
-    from lib.hdl_constants import block_constant, both_languages
-
-    for f in both_languages("fringe_wave_lut"):
-        assert block_constant(f, "LATENCY") == LATENCY, f
+test_latency_constant_matches_model = constants_test(TOPLEVEL, LATENCY=LATENCY)
 
 
 ILLEGAL = [

@@ -202,13 +202,7 @@ begin
                 c_mid  := s4_pos - step_x;
                 c_up   := s4_pos_up - step_x;
                 c_down := s4_pos_dn - step_x;
-                if c_mid(WW - 1) = '1' then
-                    c_wrap := c_up;
-                elsif c_down(WW - 1) = '0' then
-                    c_wrap := c_down;
-                else
-                    c_wrap := c_mid;
-                end if;
+                c_wrap := wrapped(c_mid, c_up, c_down);
                 s5_pos_c <= unsigned(c_wrap(POS_W - 1 downto 0));
                 zero_x := resize(s4_zero, WW);
                 s5_zero <= zero_x;

@@ -206,12 +206,8 @@ begin
                     n_down := s2_n - LINES_W(NR - 1 downto 0);
                     if LINES = 1 then
                         n_wrap := (others => '0');      -- n mod 1 = 0
-                    elsif s2_n(NR - 1) = '1' then
-                        n_wrap := n_up;
-                    elsif n_down(NR - 1) = '0' then
-                        n_wrap := n_down;
                     else
-                        n_wrap := s2_n;
+                        n_wrap := wrapped(s2_n, n_up, n_down);
                     end if;
                     pos_r <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s2_phase, POS_W);
                 else
@@ -219,13 +215,7 @@ begin
                     sum      := resize(pos_r, SW) + s2_d;
                     sum_up   := resize(pos_r, SW) + s2_d_up;
                     sum_down := resize(pos_r, SW) + s2_d_down;
-                    if sum(SW - 1) = '1' then
-                        nxt := sum_up;
-                    elsif sum_down(SW - 1) = '0' then
-                        nxt := sum_down;
-                    else
-                        nxt := sum;
-                    end if;
+                    nxt      := wrapped(sum, sum_up, sum_down);
                     if s2_first = '1' then
                         pos_r <= resize(s2_phase, POS_W);
                     else

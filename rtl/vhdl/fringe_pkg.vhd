@@ -40,6 +40,11 @@ package fringe_pkg is
     function saturate(v : signed; w : positive) return signed;
     -- v outside s(w): the bits from w-1 up are not all equal to the sign
     function outside(v : signed; w : positive) return boolean;
+    -- x mod M from three candidates computed in parallel, two's complement of one width (the top bit
+    -- the sign; unsigned: a sum held in unsigned bits): mid = x, up = x + M, down = x - M for
+    -- -M <= x < 2M: up when mid < 0, down when down >= 0, else mid
+    function wrapped(mid, up, down : signed) return signed;
+    function wrapped(mid, up, down : unsigned) return unsigned;
 
     -- Words of a $readmemh image, as fringe_table_ram and the register file hold them.
     type word_array is array (natural range <>) of std_logic_vector;
@@ -210,6 +215,21 @@ package body fringe_pkg is
         end if;
         return resize(v, w);
     end function saturate;
+
+    function wrapped(mid, up, down : signed) return signed is
+    begin
+        if mid(mid'high) = '1' then
+            return up;
+        elsif down(down'high) = '0' then
+            return down;
+        end if;
+        return mid;
+    end function wrapped;
+
+    function wrapped(mid, up, down : unsigned) return unsigned is
+    begin
+        return unsigned(wrapped(signed(mid), signed(up), signed(down)));
+    end function wrapped;
 
     function outside(v : signed; w : positive) return boolean is
         variable top : signed(v'length - w downto 0);
