@@ -293,7 +293,7 @@ module fringe_drift #(
     reg  signed [E_W-1:0]    o5_es, o5_ec;
     reg  signed [AW-1:0]     o5_as, o5_ac;
     reg  [FINE_W-1:0]        o5_abs;
-    // 6..8 (e * a in u_ea_*)
+    // 6..8 (e * a in g_ch)
     wire signed [E_W-1:0]    o8_es, o8_ec;
     wire [FINE_W-1:0]        o8_abs;
 
@@ -340,15 +340,12 @@ module fringe_drift #(
         .out_valid(o8_carry_valid), .out_data({o8_es, o8_ec, o8_abs})
     );
 
-    wire signed [EA_W-1:0] o8_eas, o8_eac;
-
-    fringe_split_mul #(.A_W(E_W), .A_SIGNED(1), .B_W(AW), .B_SIGNED(1), .LATENCY(3)) u_ea_sin (
-        .clk(clk), .ce(ce), .a(o5_es), .b(o5_as), .p(o8_eas)
-    );
-
-    fringe_split_mul #(.A_W(E_W), .A_SIGNED(1), .B_W(AW), .B_SIGNED(1), .LATENCY(3)) u_ea_cos (
-        .clk(clk), .ce(ce), .a(o5_ec), .b(o5_ac), .p(o8_eac)
-    );
+    wire [2*E_W-1:0]  ea_e = {o5_ec, o5_es};        // {cosine, sine}
+    wire [2*AW-1:0]   ea_a = {o5_ac, o5_as};
+    wire [2*EA_W-1:0] ea_p;
+    // (the two channels' multipliers: g_ch below)
+    wire signed [EA_W-1:0] o8_eas = ea_p[0 +: EA_W];
+    wire signed [EA_W-1:0] o8_eac = ea_p[EA_W +: EA_W];
 
     // 9: accumulators; the block's last sample goes to the snapshot and clears them
     reg  signed [SE_W-1:0]  se_s, se_c, snap_se_s, snap_se_c;
@@ -364,27 +361,26 @@ module fringe_drift #(
 
     always @(posedge clk) begin
         if (rst) begin
+            o9_go <= 1'b0;
+        end else if (ce) begin
+            o9_go <= blk_end;
+        end
+    end
+
+    // cleared by a reset and by the block's last sample (after its snapshot)
+    always @(posedge clk) begin
+        if (rst || (ce && blk_end)) begin
             se_s  <= {SE_W{1'b0}};
             se_c  <= {SE_W{1'b0}};
             sea_s <= {SEA_W{1'b0}};
             sea_c <= {SEA_W{1'b0}};
             sweep <= {SW_W{1'b0}};
-            o9_go <= 1'b0;
-        end else if (ce) begin
-            o9_go <= blk_end;
-            if (blk_end) begin
-                se_s  <= {SE_W{1'b0}};
-                se_c  <= {SE_W{1'b0}};
-                sea_s <= {SEA_W{1'b0}};
-                sea_c <= {SEA_W{1'b0}};
-                sweep <= {SW_W{1'b0}};
-            end else if (o8_valid) begin
-                se_s  <= se_s_n;
-                se_c  <= se_c_n;
-                sea_s <= sea_s_n;
-                sea_c <= sea_c_n;
-                sweep <= sweep_n;
-            end
+        end else if (ce && o8_valid) begin
+            se_s  <= se_s_n;
+            se_c  <= se_c_n;
+            sea_s <= sea_s_n;
+            sea_c <= sea_c_n;
+            sweep <= sweep_n;
         end
     end
 
@@ -401,19 +397,27 @@ module fringe_drift #(
     // ---- the update (stages 10..15) -------------------------------------------------------------------
     // 10..13 P = SEA * KG: 18x18 partial products (fringe_split_mul); OFF + step, OFF saturated, SWEEP test
     // 14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   15 GINV saturated: pending
-    wire [SEA_W+KG_W-1:0] p_s, p_c;
+    localparam integer P_W = SEA_W + KG_W;                  // SEA * KG, exact
+    wire [2*SEA_W-1:0] kg_e = {snap_sea_c, snap_sea_s};   // {cosine, sine}
+    wire [2*KG_W-1:0]  kg_k = {kg_hold_c, kg_hold_s};
+    wire [2*P_W-1:0]   kg_p;
 
-    fringe_split_mul #(.A_W(SEA_W), .A_SIGNED(1), .B_W(KG_W), .B_SIGNED(0), .LATENCY(4)) u_kg_sin (
-        .clk(clk), .ce(ce), .a(snap_sea_s), .b(kg_hold_s), .p(p_s)
-    );
-
-    fringe_split_mul #(.A_W(SEA_W), .A_SIGNED(1), .B_W(KG_W), .B_SIGNED(0), .LATENCY(4)) u_kg_cos (
-        .clk(clk), .ce(ce), .a(snap_sea_c), .b(kg_hold_c), .p(p_c)
-    );
+    // the multipliers of one channel (0 sine, 1 cosine): e * a (stages 6..8), SEA * KG (10..13)
+    genvar gch;
+    generate
+        for (gch = 0; gch < 2; gch = gch + 1) begin : g_ch
+            fringe_split_mul #(.A_W(E_W), .A_SIGNED(1), .B_W(AW), .B_SIGNED(1), .LATENCY(3)) u_ea (
+                .clk(clk), .ce(ce), .a(ea_e[gch*E_W +: E_W]), .b(ea_a[gch*AW +: AW]), .p(ea_p[gch*EA_W +: EA_W])
+            );
+            fringe_split_mul #(.A_W(SEA_W), .A_SIGNED(1), .B_W(KG_W), .B_SIGNED(0), .LATENCY(4)) u_kg (
+                .clk(clk), .ce(ce), .a(kg_e[gch*SEA_W +: SEA_W]), .b(kg_k[gch*KG_W +: KG_W]), .p(kg_p[gch*P_W +: P_W])
+            );
+        end
+    endgenerate
 
     // P sign-extended to PR_W bits (the rounding below may look at bits above the product)
-    wire [PR_W+SEA_W+KG_W-1:0] px_s = {{PR_W{p_s[SEA_W+KG_W-1]}}, p_s};
-    wire [PR_W+SEA_W+KG_W-1:0] px_c = {{PR_W{p_c[SEA_W+KG_W-1]}}, p_c};
+    wire [PR_W+P_W-1:0] px_s = {{PR_W{kg_p[P_W-1]}}, kg_p[0 +: P_W]};
+    wire [PR_W+P_W-1:0] px_c = {{PR_W{kg_p[2*P_W-1]}}, kg_p[P_W +: P_W]};
 
     wire signed [XW-1:0]   sex_s = {{(OFS_FRAC+1){snap_se_s[SE_W-1]}}, snap_se_s};
     wire signed [XW-1:0]   sex_c = {{(OFS_FRAC+1){snap_se_c[SE_W-1]}}, snap_se_c};

@@ -190,8 +190,13 @@ architecture rtl of fringe_drift is
     signal o9_go      : std_logic;
 
     -- e * a and P = SEA * KG (fringe_split_mul), P sign-extended to PR_W bits
-    signal ea_p_s, ea_p_c : std_logic_vector(EA_W - 1 downto 0);
-    signal p_s, p_c       : std_logic_vector(SEA_W + KG_W - 1 downto 0);
+    constant P_W          : integer := SEA_W + KG_W;                -- SEA * KG, exact
+    signal ea_e           : std_logic_vector(2 * E_W - 1 downto 0);   -- per channel: {cosine, sine}
+    signal ea_a           : std_logic_vector(2 * AW - 1 downto 0);
+    signal ea_p           : std_logic_vector(2 * EA_W - 1 downto 0);
+    signal kg_e           : std_logic_vector(2 * SEA_W - 1 downto 0);
+    signal kg_k           : std_logic_vector(2 * KG_W - 1 downto 0);
+    signal kg_p           : std_logic_vector(2 * P_W - 1 downto 0);
     signal px_s, px_c     : signed(PR_W - 1 downto 0);
     signal u1_os, u1_oc : signed(OS_W - 1 downto 0);
     signal sweep_ok     : std_logic;                    -- the SWEEP test of the snapshot
@@ -371,22 +376,18 @@ begin
                 o5_as  <= signed(a_s);
                 o5_ac  <= signed(a_c);
                 o5_abs <= o4_abs;
-                -- 6..8: e * a (u_ea_*); e and |delta| carried along (u_obs_carry)
+                -- 6..8: e * a (g_ch); e and |delta| carried along (u_obs_carry)
             end if;
         end if;
     end process p_obs;
 
     -- ---- e * a (stages 6..8): 18x18 partial products ---------------------------------------------------
-    u_ea_sin : entity work.fringe_split_mul
-        generic map (A_W => E_W, A_SIGNED => 1, B_W => AW, B_SIGNED => 1, LATENCY => 3)
-        port map (clk => clk, ce => ce, a => std_logic_vector(o5_es), b => std_logic_vector(o5_as), p => ea_p_s);
+    ea_e <= std_logic_vector(o5_ec) & std_logic_vector(o5_es);     -- {cosine, sine}
+    ea_a <= std_logic_vector(o5_ac) & std_logic_vector(o5_as);
 
-    u_ea_cos : entity work.fringe_split_mul
-        generic map (A_W => E_W, A_SIGNED => 1, B_W => AW, B_SIGNED => 1, LATENCY => 3)
-        port map (clk => clk, ce => ce, a => std_logic_vector(o5_ec), b => std_logic_vector(o5_ac), p => ea_p_c);
-
-    o8_eas <= signed(ea_p_s);
-    o8_eac <= signed(ea_p_c);
+    -- (the two channels' multipliers: g_ch below)
+    o8_eas <= signed(ea_p(EA_W - 1 downto 0));
+    o8_eac <= signed(ea_p(2 * EA_W - 1 downto EA_W));
 
     u_obs_carry : entity work.fringe_delay
         generic map (WIDTH => 2 * E_W + FINE_W, DEPTH => 3)
@@ -412,27 +413,23 @@ begin
             sweep_n := sweep + resize(o8_abs, SW_W);
             blk_end := o8_valid = '1' and o8_last = '1';
             if rst = '1' then
+                o9_go <= '0';
+            elsif ce = '1' then
+                o9_go <= '1' when blk_end else '0';
+            end if;
+            -- cleared by a reset and by the block's last sample (after its snapshot)
+            if rst = '1' or (ce = '1' and blk_end) then
                 se_s  <= (others => '0');
                 se_c  <= (others => '0');
                 sea_s <= (others => '0');
                 sea_c <= (others => '0');
                 sweep <= (others => '0');
-                o9_go <= '0';
-            elsif ce = '1' then
-                o9_go <= '1' when blk_end else '0';
-                if blk_end then
-                    se_s  <= (others => '0');
-                    se_c  <= (others => '0');
-                    sea_s <= (others => '0');
-                    sea_c <= (others => '0');
-                    sweep <= (others => '0');
-                elsif o8_valid = '1' then
-                    se_s  <= se_s_n;
-                    se_c  <= se_c_n;
-                    sea_s <= sea_s_n;
-                    sea_c <= sea_c_n;
-                    sweep <= sweep_n;
-                end if;
+            elsif ce = '1' and o8_valid = '1' then
+                se_s  <= se_s_n;
+                se_c  <= se_c_n;
+                sea_s <= sea_s_n;
+                sea_c <= sea_c_n;
+                sweep <= sweep_n;
             end if;
             if ce = '1' and blk_end then
                 snap_se_s  <= se_s_n;
@@ -445,18 +442,25 @@ begin
     end process p_acc;
 
     -- ---- the update (stages 10..15) -------------------------------------------------------------------
-    -- 10..13 P = SEA * KG: 18x18 partial products (u_kg_*); 10 OFF + step, SWEEP test; 11 OFF saturated
+    -- 10..13 P = SEA * KG: 18x18 partial products (g_ch); 10 OFF + step, SWEEP test; 11 OFF saturated
     -- 14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   15 GINV saturated: pending
-    u_kg_sin : entity work.fringe_split_mul
-        generic map (A_W => SEA_W, A_SIGNED => 1, B_W => KG_W, B_SIGNED => 0, LATENCY => 4)
-        port map (clk => clk, ce => ce, a => std_logic_vector(snap_sea_s), b => std_logic_vector(kg_hold_s), p => p_s);
+    kg_e <= std_logic_vector(snap_sea_c) & std_logic_vector(snap_sea_s);   -- {cosine, sine}
+    kg_k <= std_logic_vector(kg_hold_c) & std_logic_vector(kg_hold_s);
 
-    u_kg_cos : entity work.fringe_split_mul
-        generic map (A_W => SEA_W, A_SIGNED => 1, B_W => KG_W, B_SIGNED => 0, LATENCY => 4)
-        port map (clk => clk, ce => ce, a => std_logic_vector(snap_sea_c), b => std_logic_vector(kg_hold_c), p => p_c);
+    -- the multipliers of one channel (0 sine, 1 cosine): e * a (stages 6..8), SEA * KG (10..13)
+    g_ch : for ch in 0 to 1 generate
+        u_ea : entity work.fringe_split_mul
+            generic map (A_W => E_W, A_SIGNED => 1, B_W => AW, B_SIGNED => 1, LATENCY => 3)
+            port map (clk => clk, ce => ce, a => ea_e((ch + 1) * E_W - 1 downto ch * E_W),
+                      b => ea_a((ch + 1) * AW - 1 downto ch * AW), p => ea_p((ch + 1) * EA_W - 1 downto ch * EA_W));
+        u_kg : entity work.fringe_split_mul
+            generic map (A_W => SEA_W, A_SIGNED => 1, B_W => KG_W, B_SIGNED => 0, LATENCY => 4)
+            port map (clk => clk, ce => ce, a => kg_e((ch + 1) * SEA_W - 1 downto ch * SEA_W),
+                      b => kg_k((ch + 1) * KG_W - 1 downto ch * KG_W), p => kg_p((ch + 1) * P_W - 1 downto ch * P_W));
+    end generate g_ch;
 
-    px_s <= resize(signed(p_s), PR_W);
-    px_c <= resize(signed(p_c), PR_W);
+    px_s <= resize(signed(kg_p(P_W - 1 downto 0)), PR_W);
+    px_c <= resize(signed(kg_p(2 * P_W - 1 downto P_W)), PR_W);
 
     sweep_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
 

@@ -55,12 +55,7 @@ architecture rtl of fringe_long_period is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        check_range("fringe_long_period", "FINE_W", FINE_W, 8, 30);
-        check_range("fringe_long_period", "LINES", LINES, 1, 2**20, "2^20");
-        assert FINE_W + clog2(LINES) <= 48
-            report "fringe_long_period: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
-                   & " exceeds 48"
-            severity failure;
+        check_position("fringe_long_period", FINE_W, LINES, 48);
         check_range("fringe_long_period", "LP_ADDR_W", LP_ADDR_W, 2, 16);
         -- 2^LP_ADDR_W <= REV = LINES * 2^FINE_W
         assert LP_ADDR_W <= FINE_W or LINES >= 2**(LP_ADDR_W - FINE_W)

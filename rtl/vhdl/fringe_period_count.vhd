@@ -45,12 +45,7 @@ architecture rtl of fringe_period_count is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        check_range("fringe_period_count", "FINE_W", FINE_W, 8, 30);
-        check_range("fringe_period_count", "LINES", LINES, 1, 2**20, "2^20");
-        assert FINE_W + clog2(LINES) <= 48
-            report "fringe_period_count: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
-                   & " exceeds 48"
-            severity failure;
+        check_position("fringe_period_count", FINE_W, LINES, 48);
         assert COARSE_W = 0 or (COARSE_W >= 1 and COARSE_W <= 24 and COARSE_W <= FINE_W - 2)
             report "fringe_period_count: COARSE_W = " & integer'image(COARSE_W)
                    & " out of range: 0 (no coarse code) or 1..24 with COARSE_W <= FINE_W - 2"

@@ -30,6 +30,9 @@ package fringe_pkg is
     -- hi_text, when given, is printed for hi ("2^20").
     procedure check_range(unit, name : string; v, lo, hi : integer; hi_text : string := "");
     procedure check_min(unit, name : string; v, lo : integer);
+    -- The position checks of the blocks that count in REV = LINES * 2^FINE_W (period count, long
+    -- period, trim): FINE_W 8..30, LINES 1..2^20, POS_W = FINE_W + clog2(LINES) <= pos_w_max
+    procedure check_position(unit : string; fine_w, lines, pos_w_max : integer);
     -- mapping_exact, or fail with "<unit>: <prefix>_RECIP = .., <prefix>_SHIFT = .. do not map every
     -- position to floor(pos * 2^<addr_name> / REV); take them from <helper>()"
     procedure check_mapping(unit, prefix, addr_name, helper : string; recip, shift, addr_w, lines, fine_w : natural);
@@ -186,6 +189,16 @@ package body fringe_pkg is
             report unit & ": " & name & " = " & integer'image(v) & " must be >= " & integer'image(lo)
             severity failure;
     end procedure check_min;
+
+    procedure check_position(unit : string; fine_w, lines, pos_w_max : integer) is
+    begin
+        check_range(unit, "FINE_W", fine_w, 8, 30);
+        check_range(unit, "LINES", lines, 1, 2**20, "2^20");
+        assert fine_w + clog2(lines) <= pos_w_max
+            report unit & ": POS_W = FINE_W + clog2(LINES) = " & integer'image(fine_w + clog2(lines))
+                   & " exceeds " & integer'image(pos_w_max)
+            severity failure;
+    end procedure check_position;
 
     procedure check_mapping(unit, prefix, addr_name, helper : string; recip, shift, addr_w, lines, fine_w : natural) is
     begin

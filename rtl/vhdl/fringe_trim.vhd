@@ -63,12 +63,7 @@ architecture rtl of fringe_trim is
     function generics_ok return boolean is
         constant PHI_MAX : integer := minimum(10, FINE_W - 1);
     begin
-        check_range("fringe_trim", "FINE_W", FINE_W, 8, 30);
-        check_range("fringe_trim", "LINES", LINES, 1, 2**20, "2^20");
-        assert FINE_W + clog2(LINES) <= 31
-            report "fringe_trim: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
-                   & " exceeds 31"
-            severity failure;
+        check_position("fringe_trim", FINE_W, LINES, 31);
         check_range("fringe_trim", "AMP_W", AMP_W, 4, 32);
         check_range("fringe_trim", "SPEED_LOG2", SPEED_LOG2, 0, 8);
         check_range("fringe_trim", "MAP_PSI_W", MAP_PSI_W, 0, 8);
