@@ -331,6 +331,7 @@ def run_block(
     params = simulator_parameters(parameters, sim)
     srcs = [Path(s).resolve() for s in sources] if sources is not None else block_sources(toplevel, sim)
     build_dir = SIM_BUILD / sim / toplevel / _param_hash(sim, toplevel, params)
+    common = {"hdl_toplevel": toplevel, "parameters": params, "build_dir": build_dir, "waves": waves}  # build and test
     if sim == "verilator":
         build_args = list(VERILATOR_BUILD_ARGS)
         test_args: list[str] = []
@@ -361,17 +362,8 @@ def run_block(
             make_env = {"MAKEFLAGS": "CFG_CXXFLAGS_PCH_I=-include"} if sim == "verilator" else {}
             try:
                 with _patched_environ(make_env):
-                    runner.build(
-                        sources=srcs,
-                        hdl_toplevel=toplevel,
-                        parameters=params,
-                        build_args=build_args,
-                        includes=includes,
-                        build_dir=build_dir,
-                        always=True,
-                        waves=waves,
-                        log_file=build_dir / "build.log",
-                    )
+                    runner.build(sources=srcs, build_args=build_args, includes=includes, always=True,
+                                 log_file=build_dir / "build.log", **common)
             except (RuntimeError, SystemExit) as exc:
                 log = build_dir / "build.log"
                 tail = log.read_text(errors="replace")[-6000:] if log.is_file() else ""
@@ -388,20 +380,9 @@ def run_block(
     failure: str | None = None
     with _patched_environ(env):
         try:
-            runner.test(
-                test_module=test_module,
-                hdl_toplevel=toplevel,
-                hdl_toplevel_lang="verilog" if sim == "verilator" else "vhdl",
-                parameters=params,
-                build_dir=build_dir,
-                test_args=test_args,
-                plusargs=plusargs,
-                extra_env=env,
-                testcase=testcase,
-                waves=waves,
-                results_xml=str(results),
-                log_file=log_file,
-            )
+            runner.test(test_module=test_module, hdl_toplevel_lang="verilog" if sim == "verilator" else "vhdl",
+                        test_args=test_args, plusargs=plusargs, extra_env=env, testcase=testcase,
+                        results_xml=str(results), log_file=log_file, **common)
         except SystemExit as exc:
             failure = f"simulator exit status {exc.code}"
         except RuntimeError as exc:

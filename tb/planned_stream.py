@@ -63,6 +63,18 @@ class DriveStats:
     dropped: int = 0      # in flight when a reset came
 
 
+def apply_cycle(dut, c: Cycle, handles: dict[str, object]) -> None:
+    """Drive one planned cycle's rst, ce, in_valid and data inputs (``handles`` caches the signal handles)."""
+    dut.rst.value = c.rst
+    dut.ce.value = c.ce
+    dut.in_valid.value = c.valid
+    for name, v in c.drive.items():
+        h = handles.get(name)
+        if h is None:
+            h = handles[name] = getattr(dut, name)
+        h.value = v
+
+
 async def drive(dut, cycles: Sequence[Cycle], latency: int, read_output: Callable[[], tuple], tag: str,
                 stats: DriveStats | None = None) -> DriveStats:
     """Play ``cycles`` (call at a falling edge; returns at a falling edge) and check every output."""
@@ -76,14 +88,7 @@ async def drive(dut, cycles: Sequence[Cycle], latency: int, read_output: Callabl
         raise AssertionError(f"[{tag}] cycle {i}: {msg}")
 
     for i, c in enumerate(cycles):
-        dut.rst.value = c.rst
-        dut.ce.value = c.ce
-        dut.in_valid.value = c.valid
-        for name, v in c.drive.items():
-            h = handles.get(name)
-            if h is None:
-                h = handles[name] = getattr(dut, name)
-            h.value = v
+        apply_cycle(dut, c, handles)
         if c.accepted and c.expect is None:
             fail(i, "accepted sample without an expected output (plan error)")
         await RisingEdge(dut.clk)

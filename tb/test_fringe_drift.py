@@ -34,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from elab_check import refusal_tests
+from lib.hdl_constants import constants_test
 
 from fringe.fixed.drift import (
     NORM_LATENCY,
@@ -209,7 +211,7 @@ def _s(v: int, w: int) -> int:
 
 
 if cocotb is not None:
-    from planned_stream import hdl_constant, measure_latency, start_clock
+    from planned_stream import apply_cycle, hdl_constant, measure_latency, start_clock
 
     async def _measure(dut, apply_sample, max_clocks: int = 40) -> int:
         """Enabled clocks from one sample's edge to norm_valid (ce = 1, pipeline idle and reset), which
@@ -287,12 +289,9 @@ if cocotb is not None:
         def fail(i, msg):
             raise AssertionError(f"[{tag}] cycle {i} ({cycles[i].note if i < len(cycles) else 'end'}): {msg}")
 
+        handles: dict[str, object] = {}
         for i, c in enumerate(cycles):
-            dut.rst.value = c.rst
-            dut.ce.value = c.ce
-            dut.in_valid.value = c.valid
-            for name, v in c.drive.items():
-                getattr(dut, name).value = v
+            apply_cycle(dut, c, handles)
             src = pipe[-1] if p.pipe_latency else cur
             if src is None:
                 _idle_obs(dut, p, rng)
@@ -397,12 +396,7 @@ def test_plan_is_effective(ps):
     assert any(c.drive.get("wr_en") and not c.ce for c in cycles)
 
 
-def test_latency_constants_match_model():
-    from lib.hdl_constants import block_constant, both_languages
-
-    for f in both_languages("fringe_drift"):
-        assert block_constant(f, "NORM_LATENCY") == NORM_LATENCY
-        assert block_constant(f, "OBS_LATENCY") == OBS_LATENCY
+test_latency_constant_matches_model = constants_test(TOPLEVEL, NORM_LATENCY=NORM_LATENCY, OBS_LATENCY=OBS_LATENCY)
 
 
 BASE = PARAM_SETS[0][0].hdl_parameters()       # at the limit: PIPE_LATENCY 15 is one over
@@ -415,31 +409,8 @@ ILLEGAL = [
 ]
 
 
-def _model_error(d: dict) -> str | None:
-    try:
-        params_of(d)
-    except ValueError as e:
-        return str(e)
-    return None
-
-
-@pytest.mark.parametrize("over", ILLEGAL, ids=lambda d: "_".join(f"{k}{v}" for k, v in d.items()))
-def test_illegal_parameters_stop_elaboration(sim, over):
-    from elab_check import assert_refused, elaborate
-
-    params = {**BASE, **over}
-    msg = _model_error(params)
-    if msg is None:       # legal (ADC_W 24 + OFS_FRAC 8 = 32): elaborates
-        rc, out = elaborate(TOPLEVEL, sim, params)
-        assert rc == 0, out[-3000:]
-        return
-    assert_refused(TOPLEVEL, sim, params, msg)
-
-
-def test_illegal_user_w_stops_elaboration(sim):
-    from elab_check import assert_refused
-
-    assert_refused(TOPLEVEL, sim, {**BASE, "USER_W": 0}, "fringe_drift: USER_W = 0 must be >= 1")
+test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration = refusal_tests(
+    TOPLEVEL, ILLEGAL, params_of, BASE, some_legal=True)   # ADC_W 24 + OFS_FRAC 8 = 32 is legal
 
 
 def _init_files(p: DriftParams) -> dict[str, Path]:

@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from elab_check import refusal_tests
+from lib.hdl_constants import constants_test
 
 from fringe.fixed.long_period import (
     LATENCY,
@@ -279,11 +281,7 @@ def test_plan_is_effective():
         assert any(b - a > p.rev // 2 for (a, _), b in zip(steps, pc, strict=True))
 
 
-def test_latency_constant_matches_model():
-    from lib.hdl_constants import block_constant, both_languages
-
-    for f in both_languages("fringe_long_period"):
-        assert block_constant(f, "LATENCY") == LATENCY, f
+test_latency_constant_matches_model = constants_test(TOPLEVEL, LATENCY=LATENCY)
 
 
 def _hdl_params(lines, fine_w, addr, lp_w, frac, lp_if, recip=None, shift=None) -> dict:
@@ -320,26 +318,13 @@ ILLEGAL = [
 ]
 
 
-def _model_error(d: dict) -> str:
-    with pytest.raises(ValueError) as e:
-        LongPeriodParams(d["LINES"], d["FINE_W"], d["LP_ADDR_W"], d["LP_W"], d["LP_FRAC"], d["LP_IF"],
-                         d["LP_RECIP"], d["LP_SHIFT"])
-    return str(e.value)
+def _lp_params(d: dict) -> LongPeriodParams:
+    return LongPeriodParams(d["LINES"], d["FINE_W"], d["LP_ADDR_W"], d["LP_W"], d["LP_FRAC"], d["LP_IF"],
+                            d["LP_RECIP"], d["LP_SHIFT"])
 
 
-@pytest.mark.parametrize("params", ILLEGAL, ids=lambda d: "_".join(f"{k}{v}" for k, v in d.items()))
-def test_illegal_parameters_stop_elaboration(sim, params):
-    """The HDL stops with the model's message (the model raises the same text)."""
-    from elab_check import assert_refused
-
-    msg = _model_error(params)
-    assert_refused(TOPLEVEL, sim, params, msg)
-
-
-def test_illegal_user_w_stops_elaboration(sim):
-    from elab_check import assert_refused
-
-    assert_refused(TOPLEVEL, sim, {"USER_W": 0}, "fringe_long_period: USER_W = 0 must be >= 1")
+test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration = refusal_tests(
+    TOPLEVEL, ILLEGAL, _lp_params)
 
 
 def _init_file(p: LongPeriodParams) -> Path:

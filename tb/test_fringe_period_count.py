@@ -30,6 +30,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from elab_check import refusal_tests
+from lib.hdl_constants import constants_test
 
 from fringe.fixed.period_count import LATENCY, PeriodCountParams, period_count
 
@@ -312,14 +314,10 @@ def test_plan_is_effective():
         assert any(c.rst and not c.ce for c in cycles) and any(c.rst and c.valid for c in cycles)
 
 
-def test_latency_constant_matches_model():
-    from lib.hdl_constants import block_constant, both_languages
-
-    for f in both_languages("fringe_period_count"):
-        assert block_constant(f, "LATENCY") == LATENCY, f
+test_latency_constant_matches_model = constants_test(TOPLEVEL, LATENCY=LATENCY)
 
 
-@pytest.mark.parametrize("params", [
+ILLEGAL = [
     {"FINE_W": 7, "LINES": 256, "COARSE_W": 0},
     {"FINE_W": 31, "LINES": 256, "COARSE_W": 0},
     {"FINE_W": 16, "LINES": 0, "COARSE_W": 0},
@@ -329,20 +327,10 @@ def test_latency_constant_matches_model():
     {"FINE_W": 16, "LINES": 256, "COARSE_W": -1},
     {"FINE_W": 30, "LINES": 256, "COARSE_W": 25},
     {"FINE_W": 16, "LINES": 257, "COARSE_W": 8},
-], ids=lambda d: "_".join(f"{k}{v}" for k, v in d.items()))
-def test_illegal_parameters_stop_elaboration(sim, params):
-    """The HDL stops with the model's message (the model raises the same text)."""
-    from elab_check import assert_refused
+]
 
-    with pytest.raises(ValueError) as e:
-        PeriodCountParams(params["FINE_W"], params["LINES"], params["COARSE_W"])
-    assert_refused(TOPLEVEL, sim, params, str(e.value))
-
-
-def test_illegal_user_w_stops_elaboration(sim):
-    from elab_check import assert_refused
-
-    assert_refused(TOPLEVEL, sim, {"USER_W": 0}, "fringe_period_count: USER_W = 0 must be >= 1")
+test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration = refusal_tests(
+    TOPLEVEL, ILLEGAL, lambda d: PeriodCountParams(d["FINE_W"], d["LINES"], d["COARSE_W"]))
 
 
 @pytest.mark.parametrize("ps", PARAM_SETS, ids=[_id(ps) for ps in PARAM_SETS])

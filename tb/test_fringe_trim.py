@@ -37,6 +37,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from elab_check import refusal_tests
+from lib.hdl_constants import constants_test
 
 from fringe.fixed.trim import (
     LATENCY,
@@ -354,11 +356,7 @@ def test_plan_is_effective():
             assert corr == {half - 1, p.rev - half}, _id((p, user_w))
 
 
-def test_latency_constant_matches_model():
-    from lib.hdl_constants import block_constant, both_languages
-
-    for f in both_languages("fringe_trim"):
-        assert block_constant(f, "LATENCY") == LATENCY, f
+test_latency_constant_matches_model = constants_test(TOPLEVEL, LATENCY=LATENCY)
 
 
 BASE = {"LINES": 256, "FINE_W": 16, "AMP_W": 12, "SPEED_LOG2": 5, "MAP_PSI_W": 4, "MAP_PHI_W": 6, "TRIM_W": 18,
@@ -385,28 +383,13 @@ ILLEGAL = [
 ]
 
 
-def _model_error(d: dict) -> str:
-    psi = d["MAP_PSI_W"]
-    with pytest.raises(ValueError) as e:
-        TrimParams(d["LINES"], d["FINE_W"], d["AMP_W"], d["SPEED_LOG2"], psi, d["MAP_PHI_W"], d["TRIM_W"],
-                   d["TRIM_FRAC"], d["G_SHIFT"], d["SECT_RECIP"], d["SECT_SHIFT"])
-    return str(e.value)
+def _trim_params(d: dict) -> TrimParams:
+    return TrimParams(d["LINES"], d["FINE_W"], d["AMP_W"], d["SPEED_LOG2"], d["MAP_PSI_W"], d["MAP_PHI_W"], d["TRIM_W"],
+                      d["TRIM_FRAC"], d["G_SHIFT"], d["SECT_RECIP"], d["SECT_SHIFT"])
 
 
-@pytest.mark.parametrize("over", ILLEGAL, ids=lambda d: "_".join(f"{k}{v}" for k, v in d.items()))
-def test_illegal_parameters_stop_elaboration(sim, over):
-    """The HDL stops with the model's message (the model raises the same text)."""
-    from elab_check import assert_refused
-
-    params = {**BASE, **over}
-    msg = _model_error(params)
-    assert_refused(TOPLEVEL, sim, params, msg)
-
-
-def test_illegal_user_w_stops_elaboration(sim):
-    from elab_check import assert_refused
-
-    assert_refused(TOPLEVEL, sim, {"USER_W": 0}, "fringe_trim: USER_W = 0 must be >= 1")
+test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration = refusal_tests(
+    TOPLEVEL, ILLEGAL, _trim_params, BASE)
 
 
 def _init_files(p: TrimParams) -> dict[str, Path]:

@@ -18,10 +18,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from elab_check import refusal_tests
+from lib.hdl_constants import constants_test
 
 from fringe.fixed.wave_lut import LATENCY, WaveLutParams, make_table, pack_words, wave_lut
 
 REPO = Path(__file__).resolve().parent.parent
+
 TOPLEVEL = "fringe_wave_lut"
 
 # (ADC_W, WAVE_ADDR_W, WAVE_W, USER_W, seed)
@@ -211,32 +214,18 @@ if cocotb is not None:
 # --------------------------------------------------------------------------- pytest launcher
 
 
-def test_latency_constant_matches_model():
-    from lib.hdl_constants import block_constant, both_languages
-
-    for f in both_languages("fringe_wave_lut"):
-        assert block_constant(f, "LATENCY") == LATENCY, f
+test_latency_constant_matches_model = constants_test(TOPLEVEL, LATENCY=LATENCY)
 
 
-@pytest.mark.parametrize("params", [
+ILLEGAL = [
     {"ADC_W": 25, "WAVE_ADDR_W": 8, "WAVE_W": 18},
     {"ADC_W": 12, "WAVE_ADDR_W": 12, "WAVE_W": 18},
     {"ADC_W": 12, "WAVE_ADDR_W": 1, "WAVE_W": 18},
     {"ADC_W": 12, "WAVE_ADDR_W": 8, "WAVE_W": 33},
-], ids=lambda d: "_".join(f"{k}{v}" for k, v in d.items()))
-def test_illegal_parameters_stop_elaboration(sim, params):
-    """The HDL stops with the model's message (the model raises the same text)."""
-    from elab_check import assert_refused
+]
 
-    with pytest.raises(ValueError) as e:
-        WaveLutParams(params["ADC_W"], params["WAVE_ADDR_W"], params["WAVE_W"])
-    assert_refused(TOPLEVEL, sim, params, str(e.value))
-
-
-def test_illegal_user_w_stops_elaboration(sim):
-    from elab_check import assert_refused
-
-    assert_refused(TOPLEVEL, sim, {"USER_W": 0}, "fringe_wave_lut: USER_W = 0 must be >= 1")
+test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration = refusal_tests(
+    TOPLEVEL, ILLEGAL, lambda d: WaveLutParams(d["ADC_W"], d["WAVE_ADDR_W"], d["WAVE_W"]))
 
 
 def hex_path(p: WaveLutParams, seed: int) -> Path:

@@ -1,5 +1,6 @@
 """What the tests read in the HDL sources: the VHDL range checks (fringe_pkg's check_range, which builds the
-message "<unit>: <NAME> = <value> out of range <lo>..<hi>" the model raises)."""
+message "<unit>: <NAME> = <value> out of range <lo>..<hi>" the model raises, and check_position, which checks
+FINE_W, LINES and POS_W of the blocks that count in REV)."""
 
 import re
 
@@ -13,7 +14,28 @@ def vhdl_checks_range(text: str, unit: str, name: str, rng: str) -> bool:
     hi_value = hi.replace("^", "**")
     call = (rf'check_range\("{re.escape(unit)}", "{re.escape(name)}", {re.escape(name)}, {re.escape(lo)}, '
             rf'{re.escape(hi_value)}(, "{re.escape(hi)}")?\)')
-    return re.search(call, text) is not None
+    if re.search(call, text):
+        return True
+    # FINE_W and LINES, checked by fringe_pkg's check_position(unit, FINE_W, LINES, pos_w_max)
+    in_pkg = (rf'check_range\(unit, "{re.escape(name)}", {re.escape(name.lower())}, {re.escape(lo)}, '
+              rf'{re.escape(hi_value)}(, "{re.escape(hi)}")?\)')
+    position = rf'check_position\("{re.escape(unit)}", FINE_W, LINES, \d+\)'
+    return (name in ("FINE_W", "LINES") and re.search(position, text) is not None
+            and re.search(in_pkg, _position_body(text)) is not None)
+
+
+def _position_body(text: str) -> str:
+    m = re.search(r"procedure check_position\(.*?\) is(.*?)end procedure check_position;", text, re.S)
+    return m.group(1) if m else ""
+
+
+def vhdl_checks_position(text: str, unit: str, pos_w_max: int) -> bool:
+    """Whether the VHDL checks POS_W = FINE_W + clog2(LINES) <= pos_w_max with the model's message
+    "<unit>: POS_W = FINE_W + clog2(LINES) = <v> exceeds <pos_w_max>" (through fringe_pkg's check_position)."""
+    body = _position_body(text)
+    return (f'check_position("{unit}", FINE_W, LINES, {pos_w_max})' in text
+            and 'unit & ": POS_W = FINE_W + clog2(LINES) = " & integer\'image(fine_w + clog2(lines))' in body
+            and '& " exceeds " & integer\'image(pos_w_max)' in body and "fine_w + clog2(lines) <= pos_w_max" in body)
 
 
 def vhdl_block_text(repo, block: str) -> str:

@@ -7,7 +7,7 @@ from fringe.calibrate import calibrate
 from fringe.evaluate import measurement_of
 from fringe.fixed.config import CoreConfig
 from fringe.fixed.core import error_budget
-from fringe.fixed.long_period import LongPeriodParams, index_mapping, long_period
+from fringe.fixed.long_period import index_mapping
 from fringe.fixed.period_count import PeriodCountParams, period_count
 from fringe.hardware.rom import FORMATS, write_roms
 from fringe.hardware.tables import build_tables, run_model
@@ -57,16 +57,6 @@ def test_long_period_index_is_exact(lines, fine_w, addr, interp):
     rev = lines << fine_w
     pos = np.arange(0, rev, max(1, rev // 100_000), dtype=np.int64)
     np.testing.assert_array_equal((pos * recip) >> shift, (pos << addr) // rev)
-
-
-def test_long_period_direction_zero_and_wrap():
-    p = LongPeriodParams(lines=4, fine_w=10, lp_addr_w=4, lp_w=12, lp_frac=2, lp_if=4)
-    zeros = np.zeros(16, dtype=np.int64)
-    pos = np.array([0, 1, 4095, 2000])
-    np.testing.assert_array_equal(long_period(pos, zeros, 10, 0, p), (pos + 10) % 4096)
-    np.testing.assert_array_equal(long_period(pos, zeros, 10, 1, p), (10 - pos) % 4096)
-    ones = np.full(16, 4 * 3, dtype=np.int64)                  # 3 fine counts everywhere
-    np.testing.assert_array_equal(long_period(pos, ones, 0, 0, p), (pos - 3) % 4096)
 
 
 def test_period_count_incremental_and_overspeed():

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hdl_text import vhdl_block_text, vhdl_checks_range
+from hdl_text import vhdl_block_text, vhdl_checks_position, vhdl_checks_range
 
 from fringe.fixed.long_period import (
     LATENCY,
@@ -365,6 +365,7 @@ def test_hdl_messages_match_model():
     for frag in ("entries exceed REV = LINES * 2^FINE_W", "fine counts exceed REV = LINES * 2^FINE_W",
                  " .. 127", "POS_W = FINE_W + clog2(LINES) = "):
         assert frag in v and frag in h, frag
+    assert "exceeds 48 (instance %m)" in v and vhdl_checks_position(h, "fringe_long_period", 48)
     # the mapping message: written out in Verilog, built by fringe_pkg's check_mapping in VHDL
     assert "do not map every position to floor(pos * 2^LP_ADDR_W / REV);" in v and "take them from index_mapping()" in v
     assert 'check_mapping("fringe_long_period", "LP", "LP_ADDR_W", "index_mapping"' in h

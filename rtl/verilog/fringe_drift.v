@@ -268,22 +268,12 @@ module fringe_drift #(
     );
 
     // ---- observer: pipeline --------------------------------------------------------------------------
-    reg  [7:0] ovalid;                // stages 1..8 (9: o9_go)
-    reg  [7:0] olast;                 // the block's last sample, stages 1..8
+    wire o8_valid, o8_last;           // stage 8: valid, the block's last sample (9: o9_go)
 
-    always @(posedge clk) begin
-        if (rst) begin
-            ovalid <= 8'd0;
-        end else if (ce) begin
-            ovalid <= {ovalid[6:0], obs_valid};
-        end
-    end
-
-    always @(posedge clk) begin
-        if (ce) begin
-            olast <= {olast[6:0], ocnt == CNT_LAST};
-        end
-    end
+    fringe_delay #(.WIDTH(1), .DEPTH(8)) u_obs_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(obs_valid), .in_data(ocnt == CNT_LAST),
+        .out_valid(o8_valid), .out_data(o8_last)
+    );
 
     // 1
     reg  [FINE_W-1:0]        o1_phase, o1_prev;
@@ -303,9 +293,9 @@ module fringe_drift #(
     reg  signed [E_W-1:0]    o5_es, o5_ec;
     reg  signed [AW-1:0]     o5_as, o5_ac;
     reg  [FINE_W-1:0]        o5_abs;
-    // 6..8 (e * a in g_ea)
-    reg  signed [E_W-1:0]    o6_es, o6_ec, o7_es, o7_ec, o8_es, o8_ec;
-    reg  [FINE_W-1:0]        o6_abs, o7_abs, o8_abs;
+    // 6..8 (e * a in g_ch)
+    wire signed [E_W-1:0]    o8_es, o8_ec;
+    wire [FINE_W-1:0]        o8_abs;
 
     wire signed [YW-1:0] ys_x  = {{(TABLE_FRAC+1){o1_ys[ADC_W-1]}}, o1_ys} <<< TABLE_FRAC;
     wire signed [YW-1:0] yc_x  = {{(TABLE_FRAC+1){o1_yc[ADC_W-1]}}, o1_yc} <<< TABLE_FRAC;
@@ -339,121 +329,58 @@ module fringe_drift #(
             o5_as  <= o4_as;
             o5_ac  <= o4_ac;
             o5_abs <= o4_abs;
-            // 6..8: e * a (g_ea below); e and |delta| carried along
-            o6_es  <= o5_es;
-            o6_ec  <= o5_ec;
-            o6_abs <= o5_abs;
-            o7_es  <= o6_es;
-            o7_ec  <= o6_ec;
-            o7_abs <= o6_abs;
-            o8_es  <= o7_es;
-            o8_ec  <= o7_ec;
-            o8_abs <= o7_abs;
         end
     end
 
-    // ---- e * a (stages 6..8) as <= 18x18 partial products, one carry chain per stage ----------------
-    // e = sum_i CE_i * 2^(17i), CE_i = {0, 17 bits} (i < NE-1) or the signed top chunk (i = NE-1), as s18;
-    // a = CA_1 * 2^17 + CA_0, CA_0 = {0, 17 bits} and CA_1 the signed top (NA = 2), or CA_0 = a (NA = 1).
-    // 6  partial products CE_i * CA_j (bare)          7  rows R_i = CE_i * a = CE_i*CA_1 * 2^17 + CE_i*CA_0
-    // 8  e * a = R_0 + R_1 * 2^17 + R_2 * 2^34 (bit join below 2^17; R_2 = 0 unless NE = 3)
-    localparam integer EL  = 17;
-    localparam integer NE  = (E_W + EL - 2) / EL;                     // e chunks, 1..3
-    localparam integer NA  = (AW + EL - 2) / EL;                      // a chunks, 1..2
-    localparam integer EXW = 3 * EL + 1;
-    localparam integer AXW = 2 * EL + 1;
-    localparam integer RW  = AW + EL + 1;                             // a row CE_i * a
-    localparam integer SFW = RW + EL + 1;                             // the row sum above 2^17
-    wire signed [E_W-1:0]  ea_e [0:1];
-    wire signed [AW-1:0]   ea_a [0:1];
-    wire signed [EA_W-1:0] ea_p [0:1];
-    assign ea_e[0] = o5_es;
-    assign ea_e[1] = o5_ec;
-    assign ea_a[0] = o5_as;
-    assign ea_a[1] = o5_ac;
+    // ---- e * a (stages 6..8): 18x18 partial products (fringe_split_mul); e and |delta| carried along --
+    wire o8_carry_valid;
 
-    genvar gk, gi;
-    generate
-        for (gk = 0; gk < 2; gk = gk + 1) begin : g_ea
-            wire [EXW-1:0]          ex = {{(EXW-E_W){ea_e[gk][E_W-1]}}, ea_e[gk]};
-            wire [AXW-1:0]          ax = {{(AXW-AW){ea_a[gk][AW-1]}}, ea_a[gk]};
-            wire signed [EL:0]      ca0 = (NA == 1) ? ax[EL:0] : {1'b0, ax[EL-1:0]};
-            wire signed [EL:0]      ca1 = (NA == 2) ? ax[EL +: EL+1] : {(EL+1){1'b0}};
-            wire                    unused_x = &{1'b0, ex, ax};
-            reg  signed [2*EL+1:0]  m0 [0:2];
-            reg  signed [2*EL+1:0]  m1 [0:2];
-            reg  [RW-1:0]           r [0:2];
-            reg  [EA_W-1:0]         p;
-            for (gi = 0; gi < 3; gi = gi + 1) begin : g_ch
-                wire signed [EL:0]     ce_i = (gi < NE - 1) ? {1'b0, ex[EL*gi +: EL]}
-                                            : ((gi == NE - 1) ? ex[EL*gi +: EL+1] : {(EL+1){1'b0}});
-                wire signed [2*EL+1:0] mq0 = m0[gi];
-                wire signed [2*EL+1:0] mq1 = m1[gi];
-                wire signed [2*EL+1:0] hf  = mq1 + (mq0 >>> EL);
-                wire                   unused_h = &{1'b0, hf};
-                always @(posedge clk) begin
-                    if (ce) begin
-                        // 6: partial products (bare)
-                        m0[gi] <= ce_i * ca0;
-                        m1[gi] <= ce_i * ca1;
-                        // 7: row (bit join below 2^17)
-                        r[gi]  <= {hf[AW:0], mq0[EL-1:0]};
-                    end
-                end
-            end
-            wire [RW-1:0]  r0 = r[0];
-            wire [RW-1:0]  r1 = r[1];
-            wire [RW-1:0]  r2 = r[2];
-            wire [SFW-1:0] sf = {{(EL+1+EL){r0[RW-1]}}, r0[RW-1:EL]} + {{(EL+1){r1[RW-1]}}, r1}
-                              + {r2[RW-1], r2, {EL{1'b0}}};
-            wire           unused_s = &{1'b0, sf};
-            always @(posedge clk) begin
-                if (ce) begin
-                    // 8: e * a (bit join below 2^17)
-                    p <= {sf[EA_W-EL-1:0], r0[EL-1:0]};
-                end
-            end
-            assign ea_p[gk] = p;
-        end
-    endgenerate
+    fringe_delay #(.WIDTH(2 * E_W + FINE_W), .DEPTH(3)) u_obs_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({o5_es, o5_ec, o5_abs}),
+        .out_valid(o8_carry_valid), .out_data({o8_es, o8_ec, o8_abs})
+    );
+
+    wire [2*E_W-1:0]  ea_e = {o5_ec, o5_es};        // {cosine, sine}
+    wire [2*AW-1:0]   ea_a = {o5_ac, o5_as};
+    wire [2*EA_W-1:0] ea_p;
+    // (the two channels' multipliers: g_ch below)
+    wire signed [EA_W-1:0] o8_eas = ea_p[0 +: EA_W];
+    wire signed [EA_W-1:0] o8_eac = ea_p[EA_W +: EA_W];
 
     // 9: accumulators; the block's last sample goes to the snapshot and clears them
     reg  signed [SE_W-1:0]  se_s, se_c, snap_se_s, snap_se_c;
     reg  signed [SEA_W-1:0] sea_s, sea_c, snap_sea_s, snap_sea_c;
     reg  [SW_W-1:0]         sweep, snap_sweep;
     reg                     o9_go;
-    wire signed [EA_W-1:0]  o8_eas  = ea_p[0];
-    wire signed [EA_W-1:0]  o8_eac  = ea_p[1];
     wire signed [SE_W-1:0]  se_s_n  = se_s + {{BLOCK_LOG2{o8_es[E_W-1]}}, o8_es};
     wire signed [SE_W-1:0]  se_c_n  = se_c + {{BLOCK_LOG2{o8_ec[E_W-1]}}, o8_ec};
     wire signed [SEA_W-1:0] sea_s_n = sea_s + {{BLOCK_LOG2{o8_eas[EA_W-1]}}, o8_eas};
     wire signed [SEA_W-1:0] sea_c_n = sea_c + {{BLOCK_LOG2{o8_eac[EA_W-1]}}, o8_eac};
     wire [SW_W-1:0]         sweep_n = sweep + {{BLOCK_LOG2{1'b0}}, o8_abs};
-    wire                    blk_end = ovalid[7] & olast[7];
+    wire                    blk_end = o8_valid & o8_last;
 
     always @(posedge clk) begin
         if (rst) begin
+            o9_go <= 1'b0;
+        end else if (ce) begin
+            o9_go <= blk_end;
+        end
+    end
+
+    // cleared by a reset and by the block's last sample (after its snapshot)
+    always @(posedge clk) begin
+        if (rst || (ce && blk_end)) begin
             se_s  <= {SE_W{1'b0}};
             se_c  <= {SE_W{1'b0}};
             sea_s <= {SEA_W{1'b0}};
             sea_c <= {SEA_W{1'b0}};
             sweep <= {SW_W{1'b0}};
-            o9_go <= 1'b0;
-        end else if (ce) begin
-            o9_go <= blk_end;
-            if (blk_end) begin
-                se_s  <= {SE_W{1'b0}};
-                se_c  <= {SE_W{1'b0}};
-                sea_s <= {SEA_W{1'b0}};
-                sea_c <= {SEA_W{1'b0}};
-                sweep <= {SW_W{1'b0}};
-            end else if (ovalid[7]) begin
-                se_s  <= se_s_n;
-                se_c  <= se_c_n;
-                sea_s <= sea_s_n;
-                sea_c <= sea_c_n;
-                sweep <= sweep_n;
-            end
+        end else if (ce && o8_valid) begin
+            se_s  <= se_s_n;
+            se_c  <= se_c_n;
+            sea_s <= sea_s_n;
+            sea_c <= sea_c_n;
+            sweep <= sweep_n;
         end
     end
 
@@ -467,122 +394,49 @@ module fringe_drift #(
         end
     end
 
-    // ---- the update (stages 10..15): SEA * KG as <= 18x18 partial products, one carry chain per stage ----
-    // SEA = sum_c C_c * 2^(17c), C_c = {0, 17 bits} (c < NC-1) or the signed top chunk (c = NC-1), as s18;
-    // KG = KH * 2^17 + KL, KL = {0, 17 bits}, KH = {0, KG_W-17 bits} (0 when KG_W <= 17).
-    // 10 partial products C_c * KL, C_c * KH (bare); OFF + step; SWEEP test
-    // 11 rows R_c = C_c * KG = C_c*KH * 2^17 + C_c*KL (bit join below 2^17); OFF saturated
-    // 12 PA = R_0 + R_1 * 2^17, PB = R_2 + R_3 * 2^17 (bit joins)      13 P = PA + PB * 2^34 + R_4 * 2^68
+    // ---- the update (stages 10..15) -------------------------------------------------------------------
+    // 10..13 P = SEA * KG: 18x18 partial products (fringe_split_mul); OFF + step, OFF saturated, SWEEP test
     // 14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   15 GINV saturated: pending
-    localparam integer L    = 17;
-    localparam integer NC   = (SEA_W + L - 1) / L;                    // SEA chunks, 2..5
-    localparam integer SXW  = 5 * L + 1;
-    localparam integer KH_W = (KG_W > L) ? KG_W - L : 1;
-    localparam integer AH_W = L + 1 + KH_W + 1;                       // C * KH
-    localparam integer RWD  = KG_W + L + 2;                           // C * KG
-    localparam integer RHW  = RWD - L;
-    localparam integer PAW  = RWD + L + 1;                            // PA, PB
-    localparam integer PX   = RWD + 5 * L + 2;                        // P (>= PR_W)
-    localparam integer PHW  = PX - 2 * L;
-    wire [SXW-1:0]     sx_s = {{(SXW-SEA_W){snap_sea_s[SEA_W-1]}}, snap_sea_s};
-    wire [SXW-1:0]     sx_c = {{(SXW-SEA_W){snap_sea_c[SEA_W-1]}}, snap_sea_c};
-    wire [2*L-1:0]     kgx_s = {{(2*L-KG_W){1'b0}}, kg_hold_s};
-    wire [2*L-1:0]     kgx_c = {{(2*L-KG_W){1'b0}}, kg_hold_c};
-    wire signed [L:0]      kl_s = {1'b0, kgx_s[L-1:0]};
-    wire signed [L:0]      kl_c = {1'b0, kgx_c[L-1:0]};
-    wire signed [KH_W:0]   kh_s = (KG_W > L) ? {1'b0, kgx_s[L +: KH_W]} : {(KH_W+1){1'b0}};
-    wire signed [KH_W:0]   kh_c = (KG_W > L) ? {1'b0, kgx_c[L +: KH_W]} : {(KH_W+1){1'b0}};
-    wire signed [L:0]      ch_s [0:4];
-    wire signed [L:0]      ch_c [0:4];
-    reg  signed [2*L+1:0]  m_ls [0:4];
-    reg  signed [2*L+1:0]  m_lc [0:4];
-    reg  signed [AH_W-1:0] m_hs [0:4];
-    reg  signed [AH_W-1:0] m_hc [0:4];
-    reg  [RWD-1:0]         r_s [0:4];
-    reg  [RWD-1:0]         r_c [0:4];
-    reg  [PAW-1:0]         pa_s, pb_s, pa_c, pb_c;
-    reg  [RWD-1:0]         r4_s, r4_c;
-    reg  [PX-1:0]          p_s, p_c;
+    localparam integer P_W = SEA_W + KG_W;                  // SEA * KG, exact
+    wire [2*SEA_W-1:0] kg_e = {snap_sea_c, snap_sea_s};   // {cosine, sine}
+    wire [2*KG_W-1:0]  kg_k = {kg_hold_c, kg_hold_s};
+    wire [2*P_W-1:0]   kg_p;
 
-    genvar gc;
+    // the multipliers of one channel (0 sine, 1 cosine): e * a (stages 6..8), SEA * KG (10..13)
+    genvar gch;
     generate
-        for (gc = 0; gc < 5; gc = gc + 1) begin : g_chunk
-            if (gc < NC - 1) begin : g_lo
-                assign ch_s[gc] = {1'b0, sx_s[L*gc +: L]};
-                assign ch_c[gc] = {1'b0, sx_c[L*gc +: L]};
-            end else if (gc == NC - 1) begin : g_top
-                assign ch_s[gc] = sx_s[L*gc +: L+1];
-                assign ch_c[gc] = sx_c[L*gc +: L+1];
-            end else begin : g_none
-                assign ch_s[gc] = {(L+1){1'b0}};
-                assign ch_c[gc] = {(L+1){1'b0}};
-            end
-            wire signed [2*L+1:0]  ml_s = m_ls[gc];
-            wire signed [2*L+1:0]  ml_c = m_lc[gc];
-            wire signed [AH_W-1:0] mh_s = m_hs[gc];
-            wire [2*L+1:0]         rf_s = $signed({{(2*L+2-AH_W){mh_s[AH_W-1]}}, mh_s}) + (ml_s >>> L);
-            wire [RHW-1:0]         rh_s = rf_s[RHW-1:0];
-            wire unused_rs = &{1'b0, rf_s};
-            wire signed [AH_W-1:0] mh_c = m_hc[gc];
-            wire [2*L+1:0]         rf_c = $signed({{(2*L+2-AH_W){mh_c[AH_W-1]}}, mh_c}) + (ml_c >>> L);
-            wire [RHW-1:0]         rh_c = rf_c[RHW-1:0];
-            wire unused_rc = &{1'b0, rf_c};
-            always @(posedge clk) begin
-                if (ce) begin
-                    // 10: partial products (bare)
-                    m_ls[gc] <= ch_s[gc] * kl_s;
-                    m_lc[gc] <= ch_c[gc] * kl_c;
-                    m_hs[gc] <= ch_s[gc] * kh_s;
-                    m_hc[gc] <= ch_c[gc] * kh_c;
-                    // 11: rows
-                    r_s[gc] <= {rh_s, ml_s[L-1:0]};
-                    r_c[gc] <= {rh_c, ml_c[L-1:0]};
-                end
-            end
+        for (gch = 0; gch < 2; gch = gch + 1) begin : g_ch
+            fringe_split_mul #(.A_W(E_W), .A_SIGNED(1), .B_W(AW), .B_SIGNED(1), .LATENCY(3)) u_ea (
+                .clk(clk), .ce(ce), .a(ea_e[gch*E_W +: E_W]), .b(ea_a[gch*AW +: AW]), .p(ea_p[gch*EA_W +: EA_W])
+            );
+            fringe_split_mul #(.A_W(SEA_W), .A_SIGNED(1), .B_W(KG_W), .B_SIGNED(0), .LATENCY(4)) u_kg (
+                .clk(clk), .ce(ce), .a(kg_e[gch*SEA_W +: SEA_W]), .b(kg_k[gch*KG_W +: KG_W]), .p(kg_p[gch*P_W +: P_W])
+            );
         end
     endgenerate
 
-    wire signed [RWD:0] pah_s = $signed({{(L+1){r_s[0][RWD-1]}}, r_s[0][RWD-1:L]}) + $signed({r_s[1][RWD-1], r_s[1]});
-    wire signed [RWD:0] pbh_s = $signed({{(L+1){r_s[2][RWD-1]}}, r_s[2][RWD-1:L]}) + $signed({r_s[3][RWD-1], r_s[3]});
-    wire signed [RWD:0] pah_c = $signed({{(L+1){r_c[0][RWD-1]}}, r_c[0][RWD-1:L]}) + $signed({r_c[1][RWD-1], r_c[1]});
-    wire signed [RWD:0] pbh_c = $signed({{(L+1){r_c[2][RWD-1]}}, r_c[2][RWD-1:L]}) + $signed({r_c[3][RWD-1], r_c[3]});
-    wire [PHW-1:0] ph_s = {{(PHW-PAW+2*L){pa_s[PAW-1]}}, pa_s[PAW-1:2*L]} + {{(PHW-PAW){pb_s[PAW-1]}}, pb_s}
-                        + ({{(PHW-RWD){r4_s[RWD-1]}}, r4_s} << (2 * L));
-    wire [PHW-1:0] ph_c = {{(PHW-PAW+2*L){pa_c[PAW-1]}}, pa_c[PAW-1:2*L]} + {{(PHW-PAW){pb_c[PAW-1]}}, pb_c}
-                        + ({{(PHW-RWD){r4_c[RWD-1]}}, r4_c} << (2 * L));
-
-    always @(posedge clk) begin
-        if (ce) begin
-            // 12: row pairs (bit joins below 2^17)
-            pa_s <= {pah_s, r_s[0][L-1:0]};
-            pb_s <= {pbh_s, r_s[2][L-1:0]};
-            pa_c <= {pah_c, r_c[0][L-1:0]};
-            pb_c <= {pbh_c, r_c[2][L-1:0]};
-            r4_s <= r_s[4];
-            r4_c <= r_c[4];
-            // 13: P = SEA * KG (bit join below 2^34)
-            p_s <= {ph_s, pa_s[2*L-1:0]};
-            p_c <= {ph_c, pa_c[2*L-1:0]};
-        end
-    end
+    // P sign-extended to PR_W bits (the rounding below may look at bits above the product)
+    wire [PR_W+P_W-1:0] px_s = {{PR_W{kg_p[P_W-1]}}, kg_p[0 +: P_W]};
+    wire [PR_W+P_W-1:0] px_c = {{PR_W{kg_p[2*P_W-1]}}, kg_p[P_W +: P_W]};
 
     wire signed [XW-1:0]   sex_s = {{(OFS_FRAC+1){snap_se_s[SE_W-1]}}, snap_se_s};
     wire signed [XW-1:0]   sex_c = {{(OFS_FRAC+1){snap_se_c[SE_W-1]}}, snap_se_c};
     wire signed [XW-1:0]   stp_s = (sex_s <<< OFS_FRAC) >>> SH_O;
     wire signed [XW-1:0]   stp_c = (sex_c <<< OFS_FRAC) >>> SH_O;
     reg  signed [OS_W-1:0] u1_os, u1_oc;
-    reg  [4:0]             u_v;             // stages 10..14 valid
-    reg                    u1_ok, u2_ok, u3_ok, u4_ok, u5_ok;
-    reg  signed [OW-1:0]   u2_os, u2_oc, u3_os, u3_oc, u4_os, u4_oc, u5_os, u5_oc;
-    reg                    u2_sat, u3_sat, u4_sat, u5_sat;
+    wire                   u5_valid, u5_ok; // stage 14: valid, the SWEEP test
+    reg  signed [OW-1:0]   u2_os, u2_oc;
+    reg                    u2_sat;
+    wire signed [OW-1:0]   u5_os, u5_oc;
+    wire                   u5_sat, u5_carry_valid;
     reg  signed [GS_W-1:0] u5_gs, u5_gc;
     // (P + 2^(KG_SHIFT-1)) >>> KG_SHIFT = (P >>> KG_SHIFT) + P[KG_SHIFT-1]
-    wire signed [DG_W-1:0] dg_s = p_s[PR_W-1:KG_SHIFT];
-    wire signed [DG_W-1:0] dg_c = p_c[PR_W-1:KG_SHIFT];
+    wire signed [DG_W-1:0] dg_s = px_s[PR_W-1:KG_SHIFT];
+    wire signed [DG_W-1:0] dg_c = px_c[PR_W-1:KG_SHIFT];
     wire [GS_W-1:0]        dgn_s = ~{{(GS_W-DG_W){dg_s[DG_W-1]}}, dg_s};
     wire [GS_W-1:0]        dgn_c = ~{{(GS_W-DG_W){dg_c[DG_W-1]}}, dg_c};
-    wire [GS_W-1:0]        rbn_s = {{(GS_W-1){1'b0}}, ~p_s[KG_SHIFT-1]};
-    wire [GS_W-1:0]        rbn_c = {{(GS_W-1){1'b0}}, ~p_c[KG_SHIFT-1]};
+    wire [GS_W-1:0]        rbn_s = {{(GS_W-1){1'b0}}, ~px_s[KG_SHIFT-1]};
+    wire [GS_W-1:0]        rbn_c = {{(GS_W-1){1'b0}}, ~px_c[KG_SHIFT-1]};
     // OFF + step in range of s(OW) <=> bits OS_W-1 .. OW-1 all equal the sign
     wire os_over = u1_os[OS_W-1] ? ~&u1_os[OS_W-1:OW-1] : |u1_os[OS_W-1:OW-1];
     wire oc_over = u1_oc[OS_W-1] ? ~&u1_oc[OS_W-1:OW-1] : |u1_oc[OS_W-1:OW-1];
@@ -594,32 +448,29 @@ module fringe_drift #(
     wire gs_high = ~gs_neg & |u5_gs[GS_W-2:GINV_W];
     wire gc_high = ~gc_neg & |u5_gc[GS_W-2:GINV_W];
 
-    always @(posedge clk) begin
-        if (rst) begin
-            u_v <= 5'd0;
-        end else if (ce) begin
-            u_v <= {u_v[3:0], o9_go};
-        end
-    end
+    fringe_delay #(.WIDTH(1), .DEPTH(5)) u_upd_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(o9_go), .in_data(|snap_sweep[SW_W-1:FINE_W]),
+        .out_valid(u5_valid), .out_data(u5_ok)
+    );
+
+    // 12..14: OFF carried along
+    fringe_delay #(.WIDTH(2 * OW + 1), .DEPTH(3)) u_upd_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({u2_os, u2_oc, u2_sat}),
+        .out_valid(u5_carry_valid), .out_data({u5_os, u5_oc, u5_sat})
+    );
 
     always @(posedge clk) begin
         if (ce) begin
             // 10
             u1_os <= {{(OS_W-OW){off_sin[OW-1]}}, off_sin} + {stp_s[XW-1], stp_s};
             u1_oc <= {{(OS_W-OW){off_cos[OW-1]}}, off_cos} + {stp_c[XW-1], stp_c};
-            u1_ok <= |snap_sweep[SW_W-1:FINE_W];
             // 11
             u2_os  <= os_over ? (u1_os[OS_W-1] ? o_min : o_max) : u1_os[OW-1:0];
             u2_oc  <= oc_over ? (u1_oc[OS_W-1] ? o_min : o_max) : u1_oc[OW-1:0];
             u2_sat <= os_over | oc_over;
-            u2_ok  <= u1_ok;
-            // 12, 13: carried along
-            u3_os <= u2_os;  u3_oc <= u2_oc;  u3_sat <= u2_sat;  u3_ok <= u2_ok;
-            u4_os <= u3_os;  u4_oc <= u3_oc;  u4_sat <= u3_sat;  u4_ok <= u3_ok;
             // 14: GINV - step
             u5_gs  <= {{(GS_W-GINV_W){1'b0}}, ginv_sin} + dgn_s + rbn_s;
             u5_gc  <= {{(GS_W-GINV_W){1'b0}}, ginv_cos} + dgn_c + rbn_c;
-            u5_os  <= u4_os;  u5_oc <= u4_oc;  u5_sat <= u4_sat;  u5_ok <= u4_ok;
         end
     end
 
@@ -627,7 +478,7 @@ module fringe_drift #(
     always @(posedge clk) begin
         if (rst) begin
             pend_valid <= 1'b0;
-        end else if (ce && u_v[4] && u5_ok) begin
+        end else if (ce && u5_valid && u5_ok) begin
             pend_valid <= 1'b1;
         end else if (take) begin
             pend_valid <= 1'b0;
@@ -635,7 +486,7 @@ module fringe_drift #(
     end
 
     always @(posedge clk) begin
-        if (ce && u_v[4] && u5_ok) begin
+        if (ce && u5_valid && u5_ok) begin
             pend_off_s  <= u5_os;
             pend_off_c  <= u5_oc;
             pend_ginv_s <= gs_neg ? {GINV_W{1'b0}} : (gs_high ? {GINV_W{1'b1}} : u5_gs[GINV_W-1:0]);
@@ -644,9 +495,10 @@ module fringe_drift #(
         end
     end
 
-    // Bits that carry nothing: the rounded-off bits of the products and of the offset step.
-    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], p_s, p_c, kgx_s, kgx_c, sx_s, sx_c,
-                    snap_sweep[FINE_W-1:0], olast[7]};
+    // Bits that carry nothing: the rounded-off bits of the products and of the offset step; the
+    // valid outputs of the delays that carry data only.
+    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], px_s, px_c,
+                    snap_sweep[FINE_W-1:0], o8_carry_valid, u5_carry_valid};
 
 endmodule
 

@@ -166,9 +166,9 @@ module fringe_long_period #(
     wire signed [LP_W-1:0]  slope = word[2*LP_W-1:LP_W];
     wire signed [C_W-1:0]   value_x = {{(C_W-LP_W){value[LP_W-1]}}, value};
     wire signed [C_W-1:0]   value_rnd;
-    reg  signed [PR_W-1:0]  s3_prod;                    // after stage 3b: slope * frac - 2^(LP_IF-1) * (slope or slope_hi * 2^15)
+    wire signed [PR_W-1:0]  s3_prod;                    // after stage 3b: slope * fc
     reg  signed [C_W-1:0]   s3a_value;
-    reg  [SX_W-1:0]         s3_base;                    // {s3a_value, 2^(LP_IF-1)} + that difference
+    reg  [SX_W-1:0]         s3_base;                    // {s3a_value, 2^(LP_IF-1)} + slope * 2^(LP_IF-1)
     reg  [POS_W-1:0]        s3a_pos, s3a_zero, s3_pos, s3_zero;
     reg                     s3a_dir, s3_dir;
 
@@ -180,48 +180,23 @@ module fringe_long_period #(
         end
     endgenerate
 
-    generate
-        if (LP_W <= 16) begin : g_prod
-            reg signed [PR_W-1:0] s3a_prod;
-            reg signed [LP_W-1:0] s3a_slope;
-            // slope * 2^(LP_IF-1), modulo 2^SX_W
-            wire [SX_W-1:0] diff = {{(SX_W-LP_W){s3a_slope[LP_W-1]}}, s3a_slope} << (LP_IF - 1);
+    // slope x fc (fc = frac - 2^(LP_IF-1), a live sign bit) in 16x16 partial products (stages 3a, 3b:
+    // slope split above 15 bits); the base takes slope * 2^(LP_IF-1) back, modulo 2^SX_W
+    wire [LP_W+LP_IF-1:0]  prod;
+    reg  signed [LP_W-1:0] s3a_slope;
+    wire [SX_W-1:0]        diff = {{(SX_W-LP_W){s3a_slope[LP_W-1]}}, s3a_slope} << (LP_IF - 1);
 
-            always @(posedge clk) begin
-                if (ce) begin
-                    s3a_prod  <= slope * s2_fc;   // s(LP_W) x s(LP_IF)
-                    s3a_slope <= slope;
-                    s3_prod   <= s3a_prod;
-                    s3_base   <= {s3a_value, RND_IF} + diff;
-                end
-            end
-        end else begin : g_split
-            localparam integer L    = 15;                      // slope_lo bits, unsigned
-            localparam integer LO_W = L + LP_IF + 2;           // s(L+1) x s(LP_IF+1)
-            localparam integer HI_W = LP_W - L + LP_IF + 1;    // s(LP_W-L) x s(LP_IF), sign-extended
-            wire signed [L:0]        slope_lo = {1'b0, slope[L-1:0]};
-            wire signed [LP_W-L-1:0] slope_hi = slope[LP_W-1:L];
-            reg  [LP_IF-1:0]         s2_frac;                  // frac, for the unsigned slope_lo
-            wire signed [LP_IF:0]    frac_s = {1'b0, s2_frac}; // u(LP_IF) x u(L): an unsigned product
-            reg  signed [LO_W-1:0]   s3a_lo;
-            reg  signed [HI_W-1:0]   s3a_hi;
-            reg  signed [LP_W-L-1:0] s3a_slope_hi;
-            // slope_hi * 2^(L+LP_IF-1), modulo 2^SX_W
-            wire [SX_W-1:0] diff = {{(SX_W-LP_W+L){s3a_slope_hi[LP_W-L-1]}}, s3a_slope_hi} << (L + LP_IF - 1);
+    fringe_split_mul #(.A_W(LP_W), .A_SIGNED(1), .B_W(LP_IF), .B_SIGNED(1), .LATENCY(2), .LO_W(15)) u_prod (
+        .clk(clk), .ce(ce), .a(slope), .b(s2_fc), .p(prod)
+    );
+    assign s3_prod = {prod[LP_W+LP_IF-1], prod};
 
-            always @(posedge clk) begin
-                if (ce) begin
-                    s2_frac      <= s1b_frac;
-                    s3a_lo       <= slope_lo * frac_s;
-                    s3a_hi       <= slope_hi * s2_fc;
-                    s3a_slope_hi <= slope_hi;
-                    // 3b: hi * 2^L + lo (|hi| * 2^L + |lo| < 2^(LP_W+LP_IF-2) + 2^(L+LP_IF) <= 2^(PR_W-2): no wrap)
-                    s3_prod <= $signed({s3a_hi, {L{1'b0}}}) + $signed({{(PR_W-LO_W){s3a_lo[LO_W-1]}}, s3a_lo});
-                    s3_base <= {s3a_value, RND_IF} + diff;
-                end
-            end
+    always @(posedge clk) begin
+        if (ce) begin
+            s3a_slope <= slope;
+            s3_base   <= {s3a_value, RND_IF} + diff;
         end
-    endgenerate
+    end
 
     always @(posedge clk) begin
         if (ce) begin

@@ -310,136 +310,61 @@ module fringe_trim #(
         .rd_addr(map_rd_addr), .frac(s4_pos[FB-1:0]), .result(s8_m)
     );
 
-    reg  signed [POS_W-1:0] s5_speed, s6_speed;
-    reg                    s5_dir, s6_dir;
-    reg  [POS_W-1:0]       s5_pos, s6_pos;
-    reg  [AMP_W-1:0]       s5_mag, s6_mag;
+    // 5, 6: speed and magnitude carried beside the tables; 5..10: direction and position
+    wire signed [POS_W-1:0] s6_speed;
+    wire [AMP_W-1:0]        s6_mag;
+    wire                    s10_dir;
+    wire [POS_W-1:0]        s10_pos;
+    wire                    s6_carry_valid, s10_carry_valid;
 
-    always @(posedge clk) begin
-        if (ce) begin
-            s5_speed <= s4_speed;
-            s5_dir   <= s4_dir;
-            s5_pos   <= s4_pos;
-            s5_mag   <= s4_mag;
-            s6_speed <= s5_speed;
-            s6_dir   <= s5_dir;
-            s6_pos   <= s5_pos;
-            s6_mag   <= s5_mag;
-        end
-    end
+    fringe_delay #(.WIDTH(POS_W + AMP_W), .DEPTH(2)) u_gain_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({s4_speed, s4_mag}),
+        .out_valid(s6_carry_valid), .out_data({s6_speed, s6_mag})
+    );
 
-    // ---- 7: the partial products of speed x gs and
-    // mag x ga (bare). An operand wider than 18 bits is split, x = x_hi * 2^17 + x_lo (x_lo unsigned,
-    // 17 bits, as s18), so that every partial product is at most 18x18 signed, registered on both
-    // sides; an operand of at most 18 bits is x_hi = x, x_lo = 0 (its x_lo products are constant 0).
-    // a * b = hh * 2^(AL+BL) + hl * 2^AL + lh * 2^BL + ll, with ll < 2^(AL+BL) (0 unless both split).
-    localparam integer L    = 17;
-    localparam integer MG_W = AMP_W + 1;                        // mag as a signed operand
-    localparam integer SP_L = (POS_W > 18) ? L : 0;             // low part bits of speed, gs/ga, mag
-    localparam integer GN_L = (GW > 18) ? L : 0;
-    localparam integer MG_L = (MG_W > 18) ? L : 0;
-    localparam integer SP_H = POS_W - SP_L;                     // their high part widths (signed)
-    localparam integer GN_H = GW - GN_L;
-    localparam integer MG_H = MG_W - MG_L;
-    localparam integer LL_W = 2 * L + 2;                        // x_lo * y_lo, s18 x s18
-    wire signed [MG_W-1:0] s6_mag_s  = {1'b0, s6_mag};
-    wire [POS_W+L-1:0]     sp_x      = {{L{s6_speed[POS_W-1]}}, s6_speed};
-    wire [GW+L-1:0]        gs_x      = {{L{s6_gs[GW-1]}}, s6_gs};
-    wire [GW+L-1:0]        ga_x      = {{L{s6_ga[GW-1]}}, s6_ga};
-    wire [MG_W+L-1:0]      mg_x      = {{L{1'b0}}, s6_mag_s};
-    wire signed [L:0]      sp_lo     = (SP_L > 0) ? {1'b0, sp_x[L-1:0]} : {(L+1){1'b0}};
-    wire signed [L:0]      gs_lo     = (GN_L > 0) ? {1'b0, gs_x[L-1:0]} : {(L+1){1'b0}};
-    wire signed [L:0]      ga_lo     = (GN_L > 0) ? {1'b0, ga_x[L-1:0]} : {(L+1){1'b0}};
-    wire signed [L:0]      mg_lo     = (MG_L > 0) ? {1'b0, mg_x[L-1:0]} : {(L+1){1'b0}};
-    wire signed [SP_H-1:0] sp_hi     = s6_speed[POS_W-1:SP_L];
-    wire signed [GN_H-1:0] gs_hi     = s6_gs[GW-1:GN_L];
-    wire signed [GN_H-1:0] ga_hi     = s6_ga[GW-1:GN_L];
-    wire signed [MG_H-1:0] mg_hi     = s6_mag_s[MG_W-1:MG_L];
-    reg  signed [SP_H+GN_H-1:0] s7_shh;                        // speed x gs
-    reg  signed [SP_H+L:0]      s7_shl;
-    reg  signed [L+GN_H:0]      s7_slh;
-    reg  signed [LL_W-1:0]      s7_sll;
-    reg  signed [MG_H+GN_H-1:0] s7_ahh;                        // mag x ga
-    reg  signed [MG_H+L:0]      s7_ahl;
-    reg  signed [L+GN_H:0]      s7_alh;
-    reg  signed [LL_W-1:0]      s7_all;
-    reg                    s7_dir;
-    reg  [POS_W-1:0]       s7_pos;
+    fringe_delay #(.WIDTH(1 + POS_W), .DEPTH(6)) u_pos_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({s4_dir, s4_pos}),
+        .out_valid(s10_carry_valid), .out_data({s10_dir, s10_pos})
+    );
 
-    always @(posedge clk) begin
-        if (ce) begin
-            s7_shh    <= sp_hi * gs_hi;
-            s7_shl    <= sp_hi * gs_lo;
-            s7_slh    <= sp_lo * gs_hi;
-            s7_sll    <= sp_lo * gs_lo;
-            s7_ahh    <= mg_hi * ga_hi;
-            s7_ahl    <= mg_hi * ga_lo;
-            s7_alh    <= mg_lo * ga_hi;
-            s7_all    <= mg_lo * ga_lo;
-            s7_dir    <= s6_dir;
-            s7_pos    <= s6_pos;
-        end
-    end
+    // ---- 7..9: speed x gs (3 stages: products, pairs, product) and mag x ga (2 stages) in 18x18
+    // partial products (fringe_split_mul); every stage one two-input carry chain for the seed widths
+    wire [POS_W+GW-1:0] p_sg;
+    wire [AMP_W+GW-1:0] p_ma;
 
-    // ---- 8: the partial products summed in pairs (terms below) ---------------------------------------
+    fringe_split_mul #(.A_W(POS_W), .A_SIGNED(1), .B_W(GW), .B_SIGNED(1), .LATENCY(3)) u_speed_gain (
+        .clk(clk), .ce(ce), .a(s6_speed), .b(s6_gs), .p(p_sg)
+    );
+
+    fringe_split_mul #(.A_W(AMP_W), .A_SIGNED(0), .B_W(GW), .B_SIGNED(1), .LATENCY(2)) u_amp_gain (
+        .clk(clk), .ce(ce), .a(s6_mag), .b(s6_ga), .p(p_ma)
+    );
+
+    // ---- 9: mag x ga + (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields) --------------
     // From here on the sum A = (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) + speed * gs + mag * ga
     // is formed, A >>> G_SHIFT = total + 2^(TRIM_FRAC-1) (m * 2^G_SHIFT has no bits below G_SHIFT):
     // A = total' * 2^G_SHIFT + r, 0 <= r < 2^G_SHIFT, fits s(TT_W + G_SHIFT); every adder works modulo
     // 2^A_W, so partial sums may wrap, the final one is exact. Terms in E_W bits (wider than any).
     localparam integer A_W  = TT_W + G_SHIFT;
     localparam integer E_W  = A_W + 64;
-    localparam integer LL_S = SP_L + GN_L;                      // weight of speed x gs's hh
-    localparam integer LL_A = MG_L + GN_L;                      // weight of mag x ga's hh
-    localparam [E_W-1:0] ONE_E  = {{(E_W-1){1'b0}}, 1'b1};
-    localparam [E_W-1:0] MASK_S = (ONE_E << LL_S) - ONE_E;      // ll's bits (no overlap with hh)
-    localparam [E_W-1:0] MASK_A = (ONE_E << LL_A) - ONE_E;
-    wire [E_W-1:0] t_s1 = ({{(E_W-SP_H-GN_H){s7_shh[SP_H+GN_H-1]}}, s7_shh} << LL_S)
-                        | ({{(E_W-LL_W){1'b0}}, s7_sll} & MASK_S);
-    wire [E_W-1:0] t_s2 = {{(E_W-SP_H-L-1){s7_shl[SP_H+L]}}, s7_shl} << SP_L;
-    wire [E_W-1:0] t_s3 = {{(E_W-GN_H-L-1){s7_slh[GN_H+L]}}, s7_slh} << GN_L;
-    wire [E_W-1:0] t_a1 = ({{(E_W-MG_H-GN_H){s7_ahh[MG_H+GN_H-1]}}, s7_ahh} << LL_A)
-                        | ({{(E_W-LL_W){1'b0}}, s7_all} & MASK_A);
-    wire [E_W-1:0] t_a2 = {{(E_W-MG_H-L-1){s7_ahl[MG_H+L]}}, s7_ahl} << MG_L;
-    wire [E_W-1:0] t_a3 = {{(E_W-GN_H-L-1){s7_alh[GN_H+L]}}, s7_alh} << GN_L;
-    reg  [A_W-1:0]         s8_u1, s8_u2, s8_u3;
-    reg                    s8_dir;
-    reg  [POS_W-1:0]       s8_pos;
+    localparam [E_W-1:0] ONE_E = {{(E_W-1){1'b0}}, 1'b1};
+    wire [E_W-1:0] t_sg = {{(E_W-POS_W-GW){p_sg[POS_W+GW-1]}}, p_sg};
+    wire [E_W-1:0] t_ma = {{(E_W-AMP_W-GW){p_ma[AMP_W+GW-1]}}, p_ma};
+    wire [E_W-1:0] t_m  = ({{(E_W-MR_W){s8_m[MR_W-1]}}, s8_m} << G_SHIFT) | (ONE_E << (G_SHIFT - 1));
+    reg  [A_W-1:0]         s9_am;
 
     always @(posedge clk) begin
         if (ce) begin
-            s8_u1  <= t_s1[A_W-1:0] + t_a1[A_W-1:0];
-            s8_u2  <= t_s2[A_W-1:0] + t_s3[A_W-1:0];
-            s8_u3  <= t_a2[A_W-1:0] + t_a3[A_W-1:0];
-            s8_dir <= s7_dir;
-            s8_pos <= s7_pos;
-        end
-    end
-
-    // ---- 9: the pairs summed; (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) joins (bit fields) ---
-    wire [E_W-1:0] t_m = ({{(E_W-MR_W){s8_m[MR_W-1]}}, s8_m} << G_SHIFT) | (ONE_E << (G_SHIFT - 1));
-    reg  [A_W-1:0]         s9_v1, s9_v2;
-    reg                    s9_dir;
-    reg  [POS_W-1:0]       s9_pos;
-
-    always @(posedge clk) begin
-        if (ce) begin
-            s9_v1  <= s8_u1 + s8_u2;
-            s9_v2  <= s8_u3 + t_m[A_W-1:0];
-            s9_dir <= s8_dir;
-            s9_pos <= s8_pos;
+            s9_am <= t_ma[A_W-1:0] + t_m[A_W-1:0];
         end
     end
 
     // ---- 10: A; A >>> G_SHIFT = total + 2^(TRIM_FRAC-1) ---------------------------------------------
     reg  [A_W-1:0]         s10_a;
-    reg                    s10_dir;
-    reg  [POS_W-1:0]       s10_pos;
 
     always @(posedge clk) begin
         if (ce) begin
-            s10_a   <= s9_v1 + s9_v2;
-            s10_dir <= s9_dir;
-            s10_pos <= s9_pos;
+            s10_a <= t_sg[A_W-1:0] + s9_am;
         end
     end
 
@@ -485,10 +410,9 @@ module fringe_trim #(
 
     // Bits that carry nothing: the products' rounded-off bits and sign extension, the terms beyond
     // A_W bits, the fraction bits of A, the sign bits of the wrapped speed and of positions in [0, REV),
-    // the low parts of operands that are not split.
-    wire unused = &{1'b0, t_s1, t_s2, t_s3, t_a1, t_a2, t_a3, t_m,
-                    s10_a[G_SHIFT+TRIM_FRAC:0], d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x,
-                    sp_x, gs_x, ga_x, mg_x};
+    // the valid outputs of the delays that carry data only.
+    wire unused = &{1'b0, t_sg, t_ma, t_m, s6_carry_valid, s10_carry_valid,
+                    s10_a[G_SHIFT+TRIM_FRAC:0], d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x};
 
 endmodule
 

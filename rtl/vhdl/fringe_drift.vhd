@@ -164,8 +164,8 @@ architecture rtl of fringe_drift is
     signal wr_en_s, wr_en_c : std_logic;
     signal obs_frac   : std_logic_vector(FB - 1 downto 0);
     signal a_s, a_c   : std_logic_vector(AW - 1 downto 0);   -- from the forward tables
-    signal ovalid     : std_logic_vector(1 to 8);
-    signal olast      : std_logic_vector(1 to 8);
+    signal o_last     : std_logic;                      -- the block's last sample (observer input)
+    signal o8_valid, o8_last : std_logic;               -- stage 8: valid, the block's last sample
     signal o1_phase, o1_prev : unsigned(FINE_W - 1 downto 0);
     signal o1_nz      : std_logic;
     signal o1_ys, o1_yc   : signed(ADC_W - 1 downto 0);
@@ -179,137 +179,34 @@ architecture rtl of fringe_drift is
     signal o5_es, o5_ec   : signed(E_W - 1 downto 0);
     signal o5_as, o5_ac   : signed(AW - 1 downto 0);
     signal o5_abs     : unsigned(FINE_W - 1 downto 0);
-    signal o6_es, o6_ec, o7_es, o7_ec, o8_es, o8_ec : signed(E_W - 1 downto 0);
-    signal o6_abs, o7_abs, o8_abs : unsigned(FINE_W - 1 downto 0);
+    signal o8_es, o8_ec   : signed(E_W - 1 downto 0);
+    signal o8_abs         : unsigned(FINE_W - 1 downto 0);
+    signal o8_carry       : std_logic_vector(2 * E_W + FINE_W - 1 downto 0);
+    signal o8_carry_valid : std_logic;
     signal o8_eas, o8_eac : signed(EA_W - 1 downto 0);
     signal se_s, se_c, snap_se_s, snap_se_c     : signed(SE_W - 1 downto 0);
     signal sea_s, sea_c, snap_sea_s, snap_sea_c : signed(SEA_W - 1 downto 0);
     signal sweep, snap_sweep : unsigned(SW_W - 1 downto 0);
     signal o9_go      : std_logic;
 
-    -- e * a as <= 18x18 partial products (see the Verilog twin): e in 17-bit chunks (NE), a in a low
-    -- 17-bit part and a signed top (NA = 2) or whole (NA = 1)
-    constant EL  : integer := 17;
-    constant NE  : integer := (E_W + EL - 2) / EL;                  -- e chunks, 1..3
-    constant NA  : integer := (AW + EL - 2) / EL;                   -- a chunks, 1..2
-    constant EXW : integer := 3 * EL + 1;
-    constant AXW : integer := 2 * EL + 1;
-    constant RW  : integer := AW + EL + 1;                          -- a row CE_i * a
-    constant SFW : integer := RW + EL + 1;                          -- the row sum above 2^17
-    type em_t is array (0 to 2) of signed(2 * EL + 1 downto 0);
-    type er_t is array (0 to 2) of signed(RW - 1 downto 0);
-    signal em0_s, em1_s, em0_c, em1_c : em_t;
-    signal er_s, er_c : er_t;
-
-    -- chunk i of e as s18: {0, 17 bits} below the top chunk, the signed top chunk, 0 above
-    function e_chunk(v : signed; i : integer) return signed is
-        constant X : signed(EXW - 1 downto 0) := resize(v, EXW);
-    begin
-        if i < NE - 1 then
-            return signed('0' & std_logic_vector(X(EL * i + EL - 1 downto EL * i)));
-        elsif i = NE - 1 then
-            return X(EL * i + EL downto EL * i);
-        else
-            return to_signed(0, EL + 1);
-        end if;
-    end function e_chunk;
-
-    -- part j of a as s18: NA = 1: a itself (j = 0); NA = 2: {0, 17 bits} (j = 0), the signed top (j = 1)
-    function a_chunk(v : signed; j : integer) return signed is
-        constant X : signed(AXW - 1 downto 0) := resize(v, AXW);
-    begin
-        if NA = 1 then
-            if j = 0 then
-                return X(EL downto 0);
-            else
-                return to_signed(0, EL + 1);
-            end if;
-        elsif j = 0 then
-            return signed('0' & std_logic_vector(X(EL - 1 downto 0)));
-        else
-            return X(2 * EL downto EL);
-        end if;
-    end function a_chunk;
-
-    -- row CE_i * a = CE_i*CA_1 * 2^17 + CE_i*CA_0 (bit join below 2^17)
-    function ea_row(m0 : signed; m1 : signed) return signed is
-        variable hf : signed(2 * EL + 1 downto 0);
-    begin
-        hf := m1 + shift_right(m0, EL);
-        return hf(AW downto 0) & m0(EL - 1 downto 0);
-    end function ea_row;
-
-    -- e * a = R_0 + R_1 * 2^17 + R_2 * 2^34 (bit join below 2^17)
-    function ea_sum(r0 : signed; r1 : signed; r2 : signed) return signed is
-        variable sf : signed(SFW - 1 downto 0);
-    begin
-        sf := resize(r0(RW - 1 downto EL), SFW) + resize(r1, SFW) + shift_left(resize(r2, SFW), EL);
-        return sf(EA_W - EL - 1 downto 0) & r0(EL - 1 downto 0);
-    end function ea_sum;
-
-    -- update: SEA * KG as <= 18x18 partial products (see the Verilog twin)
-    constant L    : integer := 17;
-    constant NC   : integer := (SEA_W + L - 1) / L;                 -- SEA chunks, 2..5
-    constant SXW  : integer := 5 * L + 1;
-    constant KH_W : integer := maximum(KG_W - L, 1);
-    constant AH_W : integer := L + 1 + KH_W + 1;                    -- C * KH
-    constant RWD  : integer := KG_W + L + 2;                        -- C * KG
-    constant RHW  : integer := RWD - L;
-    constant PAW  : integer := RWD + L + 1;                         -- PA, PB
-    constant PX   : integer := RWD + 5 * L + 2;                     -- P (>= PR_W)
-    constant PHW  : integer := PX - 2 * L;
-    type ml_t is array (0 to 4) of signed(2 * L + 1 downto 0);
-    type mh_t is array (0 to 4) of signed(AH_W - 1 downto 0);
-    type r_t  is array (0 to 4) of signed(RWD - 1 downto 0);
-    signal m_ls, m_lc : ml_t;
-    signal m_hs, m_hc : mh_t;
-    signal r_s, r_c   : r_t;
-    signal pa_s, pb_s, pa_c, pb_c : signed(PAW - 1 downto 0);
-    signal r4_s, r4_c : signed(RWD - 1 downto 0);
-    signal p_s, p_c   : signed(PX - 1 downto 0);
+    -- e * a and P = SEA * KG (fringe_split_mul), P sign-extended to PR_W bits
+    constant P_W          : integer := SEA_W + KG_W;                -- SEA * KG, exact
+    signal ea_e           : std_logic_vector(2 * E_W - 1 downto 0);   -- per channel: {cosine, sine}
+    signal ea_a           : std_logic_vector(2 * AW - 1 downto 0);
+    signal ea_p           : std_logic_vector(2 * EA_W - 1 downto 0);
+    signal kg_e           : std_logic_vector(2 * SEA_W - 1 downto 0);
+    signal kg_k           : std_logic_vector(2 * KG_W - 1 downto 0);
+    signal kg_p           : std_logic_vector(2 * P_W - 1 downto 0);
+    signal px_s, px_c     : signed(PR_W - 1 downto 0);
     signal u1_os, u1_oc : signed(OS_W - 1 downto 0);
-    signal u_v          : std_logic_vector(1 to 5);
-    signal u1_ok, u2_ok, u3_ok, u4_ok, u5_ok : std_logic;
-    signal u2_os, u2_oc, u3_os, u3_oc, u4_os, u4_oc, u5_os, u5_oc : signed(OW - 1 downto 0);
-    signal u2_sat, u3_sat, u4_sat, u5_sat : std_logic;
+    signal sweep_ok     : std_logic;                    -- the SWEEP test of the snapshot
+    signal u5_valid     : std_logic;                    -- stage 14: valid
+    signal u5_ok        : std_logic_vector(0 downto 0); -- stage 14: the SWEEP test
+    signal u2_os, u2_oc, u5_os, u5_oc : signed(OW - 1 downto 0);
+    signal u2_sat, u5_sat : std_logic;
+    signal u5_carry     : std_logic_vector(2 * OW downto 0);
+    signal u5_carry_valid : std_logic;
     signal u5_gs, u5_gc : signed(GS_W - 1 downto 0);
-
-    -- chunk c of SEA as s18: {0, 17 bits} below the top chunk, the signed top chunk, 0 above
-    function chunk(v : signed; c : integer) return signed is
-        constant X : signed(SXW - 1 downto 0) := resize(v, SXW);
-    begin
-        if c < NC - 1 then
-            return signed('0' & std_logic_vector(X(L * c + L - 1 downto L * c)));
-        elsif c = NC - 1 then
-            return X(L * c + L downto L * c);
-        else
-            return to_signed(0, L + 1);
-        end if;
-    end function chunk;
-
-    -- row = C * KH * 2^17 + C * KL (bit join below 2^17)
-    function row(ml : signed; mh : signed) return signed is
-        variable rf : signed(2 * L + 1 downto 0);
-    begin
-        rf := resize(mh, 2 * L + 2) + shift_right(ml, L);
-        return rf(RHW - 1 downto 0) & ml(L - 1 downto 0);
-    end function row;
-
-    -- pair = R_a + R_b * 2^17 (bit join below 2^17)
-    function pair(ra : signed; rb : signed) return signed is
-        variable h : signed(RWD downto 0);
-    begin
-        h := resize(ra(RWD - 1 downto L), RWD + 1) + resize(rb, RWD + 1);
-        return h & ra(L - 1 downto 0);
-    end function pair;
-
-    -- P = PA + PB * 2^34 + R_4 * 2^68 (bit join below 2^34)
-    function total(pa : signed; pb : signed; r4 : signed) return signed is
-        variable h : signed(PHW - 1 downto 0);
-    begin
-        h := resize(pa(PAW - 1 downto 2 * L), PHW) + resize(pb, PHW) + shift_left(resize(r4, PHW), 2 * L);
-        return h & pa(2 * L - 1 downto 0);
-    end function total;
 
 begin
 
@@ -432,21 +329,18 @@ begin
                   rd_addr => rd_addr, frac => obs_frac, result => a_c);
 
     -- ---- observer: pipeline ------------------------------------------------------------------------------
+    o_last <= '1' when ocnt = CNT_LAST else '0';
+
+    u_obs_valid : entity work.fringe_delay
+        generic map (WIDTH => 1, DEPTH => 8)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => obs_valid, in_data(0) => o_last,
+                  out_valid => o8_valid, out_data(0) => o8_last);
+
     p_obs : process (clk)
         variable dl     : unsigned(FINE_W - 1 downto 0);
     begin
         if rising_edge(clk) then
-            if rst = '1' then
-                ovalid <= (others => '0');
-            elsif ce = '1' then
-                ovalid <= obs_valid & ovalid(1 to 7);
-            end if;
             if ce = '1' then
-                if ocnt = CNT_LAST then
-                    olast <= '1' & olast(1 to 7);
-                else
-                    olast <= '0' & olast(1 to 7);
-                end if;
                 -- 1: input registers (the table read is in the RAMs)
                 o1_phase <= unsigned(obs_phase);
                 o1_prev  <= last_phase;
@@ -482,32 +376,27 @@ begin
                 o5_as  <= signed(a_s);
                 o5_ac  <= signed(a_c);
                 o5_abs <= o4_abs;
-                -- 6..8: e * a; e and |delta| carried along
-                for i in 0 to 2 loop
-                    -- 6: partial products (bare)
-                    em0_s(i) <= e_chunk(o5_es, i) * a_chunk(o5_as, 0);
-                    em1_s(i) <= e_chunk(o5_es, i) * a_chunk(o5_as, 1);
-                    em0_c(i) <= e_chunk(o5_ec, i) * a_chunk(o5_ac, 0);
-                    em1_c(i) <= e_chunk(o5_ec, i) * a_chunk(o5_ac, 1);
-                    -- 7: rows
-                    er_s(i) <= ea_row(em0_s(i), em1_s(i));
-                    er_c(i) <= ea_row(em0_c(i), em1_c(i));
-                end loop;
-                -- 8: rows summed
-                o8_eas <= ea_sum(er_s(0), er_s(1), er_s(2));
-                o8_eac <= ea_sum(er_c(0), er_c(1), er_c(2));
-                o6_es  <= o5_es;
-                o6_ec  <= o5_ec;
-                o6_abs <= o5_abs;
-                o7_es  <= o6_es;
-                o7_ec  <= o6_ec;
-                o7_abs <= o6_abs;
-                o8_es  <= o7_es;
-                o8_ec  <= o7_ec;
-                o8_abs <= o7_abs;
+                -- 6..8: e * a (g_ch); e and |delta| carried along (u_obs_carry)
             end if;
         end if;
     end process p_obs;
+
+    -- ---- e * a (stages 6..8): 18x18 partial products ---------------------------------------------------
+    ea_e <= std_logic_vector(o5_ec) & std_logic_vector(o5_es);     -- {cosine, sine}
+    ea_a <= std_logic_vector(o5_ac) & std_logic_vector(o5_as);
+
+    -- (the two channels' multipliers: g_ch below)
+    o8_eas <= signed(ea_p(EA_W - 1 downto 0));
+    o8_eac <= signed(ea_p(2 * EA_W - 1 downto EA_W));
+
+    u_obs_carry : entity work.fringe_delay
+        generic map (WIDTH => 2 * E_W + FINE_W, DEPTH => 3)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
+                  in_data => std_logic_vector(o5_es) & std_logic_vector(o5_ec) & std_logic_vector(o5_abs),
+                  out_valid => o8_carry_valid, out_data => o8_carry);
+    o8_es  <= signed(o8_carry(2 * E_W + FINE_W - 1 downto E_W + FINE_W));
+    o8_ec  <= signed(o8_carry(E_W + FINE_W - 1 downto FINE_W));
+    o8_abs <= unsigned(o8_carry(FINE_W - 1 downto 0));
 
     -- 9: accumulators; the block's last sample goes to the snapshot and clears them
     p_acc : process (clk)
@@ -522,29 +411,25 @@ begin
             sea_s_n := sea_s + resize(o8_eas, SEA_W);
             sea_c_n := sea_c + resize(o8_eac, SEA_W);
             sweep_n := sweep + resize(o8_abs, SW_W);
-            blk_end := ovalid(8) = '1' and olast(8) = '1';
+            blk_end := o8_valid = '1' and o8_last = '1';
             if rst = '1' then
+                o9_go <= '0';
+            elsif ce = '1' then
+                o9_go <= '1' when blk_end else '0';
+            end if;
+            -- cleared by a reset and by the block's last sample (after its snapshot)
+            if rst = '1' or (ce = '1' and blk_end) then
                 se_s  <= (others => '0');
                 se_c  <= (others => '0');
                 sea_s <= (others => '0');
                 sea_c <= (others => '0');
                 sweep <= (others => '0');
-                o9_go <= '0';
-            elsif ce = '1' then
-                o9_go <= '1' when blk_end else '0';
-                if blk_end then
-                    se_s  <= (others => '0');
-                    se_c  <= (others => '0');
-                    sea_s <= (others => '0');
-                    sea_c <= (others => '0');
-                    sweep <= (others => '0');
-                elsif ovalid(8) = '1' then
-                    se_s  <= se_s_n;
-                    se_c  <= se_c_n;
-                    sea_s <= sea_s_n;
-                    sea_c <= sea_c_n;
-                    sweep <= sweep_n;
-                end if;
+            elsif ce = '1' and o8_valid = '1' then
+                se_s  <= se_s_n;
+                se_c  <= se_c_n;
+                sea_s <= sea_s_n;
+                sea_c <= sea_c_n;
+                sweep <= sweep_n;
             end if;
             if ce = '1' and blk_end then
                 snap_se_s  <= se_s_n;
@@ -556,83 +441,72 @@ begin
         end if;
     end process p_acc;
 
-    -- ---- the update (stages 10..15): SEA * KG as <= 18x18 partial products, one carry chain per stage ----
-    -- 10 partial products C_c * KL, C_c * KH (bare); OFF + step; SWEEP test   11 rows; OFF saturated
-    -- 12 PA = R_0 + R_1 * 2^17, PB = R_2 + R_3 * 2^17   13 P = PA + PB * 2^34 + R_4 * 2^68
+    -- ---- the update (stages 10..15) -------------------------------------------------------------------
+    -- 10..13 P = SEA * KG: 18x18 partial products (g_ch); 10 OFF + step, SWEEP test; 11 OFF saturated
     -- 14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   15 GINV saturated: pending
+    kg_e <= std_logic_vector(snap_sea_c) & std_logic_vector(snap_sea_s);   -- {cosine, sine}
+    kg_k <= std_logic_vector(kg_hold_c) & std_logic_vector(kg_hold_s);
+
+    -- the multipliers of one channel (0 sine, 1 cosine): e * a (stages 6..8), SEA * KG (10..13)
+    g_ch : for ch in 0 to 1 generate
+        u_ea : entity work.fringe_split_mul
+            generic map (A_W => E_W, A_SIGNED => 1, B_W => AW, B_SIGNED => 1, LATENCY => 3)
+            port map (clk => clk, ce => ce, a => ea_e((ch + 1) * E_W - 1 downto ch * E_W),
+                      b => ea_a((ch + 1) * AW - 1 downto ch * AW), p => ea_p((ch + 1) * EA_W - 1 downto ch * EA_W));
+        u_kg : entity work.fringe_split_mul
+            generic map (A_W => SEA_W, A_SIGNED => 1, B_W => KG_W, B_SIGNED => 0, LATENCY => 4)
+            port map (clk => clk, ce => ce, a => kg_e((ch + 1) * SEA_W - 1 downto ch * SEA_W),
+                      b => kg_k((ch + 1) * KG_W - 1 downto ch * KG_W), p => kg_p((ch + 1) * P_W - 1 downto ch * P_W));
+    end generate g_ch;
+
+    px_s <= resize(signed(kg_p(P_W - 1 downto 0)), PR_W);
+    px_c <= resize(signed(kg_p(2 * P_W - 1 downto P_W)), PR_W);
+
+    sweep_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
+
+    u_upd_valid : entity work.fringe_delay
+        generic map (WIDTH => 1, DEPTH => 5)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => o9_go, in_data(0) => sweep_ok,
+                  out_valid => u5_valid, out_data => u5_ok);
+
+    -- 12..14: OFF carried along
+    u_upd_carry : entity work.fringe_delay
+        generic map (WIDTH => 2 * OW + 1, DEPTH => 3)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
+                  in_data => std_logic_vector(u2_os) & std_logic_vector(u2_oc) & u2_sat,
+                  out_valid => u5_carry_valid, out_data => u5_carry);
+    u5_os  <= signed(u5_carry(2 * OW downto OW + 1));
+    u5_oc  <= signed(u5_carry(OW downto 1));
+    u5_sat <= u5_carry(0);
+
     p_upd : process (clk)
-        variable kgx_s, kgx_c : unsigned(2 * L - 1 downto 0);
-        variable kl_s, kl_c   : signed(L downto 0);
-        variable kh_s, kh_c   : signed(KH_W downto 0);
         variable stp_s, stp_c : signed(XW - 1 downto 0);
         variable dg_s, dg_c   : signed(DG_W - 1 downto 0);
         variable rbn_s, rbn_c : signed(GS_W - 1 downto 0);
         variable gs_neg, gc_neg, gs_high, gc_high, os_over, oc_over : boolean;
     begin
         if rising_edge(clk) then
-            if rst = '1' then
-                u_v <= (others => '0');
-            elsif ce = '1' then
-                u_v <= o9_go & u_v(1 to 4);
-            end if;
             if ce = '1' then
-                kgx_s := resize(kg_hold_s, 2 * L);
-                kgx_c := resize(kg_hold_c, 2 * L);
-                kl_s := signed('0' & kgx_s(L - 1 downto 0));
-                kl_c := signed('0' & kgx_c(L - 1 downto 0));
-                if KG_W > L then
-                    kh_s := signed('0' & kgx_s(L + KH_W - 1 downto L));
-                    kh_c := signed('0' & kgx_c(L + KH_W - 1 downto L));
-                else
-                    kh_s := (others => '0');
-                    kh_c := (others => '0');
-                end if;
-                for c in 0 to 4 loop
-                    -- 10: partial products (bare)
-                    m_ls(c) <= chunk(snap_sea_s, c) * kl_s;
-                    m_lc(c) <= chunk(snap_sea_c, c) * kl_c;
-                    m_hs(c) <= chunk(snap_sea_s, c) * kh_s;
-                    m_hc(c) <= chunk(snap_sea_c, c) * kh_c;
-                    -- 11: rows
-                    r_s(c) <= row(m_ls(c), m_hs(c));
-                    r_c(c) <= row(m_lc(c), m_hc(c));
-                end loop;
-                -- 12: row pairs
-                pa_s <= pair(r_s(0), r_s(1));
-                pb_s <= pair(r_s(2), r_s(3));
-                pa_c <= pair(r_c(0), r_c(1));
-                pb_c <= pair(r_c(2), r_c(3));
-                r4_s <= r_s(4);
-                r4_c <= r_c(4);
-                -- 13: P = SEA * KG
-                p_s <= total(pa_s, pb_s, r4_s);
-                p_c <= total(pa_c, pb_c, r4_c);
                 -- 10: OFF + step, SWEEP test
                 stp_s := shift_right(shift_left(resize(snap_se_s, XW), OFS_FRAC), SH_O);
                 stp_c := shift_right(shift_left(resize(snap_se_c, XW), OFS_FRAC), SH_O);
                 u1_os <= resize(off_s, OS_W) + resize(stp_s, OS_W);
                 u1_oc <= resize(off_c, OS_W) + resize(stp_c, OS_W);
-                u1_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
                 -- 11: OFF saturated
                 os_over := outside(u1_os, OW);
                 oc_over := outside(u1_oc, OW);
                 u2_os  <= saturate(u1_os, OW);
                 u2_oc  <= saturate(u1_oc, OW);
                 u2_sat <= '1' when os_over or oc_over else '0';
-                u2_ok  <= u1_ok;
-                -- 12, 13: carried along
-                u3_os <= u2_os;  u3_oc <= u2_oc;  u3_sat <= u2_sat;  u3_ok <= u2_ok;
-                u4_os <= u3_os;  u4_oc <= u3_oc;  u4_sat <= u3_sat;  u4_ok <= u3_ok;
                 -- 14: GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] = GINV + not dg + not P[KG_SHIFT-1]
-                dg_s := p_s(PR_W - 1 downto KG_SHIFT);
-                dg_c := p_c(PR_W - 1 downto KG_SHIFT);
+                dg_s := px_s(PR_W - 1 downto KG_SHIFT);
+                dg_c := px_c(PR_W - 1 downto KG_SHIFT);
                 rbn_s := (others => '0');
                 rbn_c := (others => '0');
-                rbn_s(0) := not p_s(KG_SHIFT - 1);
-                rbn_c(0) := not p_c(KG_SHIFT - 1);
+                rbn_s(0) := not px_s(KG_SHIFT - 1);
+                rbn_c(0) := not px_c(KG_SHIFT - 1);
                 u5_gs <= signed(resize(ginv_s, GS_W)) + (not resize(dg_s, GS_W)) + rbn_s;
                 u5_gc <= signed(resize(ginv_c, GS_W)) + (not resize(dg_c, GS_W)) + rbn_c;
-                u5_os <= u4_os;  u5_oc <= u4_oc;  u5_sat <= u4_sat;  u5_ok <= u4_ok;
             end if;
             -- 15: the pending update (taken by the normaliser at its application sample)
             gs_neg  := u5_gs(GS_W - 1) = '1';
@@ -641,12 +515,12 @@ begin
             gc_high := not gc_neg and u5_gc(GS_W - 2 downto GINV_W) /= 0;
             if rst = '1' then
                 pend_valid <= '0';
-            elsif ce = '1' and u_v(5) = '1' and u5_ok = '1' then
+            elsif ce = '1' and u5_valid = '1' and u5_ok(0) = '1' then
                 pend_valid <= '1';
             elsif take = '1' then
                 pend_valid <= '0';
             end if;
-            if ce = '1' and u_v(5) = '1' and u5_ok = '1' then
+            if ce = '1' and u5_valid = '1' and u5_ok(0) = '1' then
                 pend_off_s <= u5_os;
                 pend_off_c <= u5_oc;
                 if gs_neg then

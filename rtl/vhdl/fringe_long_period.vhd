@@ -55,12 +55,7 @@ architecture rtl of fringe_long_period is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        check_range("fringe_long_period", "FINE_W", FINE_W, 8, 30);
-        check_range("fringe_long_period", "LINES", LINES, 1, 2**20, "2^20");
-        assert FINE_W + clog2(LINES) <= 48
-            report "fringe_long_period: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
-                   & " exceeds 48"
-            severity failure;
+        check_position("fringe_long_period", FINE_W, LINES, 48);
         check_range("fringe_long_period", "LP_ADDR_W", LP_ADDR_W, 2, 16);
         -- 2^LP_ADDR_W <= REV = LINES * 2^FINE_W
         assert LP_ADDR_W <= FINE_W or LINES >= 2**(LP_ADDR_W - FINE_W)
@@ -111,6 +106,7 @@ architecture rtl of fringe_long_period is
     signal s1b_frac          : unsigned(LP_IF - 1 downto 0);
     signal s1b_pos, s1b_zero : unsigned(POS_W - 1 downto 0);
     signal s1b_dir           : std_logic;
+    signal prod              : std_logic_vector(LP_W + LP_IF - 1 downto 0);
     signal s3_prod           : signed(PR_W - 1 downto 0);    -- after stage 3b: slope * frac
     signal s3a_value, s3_value : signed(C_W - 1 downto 0);
     signal s3a_pos, s3a_zero : unsigned(POS_W - 1 downto 0);
@@ -135,38 +131,12 @@ begin
         port map (clk => clk, wr_en => wr_en, wr_addr => wr_addr, wr_data => wr_data,
                   rd_en => ce, rd_addr => rd_addr, rd_data => word_ram);
 
-    -- ---- 3, 3b: slope x fraction ------------------------------------------------------------------
-    g_prod : if LP_W <= 16 generate
-        signal s3a_prod : signed(PR_W - 1 downto 0);
-    begin
-        p_prod : process (clk)
-        begin
-            if rising_edge(clk) then
-                if ce = '1' then
-                    s3a_prod <= signed(word(2 * LP_W - 1 downto LP_W)) * signed('0' & s2_frac);
-                    s3_prod  <= s3a_prod;
-                end if;
-            end if;
-        end process p_prod;
-    else generate
-        constant L    : integer := 15;                      -- slope_lo bits, unsigned
-        constant LO_W : integer := L + LP_IF + 2;           -- s(L+1) x s(LP_IF+1)
-        constant HI_W : integer := LP_W - L + LP_IF + 1;    -- s(LP_W-L) x s(LP_IF+1)
-        signal s3a_lo : signed(LO_W - 1 downto 0);
-        signal s3a_hi : signed(HI_W - 1 downto 0);
-    begin
-        p_prod : process (clk)
-        begin
-            if rising_edge(clk) then
-                if ce = '1' then
-                    s3a_lo  <= signed('0' & word(LP_W + L - 1 downto LP_W)) * signed('0' & s2_frac);
-                    s3a_hi  <= signed(word(2 * LP_W - 1 downto LP_W + L)) * signed('0' & s2_frac);
-                    -- 3b: hi * 2^L + lo (|slope * frac| < 2^(PR_W-2): no wrap)
-                    s3_prod <= shift_left(resize(s3a_hi, PR_W), L) + resize(s3a_lo, PR_W);
-                end if;
-            end if;
-        end process p_prod;
-    end generate g_prod;
+    -- ---- 3, 3b: slope x fraction in 16x16 partial products (slope split above 15 bits) -----------
+    u_prod : entity work.fringe_split_mul
+        generic map (A_W => LP_W, A_SIGNED => 1, B_W => LP_IF, B_SIGNED => 0, LATENCY => 2, LO_W => 15)
+        port map (clk => clk, ce => ce, a => word(2 * LP_W - 1 downto LP_W), b => std_logic_vector(s2_frac),
+                  p => prod);
+    s3_prod <= resize(signed(prod), PR_W);
 
     p_data : process (clk)
         variable t        : unsigned(T_W - 1 downto 0);
@@ -199,12 +169,12 @@ begin
                 s2_zero  <= s1b_zero;
                 s2_dir   <= s1b_dir;
 
-                -- 3: slope x fraction (registered bare, in g_prod / g_split); value + 2^(LP_FRAC-1)
+                -- 3: slope x fraction (u_prod); value + 2^(LP_FRAC-1)
                 s3a_value <= resize(signed(word(LP_W - 1 downto 0)), C_W) + round_half(C_W, LP_FRAC);
                 s3a_pos   <= s2_pos;
                 s3a_zero  <= s2_zero;
                 s3a_dir   <= s2_dir;
-                -- 3b: the partial products summed (g_prod / g_split)
+                -- 3b: the partial products summed (u_prod)
                 s3_value  <= s3a_value;
                 s3_pos    <= s3a_pos;
                 s3_zero   <= s3a_zero;
@@ -227,13 +197,7 @@ begin
                 c_mid  := s4_pos - step_x;
                 c_up   := s4_pos_up - step_x;
                 c_down := s4_pos_dn - step_x;
-                if c_mid(WW - 1) = '1' then
-                    c_wrap := c_up;
-                elsif c_down(WW - 1) = '0' then
-                    c_wrap := c_down;
-                else
-                    c_wrap := c_mid;
-                end if;
+                c_wrap := wrapped(c_mid, c_up, c_down);
                 s5_pos_c <= unsigned(c_wrap(POS_W - 1 downto 0));
                 zero_x := resize(s4_zero, WW);
                 s5_zero <= zero_x;

@@ -45,12 +45,7 @@ architecture rtl of fringe_period_count is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        check_range("fringe_period_count", "FINE_W", FINE_W, 8, 30);
-        check_range("fringe_period_count", "LINES", LINES, 1, 2**20, "2^20");
-        assert FINE_W + clog2(LINES) <= 48
-            report "fringe_period_count: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
-                   & " exceeds 48"
-            severity failure;
+        check_position("fringe_period_count", FINE_W, LINES, 48);
         assert COARSE_W = 0 or (COARSE_W >= 1 and COARSE_W <= 24 and COARSE_W <= FINE_W - 2)
             report "fringe_period_count: COARSE_W = " & integer'image(COARSE_W)
                    & " out of range: 0 (no coarse code) or 1..24 with COARSE_W <= FINE_W - 2"
@@ -206,12 +201,8 @@ begin
                     n_down := s2_n - LINES_W(NR - 1 downto 0);
                     if LINES = 1 then
                         n_wrap := (others => '0');      -- n mod 1 = 0
-                    elsif s2_n(NR - 1) = '1' then
-                        n_wrap := n_up;
-                    elsif n_down(NR - 1) = '0' then
-                        n_wrap := n_down;
                     else
-                        n_wrap := s2_n;
+                        n_wrap := wrapped(s2_n, n_up, n_down);
                     end if;
                     pos_r <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s2_phase, POS_W);
                 else
@@ -219,13 +210,7 @@ begin
                     sum      := resize(pos_r, SW) + s2_d;
                     sum_up   := resize(pos_r, SW) + s2_d_up;
                     sum_down := resize(pos_r, SW) + s2_d_down;
-                    if sum(SW - 1) = '1' then
-                        nxt := sum_up;
-                    elsif sum_down(SW - 1) = '0' then
-                        nxt := sum_down;
-                    else
-                        nxt := sum;
-                    end if;
+                    nxt      := wrapped(sum, sum_up, sum_down);
                     if s2_first = '1' then
                         pos_r <= resize(s2_phase, POS_W);
                     else

@@ -30,6 +30,9 @@ package fringe_pkg is
     -- hi_text, when given, is printed for hi ("2^20").
     procedure check_range(unit, name : string; v, lo, hi : integer; hi_text : string := "");
     procedure check_min(unit, name : string; v, lo : integer);
+    -- The position checks of the blocks that count in REV = LINES * 2^FINE_W (period count, long
+    -- period, trim): FINE_W 8..30, LINES 1..2^20, POS_W = FINE_W + clog2(LINES) <= pos_w_max
+    procedure check_position(unit : string; fine_w, lines, pos_w_max : integer);
     -- mapping_exact, or fail with "<unit>: <prefix>_RECIP = .., <prefix>_SHIFT = .. do not map every
     -- position to floor(pos * 2^<addr_name> / REV); take them from <helper>()"
     procedure check_mapping(unit, prefix, addr_name, helper : string; recip, shift, addr_w, lines, fine_w : natural);
@@ -40,6 +43,11 @@ package fringe_pkg is
     function saturate(v : signed; w : positive) return signed;
     -- v outside s(w): the bits from w-1 up are not all equal to the sign
     function outside(v : signed; w : positive) return boolean;
+    -- x mod M from three candidates computed in parallel, two's complement of one width (the top bit
+    -- the sign; unsigned: a sum held in unsigned bits): mid = x, up = x + M, down = x - M for
+    -- -M <= x < 2M: up when mid < 0, down when down >= 0, else mid
+    function wrapped(mid, up, down : signed) return signed;
+    function wrapped(mid, up, down : unsigned) return unsigned;
 
     -- Words of a $readmemh image, as fringe_table_ram and the register file hold them.
     type word_array is array (natural range <>) of std_logic_vector;
@@ -182,6 +190,16 @@ package body fringe_pkg is
             severity failure;
     end procedure check_min;
 
+    procedure check_position(unit : string; fine_w, lines, pos_w_max : integer) is
+    begin
+        check_range(unit, "FINE_W", fine_w, 8, 30);
+        check_range(unit, "LINES", lines, 1, 2**20, "2^20");
+        assert fine_w + clog2(lines) <= pos_w_max
+            report unit & ": POS_W = FINE_W + clog2(LINES) = " & integer'image(fine_w + clog2(lines))
+                   & " exceeds " & integer'image(pos_w_max)
+            severity failure;
+    end procedure check_position;
+
     procedure check_mapping(unit, prefix, addr_name, helper : string; recip, shift, addr_w, lines, fine_w : natural) is
     begin
         assert mapping_exact(recip, shift, addr_w, lines, fine_w)
@@ -210,6 +228,21 @@ package body fringe_pkg is
         end if;
         return resize(v, w);
     end function saturate;
+
+    function wrapped(mid, up, down : signed) return signed is
+    begin
+        if mid(mid'high) = '1' then
+            return up;
+        elsif down(down'high) = '0' then
+            return down;
+        end if;
+        return mid;
+    end function wrapped;
+
+    function wrapped(mid, up, down : unsigned) return unsigned is
+    begin
+        return unsigned(wrapped(signed(mid), signed(up), signed(down)));
+    end function wrapped;
 
     function outside(v : signed; w : positive) return boolean is
         variable top : signed(v'length - w downto 0);

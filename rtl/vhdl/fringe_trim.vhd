@@ -63,12 +63,7 @@ architecture rtl of fringe_trim is
     function generics_ok return boolean is
         constant PHI_MAX : integer := minimum(10, FINE_W - 1);
     begin
-        check_range("fringe_trim", "FINE_W", FINE_W, 8, 30);
-        check_range("fringe_trim", "LINES", LINES, 1, 2**20, "2^20");
-        assert FINE_W + clog2(LINES) <= 31
-            report "fringe_trim: POS_W = FINE_W + clog2(LINES) = " & integer'image(FINE_W + clog2(LINES))
-                   & " exceeds 31"
-            severity failure;
+        check_position("fringe_trim", FINE_W, LINES, 31);
         check_range("fringe_trim", "AMP_W", AMP_W, 4, 32);
         check_range("fringe_trim", "SPEED_LOG2", SPEED_LOG2, 0, 8);
         check_range("fringe_trim", "MAP_PSI_W", MAP_PSI_W, 0, 8);
@@ -115,30 +110,9 @@ architecture rtl of fringe_trim is
     constant CLIP_HI : signed(FINE_W - 1 downto 0) := not CLIP_LO;                                    -- 2^(FINE_W-1) - 1
 
     -- The sum A = (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) + speed * gs + mag * ga, formed
-    -- modulo 2^A_W from the partial products (A >>> G_SHIFT = total + 2^(TRIM_FRAC-1), exact in A_W bits).
-    -- An operand wider than 18 bits is split, x = x_hi * 2^17 + x_lo (x_lo unsigned, 17 bits, as s18);
-    -- a * b = hh * 2^(AL+BL) + hl * 2^AL + lh * 2^BL + ll with ll < 2^(AL+BL) (0 unless both split).
+    -- modulo 2^A_W (A >>> G_SHIFT = total + 2^(TRIM_FRAC-1), exact in A_W bits).
     constant A_W     : integer := TT_W + G_SHIFT;
     constant E_W     : integer := A_W + 64;                         -- wider than every term
-    constant L       : integer := 17;
-    constant MG_W    : integer := AMP_W + 1;                        -- mag as a signed operand
-
-    function lo_bits(w : integer) return integer is
-    begin
-        if w > 18 then
-            return L;
-        end if;
-        return 0;
-    end function lo_bits;
-
-    constant SP_L    : integer := lo_bits(POS_W);                   -- low part bits of speed, gs/ga, mag
-    constant GN_L    : integer := lo_bits(GW);
-    constant MG_L    : integer := lo_bits(MG_W);
-    constant SP_H    : integer := POS_W - SP_L;                     -- their high part widths (signed)
-    constant GN_H    : integer := GW - GN_L;
-    constant MG_H    : integer := MG_W - MG_L;
-    constant LL_S    : integer := SP_L + GN_L;                      -- weight of speed x gs's hh
-    constant LL_A    : integer := MG_L + GN_L;                      -- weight of mag x ga's hh
 
     -- x * 2^sh modulo 2^A_W
     function term(x : signed; sh : integer) return unsigned is
@@ -148,20 +122,6 @@ architecture rtl of fringe_trim is
         return unsigned(r(A_W - 1 downto 0));
     end function term;
 
-    -- the low k bits of x (k < A_W), zero above
-    function low_bits(x : signed; k : integer) return unsigned is
-        variable xe : signed(E_W - 1 downto 0);
-        variable r  : unsigned(A_W - 1 downto 0);
-    begin
-        xe := resize(x, E_W);
-        r  := (others => '0');
-        if k > 0 then
-            r(k - 1 downto 0) := unsigned(xe(k - 1 downto 0));
-        end if;
-        return r;
-    end function low_bits;
-
-
     -- speed history: 2N words (initialised so that GHDL computes on defined values before it fills)
     type hist_t is array (0 to 2 * N - 1) of unsigned(POS_W - 1 downto 0);
     signal hist     : hist_t := (others => (others => '0'));
@@ -170,26 +130,23 @@ architecture rtl of fringe_trim is
     signal fill     : unsigned(SPEED_LOG2 downto 0);   -- accepted samples since reset, saturating at N
     signal accept   : std_logic;
 
-    signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s5_pos, s6_pos, s7_pos, s8_pos, s9_pos, s10_pos
+    signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s10_pos
                     : unsigned(POS_W - 1 downto 0);
-    signal s1_mag, s2_mag, s3_mag, s4_mag, s5_mag, s6_mag : unsigned(AMP_W - 1 downto 0);
+    signal s1_mag, s2_mag, s3_mag, s4_mag, s6_mag : unsigned(AMP_W - 1 downto 0);
     signal s1_bank, s2_bank, s3_bank, s4_bank : std_logic;
     signal s1_full, s2_full, s3_full : std_logic;
     signal s2_sector, s3_sector, s4_sector : unsigned(PSI_R - 1 downto 0);
     signal s3_d     : signed(POS_W downto 0);
-    signal s4_speed, s5_speed, s6_speed : signed(POS_W - 1 downto 0);
-    signal s4_dir, s5_dir, s6_dir, s7_dir, s8_dir, s9_dir, s10_dir, s11_dir : std_logic;
+    signal s4_speed, s6_speed : signed(POS_W - 1 downto 0);
+    signal s4_dir, s10_dir, s11_dir : std_logic;
+    signal s6_carry  : std_logic_vector(POS_W + AMP_W - 1 downto 0);   -- {speed, mag} at stage 6
+    signal s10_carry : std_logic_vector(POS_W downto 0);               -- {dir, pos} at stage 10
+    signal s6_carry_valid, s10_carry_valid : std_logic;
     signal s6_gs, s6_ga : std_logic_vector(GW - 1 downto 0);   -- from the gain tables
-    signal s7_shh   : signed(SP_H + GN_H - 1 downto 0);        -- speed x gs, partial products
-    signal s7_shl   : signed(SP_H + L downto 0);
-    signal s7_slh   : signed(L + GN_H downto 0);
-    signal s7_sll   : signed(2 * L + 1 downto 0);
-    signal s7_ahh   : signed(MG_H + GN_H - 1 downto 0);        -- mag x ga, partial products
-    signal s7_ahl   : signed(MG_H + L downto 0);
-    signal s7_alh   : signed(L + GN_H downto 0);
-    signal s7_all   : signed(2 * L + 1 downto 0);
+    signal p_sg     : std_logic_vector(POS_W + GW - 1 downto 0);   -- speed x gs
+    signal p_ma     : std_logic_vector(AMP_W + GW - 1 downto 0);   -- mag x ga
     signal s8_m     : std_logic_vector(MR_W - 1 downto 0);      -- from the map
-    signal s8_u1, s8_u2, s8_u3, s9_v1, s9_v2, s10_a : unsigned(A_W - 1 downto 0);
+    signal s9_am, s10_a : unsigned(A_W - 1 downto 0);
     signal s11_corr : signed(FINE_W - 1 downto 0);
     signal s11_sat, s11_neg : std_logic;
     signal s11_pos, s11_alt : signed(WW - 1 downto 0);
@@ -270,6 +227,31 @@ begin
         port map (clk => clk, ce => ce, wr_en => wr_en_map, wr_addr => wr_addr, wr_data => wr_data,
                   rd_addr => map_rd_addr, frac => map_frac, result => s8_m);
 
+    -- ---- 5, 6: speed and magnitude carried beside the tables; 5..10: direction and position -------------
+    u_gain_carry : entity work.fringe_delay
+        generic map (WIDTH => POS_W + AMP_W, DEPTH => 2)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
+                  in_data => std_logic_vector(s4_speed) & std_logic_vector(s4_mag),
+                  out_valid => s6_carry_valid, out_data => s6_carry);
+    s6_speed <= signed(s6_carry(POS_W + AMP_W - 1 downto AMP_W));
+    s6_mag   <= unsigned(s6_carry(AMP_W - 1 downto 0));
+
+    u_pos_carry : entity work.fringe_delay
+        generic map (WIDTH => 1 + POS_W, DEPTH => 6)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0', in_data => s4_dir & std_logic_vector(s4_pos),
+                  out_valid => s10_carry_valid, out_data => s10_carry);
+    s10_dir <= s10_carry(POS_W);
+    s10_pos <= unsigned(s10_carry(POS_W - 1 downto 0));
+
+    -- ---- 7..9: the gain products in 18x18 partial products (speed x gs 3 stages, mag x ga 2) ----------
+    u_speed_gain : entity work.fringe_split_mul
+        generic map (A_W => POS_W, A_SIGNED => 1, B_W => GW, B_SIGNED => 1, LATENCY => 3)
+        port map (clk => clk, ce => ce, a => std_logic_vector(s6_speed), b => s6_gs, p => p_sg);
+
+    u_amp_gain : entity work.fringe_split_mul
+        generic map (A_W => AMP_W, A_SIGNED => 0, B_W => GW, B_SIGNED => 1, LATENCY => 2)
+        port map (clk => clk, ce => ce, a => std_logic_vector(s6_mag), b => s6_ga, p => p_ma);
+
     -- ---- the data pipeline --------------------------------------------------------------------------
     p_data : process (clk)
         variable t       : unsigned(T_W - 1 downto 0);
@@ -279,14 +261,6 @@ begin
         variable over    : boolean;
         variable pos_x, corr_w, a, b : signed(WW - 1 downto 0);
         variable use_b   : boolean;
-        variable mag_s   : signed(MG_W - 1 downto 0);
-        variable sp_x    : signed(POS_W + L - 1 downto 0);
-        variable gs_x, ga_x : signed(GW + L - 1 downto 0);
-        variable mg_x    : signed(MG_W + L - 1 downto 0);
-        variable sp_lo, gs_lo, ga_lo, mg_lo : signed(L downto 0);
-        variable sp_hi   : signed(SP_H - 1 downto 0);
-        variable gs_hi, ga_hi : signed(GN_H - 1 downto 0);
-        variable mg_hi   : signed(MG_H - 1 downto 0);
         variable tm      : unsigned(A_W - 1 downto 0);
     begin
         if rising_edge(clk) then
@@ -342,72 +316,17 @@ begin
                 s4_bank   <= s3_bank;
                 s4_sector <= s3_sector;
 
-                -- 5, 6: carried beside the tables
-                s5_speed  <= s4_speed;
-                s5_dir    <= s4_dir;
-                s5_pos    <= s4_pos;
-                s5_mag    <= s4_mag;
+                -- 5, 6: speed and magnitude carried beside the tables (u_gain_carry); 5..10: direction
+                -- and position (u_pos_carry); 7..9: speed x gs (u_speed_gain, 3 stages), mag x ga
+                -- (u_amp_gain, 2 stages)
 
-                s6_speed <= s5_speed;
-                s6_dir   <= s5_dir;
-                s6_pos   <= s5_pos;
-                s6_mag   <= s5_mag;
-
-                -- 7: the partial products of speed x gs and mag x ga (bare): an operand wider than 18
-                -- bits is x_hi * 2^17 + x_lo (x_lo unsigned), one of at most 18 bits is x_hi = x, x_lo = 0
-                mag_s := signed('0' & s6_mag);
-                sp_x  := resize(s6_speed, POS_W + L);
-                gs_x  := resize(signed(s6_gs), GW + L);
-                ga_x  := resize(signed(s6_ga), GW + L);
-                mg_x  := resize(mag_s, MG_W + L);
-                sp_lo := (others => '0');
-                gs_lo := (others => '0');
-                ga_lo := (others => '0');
-                mg_lo := (others => '0');
-                if SP_L > 0 then
-                    sp_lo := '0' & sp_x(L - 1 downto 0);
-                end if;
-                if GN_L > 0 then
-                    gs_lo := '0' & gs_x(L - 1 downto 0);
-                    ga_lo := '0' & ga_x(L - 1 downto 0);
-                end if;
-                if MG_L > 0 then
-                    mg_lo := '0' & mg_x(L - 1 downto 0);
-                end if;
-                sp_hi := s6_speed(POS_W - 1 downto SP_L);
-                gs_hi := signed(s6_gs(GW - 1 downto GN_L));
-                ga_hi := signed(s6_ga(GW - 1 downto GN_L));
-                mg_hi := mag_s(MG_W - 1 downto MG_L);
-                s7_shh <= sp_hi * gs_hi;
-                s7_shl <= sp_hi * gs_lo;
-                s7_slh <= sp_lo * gs_hi;
-                s7_sll <= sp_lo * gs_lo;
-                s7_ahh <= mg_hi * ga_hi;
-                s7_ahl <= mg_hi * ga_lo;
-                s7_alh <= mg_lo * ga_hi;
-                s7_all <= mg_lo * ga_lo;
-                s7_dir <= s6_dir;
-                s7_pos <= s6_pos;
-
-                -- 8: the partial products in pairs
-                s8_u1  <= (term(s7_shh, LL_S) or low_bits(s7_sll, LL_S)) + (term(s7_ahh, LL_A) or low_bits(s7_all, LL_A));
-                s8_u2  <= term(s7_shl, SP_L) + term(s7_slh, GN_L);
-                s8_u3  <= term(s7_ahl, MG_L) + term(s7_alh, GN_L);
-                s8_dir <= s7_dir;
-                s8_pos <= s7_pos;
-
-                -- 9: the pairs summed; (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) joins (bit fields)
-                tm     := term(signed(s8_m), G_SHIFT);
+                -- 9: mag x ga + (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields)
+                tm    := term(signed(s8_m), G_SHIFT);
                 tm(G_SHIFT - 1) := '1';
-                s9_v1  <= s8_u1 + s8_u2;
-                s9_v2  <= s8_u3 + tm;
-                s9_dir <= s8_dir;
-                s9_pos <= s8_pos;
+                s9_am <= term(signed(p_ma), 0) + tm;
 
                 -- 10: A; A >>> G_SHIFT = total + 2^(TRIM_FRAC-1)
-                s10_a   <= s9_v1 + s9_v2;
-                s10_dir <= s9_dir;
-                s10_pos <= s9_pos;
+                s10_a <= term(signed(p_sg), 0) + s9_am;
 
                 -- 11: corr = total >>> TRIM_FRAC clipped to s(FINE_W); pos -+ REV for stage 12
                 corr_x := resize(signed(s10_a(A_W - 1 downto G_SHIFT + TRIM_FRAC)), CX_W);

@@ -86,3 +86,15 @@ def package_function(lang: str, name: str, **args: int) -> int:
 def both_languages(block: str) -> list[Path]:
     """The Verilog and the VHDL file of a block."""
     return [REPO / f"rtl/verilog/{block}.v", REPO / f"rtl/vhdl/{block}.vhd"]
+
+
+def constants_test(block: str, **expected: int):
+    """A test that the block's constants (``LATENCY=...``, in both languages) equal the model's: assign it to
+    ``test_latency_constant_matches_model`` in the block's test module."""
+
+    def test_latency_constant_matches_model():
+        for f in both_languages(block):
+            for name, value in expected.items():
+                assert block_constant(f, name) == value, (f, name)
+
+    return test_latency_constant_matches_model
