@@ -421,6 +421,7 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
 
 
 GENERIC_ABOVE_FLOOR = 1.05
+NAMED_SHARE = 0.25       # of the variance the best general shape explains, a named effect must explain this much
 SEARCH_ROWS = 1 << 17    # the term tests run on at most this many rows (evenly strided): ample power, bounded time
 
 
@@ -827,9 +828,13 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         tests, skipped = candidates(ev_fit, sigma, excluded)
         good = [t for t in tests if t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * ev_fit.rms]
         # the library's names first: the general dictionary corrects what none of them explains
-        # a line on a steady revolution harmonic is as well a position error: it competes with the general
-        # dictionary's shapes, not ahead of them
-        good = [t for t in good if not t.name.startswith("generic:") and not t.ambiguous] or good
+        # the library's names first, where one explains at least NAMED_SHARE of what the best shape of the general
+        # dictionary explains (a named effect beside a far larger unnamed structure would be fitted on top of
+        # it); a line on a steady revolution harmonic is as well a position error: it competes with the shapes
+        top = max((t.explained_rms for t in good if t.name.startswith("generic:")), default=0.0)
+        named = [t for t in good if not t.name.startswith("generic:") and not t.ambiguous
+                 and t.explained_rms ** 2 >= NAMED_SHARE * top ** 2]
+        good = named or good
         report["iterations"].append({"residual_rms_arcsec": round(ev_fit.rms, 4), "tests": [
             {"effect": t.name, "explained_rms_arcsec": round(t.explained_rms, 4), "p_value": t.p_value,
              "dof": t.dof} for t in sorted(tests, key=lambda t: t.rms_after)], "not_testable": skipped})
