@@ -347,15 +347,18 @@ def channel_errors(ev: Evaluation) -> np.ndarray | None:
     only through the waveform's slope, modulated by the fine phase."""
     from .hardware.closed_loop import channel_waveforms
 
-    if ev.meas is None or ev.cal is None or not ev.cal.waves or ev.cal.rev_norm is not None or ev.cal.adaptive:
+    if ev.meas is None or ev.cal is None or not ev.cal.waves or ev.cal.adaptive:
         return None
     waves = channel_waveforms(ev.cal)
+    sin, cos = ev.meas.sin, ev.meas.cos
+    if ev.cal.rev_norm is not None:     # the readings as the waveform stage sees them (normalised per sector)
+        sin, cos = ev.cal.rev_norm.apply(sin, cos, ev.ctx.psi)
     frac = ev.ctx.phi / (2 * np.pi)
     dfrac = ev.r * ev.ctx.lines / ARCSEC_PER_REV      # the residual as a fraction of a period
     best = None
     for sign in (1.0, -1.0):      # the residual's frame against the fine phase's: the sign that explains more
         ref = frac - sign * dfrac
-        e = np.stack([ev.meas.sin - waves["sin"](ref), ev.meas.cos - waves["cos"](ref)])
+        e = np.stack([sin - waves["sin"](ref), cos - waves["cos"](ref)])
         power = float(np.sum(e * e))
         if best is None or power < best[0]:
             best = (power, e)
@@ -415,13 +418,13 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
         if not sideband:
             out.append(("tone", f, line_p_value(angle), harmonic))
     if chan is None:
-        notes.append("channel-domain test not run (the calibration normalises the channels over the revolution or "
-                     "tracks drift): a line in the angle cannot be told from interference")
+        notes.append("channel-domain test not run (the calibration tracks drift): a line in the angle cannot be "
+                     "told from interference")
     return out, notes
 
 
 GENERIC_ABOVE_FLOOR = 1.05
-NAMED_SHARE = 0.25       # of the variance the best general shape explains, a named effect must explain this much
+NAMED_SHARE = 0.1       # of the variance the best general shape explains, a named effect must explain this much
 SEARCH_ROWS = 1 << 17    # the term tests run on at most this many rows (evenly strided): ample power, bounded time
 
 
@@ -566,6 +569,25 @@ def widen(best: Test, ev: Evaluation, sigma: float) -> Test:
     t = test_terms(ev.r, lambda sl: generic_design(name, ev.ctx.rows(sl)), sigma, name)
     t.label = best.name
     return t
+
+
+#: the general dictionary's factors whose shapes belong to one library effect
+FACTOR_EFFECT = {"magnitude": "amplitude", "magnitude2": "amplitude", "direction": "hysteresis",
+                 "speed": "sampling_skew"}
+
+
+def named_shape(best: Test, tests: list[Test], rms: float) -> Test:
+    """A shape of the general dictionary is the wider form of the library effect of its factor when that effect
+    is itself present (its fixed shape significant, and it matters): the name goes with it (as `widen` does the
+    other way round)."""
+    if not best.name.startswith("generic:") or best.label:
+        return best
+    from .effects import parse_generic
+
+    effect = FACTOR_EFFECT.get(parse_generic(best.name)[0])
+    if any(t.name == effect and t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * rms for t in tests):
+        best.label = effect
+    return best
 
 
 TONE_EFFECT = dict(cause="a tone in time: vibration between encoder and reference, or interference",
@@ -831,6 +853,8 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         # the library's names first, where one explains at least NAMED_SHARE of what the best shape of the general
         # dictionary explains (a named effect beside a far larger unnamed structure would be fitted on top of
         # it); a line on a steady revolution harmonic is as well a position error: it competes with the shapes
+        # what the core carries first: a correction only the float engine runs is left for when nothing else is
+        good = [t for t in good if describe(t.name)["correction"] != "float engine"] or good
         top = max((t.explained_rms for t in good if t.name.startswith("generic:")), default=0.0)
         named = [t for t in good if not t.name.startswith("generic:") and not t.ambiguous
                  and t.explained_rms ** 2 >= NAMED_SHARE * top ** 2]
@@ -844,6 +868,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         n = len(ev_fit.r)
         best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
         best = widen(best, strided(ev_fit), sigma)
+        best = named_shape(best, tests, ev_fit.rms)
         # a line is excluded by its frequency (a recording may hold several), every other term by its name
         excluded.update({f"{best.name}@{best.tone_hz!r}"} if best.tone_hz else {best.name, best.label} - {""})
         remedy = ""
@@ -864,10 +889,11 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                              f"p = {best.p_value:.1e} against the {sigma:.3f}\" noise floor)"
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
                  "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
-        if remedy:
-            entry.update(where=PHASE_DOMAIN_WHERE, remedy=remedy, correction="hardware")
-        if remedy == PHASE_DOMAIN:     # gain invariance alone explains the magnitude's shapes: the amplitude changes
+        if remedy in (PHASE_DOMAIN, NORMALISER):   # gain invariance alone explains the magnitude's shapes
             entry.update(name="amplitude", **{k: v for k, v in describe("amplitude").items() if k != "where"})
+        if remedy:
+            entry.update(where=NORMALISER_WHERE if remedy == NORMALISER else PHASE_DOMAIN_WHERE, remedy=remedy,
+                         correction="adaptive" if remedy == NORMALISER else "hardware")
         if val_after.rms < (1 - 0.5 * MIN_GAIN) * ev_val.rms:
             report["effects_added"].append(entry)
             state, ev_val = trial, val_after
@@ -895,18 +921,26 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
 
 
 PHASE_DOMAIN = "phase-domain structure"
+NORMALISER = "amplitude normaliser"
+NORMALISER_WHERE = "fringe_drift ahead of the tables: the channels' offsets and gains tracked online from the signals"
 PHASE_DOMAIN_WHERE = ("the waveform stage made straight (a common gain change then moves no angle), and the "
                       "phase error of the channels' shape in fringe_trim's fine-phase map after the arctan")
 
 
 def best_amplitude_remedy(state: LoopState, trial: LoopState, val_after: Evaluation, fit_data: Measurement,
                           val_data: Measurement) -> tuple[LoopState, Evaluation, str]:
-    """Of the magnitude-dependent term (`trial`) and the phase-domain structure (with and without that term),
-    the one with the least error on the validation data."""
+    """Of the magnitude-dependent term (`trial`), the phase-domain structure (with and without that term) and the
+    amplitude normaliser (the drift tracker), the one with the least error on the validation data."""
     best = (val_after.rms, trial, val_after, "")
-    for keep, label in ((False, PHASE_DOMAIN), (True, PHASE_DOMAIN + " and magnitude term")):
+    for keep, label in ((False, PHASE_DOMAIN), (True, PHASE_DOMAIN + " and magnitude term"), (None, NORMALISER)):
         try:
-            alt = phase_domain(trial if keep else state, fit_data, keep)
+            if keep is None:      # the channels' gains tracked online ahead of the tables (fringe_drift)
+                if state.cal.adaptive:
+                    continue
+                alt = LoopState(choose_tracker(dataclasses.replace(state.cal, adaptive=True), state, fit_data),
+                                list(state.artefacts), state.ref_lag_s)
+            else:
+                alt = phase_domain(trial if keep else state, fit_data, keep)
             ev = evaluate(alt, val_data)
         except (FringeInputError, ValueError, TypeError, KeyError, np.linalg.LinAlgError):
             continue
