@@ -305,7 +305,7 @@ def _lines_at_most(path, offset) -> int:
     breaks = 0
     with open(path, "rb") as f:
         f.seek(offset)
-        while piece := f.read(1 << 24):
+        while piece := f.read(1 << 22):
             breaks += piece.count(b"\n") + piece.count(b"\r")
     return breaks + 1
 

@@ -19,7 +19,7 @@ REVERSED_MAX = 0.05           # fraction of the motion in which the reference ma
 
 
 BLOCK = 1 << 18               # rows per block of the checks that visit every row: temporaries of one block
-SAMPLE = 1 << 20              # statistical checks (median steps, noise scale) look at this many rows at most
+SAMPLE = 1 << 18              # statistical checks (median steps, noise scale) look at this many rows at most
 
 
 def _blocks(n: int):
