@@ -152,7 +152,7 @@ def draw_case(rng, root):
     what = kind
     if kind == "bad file":
         (root / "user" / "odd.csv").write_bytes(_bad_file(rng, rec))
-        data = "user/odd.csv"
+        data, command = "user/odd.csv", str(rng.choice(["calibrate", "correct", "loop"]))
     elif kind == "bad encoder":
         (root / "user" / "odd.json").write_text(_bad_encoder(rng, enc))
         encf, what = "user/odd.json", f"encoder {(root / 'user' / 'odd.json').read_text()[:80]}"
