@@ -74,30 +74,32 @@ def _earlier_read_write(path, out, ang, status) -> float:
 
 
 def memory(folder: str, sizes: tuple[int, int]) -> dict:
+    """Peak RSS of calibrate, correct and loop at both sizes (the loop on the one recording: it splits it
+    into training and validation rows itself), the growth per row between the sizes, and the whole peak
+    per row at the larger size."""
     rows = {}
+    enc = os.path.join(folder, "enc.json")
+    with open(enc, "w") as f:
+        f.write('{"lines_per_rev": 256, "adc_bits": 12, "coarse_bits": 9}\n')
     for n in sizes:
-        data, other = os.path.join(folder, f"m{n}.csv"), os.path.join(folder, f"v{n}.csv")
+        data = os.path.join(folder, f"m{n}.csv")
         _recording(data, n, 1)
-        enc = os.path.join(folder, "enc.json")
-        with open(enc, "w") as f:
-            f.write('{"lines_per_rev": 256, "adc_bits": 12, "coarse_bits": 9}\n')
         cal = os.path.join(folder, f"cal{n}")
         runs = {"calibrate": ["calibrate", data, "--encoder", enc, "--out", cal],
-                "correct": ["correct", data, "--cal", cal, "--out", os.path.join(folder, f"o{n}.csv")]}
-        if n == sizes[0]:
-            _recording(other, n, 2)
-            runs["loop"] = ["loop", data, "--encoder", enc, "--out", os.path.join(folder, f"loop{n}"),
-                            "--validate", other]
+                "correct": ["correct", data, "--cal", cal, "--out", os.path.join(folder, f"o{n}.csv")],
+                "loop": ["loop", data, "--encoder", enc, "--out", os.path.join(folder, f"loop{n}")]}
         rows[n] = {}
         for name, argv in runs.items():
             mb, s, status = _peak_rss_mb(argv)
             rows[n][name] = {"peak_rss_mb": round(mb, 1), "seconds": round(s, 1), "exit": status}
+        os.remove(data)     # one recording on disk at a time
     small, large = sizes
+    names = ("calibrate", "correct", "loop")
     per_row = {name: round((rows[large][name]["peak_rss_mb"] - rows[small][name]["peak_rss_mb"]) * 2**20
-                           / (large - small), 1) for name in ("calibrate", "correct")}
+                           / (large - small), 1) for name in names}
     return {"runs": {str(k): v for k, v in rows.items()}, "bytes_per_row_growth": per_row,
             "bytes_per_row_at_largest": {name: round(rows[large][name]["peak_rss_mb"] * 2**20 / large, 1)
-                                         for name in ("calibrate", "correct")},
+                                         for name in names},
             "target_bytes_per_row": TARGET_BYTES_PER_ROW}
 
 

@@ -86,9 +86,9 @@ def cmd_simulate(a) -> int:
     from .dataio import check_memory, write_csv
     from .outputs import atomic_output, check_output_file
 
-    check_output_file(a.out, "simulate")
+    check_output_file(a.out, "simulate", form="CSV")
     if a.encoder_out:
-        check_output_file(a.encoder_out, "simulate", inputs=(a.out,))
+        check_output_file(a.encoder_out, "simulate", inputs=(a.out,), form="JSON")
     cfg = simulate.preset(a.preset)
     if a.samples:
         cfg.samples = a.samples

@@ -242,19 +242,20 @@ def _csv_options(header, wanted, **read):
 
 def _read_csv(path):
     import pyarrow as pa
-    import pyarrow.csv as pacsv
 
     offset, header_line, header, comments = _header(path)
     wanted = _wanted_columns(header, path, header_line)
     size = os.path.getsize(path)
     check_memory(size / 12, BYTES_PER_ROW, "the recording is too large", path)
     try:
-        src = pa.memory_map(path, "r")
-        src.seek(offset)
-        table = pacsv.read_csv(
-            src, **_csv_options(header, wanted))
-        cols = {c: table.column(c).to_numpy() for c in wanted}
-        del table
+        rows_at_most = _lines_at_most(path, offset)
+        cols = {c: np.empty(rows_at_most) for c in wanted}   # pages never written are never resident
+        done = 0
+        for batch in _csv_batches(path, offset, header, wanted, READ_ROWS):
+            for c in wanted:
+                cols[c][done:done + batch.num_rows] = batch.column(c).to_numpy(zero_copy_only=False)
+            done += batch.num_rows
+        cols = {c: v[:done] for c, v in cols.items()}
         if not len(cols["sin"]):
             raise FringeInputError("no data rows after the header", path, f"line {header_line}")
         return cols, lambda r: f"line {header_line + 1 + r}", comments
@@ -263,13 +264,58 @@ def _read_csv(path):
         return cols, line_of, comments
 
 
+READ_ROWS = 1 << 15   # rows per piece of the streaming reader: pyarrow's buffers stay bounded by a piece
+
+
+def _csv_batches(path, offset, header, wanted, rows):
+    """pyarrow's streaming CSV reader from the header's end, in record batches of about `rows` rows."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    pool = pa.system_memory_pool()      # malloc's: what the reader frees, release_freed_memory gives back
+    with pa.OSFile(path, "r", memory_pool=pool) as src:   # not memory-mapped: mapped pages count as held
+        src.seek(offset)
+        for batch in pacsv.open_csv(src, **_csv_options(header, wanted, block_size=rows * 48, use_threads=False),
+                                    memory_pool=pool):
+            yield batch
+            del batch
+            release_freed_memory()
+
+
+def release_freed_memory():
+    """Give the heap that glibc's malloc keeps after frees back to the system (it would otherwise stay
+    resident, about the size of the text read so far); a no-op elsewhere."""
+    global _malloc_trim
+    if _malloc_trim is None:
+        try:
+            import ctypes
+            _malloc_trim = ctypes.CDLL("libc.so.6").malloc_trim
+        except (OSError, AttributeError):
+            _malloc_trim = False
+    if _malloc_trim:
+        _malloc_trim(0)
+
+
+_malloc_trim = None
+
+
+def _lines_at_most(path, offset) -> int:
+    """An upper bound of the rows after the header (every line break counted, CR and LF alike), found
+    in bounded pieces: the reader fills arrays of this length without copies."""
+    breaks = 0
+    with open(path, "rb") as f:
+        f.seek(offset)
+        while piece := f.read(1 << 22):
+            breaks += piece.count(b"\n") + piece.count(b"\r")
+    return breaks + 1
+
+
 def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18):
     """The recording in pieces of about `rows` rows, each checked as `read_measurement` checks the whole
     (time stamps across the pieces too): memory bounded by a piece. A CSV that pyarrow's streaming reader
     cannot take row by row (comment lines among the rows, a broken row) is read whole, which finds and
     names the line; binary recordings are read whole."""
     import pyarrow as pa
-    import pyarrow.csv as pacsv
 
     if os.path.splitext(path)[1].lower() in (".npy", ".parquet") or not os.path.isfile(path):
         yield read_measurement(path, encoder)
@@ -278,11 +324,7 @@ def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18):
     wanted = _wanted_columns(header, path, header_line)
     done, t_last = 0, None
     try:
-        src = pa.memory_map(path, "r")
-        src.seek(offset)
-        reader = pacsv.open_csv(
-            src, **_csv_options(header, wanted, block_size=rows * 48, use_threads=False))
-        for batch in reader:
+        for batch in _csv_batches(path, offset, header, wanted, rows):
             cols = {c: batch.column(c).to_numpy(zero_copy_only=False) for c in wanted}
             first = header_line + 1 + done
             m = _checked(path, cols, lambda r, first=first: f"line {first + r}", comments, encoder, t_last)

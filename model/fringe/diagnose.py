@@ -18,13 +18,51 @@ JUMP_PERIODS = 0.25           # a reference step this much larger than the signa
 REVERSED_MAX = 0.05           # fraction of the motion in which the reference may run the other way
 
 
+BLOCK = 1 << 18               # rows per block of the checks that visit every row: temporaries of one block
+SAMPLE = 1 << 18              # statistical checks (median steps, noise scale) look at this many rows at most
+
+
+def _blocks(n: int):
+    for start in range(0, n, BLOCK):
+        yield slice(start, min(start + BLOCK, n))
+
+
+def _spread(n: int, m: int) -> np.ndarray:
+    """All of range(n) when n <= m, else m evenly spread indices of it."""
+    return np.arange(n) if n <= m else np.round(np.linspace(0, n - 1, m)).astype(np.int64)
+
+
+def unwrap_in_blocks(values, n: int, period: float, scale: float = 1.0) -> np.ndarray:
+    """np.unwrap(values(whole), period) * scale, block by block: each block continues from the last
+    unwrapped value of the one before (`values(s)` gives the raw values of slice s as floats)."""
+    out = np.empty(n)
+    last_raw = last = None
+    for s in _blocks(n):
+        raw = values(s)
+        if last_raw is None:
+            u = np.unwrap(raw, period=period)
+        else:
+            u = np.unwrap(np.concatenate(([last_raw], raw)), period=period)[1:] + (last - last_raw)
+        last_raw, last = raw[-1], u[-1]
+        out[s] = u * scale
+    return out
+
+
 def raw_phase_periods(meas: Measurement) -> np.ndarray:
     """Unwrapped fine phase in signal periods from the raw channels."""
-    def centred(v):
+    def centring(v):
         lo, hi = np.percentile(v, [0.5, 99.5])
-        return (v - (hi + lo) / 2) / max((hi - lo) / 2, 1e-12)
+        return (hi + lo) / 2, max((hi - lo) / 2, 1e-12)
 
-    return np.unwrap(np.arctan2(centred(meas.sin), centred(meas.cos))) / (2 * np.pi)
+    (s0, sk), (c0, ck) = centring(meas.sin), centring(meas.cos)
+    angle = lambda s: np.arctan2((meas.sin[s] - s0) / sk, (meas.cos[s] - c0) / ck)  # noqa: E731
+    return unwrap_in_blocks(angle, len(meas), 2 * np.pi, 1 / (2 * np.pi))
+
+
+def median_step(x: np.ndarray) -> float:
+    """Median |x[i+1] - x[i]|, on at most SAMPLE evenly spread steps (a statistic: exact below that)."""
+    i = _spread(len(x) - 1, SAMPLE)
+    return float(np.median(np.abs(x[i + 1] - x[i])))
 
 
 def _where(meas: Measurement, row: int) -> str:
@@ -41,28 +79,34 @@ def check_recording(meas: Measurement, enc: Encoder, purpose: str = "calibration
     phase = raw_phase_periods(meas)
     if np.ptp(phase) < MIN_PERIODS:
         return
-    step = np.abs(np.diff(phase))
-    if np.median(step) > 0.2:    # near the overspeed limit the raw phase cannot be unwrapped: calibration says so
+    step = median_step(phase)
+    if step > 0.2:    # near the overspeed limit the raw phase cannot be unwrapped: calibration says so
         return
     codes_passed = np.ptp(phase) * (1 << enc.coarse_bits) / enc.lines_per_rev
     if enc.coarse_bits and meas.coarse is not None and np.ptp(phase) >= 2 and codes_passed >= 4:
         _check_coarse(meas, enc, phase)
     if meas.ref_deg is not None and purpose == "calibration":
-        _check_reference(meas, enc, phase)
+        _check_reference(meas, enc, phase, step)
 
 
-def _slope(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
-    """Least-squares slope of y on x, and the RMS of what it leaves."""
-    xc, yc = x - x.mean(), y - y.mean()
-    a = float(np.dot(xc, yc) / max(np.dot(xc, xc), 1e-300))
-    return a, float(np.sqrt(np.mean((yc - a * xc) ** 2)))
+def _slope(x: np.ndarray, y: np.ndarray, x_scale: float = 1.0) -> tuple[float, float]:
+    """Least-squares slope of y on x * x_scale, and the RMS of what it leaves (block by block)."""
+    mx, my = x.mean() * x_scale, y.mean()
+    sxy = sxx = 0.0
+    for s in _blocks(len(x)):
+        xc, yc = x[s] * x_scale - mx, y[s] - my
+        sxy, sxx = sxy + float(np.dot(xc, yc)), sxx + float(np.dot(xc, xc))
+    a = sxy / max(sxx, 1e-300)
+    sq = sum(float(np.sum(((y[s] - my) - a * (x[s] * x_scale - mx)) ** 2)) for s in _blocks(len(x)))
+    return a, float(np.sqrt(sq / len(x)))
 
 
 def _check_coarse(meas: Measurement, enc: Encoder, phase: np.ndarray):
     codes = 1 << enc.coarse_bits
     span = enc.lines_per_rev / codes                       # periods per coarse code
-    coarse = np.unwrap(meas.coarse.astype(float), period=codes) * span
+    coarse = unwrap_in_blocks(lambda s: meas.coarse[s].astype(float), len(meas), codes, span)
     a, rest = _slope(phase, coarse)
+    del coarse
     if rest > 0.5 + span:
         raise FringeInputError(f"the coarse code does not follow the fine phase (it scatters {rest:.3g} periods "
                                "about it): random codes, another encoder's, or the wrong coarse_bits?",
@@ -76,35 +120,53 @@ def _check_coarse(meas: Measurement, enc: Encoder, phase: np.ndarray):
                                meas.path, "column 'coarse'")
 
 
-def _check_reference(meas: Measurement, enc: Encoder, phase: np.ndarray):
+def _steps(x: np.ndarray, s: slice) -> np.ndarray:
+    """x[i + 1] - x[i] for i in s (s within range(len(x) - 1))."""
+    return x[s.start + 1:s.stop + 1] - x[s]
+
+
+def _check_reference(meas: Measurement, enc: Encoder, phase: np.ndarray, step: float):
     ref, lines = meas.ref_deg, enc.lines_per_rev
-    signal_deg = phase * 360.0 / lines
-    if np.max(np.abs(ref)) <= 2 * np.pi + 1e-9 and np.ptp(signal_deg) > 20:
-        a, _ = _slope(signal_deg, np.degrees(np.unwrap(ref)))
+    deg = 360.0 / lines                                    # signal degrees per period of the phase
+    n = len(ref)
+    if np.max(np.abs(ref)) <= 2 * np.pi + 1e-9 and np.ptp(phase) * deg > 20:
+        a, _ = _slope(phase, unwrap_in_blocks(lambda s: ref[s], n, 2 * np.pi, 180 / np.pi), deg)
         if SCALE_OK[0] <= abs(a) <= SCALE_OK[1]:
             raise FringeInputError("ref_deg looks like radians (it moves 57.3 times less than the signals): "
                                    "convert it to degrees", meas.path, "column 'ref_deg'")
-    ref_u = np.unwrap(ref, period=360.0)
-    d_ref, d_sig = np.diff(ref_u), np.diff(signal_deg)
-    sign = 1.0 if np.dot(d_ref, d_sig) >= 0 else -1.0
-    miss = d_ref - sign * d_sig
-    scale = 1.4826 * np.median(np.abs(miss - np.median(miss)))
-    jumps = np.flatnonzero(np.abs(miss) > max(20 * scale, JUMP_PERIODS * 360.0 / lines))
-    if jumps.size and jumps.size < 0.01 * len(miss):
-        r = jumps[0] + 1
-        raise FringeInputError(f"ref_deg jumps by {d_ref[r - 1]:.6g} deg while the signals move "
-                               f"{sign * d_sig[r - 1]:.3g} deg", meas.path, _where(meas, r))
-    window = max(1, int(np.ceil(0.1 / max(np.median(np.abs(np.diff(phase))), 1e-9))))  # about 0.1 period
-    idx = np.arange(0, len(ref_u), window)
-    w_ref, w_sig = np.diff(ref_u[idx]), np.diff(signal_deg[idx])
-    moving = np.abs(w_sig) > 0.05 * 360.0 / lines
+    ref_u = unwrap_in_blocks(lambda s: ref[s], n, 360.0)
+    pairs = list(_blocks(n - 1))
+    agree = sum(float(np.dot(_steps(ref_u, s), _steps(phase, s))) for s in pairs)
+    sign = 1.0 if agree >= 0 else -1.0
+
+    def miss(s):   # how much more the reference steps than the signals, degrees
+        return _steps(ref_u, s) - sign * deg * _steps(phase, s)
+
+    i = _spread(n - 1, SAMPLE)                             # the noise scale is a statistic
+    sample = ref_u[i + 1] - ref_u[i] - sign * deg * (phase[i + 1] - phase[i])
+    scale = 1.4826 * np.median(np.abs(sample - np.median(sample)))
+    limit = max(20 * scale, JUMP_PERIODS * deg)
+    jumps, first = 0, None                                 # every step is looked at: a jump is one row
+    for s in pairs:
+        hit = np.flatnonzero(np.abs(miss(s)) > limit)
+        if hit.size and first is None:
+            first = s.start + int(hit[0])
+        jumps += hit.size
+    if jumps and jumps < 0.01 * (n - 1):
+        r = first + 1
+        raise FringeInputError(f"ref_deg jumps by {ref_u[r] - ref_u[r - 1]:.6g} deg while the signals move "
+                               f"{sign * deg * (phase[r] - phase[r - 1]):.3g} deg", meas.path, _where(meas, r))
+    window = max(1, int(np.ceil(0.1 / max(step, 1e-9))))  # about 0.1 period
+    idx = np.arange(0, n, window)
+    w_ref, w_sig = np.diff(ref_u[idx]), np.diff(phase[idx]) * deg
+    moving = np.abs(w_sig) > 0.05 * deg
     if moving.sum() >= 10:
         against = (np.sign(w_ref[moving]) != np.sign(sign * w_sig[moving]))
         if REVERSED_MAX < against.mean() < 1 - REVERSED_MAX:
             first = idx[1:][moving][np.argmax(against)]
             raise FringeInputError(f"the reference runs against the signals in {100 * against.mean():.0f} % of the "
                                    "motion: a reversed part of ref_deg?", meas.path, _where(meas, int(first)))
-    a, _ = _slope(signal_deg, ref_u)
+    a, _ = _slope(phase, ref_u, deg)
     if not SCALE_OK[0] <= abs(a) <= SCALE_OK[1]:
         guess = lines / abs(a) if abs(a) > 1e-9 else float("inf")
         hint = (f"lines_per_rev is probably about {guess:.0f}, not {lines}" if 0.5 <= guess <= (1 << 24)

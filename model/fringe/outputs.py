@@ -139,9 +139,16 @@ def written_by_fringe(path: str, kind: str) -> bool:
     return isinstance(d, dict) and str(d.get("written_by", "")).startswith(f"fringe {kind}")
 
 
-def check_output_file(path: str, kind: str, inputs=()) -> None:
+def _form(path: str) -> str:
+    """'JSON' or 'CSV': what a file fringe wrote holds (a JSON document starts with '{')."""
+    with open(path, "rb") as f:
+        return "JSON" if f.read(64).lstrip().startswith(b"{") else "CSV"
+
+
+def check_output_file(path: str, kind: str, inputs=(), form: str | None = None) -> None:
     """Refuse, before any work: an empty name, a folder, a link, a special file, a file fringe did not
-    write as `kind`, an input, a file inside an input folder, a missing or unwritable folder."""
+    write as `kind` (or, with `form`, as another form: 'CSV' or 'JSON'), an input, a file inside an input
+    folder, a missing or unwritable folder."""
     if not path:
         _fail("the output file name is empty", path)
     if path.endswith(("/", os.sep)) or os.path.isdir(path):
@@ -153,6 +160,9 @@ def check_output_file(path: str, kind: str, inputs=()) -> None:
             _fail("is not a regular file (a device, FIFO or socket): refusing to write to it", path)
         if not written_by_fringe(path, kind):
             _fail(f"exists and was not written by fringe {kind}: refusing to overwrite it", path)
+        if form and _form(path) != form:
+            _fail(f"holds a {_form(path)} file fringe {kind} wrote; this output is a {form}: refusing to "
+                  "replace it (give another name)", path)
     _check_parent(path)
     if not os.path.isdir(os.path.dirname(os.path.abspath(path))):
         _fail("cannot be written: its folder does not exist", path)
@@ -264,6 +274,9 @@ def atomic_output(path: str, kind: str, inputs=(), mode: str = "w"):
             yield f
         os.chmod(tmp, 0o666 & ~mask)
         check_output_file(path, kind, inputs)
+        if os.path.lexists(path) and _form(path) != _form(tmp):   # simulate writes a CSV and a JSON
+            _fail(f"holds a {_form(path)} file fringe {kind} wrote; this output is a {_form(tmp)}: refusing to "
+                  "replace it (give another name)", path)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

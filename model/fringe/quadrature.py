@@ -96,8 +96,14 @@ def fit_conic(s: np.ndarray, c: np.ndarray) -> QuadratureCorrection:
     if not scale > 0:
         raise QuadratureFitError("no signal: both channels are constant")
     x, y = (s - s0) / scale, (c - c0) / scale
-    m = np.column_stack([x * x, x * y, y * y, x, y])
-    p, *_ = np.linalg.lstsq(m, np.ones_like(x), rcond=None)
+    m = np.empty((len(x), 5))       # the design matrix filled in place: no temporaries of its columns
+    np.multiply(x, x, out=m[:, 0])
+    np.multiply(x, y, out=m[:, 1])
+    np.multiply(y, y, out=m[:, 2])
+    m[:, 3], m[:, 4] = x, y
+    del x, y
+    p, *_ = np.linalg.lstsq(m, np.ones(len(m)), rcond=None)
+    del m
     q = np.array([[p[0], p[1] / 2], [p[1] / 2, p[2]]])
     if np.linalg.det(q) <= 0 or p[0] <= 0:
         raise QuadratureFitError(f"the samples do not lie on an ellipse: {NOT_ROUND}")

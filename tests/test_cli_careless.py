@@ -1,0 +1,219 @@
+"""A careless user's sweep across the five commands (issue 8): odd inputs drawn at random.
+
+Each case runs `fringe` in this process with FRINGE_DEBUG=1 (a fault of fringe itself then shows as the
+exception, not as its one-line 'internal error'). Every case must end with exit 0 and its output, or
+with exit 2 and one line on stderr; nothing that existed before the case may change (every file under
+the case's folder is hashed before and after). Valid variants of the recording (byte-order mark, CRLF)
+must give the same corrected rows as the plain file.
+
+The test runs a fixed subset (CASES, fast); FRINGE_CARELESS_CASES=N runs N cases, FRINGE_CARELESS_SEED
+picks the draw (printed, so a failure can be replayed).
+"""
+
+import contextlib
+import hashlib
+import io
+import json
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+from fringe.cli import main
+
+CASES = int(os.environ.get("FRINGE_CARELESS_CASES", "14"))
+SEED = int(os.environ.get("FRINGE_CARELESS_SEED", "20261202"))
+COMMANDS = ("simulate", "calibrate", "correct", "rom", "loop")
+
+
+@pytest.fixture(scope="module")
+def world(tmp_path_factory):
+    """A user's folder: a recording, its encoder description, a calibration from it, and notes of theirs."""
+    root = tmp_path_factory.mktemp("careless")
+    user = root / "user"
+    user.mkdir()
+    (user / "notes").mkdir()
+    (user / "notes" / "todo.txt").write_text("calibrate the spindle\n")
+    with _in(root):
+        assert _run(["simulate", "--preset", "seed-encoder", "--samples", "20000", "--out", "user/rec.csv",
+                     "--encoder-out", "user/enc.json", "--seed", "1"])[0] == 0
+        assert _run(["calibrate", "user/rec.csv", "--encoder", "user/enc.json", "--out", "user/cal"])[0] == 0
+        assert _run(["correct", "user/rec.csv", "--cal", "user/cal", "--out", "plain.csv"])[0] == 0
+    return root
+
+
+@contextlib.contextmanager
+def _in(folder):
+    before = os.getcwd()
+    os.chdir(folder)
+    try:
+        yield
+    finally:
+        os.chdir(before)
+
+
+def _run(argv):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        status = main([str(a) for a in argv])
+    return status, out.getvalue(), err.getvalue()
+
+
+def _snapshot(folder):
+    state = {}
+    for dirpath, dirs, files in os.walk(folder):
+        for name in dirs + files:
+            p = os.path.join(dirpath, name)
+            rel = os.path.relpath(p, folder)
+            if os.path.isdir(p):
+                state[rel] = "dir"
+            else:
+                with open(p, "rb") as f:
+                    state[rel] = hashlib.sha256(f.read()).hexdigest()
+    return state
+
+
+def _rows(path):
+    with open(path, "rb") as f:
+        return [ln for ln in f.read().splitlines() if ln and not ln.startswith(b"#")]
+
+
+# ---------------------------------------------------------------- the draws
+
+def _bad_file(rng, rec: bytes) -> bytes:
+    kind = rng.choice(["truncated", "garbage", "header only", "empty column", "bom crlf", "nul", "latin1"])
+    if kind == "truncated":
+        return rec[:int(rng.integers(0, len(rec)))]
+    if kind == "garbage":
+        return bytes(rng.integers(0, 256, int(rng.integers(1, 5000)), dtype=np.uint8))
+    lines = rec.split(b"\n")
+    head = next(i for i, ln in enumerate(lines) if not ln.startswith(b"#"))
+    if kind == "header only":
+        return b"\n".join(lines[:head + 1]) + b"\n"
+    if kind == "empty column":
+        k = int(rng.integers(0, 5))
+        body = [b",".join(b"" if j == k else v for j, v in enumerate(ln.split(b","))) if ln and i > head and
+                rng.random() < 0.3 else ln for i, ln in enumerate(lines)]
+        return b"\n".join(body)
+    if kind == "bom crlf":
+        return b"\xef\xbb\xbf" + rec.replace(b"\n", b"\r\n")
+    if kind == "nul":
+        at = int(rng.integers(0, len(rec)))
+        return rec[:at] + b"\0" + rec[at:]
+    return rec.replace(b"sin", "sín".encode("latin-1"), 1)
+
+
+def _bad_encoder(rng, enc: dict) -> str:
+    kind = rng.choice(["not json", "value", "missing", "extra", "list"])
+    d = dict(enc)
+    if kind == "not json":
+        text = json.dumps(d)
+        return text[:int(rng.integers(0, len(text)))]
+    if kind == "list":
+        return json.dumps([d])
+    if kind == "missing":
+        d.pop(str(rng.choice(["lines_per_rev", "adc_bits"])))
+    elif kind == "extra":
+        d[str(rng.choice(["lines", "adc_bit", "coarse"]))] = 9
+    else:
+        key = str(rng.choice(["lines_per_rev", "adc_bits", "coarse_bits", "full_scale", "offset_binary"]))
+        d[key] = [-1, 0, 1, 3.5, 24, 40, 1e30, "12", None, True, float("nan")][int(rng.integers(0, 11))]
+    return json.dumps(d)
+
+
+def _edited_cal(rng, cal):
+    files = sorted(p for p in os.listdir(cal) if os.path.isfile(os.path.join(cal, p)))
+    name = str(rng.choice(files))
+    p = os.path.join(cal, name)
+    data = open(p, "rb").read()
+    kind = rng.choice(["truncate", "digit", "delete", "append"])
+    if kind == "delete":
+        os.remove(p)
+    elif kind == "truncate":
+        open(p, "wb").write(data[:len(data) // 2])
+    elif kind == "append":
+        open(p, "ab").write(b"1,2,3\n")
+    else:
+        digits = [i for i, b in enumerate(data) if 48 <= b <= 57]
+        i = digits[int(rng.integers(0, len(digits)))]
+        open(p, "wb").write(data[:i] + bytes([48 + (data[i] - 47) % 10]) + data[i + 1:])
+    return f"{kind} {name}"
+
+
+def draw_case(rng, root):
+    """(what, argv, kind) of one careless case, its files made under root/case."""
+    rec = (root / "user" / "rec.csv").read_bytes()
+    enc = json.loads((root / "user" / "enc.json").read_text())
+    command = str(rng.choice(COMMANDS))
+    kind = str(rng.choice(["bad file", "bad encoder", "out at a user's file", "edited cal", "odd option",
+                           "valid variant"]))
+    data, encf, cal, out = "user/rec.csv", "user/enc.json", "user/cal", f"new-{command}"
+    what = kind
+    if kind == "bad file":
+        (root / "user" / "odd.csv").write_bytes(_bad_file(rng, rec))
+        data, command = "user/odd.csv", str(rng.choice(["calibrate", "correct", "loop"]))
+    elif kind == "bad encoder":
+        (root / "user" / "odd.json").write_text(_bad_encoder(rng, enc))
+        encf, what = "user/odd.json", f"encoder {(root / 'user' / 'odd.json').read_text()[:80]}"
+        command = str(rng.choice(["calibrate", "loop"]))
+    elif kind == "out at a user's file":
+        out = str(rng.choice(["user/rec.csv", "user/enc.json", "user", ".", "user/cal", "user/notes",
+                              "user/notes/todo.txt", "user/cal/calibration.json", "", "user/rec.csv/x"]))
+        what = f"--out {out!r}"
+    elif kind == "edited cal":
+        shutil.copytree(root / "user" / "cal", root / "user" / "cal2")
+        what = _edited_cal(rng, str(root / "user" / "cal2"))
+        cal, command = "user/cal2", str(rng.choice(["correct", "rom"]))
+    elif kind == "odd option":
+        command = str(rng.choice(["simulate", "rom"]))
+        options = ((("--samples", [-5, 0, 10**12, "1e3", "x"]), ("--seed", [-1, 2**64, "x"]))
+                   if command == "simulate" else
+                   (("--cordic-stages", [0, 1000, -3]), ("--format", ["", "xyz", "mem,,", ","]),
+                    ("--wave-w", [1, 1000]), ("--fine-w", [0, 99]), ("--lp-addr-w", [40])))
+        name, choices = options[int(rng.integers(0, len(options)))]
+        value = choices[int(rng.integers(0, len(choices)))]
+        what = f"{name} {value!r}"
+        extra = [name, value]
+    else:
+        body = rec.replace(b"\n", b"\r\n") if rng.random() < 0.5 else rec
+        (root / "user" / "odd.csv").write_bytes((b"\xef\xbb\xbf" if rng.random() < 0.5 else b"") + body)
+        data, command, what = "user/odd.csv", "correct", "BOM/CRLF variant"
+    argv = {"simulate": ["simulate", "--preset", "seed-encoder", "--samples", "2000", "--out", out + ".csv"
+                         if out.startswith("new") else out],
+            "calibrate": ["calibrate", data, "--encoder", encf, "--out", out],
+            "correct": ["correct", data, "--cal", cal, "--out", out + ".csv" if out.startswith("new") else out],
+            "rom": ["rom", cal, "--out", out],
+            "loop": ["loop", data, "--encoder", encf, "--out", out]}[command]
+    if kind == "odd option":
+        argv = argv + extra
+    return what, argv, kind
+
+
+def _check(root, what, argv, kind, monkeypatch):
+    before = _snapshot(root)
+    monkeypatch.setenv("FRINGE_DEBUG", "1")
+    with _in(root):
+        status, out, err = _run(argv)
+    after = _snapshot(root)
+    label = f"{what}: fringe {' '.join(map(str, argv))}"
+    assert status in (0, 2), f"{label}: exit {status}"
+    if status == 2:
+        assert err.count("\n") == 1 and err.startswith("fringe: "), f"{label}: {err!r}"
+    changed = [k for k, v in before.items() if after.get(k) != v]
+    assert not changed, f"{label}: changed or removed {changed}"
+    if kind == "valid variant":
+        assert status == 0, f"{label}: {err}"
+        assert _rows(root / argv[-1]) == _rows(root / "plain.csv"), label
+    return status, err.strip()
+
+
+@pytest.mark.parametrize("case", range(CASES))
+def test_a_careless_user_loses_nothing(world, tmp_path, monkeypatch, case):
+    rng = np.random.default_rng([SEED, case])
+    print("seed", SEED, "case", case)
+    root = tmp_path / "w"
+    shutil.copytree(world, root)
+    what, argv, kind = draw_case(rng, root)
+    status, err = _check(root, what, argv, kind, monkeypatch)
+    print(what, "->", status, err)
