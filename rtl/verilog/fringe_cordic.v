@@ -177,21 +177,20 @@ module fringe_cordic #(
                 .out_valid(out_valid), .out_data(out_user)
             );
         end else begin : g_iterative
-            // One register holds the sample: step = k after k micro-rotations (k = 0: pre-rotated,
+            // One register holds the sample: step k after k micro-rotations (k = 0: pre-rotated,
             // loaded by the clock enable that takes the sample), stage k applied at step k; at
-            // step = STAGES the output register takes the result, and the same clock enable may
-            // load the next sample. Same LATENCY as the pipeline.
-            localparam integer STEP_W = $clog2(STAGES + 1);
-            localparam [31:0]       STAGES_32 = STAGES;
-            localparam [STEP_W-1:0] LAST_STEP = STAGES_32[STEP_W-1:0];
+            // step STAGES the output register takes the result, and the same clock enable may
+            // load the next sample. Same LATENCY as the pipeline. The step is one-hot, so the
+            // shifts and the angle are AND-OR selections (fewer logic levels than a barrel shifter
+            // on the loop x/y -> shift -> add -> x/y).
             reg                    busy;
-            reg [STEP_W-1:0]       step;
+            reg [STAGES:0]         step;     // step[k]: k micro-rotations done
             reg signed [DP_W-1:0]  xr, yr;
             reg [ACC_W-1:0]        zr;
             reg [USER_W-1:0]       user_r, user_o;
             reg                    valid_o;
 
-            // the angle table, ATAN[k] at [k*ACC_W +: ACC_W] (entry STAGES is 0: never used)
+            // the angle table, ATAN[k] at [k*ACC_W +: ACC_W] (entry STAGES is 0: never selected)
             wire [(STAGES+1)*ACC_W-1:0] atan_all;
             for (k = 0; k <= STAGES; k = k + 1) begin : g_atan
                 localparam [63:0] ATAN_FULL = (k < STAGES) ? (atan62(k) + (64'd1 << (61 - ACC_W))) >> (62 - ACC_W)
@@ -199,12 +198,27 @@ module fringe_cordic #(
                 assign atan_all[k*ACC_W +: ACC_W] = ATAN_FULL[ACC_W-1:0];
             end
 
-            wire                    done = busy && (step == LAST_STEP);
+            wire                    done = busy && step[STAGES];
             wire                    take = in_valid && (!busy || done);
-            wire [ACC_W-1:0]        atan_k = atan_all[step*ACC_W +: ACC_W];
-            wire signed [DP_W-1:0]  ysh = yr >>> step;
-            wire signed [DP_W-1:0]  xsh = xr >>> step;
+            reg  [ACC_W-1:0]        atan_k;
+            reg  signed [DP_W-1:0]  ysh, xsh;
+            reg  signed [DP_W-1:0]  ysh_i, xsh_i;  // arithmetic shifts in a signed context of their own
             wire                    neg = yr[DP_W-1];  // y < 0: rotate counter-clockwise
+            integer i;
+
+            // ATAN[k], y >>> k, x >>> k for the one k with step[k] = 1 (0 at step STAGES: unused)
+            always @(*) begin
+                atan_k = {ACC_W{1'b0}};
+                ysh    = {DP_W{1'b0}};
+                xsh    = {DP_W{1'b0}};
+                for (i = 0; i < STAGES; i = i + 1) begin
+                    atan_k = atan_k | (atan_all[i*ACC_W +: ACC_W] & {ACC_W{step[i]}});
+                    ysh_i  = yr >>> i;
+                    xsh_i  = xr >>> i;
+                    ysh    = ysh | (ysh_i & {DP_W{step[i]}});
+                    xsh    = xsh | (xsh_i & {DP_W{step[i]}});
+                end
+            end
 
             assign ready = !busy || done;
 
@@ -225,13 +239,13 @@ module fringe_cordic #(
                         xr     <= x_abs <<< GUARD;
                         yr     <= y_pre <<< GUARD;
                         zr     <= x_neg ? HALF_TURN : {ACC_W{1'b0}};
-                        step   <= {STEP_W{1'b0}};
+                        step   <= {{STAGES{1'b0}}, 1'b1};
                         user_r <= in_user;
                     end else if (busy && !done) begin
                         xr   <= xr + (ysh ^ {DP_W{neg}}) + {{(DP_W-1){1'b0}}, neg};
                         yr   <= yr + (xsh ^ {DP_W{~neg}}) + {{(DP_W-1){1'b0}}, ~neg};
                         zr   <= zr + (atan_k ^ {ACC_W{neg}}) + {{(ACC_W-1){1'b0}}, neg};
-                        step <= step + 1'b1;
+                        step <= {step[STAGES-1:0], 1'b0};
                     end
                     user_o <= user_r;   // with the output registers below
                 end
