@@ -1,6 +1,7 @@
 // fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock
 // (COMPACT = 1: one sample per CLOCKS_PER_SAMPLE = CORDIC_STAGES + 1 clock enables, in_ready = 0 in
-// between; the CORDIC iterates one micro-rotation stage; same words, same LATENCY).
+// between; the CORDIC iterates one micro-rotation stage, the quadrature's products share one
+// multiplier; same words, same LATENCY).
 //
 //   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1: the online offset/gain tracker, docs/blocks/fringe_drift.md]
 //   -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
@@ -440,7 +441,7 @@ module fringe_core #(
     wire              q_sat;
     wire [U_Q-1:0]    q_user;
 
-    fringe_quadrature #(.WAVE_W(WAVE_W), .COEF_W(COEF_W), .USER_W(U_Q)) u_quad (
+    fringe_quadrature #(.WAVE_W(WAVE_W), .COEF_W(COEF_W), .USER_W(U_Q), .SHARED_MUL(COMPACT)) u_quad (
         .clk(clk), .rst(rst), .ce(ce),
         .in_valid(wl_valid), .xs(xs), .xc(xc), .in_user({wl_dx, wl_coarse, wl_clip_c, wl_clip_s, wl_bank}),
         .ofs_s(ofs_s_r), .ofs_c(ofs_c_r), .k_ss(k_ss_r), .k_sc(k_sc_r), .k_cc(k_cc_r),

@@ -1,6 +1,7 @@
 -- fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock
 -- (COMPACT = 1: one sample per CLOCKS_PER_SAMPLE = CORDIC_STAGES + 1 clock enables, in_ready = '0' in
--- between; the CORDIC iterates one micro-rotation stage; same words, same LATENCY).
+-- between; the CORDIC iterates one micro-rotation stage, the quadrature's products share one
+-- multiplier; same words, same LATENCY).
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_core.v (same generics, ports, latency and bit-exact
 -- behaviour).
@@ -525,7 +526,7 @@ begin
     q_in_user <= wl_user(U_WL - 1 downto 1) & wl_clip_c & wl_clip_s & wl_bank;
 
     u_quad : entity work.fringe_quadrature
-        generic map (WAVE_W => WAVE_W, COEF_W => COEF_W, USER_W => U_Q)
+        generic map (WAVE_W => WAVE_W, COEF_W => COEF_W, USER_W => U_Q, SHARED_MUL => COMPACT)
         port map (
             clk => clk, rst => rst, ce => ce,
             in_valid => wl_valid, xs => xs, xc => xc, in_user => q_in_user,
