@@ -171,17 +171,32 @@ module fringe_quadrature #(
             // prod is the registered product; acc_s = k_ss*ds + RND at stage 3, sum_s3 adds k_sc*dc
             // at stage 4, and k_cc*dc + RND goes straight to the output stage: the same sums as the
             // parallel datapath, at the same clock enables.
-            reg  [1:0]              at;      // at[0]: the sample is in stage 1, at[1]: in stage 2
-            wire signed [COEF_W-1:0] k_m = at[0] ? k_ss1 : (at[1] ? k_sc1 : k_cc1);
-            wire signed [D_W-1:0]    d_m = at[0] ? ds1 : dc1;
+            // The operands are registered (the DSP's input registers): k_ss and x_s - ofs_s with the
+            // sample (stage 1), then k_sc, dc and k_cc, dc from the stage-1 registers.
+            reg                     at1;     // the sample is in stage 1
+            reg  signed [COEF_W-1:0] k_m;
+            reg  signed [D_W-1:0]    d_m;
+            wire signed [D_W-1:0]    ds0 = $signed({xs[WAVE_W-1], xs}) - $signed({ofs_s[WAVE_W-1], ofs_s});
             wire signed [S_W-1:0]    prod;
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    if (in_valid) begin
+                        k_m <= k_ss;
+                        d_m <= ds0;
+                    end else begin
+                        k_m <= at1 ? k_sc1 : k_cc1;
+                        d_m <= dc1;
+                    end
+                end
+            end
             reg  signed [S_W-1:0]    acc_s, sum_s3;
 
             always @(posedge clk) begin
                 if (rst) begin
-                    at <= 2'b00;
+                    at1 <= 1'b0;
                 end else if (ce) begin
-                    at <= {at[0], in_valid};
+                    at1 <= in_valid;
                 end
             end
 
@@ -247,7 +262,7 @@ module fringe_quadrature #(
     );
 
     // The low COEF_FRAC bits of the sums are the fraction dropped by the shift.
-    wire unused_ok = &{1'b0, sum_s[COEF_FRAC-1:0], sum_c[COEF_FRAC-1:0]};
+    wire unused_ok = &{1'b0, sum_s[COEF_FRAC-1:0], sum_c[COEF_FRAC-1:0], ds1, k_ss1};
 
 endmodule
 

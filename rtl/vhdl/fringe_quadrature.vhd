@@ -191,22 +191,39 @@ begin
     -- apart). acc_s = k_ss*ds + RND at stage 3, sum_s3 adds k_sc*dc at stage 4, k_cc*dc + RND goes
     -- straight to the output stage: the parallel datapath's sums at the same clock enables.
     g_shared : if SHARED_MUL = 1 generate
-        signal at          : std_logic_vector(1 downto 0);   -- at(0): the sample is in stage 1, at(1): stage 2
+        signal at1         : std_logic;   -- the sample is in stage 1
         signal k_m         : signed(COEF_W - 1 downto 0);
         signal d_m         : signed(D_W - 1 downto 0);
         signal prod        : signed(S_W - 1 downto 0);
         signal acc_s, sum_s3 : signed(S_W - 1 downto 0);
     begin
-        k_m <= k_ss1 when at(0) = '1' else k_sc1 when at(1) = '1' else k_cc1;
-        d_m <= ds1 when at(0) = '1' else dc1;
+        -- The operands are registered (the DSP's input registers): k_ss and x_s - ofs_s with the
+        -- sample (stage 1), then k_sc, dc and k_cc, dc from the stage-1 registers.
+        p_ops : process (clk)
+        begin
+            if rising_edge(clk) then
+                if ce = '1' then
+                    if in_valid = '1' then
+                        k_m <= signed(k_ss);
+                        d_m <= resize(signed(xs), D_W) - resize(signed(ofs_s), D_W);
+                    elsif at1 = '1' then
+                        k_m <= k_sc1;
+                        d_m <= dc1;
+                    else
+                        k_m <= k_cc1;
+                        d_m <= dc1;
+                    end if;
+                end if;
+            end if;
+        end process p_ops;
 
         p_at : process (clk)
         begin
             if rising_edge(clk) then
                 if rst = '1' then
-                    at <= "00";
+                    at1 <= '0';
                 elsif ce = '1' then
-                    at <= at(0) & in_valid;
+                    at1 <= in_valid;
                 end if;
             end if;
         end process p_at;
