@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fringe import result
-from fringe.fixed import drift, long_period, period_count, quadrature, regmap, trim, wave_lut
+from fringe.fixed import cordic, drift, long_period, period_count, quadrature, regmap, trim, wave_lut
 from fringe.fixed.config import HDL_PARAMETER_DOCS, HDL_WIDE_PARAMETERS, INPUT_LATENCY, CoreConfig
 
 REPO = Path(__file__).resolve().parent.parent
@@ -66,6 +66,8 @@ def constants() -> list[Const]:
             Const("WAVE_LUT_LATENCY", wave_lut.LATENCY, "fringe_wave_lut"),
             Const("QUADRATURE_LATENCY", quadrature.LATENCY, "fringe_quadrature"),
             Const("CORDIC_LATENCY_BASE", cp.latency - cp.stages, "fringe_cordic: STAGES + this"),
+            Const("CORDIC_ITER_CLOCKS_BASE", cordic.ITER_CLOCKS_BASE,
+                  "fringe_cordic ITERATIVE = 1: a sample every STAGES + this clock enables"),
             Const("PERIOD_COUNT_LATENCY", period_count.LATENCY, "fringe_period_count"),
             Const("TRIM_LATENCY", trim.LATENCY, "fringe_trim"),
             Const("LONG_PERIOD_LATENCY", long_period.LATENCY, "fringe_long_period"),

@@ -9,6 +9,10 @@ Per configuration (``--configs``):
   line1  a 16-bit ADC, 1 line per revolution, no coarse code (periods are counted)
   seed_trim   the seed configuration with fringe_trim (TRIM = 1, the closed loop's corrections)
   seed_drift  the seed configuration with fringe_drift (DRIFT = 1, the closed loop's drift tracker)
+  seed_compact, seed_compact_trim, seed_compact_drift  seed, seed_trim, seed_drift with COMPACT = 1 (the
+         time-multiplexed core: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC; same words); their
+         rows carry the issue's targets (COMPACT_TARGETS, judged on the UP5K) in ``compact_targets``; they run
+         on the UP5K only (CONFIG_DEVICES), whatever --devices lists besides
 the tables are filled from a real calibration of a short simulated recording (fringe.simulate ->
 fringe.evaluate.measurement_of -> fringe.calibrate -> fringe.hardware.tables.build_tables ->
 fringe.hardware.rom.write_roms), so block-RAM inference sees what a user's design sees.
@@ -181,6 +185,13 @@ def seed_drift_config():
     return drift_config(dataclasses.replace(cal, adaptive=True), cfg), cal
 
 
+def _compact(make):
+    def config():
+        cfg, cal = make()
+        return dataclasses.replace(cfg, compact=1), cal
+    return config
+
+
 def line1_config():
     return _calibrated(SimulationConfig(lines_per_rev=1, adc_bits=16, coarse_bits=0, sample_rate_hz=5000.0,
                                         speed_mean_rev_s=3.0, speed_swing_rev_s=2.0))
@@ -192,7 +203,42 @@ CONFIGS = {
     "line1": ("16-bit ADC, 1 line, no coarse code", line1_config),
     "seed_trim": ("seed encoder with fringe_trim (closed-loop corrections, TRIM = 1)", seed_trim_config),
     "seed_drift": ("seed encoder with fringe_drift (the drift tracker, DRIFT = 1)", seed_drift_config),
+    "seed_compact": ("seed, time-multiplexed (COMPACT = 1)", _compact(seed_config)),
+    "seed_compact_trim": ("seed_trim, time-multiplexed (COMPACT = 1)", _compact(seed_trim_config)),
+    "seed_compact_drift": ("seed_drift, time-multiplexed (COMPACT = 1)", _compact(seed_drift_config)),
 }
+
+#: issue 11's targets of the compact configurations on the iCE40 UP5K: the fraction of the logic cells, DSP
+#: blocks, block RAMs, Fmax (MHz) and throughput (MS/s = Fmax x samples per clock); None: no target
+COMPACT_TARGETS = {
+    "seed_compact": dict(logic_cells_frac=0.25, dsp=2, bram=8, fmax_mhz=48.0, msps=2.0),
+    "seed_compact_trim": dict(logic_cells_frac=0.60, dsp=None, bram=None, fmax_mhz=None, msps=2.0),
+    "seed_compact_drift": dict(logic_cells_frac=0.60, dsp=None, bram=None, fmax_mhz=None, msps=2.0),
+}
+
+
+#: configurations measured on these devices only (the issue's compact targets are for the UP5K)
+CONFIG_DEVICES = {name: ("ice40",) for name in COMPACT_TARGETS}
+
+
+def compact_targets(name: str, row: dict) -> dict | None:
+    """Each target of COMPACT_TARGETS[name] with the measured value and whether it is met (iCE40 rows only)."""
+    want = COMPACT_TARGETS.get(name)
+    if want is None or row.get("device_key") != "ice40":
+        return None
+    fits = bool(row.get("fits"))
+    used, avail = (int(x) for x in row["logic_cells"].split("/")) if row.get("logic_cells") else (None, None)
+    got = {"logic_cells_frac": round(used / avail, 4) if used is not None and avail else None,
+           "dsp": row.get("dsp"), "bram": row.get("bram"), "fmax_mhz": row.get("fmax_mhz"), "msps": row.get("msps")}
+    out = {}
+    for k, limit in want.items():
+        if limit is None:
+            continue
+        v = got[k]
+        ok = fits and v is not None and (v <= limit if k in ("logic_cells_frac", "dsp", "bram") else v >= limit)
+        out[k] = {"target": limit, "measured": v, "met": bool(ok)}
+    out["all_met"] = all(t["met"] for t in out.values())
+    return out
 
 
 @dataclass
@@ -441,8 +487,14 @@ def core_run(prep: Prepared, device: Device, root: Path) -> dict:
     row = {"config": prep.name, "device": device.name, "device_key": device.key, "top": "fringe_top",
            "target_mhz": device.target_mhz}
     row.update(measure(work, "fringe_synth_wrap", params, device, sorted(RTL.glob("*.v")) + [WRAP]))
-    row.update(latency_cycles=core_latency(prep.cfg), latency_hdl=hdl_latency(params), samples_per_clock=1,
+    spc = prep.cfg.samples_per_clock
+    row.update(latency_cycles=core_latency(prep.cfg), latency_hdl=hdl_latency(params), samples_per_clock=spc,
+               clocks_per_sample=prep.cfg.clocks_per_sample,
+               msps=round(row["fmax_mhz"] * spc, 3) if row.get("fmax_mhz") else None,
                core_config=prep.cfg.to_dict(), work_dir=str(work))
+    targets = compact_targets(prep.name, row)
+    if targets is not None:
+        row["compact_targets"] = targets
     return row
 
 
@@ -456,7 +508,7 @@ def block_parameters(prep: Prepared) -> dict[str, dict]:
                                 INIT_FILE=prep.init["WAVE_SIN_INIT"]),
         "fringe_quadrature": dict(WAVE_W=p["WAVE_W"], COEF_W=p["COEF_W"]),
         "fringe_cordic": dict(IN_W=p["WAVE_W"], FINE_W=p["FINE_W"], STAGES=p["CORDIC_STAGES"],
-                              GUARD=p["CORDIC_GUARD"]),
+                              GUARD=p["CORDIC_GUARD"], ITERATIVE=p["COMPACT"]),
         "fringe_period_count": dict(FINE_W=p["FINE_W"], LINES=p["LINES"], COARSE_W=p["COARSE_W"]),
         "fringe_long_period": dict(LINES=p["LINES"], FINE_W=p["FINE_W"], LP_ADDR_W=p["LP_ADDR_W"], LP_W=p["LP_W"],
                                    LP_FRAC=p["LP_FRAC"], LP_IF=p["LP_IF"], LP_RECIP=p["LP_RECIP"],
@@ -578,7 +630,11 @@ def main(argv=None) -> int:
         jobs = [(block_run, preps[c], m, DEVICES[d]) for c in configs for m in block_parameters(preps[c])
                 for d in devices]
     else:
-        jobs = [(core_run, preps[c], DEVICES[d]) for c in configs for d in devices]
+        jobs = [(core_run, preps[c], DEVICES[d]) for c in configs for d in devices
+                if d in CONFIG_DEVICES.get(c, DEVICES)]
+        for c in configs:
+            if c in CONFIG_DEVICES and not set(devices) & set(CONFIG_DEVICES[c]):
+                print(f"synth: {c} runs on {', '.join(CONFIG_DEVICES[c])} only: not in --devices", flush=True)
 
     def one(job):
         fn, prep, *rest = job
@@ -591,7 +647,8 @@ def main(argv=None) -> int:
             device = rest[-1]
             row = {"config": prep.name, "device": device.name, "device_key": device.key, "fits": False, "top": "",
                    "tool_failed": True, "error": str(e).splitlines()[0], "fmax_mhz": None, "dsp": None,
-                   "bram": None, "logic_cells": None, "samples_per_clock": 1, "target_mhz": device.target_mhz}
+                   "bram": None, "logic_cells": None, "samples_per_clock": prep.cfg.samples_per_clock,
+                   "target_mhz": device.target_mhz}
             print(f"synth: {label}: tool failure: {e}", file=sys.stderr, flush=True)
         print(f"synth: {label}: Fmax {row.get('fmax_mhz')} MHz ({row.get('synth_s')} s + {row.get('pnr_s')} s)",
               flush=True)
@@ -631,6 +688,11 @@ def main(argv=None) -> int:
             print(f"synth: * {r['config']} {r.get('top')} on {r['device']}: {len(r['dsp_untimed'])} SB_MAC16 with an "
                   f"unregistered multiply or add ({', '.join(r['dsp_untimed'])}): nextpnr-ice40 times SB_MAC16 ports "
                   "as registers, so the delay through these DSPs is missing from Fmax (an optimistic figure)")
+    for r in rows:
+        for k, t in (r.get("compact_targets") or {}).items():
+            if k != "all_met" and not t["met"]:
+                print(f"synth: COMPACT TARGET MISSED: {r['config']} on {r['device']}: {k} = {t['measured']}, "
+                      f"target {t['target']}")
     print(f"synth: wrote {out / name} ({time.time() - t_start:.0f} s)")
     return 1 if any(r.get("tool_failed") for r in rows) else 0
 

@@ -30,6 +30,7 @@ module fringe_synth_wrap #(
     parameter integer FINE_W           = 16,    // fine phase bits per signal period, 8..30
     parameter integer CORDIC_STAGES    = 18,    // CORDIC micro-rotations, 4..32
     parameter integer CORDIC_GUARD     = 3,     // extra fraction bits inside the CORDIC, 0..8
+    parameter integer COMPACT          = 0,     // 1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)
     parameter integer LP_ADDR_W        = 8,     // long-period table entries per revolution = 2^LP_ADDR_W, <= 16
     parameter integer LP_W             = 18,    // long-period table value/slope width, <= 32
     parameter integer LP_FRAC          = 4,     // fraction bits of the long-period correction (fine counts)
@@ -101,10 +102,10 @@ module fringe_synth_wrap #(
         // BEGIN generated top map (written by python sim/hdlgen.py; do not edit)
         .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
         .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
-        .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
-        .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W),
-        .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT), .SECT_RECIP(SECT_RECIP),
-        .SECT_SHIFT(SECT_SHIFT), .DRIFT(DRIFT), .DRIFT_BLOCK_LOG2(DRIFT_BLOCK_LOG2),
+        .COMPACT(COMPACT), .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF),
+        .LP_RECIP(LP_RECIP), .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W),
+        .MAP_PHI_W(MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT),
+        .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT), .DRIFT(DRIFT), .DRIFT_BLOCK_LOG2(DRIFT_BLOCK_LOG2),
         .DRIFT_MU_LOG2(DRIFT_MU_LOG2), .DRIFT_OFS_FRAC(DRIFT_OFS_FRAC), .DRIFT_GINV_W(DRIFT_GINV_W),
         .DRIFT_FWD_W(DRIFT_FWD_W), .DRIFT_TABLE_W(DRIFT_TABLE_W), .DRIFT_TABLE_FRAC(DRIFT_TABLE_FRAC),
         .DRIFT_KG_W(DRIFT_KG_W), .DRIFT_KG_SHIFT(DRIFT_KG_SHIFT), .REGS_INIT(REGS_INIT),

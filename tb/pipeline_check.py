@@ -64,6 +64,7 @@ class StreamChecker:
         self.n_out = 0
         self.last_out: tuple | None = None
         self.last_valid: int | None = None
+        self.since_in: int | None = None   # enabled edges since the last sample was taken (None: none since reset)
 
     def _fail(self, msg: str) -> None:
         raise AssertionError(f"[{self.tag}] {msg}")
@@ -80,8 +81,11 @@ class StreamChecker:
         force_ce: dict[int, int] | None = None,
         on_cycle: Callable[[int], None] | None = None,
         max_samples: int | None = None,
+        min_gap: int = 1,
     ) -> None:
-        """Run ``cycles`` clocks of traffic (call at a falling edge; returns at a falling edge)."""
+        """Run ``cycles`` clocks of traffic (call at a falling edge; returns at a falling edge).
+        ``min_gap``: in_valid = 1 at an enabled edge only ``min_gap`` or more enabled edges after the
+        last sample taken (a block that takes one sample per ``min_gap`` clock enables)."""
         dut = self.dut
         resets = set(reset_cycles)
         for cyc in range(cycles):
@@ -91,6 +95,8 @@ class StreamChecker:
                 ce = force_ce[cyc]
             more = max_samples is None or self.n_in < max_samples
             valid = 1 if (more and rng.random() < p_valid) else 0
+            if ce and self.since_in is not None and self.since_in + 1 < min_gap:
+                valid = 0
             dut.rst.value = rst
             dut.ce.value = ce
             dut.in_valid.value = valid
@@ -102,6 +108,10 @@ class StreamChecker:
             await RisingEdge(dut.clk)
             await ReadOnly()
             self._after_edge(cyc, rst, ce, valid, expected)
+            if rst:
+                self.since_in = None
+            elif ce:
+                self.since_in = 0 if valid else (None if self.since_in is None else self.since_in + 1)
             await FallingEdge(dut.clk)
 
     async def flush(self, make_idle: Callable[[int], None], rng, p_ce: float = 1.0) -> None:

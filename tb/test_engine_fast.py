@@ -26,13 +26,14 @@ def population():
         adc = int(rng.integers(8, 24, endpoint=True))
         lines = int(rng.integers(1, 512, endpoint=True))
         coarse = int(math.ceil(math.log2(lines))) if lines > 1 and rng.random() < 0.5 else 0
-        out.append((adc, lines, coarse))
-    out.append((24, int(rng.integers(257, 512)), 9))   # s_axis_tdata 2*24 + 16 = 64 bits
+        out.append((adc, lines, coarse, 0))
+    out.append((24, int(rng.integers(257, 512)), 9, 0))   # s_axis_tdata 2*24 + 16 = 64 bits
+    out.append((12, 256, 9, 1))   # the compact core: the harness waits for s_axis_tready
     return out
 
 
-@pytest.mark.parametrize("adc_bits,lines,coarse_bits", population())
-def test_fast_engine_words_equal_model(adc_bits, lines, coarse_bits):
+@pytest.mark.parametrize("adc_bits,lines,coarse_bits,compact", population())
+def test_fast_engine_words_equal_model(adc_bits, lines, coarse_bits, compact):
     from cocotb_runner import available_simulators
     from fringe.calibrate import calibrate
     from fringe.evaluate import measurement_of
@@ -44,13 +45,13 @@ def test_fast_engine_words_equal_model(adc_bits, lines, coarse_bits):
 
     if available_simulators()["verilator"]:
         pytest.skip(available_simulators()["verilator"])
-    print(f"population seed {SEED}: adc_bits={adc_bits} lines={lines} coarse_bits={coarse_bits}")
+    print(f"population seed {SEED}: adc_bits={adc_bits} lines={lines} coarse_bits={coarse_bits} COMPACT={compact}")
     sc = dataclasses.replace(seed_encoder(), lines_per_rev=lines, adc_bits=adc_bits, coarse_bits=coarse_bits,
                              samples=20000)
     rec = simulate(sc, seed=3)
     meas = measurement_of(rec)
     cal = calibrate(meas, rec.encoder)
-    cfg = CoreConfig.for_encoder(cal.encoder)
+    cfg = CoreConfig.for_encoder(cal.encoder, compact=compact)
     t = build_tables(cal, cfg)
     sin, cos = to_adc_codes(meas.sin, cfg.adc_w, "sin"), to_adc_codes(meas.cos, cfg.adc_w, "cos")
     expected = run_core(t, cfg, sin, cos, meas.coarse if cfg.coarse_w else None)

@@ -12,6 +12,7 @@ Replay a failure: ``FRINGE_SEED=<seed printed in the failure> pytest tb/test_fri
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 
@@ -35,7 +36,7 @@ except ImportError:  # pragma: no cover - pytest side without cocotb: the launch
 
 def _config() -> tuple[CordicParams, int, int]:
     raw = json.loads(os.environ["FRINGE_CORDIC_PARAMS"])
-    p = CordicParams(raw["IN_W"], raw["FINE_W"], raw["STAGES"], raw["GUARD"])
+    p = CordicParams(raw["IN_W"], raw["FINE_W"], raw["STAGES"], raw["GUARD"], int(raw.get("ITERATIVE", 0)))
     return p, int(raw.get("USER_W", 1)), int(os.environ.get("FRINGE_SEED", DEFAULT_SEED))
 
 
@@ -81,6 +82,8 @@ class Bench:
         self.n_ce = 0        # enabled edges so far
         self.checked = 0
         self.dropped = 0
+        self.last_in: int | None = None   # enabled edge that took the last sample (None: none since reset)
+        self.refused = 0     # in_valid offered while ready = 0
 
     def fail(self, msg: str) -> None:
         raise AssertionError(
@@ -113,19 +116,29 @@ class Bench:
             # n_in + LATENCY - 1.
             self.fail(f"out_valid low although a sample entered {self.n_ce + 1 - self.pending[0][5]} "
                       f"enabled clocks ago, documented LATENCY = {self.lat}")
+        # ready: 1 exactly when clocks_per_sample enabled edges separate the coming one from the
+        # edge that took the last sample (always 1 for the pipeline)
+        ready = int(d.ready.value)
+        want = int(self.last_in is None or self.n_ce + 1 - self.last_in >= self.p.clocks_per_sample)
+        if ready != want:
+            self.fail(f"ready = {ready} at enabled edge {self.n_ce + 1}, last sample taken at edge "
+                      f"{self.last_in}, documented one sample per {self.p.clocks_per_sample} clock enables")
         d.ce.value = ce
         d.rst.value = rst
         d.in_valid.value = valid
         d.x.value = vec[0] & self.mask
         d.y.value = vec[1] & self.mask
         d.in_user.value = user
-        accepted = bool(ce and valid and not rst)
+        accepted = bool(ce and valid and ready and not rst)
+        self.refused += int(bool(ce and valid and not ready and not rst))
         if rst:
             self.dropped += len(self.pending)
             self.pending.clear()
+            self.last_in = None
         if ce:
             self.n_ce += 1
         if accepted:
+            self.last_in = self.n_ce
             ph, mg = expect
             self.pending.append((vec[0], vec[1], user, ph, mg, self.n_ce))
         await FallingEdge(d.clk)
@@ -186,7 +199,7 @@ if cocotb is not None:
 
     @cocotb.test()
     async def cordic_latency(dut):
-        """One sample at full speed: out_valid exactly LATENCY = STAGES + 2 clocks later."""
+        """One sample at full speed: out_valid exactly LATENCY = STAGES + 2 clocks later (both variants)."""
         p, user_w, seed = _config()
         assert len(dut.x) == p.in_w and len(dut.phase) == p.fine_w and len(dut.mag) == p.in_w + 1
         assert len(dut.in_user) == user_w
@@ -257,24 +270,28 @@ if cocotb is not None:
         await _run_stream(dut, random_vectors(rng, p.in_w, 800), p_ce=0.5, p_valid=0.9,
                           reset_at=set(), rng=rng, bench=bench)
         await _flush(bench)
-        dut._log.info("checked %d output words bit-exact, %d dropped by reset", bench.checked,
-                      bench.dropped)
+        if p.iterative and bench.refused == 0:
+            bench.fail("no sample was offered while ready = 0: the refusal is not tested")
+        dut._log.info("checked %d output words bit-exact, %d dropped by reset, %d offers refused (ready = 0)",
+                      bench.checked, bench.dropped, bench.refused)
 
 
 # ============================================================================ pytest side
 
-PARAM_SETS = [
+BASE_SETS = [
     # (CordicParams, USER_W)
     (CordicParams(in_w=18, fine_w=16, stages=18, guard=3), 3),
     (CordicParams(in_w=12, fine_w=12, stages=13, guard=2), 1),
     (CordicParams(in_w=10, fine_w=9, stages=8, guard=0), 2),      # no rounding, short pipeline
     (CordicParams(in_w=30, fine_w=30, stages=32, guard=8), 1),    # widest: 40-bit x/y, 38-bit z
 ]
+# every set pipelined (ITERATIVE = 0) and iterated (ITERATIVE = 1)
+PARAM_SETS = [(dataclasses.replace(p, iterative=it), u) for it in (0, 1) for p, u in BASE_SETS]
 
 
 def _id(ps) -> str:
     p, user_w = ps
-    return f"IN{p.in_w}-F{p.fine_w}-S{p.stages}-G{p.guard}-U{user_w}"
+    return f"IN{p.in_w}-F{p.fine_w}-S{p.stages}-G{p.guard}-U{user_w}" + ("-iter" if p.iterative else "")
 
 
 @pytest.mark.parametrize("ps", PARAM_SETS, ids=[_id(ps) for ps in PARAM_SETS])

@@ -16,23 +16,32 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fringe.fixed.quadrature import LATENCY, QuadratureCoefs, QuadratureParams, quadrature, quantise_coefs
+from fringe.fixed.quadrature import (
+    LATENCY,
+    SHARED_MIN_CLOCKS,
+    QuadratureCoefs,
+    QuadratureParams,
+    quadrature,
+    quantise_coefs,
+)
 
 REPO = Path(__file__).resolve().parent.parent
 TOPLEVEL = "fringe_quadrature"
 
 # (WAVE_W, COEF_W, USER_W, seed): differences of 19 and 21 bits are split into partial products
 # (the rounding constant below the high one, or added for COEF_W = 20); 16 bits are not (the seed)
-PARAM_SETS = [
+BASE_SETS = [
     (18, 18, 3, 101),
     (20, 16, 1, 202),
     (15, 16, 2, 303),
     (19, 20, 1, 404),
 ]
+# each set with parallel products (SHARED_MUL = 0) and through one multiplier (SHARED_MUL = 1)
+PARAM_SETS = [(*ps, shared) for shared in (0, 1) for ps in BASE_SETS]
 
 
 def _ids(ps):
-    return f"wave{ps[0]}_coef{ps[1]}_user{ps[2]}"
+    return f"wave{ps[0]}_coef{ps[1]}_user{ps[2]}" + ("_shared" if ps[4] else "")
 
 
 # --------------------------------------------------------------------------- cocotb side
@@ -101,6 +110,9 @@ if cocotb is not None:
         rng = np.random.default_rng(seed)
         p = QuadratureParams(cfg["WAVE_W"], cfg["COEF_W"])
         user_w = cfg["USER_W"]
+        # SHARED_MUL = 1: a sample every SHARED_MIN_CLOCKS clock enables at most, so every phase runs
+        # that many times longer
+        gap = SHARED_MIN_CLOCKS if cfg.get("SHARED_MUL") else 1
         assert len(dut.xs) == p.wave_w and len(dut.k_ss) == p.coef_w and len(dut.in_user) == user_w
         n = 6000
         xs, xc, k, s_exp, c_exp, sat_exp = _stimulus(p, rng, n)
@@ -121,7 +133,7 @@ if cocotb is not None:
             dut.in_user.value = int(user)
 
         def make_sample(_cyc):
-            i = state["i"]
+            i = state["i"] % n   # (an offer at a disabled edge uses an index too: wrap around)
             state["i"] += 1
             drive(xs[i], xc[i], k[:, i], users[i])
             return (int(s_exp[i]), int(c_exp[i]), int(sat_exp[i]), int(users[i]))
@@ -142,16 +154,17 @@ if cocotb is not None:
         chk = StreamChecker(dut, cfg["latency"], read_output, tag)
         await chk.run(2, make_sample, make_idle, rng, p_valid=0, reset_cycles={0, 1})
         # full speed: the corner sweep and more
-        await chk.run(600, make_sample, make_idle, rng, p_valid=1.0, p_ce=1.0)
+        await chk.run(600 * gap, make_sample, make_idle, rng, min_gap=gap, p_valid=1.0, p_ce=1.0)
         # reset with ce = 0 while the pipeline is full (rst wins over ce)
-        await chk.run(3, make_sample, make_idle, rng, p_valid=1.0, reset_cycles={0}, force_ce={0: 0})
+        await chk.run(3, make_sample, make_idle, rng, min_gap=gap, p_valid=1.0, reset_cycles={0}, force_ce={0: 0})
         # random gaps and stalls, resets mid-stream
-        await chk.run(3000, make_sample, make_idle, rng, p_valid=0.7, p_ce=0.75,
+        await chk.run(3000 * gap, make_sample, make_idle, rng, p_valid=0.7, p_ce=0.75, min_gap=gap,
                       reset_cycles={700, 701, 1900}, force_ce={700: 1, 701: 0, 1900: 0},
                       max_samples=n - 1500)
         # full speed again, then backpressure-like long stalls
-        await chk.run(600, make_sample, make_idle, rng, p_valid=1.0, p_ce=1.0, max_samples=n - 700)
-        await chk.run(1500, make_sample, make_idle, rng, p_valid=0.9, p_ce=0.3, max_samples=n)
+        await chk.run(600 * gap, make_sample, make_idle, rng, p_valid=1.0, p_ce=1.0, max_samples=n - 700,
+                      min_gap=gap)
+        await chk.run(1500 * gap, make_sample, make_idle, rng, p_valid=0.9, p_ce=0.3, max_samples=n, min_gap=gap)
         await chk.flush(make_idle, rng, p_ce=0.5)
         assert chk.n_out > 3000, f"[{tag}] only {chk.n_out} samples checked"
         dut._log.info(f"[{tag}] {chk.n_in} samples in, {chk.n_out} checked exactly")
@@ -192,8 +205,8 @@ def test_illegal_user_w_stops_elaboration(sim):
 def test_fringe_quadrature(sim, ps):
     from cocotb_runner import run_block
 
-    wave_w, coef_w, user_w, seed = ps
-    params = {"WAVE_W": wave_w, "COEF_W": coef_w, "USER_W": user_w}
+    wave_w, coef_w, user_w, seed, shared = ps
+    params = {"WAVE_W": wave_w, "COEF_W": coef_w, "USER_W": user_w, "SHARED_MUL": shared}
     cfg = dict(params, seed=seed, latency=LATENCY)
     print(f"fringe_quadrature {sim} {params} seed {seed}")
     run_block(TOPLEVEL, "test_fringe_quadrature", params, sim=sim,

@@ -20,8 +20,10 @@ and the configuration port at every clock):
 - ``top_saturation``: extreme quadrature registers into the inactive bank, swap, random codes
   (SATURATED, AMP_HIGH).
 Configurations: the seed preset (12-bit ADC, 256 lines, 9-bit coarse code), the same with fringe_trim
-(TRIM = 1, random trim tables in both banks and through the configuration port) and a 16-bit ADC,
-1 line, no coarse code. Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_top.py``.
+(TRIM = 1, random trim tables in both banks and through the configuration port), with fringe_drift, and a
+16-bit ADC, 1 line, no coarse code; each pipelined (COMPACT = 0) and also time-multiplexed on the simulators
+COMPACT_CONFIGS names (COMPACT = 1: the monitor checks s_axis_tready against clocks_per_sample at every edge,
+the words are the same model's). Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_top.py``.
 """
 
 from __future__ import annotations
@@ -106,6 +108,9 @@ class Bench:
         self.pending_swaps: list[int] = []                 # edges at which a CTRL write takes effect
         self.edge = 0                                      # index of the coming edge
         self.ctrl_seen = 0
+        self.n_ce = 0                                      # enabled edges so far
+        self.last_in: int | None = None                    # enabled edge of the last handshake since reset
+        self.cps = case.cfg.clocks_per_sample
         cocotb.start_soon(self._monitor())
 
     async def _monitor(self) -> None:
@@ -114,6 +119,13 @@ class Bench:
             await ReadOnly()
             # values the coming rising edge samples
             rst = int(d.rst.value)
+            # s_axis_tready = ce and one sample per clocks_per_sample clock enables (COMPACT = 1)
+            ce = int(not int(d.m_axis_tvalid.value) or int(d.m_axis_tready.value))
+            want = int(ce and (self.last_in is None or self.n_ce + 1 - self.last_in >= self.cps))
+            if int(d.s_axis_tready.value) != want:
+                raise AssertionError(f"edge {self.edge}: s_axis_tready = {int(d.s_axis_tready.value)}, expected "
+                                     f"{want} (ce {ce}, last sample at enabled edge {self.last_in}, now "
+                                     f"{self.n_ce + 1}, one per {self.cps}) {self.case.tag()}")
             if int(d.active_bank.value) != self.bank:
                 raise AssertionError(f"edge {self.edge}: active_bank = {int(d.active_bank.value)}, "
                                      f"expected {self.bank} {self.case.tag()}")
@@ -121,8 +133,11 @@ class Bench:
                 self.outs.append((int(d.m_axis_tdata.value), self.epoch))
             if int(d.s_axis_tvalid.value) and int(d.s_axis_tready.value):
                 self.ins.append((int(d.s_axis_tdata.value), self.bank, None if rst else self.epoch))
+                self.last_in = self.n_ce + 1
             if rst:
                 self.epoch += 1
+                self.last_in = None
+            self.n_ce += ce
             if (int(d.cfg_wr_en.value) and int(d.cfg_wr_addr.value) == 0x80
                     and int(d.cfg_wr_data.value) & 1):
                 self.pending_swaps.append(self.edge + CTRL_DELAY)
@@ -546,6 +561,13 @@ CONFIGS = {
     "adc12-L256-c9-drift": (lambda: CoreConfig(drift=1, drift_block_log2=7, drift_fwd_w=6), seed_sim, 1),
 }
 N_STREAM = 2500
+#: the configurations also run with COMPACT = 1 (the same tests), on these simulators. A compact run takes
+#: CORDIC_STAGES + 1 clocks per sample: about 70 s each on Verilator, 100-250 s on GHDL (measured 2026-12-02).
+#: Within the CI budget: every configuration on Verilator, the seed preset on GHDL too (the VHDL of the
+#: iterated CORDIC is also checked on its own, tb/test_fringe_cordic.py, on both simulators).
+COMPACT_CONFIGS = {"adc12-L256-c9": ("verilator", "ghdl"), "adc16-L1-c0": ("verilator",),
+                   "adc12-L256-c9-trim": ("verilator",), "adc12-L256-c9-drift": ("verilator",)}
+VARIANTS = [(name, 0) for name in CONFIGS] + [(name, 1) for name in COMPACT_CONFIGS]
 
 
 def cfg_words(t: CoreTables, cfg: CoreConfig) -> list[tuple[int, int]]:
@@ -572,19 +594,19 @@ def random_trim(cfg: CoreConfig, rng: np.random.Generator):
                       rng.integers(-lim, lim, tp.bins))
 
 
-_PREPARED: dict[str, Path] = {}
+_PREPARED: dict[tuple[str, int], Path] = {}
 
 
-def prepare(name: str) -> Path:
-    """Calibrations, init files and sample streams of one configuration, at a fixed place."""
-    if name in _PREPARED:
-        return _PREPARED[name]
+def prepare(name: str, compact: int = 0) -> Path:
+    """Calibrations, init files and sample streams of one configuration (COMPACT = compact), at a fixed place."""
+    if (name, compact) in _PREPARED:
+        return _PREPARED[name, compact]
     from fringe.calibrate import calibrate
     from fringe.evaluate import measurement_of
     from fringe.simulate import simulate
 
     make_cfg, make_sim, dec = CONFIGS[name]
-    cfg = make_cfg()
+    cfg = dataclasses.replace(make_cfg(), compact=compact)
     sc = make_sim()
     rec_a = simulate(sc, seed=11)
     cal_a = calibrate(measurement_of(rec_a), rec_a.encoder)
@@ -608,27 +630,31 @@ def prepare(name: str) -> Path:
     cols = rec.columns
     stream = {"sin": cols["sin"][::dec].astype(np.int64), "cos": cols["cos"][::dec].astype(np.int64),
               "coarse": (cols["coarse"][::dec] if cfg.coarse_w else np.zeros(N_STREAM)).astype(np.int64)}
-    d = REPO / "sim_build" / "tb_fringe_top" / name
+    d = REPO / "sim_build" / "tb_fringe_top" / (name + ("-compact" if compact else ""))
     write_init_files(tab_a, cfg, d, command=f"tb/test_fringe_top.py {name}: calibration A")
     blob = pickle.dumps({"cfg": cfg, "tab_a": tab_a, "tab_b": tab_b, "words_b": cfg_words(tab_b, cfg),
                          "stream": stream})
     tmp = d / "case.pkl.tmp"
     tmp.write_bytes(blob)
     os.replace(tmp, d / "case.pkl")
-    _PREPARED[name] = d
+    _PREPARED[name, compact] = d
     return d
 
 
-@pytest.mark.parametrize("name", list(CONFIGS))
-def test_fringe_top(sim, name):
+@pytest.mark.parametrize("name, compact", VARIANTS,
+                         ids=[name + ("-compact" if c else "") for name, c in VARIANTS])
+def test_fringe_top(sim, name, compact):
     from cocotb_runner import run_block
 
-    d = prepare(name)
+    if compact and sim not in COMPACT_CONFIGS[name]:
+        pytest.skip(f"COMPACT = 1 of {name} runs on {', '.join(COMPACT_CONFIGS[name])} only (CI budget, "
+                    "COMPACT_CONFIGS)")
+    d = prepare(name, compact)
     with open(d / "case.pkl", "rb") as f:
         cfg = pickle.load(f)["cfg"]
     params = top_parameters(cfg, d, sim)
     seed = os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))
-    print(f"fringe_top {sim} {name} {json.dumps(params)} seed {seed}")
+    print(f"fringe_top {sim} {name} COMPACT={compact} {json.dumps(params)} seed {seed}")
     run_block(TOPLEVEL, "test_fringe_top", params, sim=sim, timeout_s=200,
               extra_env={DATA_ENV: str(d), "FRINGE_SEED": seed})
 
@@ -667,6 +693,12 @@ def test_latency_documented():
             assert block_constant(f, "LATENCY") == n, f
     for f in both_languages("fringe_cordic"):
         assert block_constant(f, "LATENCY", {"STAGES": 13}) == CoreConfig(cordic_stages=13).cordic().latency
+    # one sample per clocks_per_sample clock enables, COMPACT = 0 and 1, core and top
+    for f in both_languages("fringe_core") + both_languages("fringe_top"):
+        for cfg in configs:
+            for compact in (0, 1):
+                got = block_constant(f, "CLOCKS_PER_SAMPLE", {"CORDIC_STAGES": cfg.cordic_stages, "COMPACT": compact})
+                assert got == dataclasses.replace(cfg, compact=compact).clocks_per_sample, (f, cfg, compact)
 
 
 @pytest.mark.parametrize("params, message", [

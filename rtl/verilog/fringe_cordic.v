@@ -1,7 +1,11 @@
 // fringe_cordic: phase (arctan) and magnitude of the corrected vector, vectoring CORDIC.
 //
-// LATENCY = STAGES + 2 clock enables, one sample per clock; ce = 0 freezes
-// every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+// LATENCY = STAGES + 2 clock enables. ITERATIVE = 0: fully pipelined, one sample per clock, ready = 1.
+// ITERATIVE = 1: one x/y/z register and one micro-rotation stage iterated STAGES times (the same
+// micro-rotations in the same order, so the same words and the same LATENCY), one sample per
+// STAGES + CORDIC_ITER_CLOCKS_BASE clock enables; ready = 0 while a sample is in the register, and an
+// in_valid while ready = 0 is ignored. ce = 0 freezes every register, rst (synchronous, active high)
+// clears only the valid pipeline and the state, never the data registers.
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_cordic.md.
 // Bit-exact model: model/fringe/fixed/cordic.py.
 
@@ -12,7 +16,8 @@ module fringe_cordic #(
     parameter integer FINE_W = 16,  // output phase bits per period, 8..30
     parameter integer STAGES = 18,  // CORDIC micro-rotations, 4..32 (>= FINE_W+1 for full precision)
     parameter integer GUARD  = 3,   // extra fractional bits of x, y and the angle accumulator, 0..8
-    parameter integer USER_W = 1    // sideband width, >= 1
+    parameter integer USER_W = 1,   // sideband width, >= 1
+    parameter integer ITERATIVE = 0 // 1 = one micro-rotation stage iterated (one sample per STAGES + 1 clocks)
 ) (
     input  wire                 clk,
     input  wire                 rst,       // synchronous, active high: clears valid only
@@ -22,6 +27,7 @@ module fringe_cordic #(
     input  wire [IN_W-1:0]      x,         // s(IN_W), cosine
     input  wire [IN_W-1:0]      y,         // s(IN_W), sine
     input  wire [USER_W-1:0]    in_user,
+    output wire                 ready,     // 1: in_valid at this clock is taken (always 1 when ITERATIVE = 0)
     // phase and magnitude out
     output wire                 out_valid,
     output reg  [FINE_W-1:0]    phase,     // u(FINE_W), fraction of a period
@@ -51,6 +57,9 @@ module fringe_cordic #(
         end
         if (USER_W < 1) begin : g_bad_user_w
             $error("fringe_cordic: USER_W = %0d must be >= 1 (instance %m)", USER_W);
+        end
+        if (ITERATIVE != 0 && ITERATIVE != 1) begin : g_bad_iterative
+            $error("fringe_cordic: ITERATIVE = %0d must be 0 or 1 (instance %m)", ITERATIVE);
         end
     endgenerate
 
@@ -97,65 +106,159 @@ module fringe_cordic #(
         end
     endfunction
 
-    // ---- stage 1: pre-rotation into the right half plane, scale by 2^GUARD ----------------------
+    // ---- pre-rotation into the right half plane, scale by 2^GUARD ------------------------------
     wire signed [DP_W-1:0] x_ext = {{(DP_W-IN_W){x[IN_W-1]}}, x};
     wire signed [DP_W-1:0] y_ext = {{(DP_W-IN_W){y[IN_W-1]}}, y};
     wire                   x_neg = x[IN_W-1];
     wire signed [DP_W-1:0] x_abs = x_neg ? -x_ext : x_ext;
     wire signed [DP_W-1:0] y_pre = x_neg ? -y_ext : y_ext;
 
-    // Stage k of these vectors holds the values after k micro-rotations (k = 0: pre-rotated).
-    // y after the last micro-rotation is not needed, hence STAGES slices only.
-    reg [(STAGES+1)*DP_W-1:0]  x_p;
-    reg [STAGES*DP_W-1:0]      y_p;
-    reg [(STAGES+1)*ACC_W-1:0] z_p;
+    // the rotated vector and angle after the last micro-rotation, rounded below
+    wire signed [DP_W-1:0]  x_last;
+    wire        [ACC_W-1:0] z_last;
 
-    always @(posedge clk) begin
-        if (ce) begin
-            x_p[0 +: DP_W]  <= x_abs <<< GUARD;
-            y_p[0 +: DP_W]  <= y_pre <<< GUARD;
-            z_p[0 +: ACC_W] <= x_neg ? HALF_TURN : {ACC_W{1'b0}};
-        end
-    end
-
-    // ---- stages 2..STAGES+1: micro-rotations ----------------------------------------------------
     genvar k;
     generate
-        for (k = 0; k < STAGES; k = k + 1) begin : g_stage
-            localparam [63:0] ATAN_FULL = (atan62(k) + (64'd1 << (61 - ACC_W))) >> (62 - ACC_W);
-            localparam [ACC_W-1:0] ATAN_K = ATAN_FULL[ACC_W-1:0];  // < 2^(ACC_W-3)
+        if (ITERATIVE == 0) begin : g_pipelined
+            // ---- stage 1: pre-rotation register; stages 2..STAGES+1: micro-rotations -----------
+            // Stage k of these vectors holds the values after k micro-rotations (k = 0: pre-rotated).
+            // y after the last micro-rotation is not needed, hence STAGES slices only.
+            reg [(STAGES+1)*DP_W-1:0]  x_p;
+            reg [STAGES*DP_W-1:0]      y_p;
+            reg [(STAGES+1)*ACC_W-1:0] z_p;
 
-            wire signed [DP_W-1:0]  xi  = x_p[k*DP_W +: DP_W];
-            wire signed [DP_W-1:0]  yi  = y_p[k*DP_W +: DP_W];
-            wire        [ACC_W-1:0] zi  = z_p[k*ACC_W +: ACC_W];
-            wire signed [DP_W-1:0]  ysh = yi >>> k;
-            wire                    neg = yi[DP_W-1];  // y < 0: rotate counter-clockwise
-
-            // a +- b as one adder with carry-in, a + (b ^ {s}) + s (half the LUTs of a mux of a
-            // sum and a difference): x + (y >>> k) or x - (y >>> k); z + ATAN[k] or z - ATAN[k].
             always @(posedge clk) begin
                 if (ce) begin
-                    x_p[(k+1)*DP_W +: DP_W]   <= xi + (ysh ^ {DP_W{neg}}) + {{(DP_W-1){1'b0}}, neg};
-                    z_p[(k+1)*ACC_W +: ACC_W] <= zi + (ATAN_K ^ {ACC_W{neg}}) + {{(ACC_W-1){1'b0}}, neg};
+                    x_p[0 +: DP_W]  <= x_abs <<< GUARD;
+                    y_p[0 +: DP_W]  <= y_pre <<< GUARD;
+                    z_p[0 +: ACC_W] <= x_neg ? HALF_TURN : {ACC_W{1'b0}};
                 end
             end
 
-            if (k < STAGES - 1) begin : g_y
-                wire signed [DP_W-1:0] xsh = xi >>> k;
+            // ---- stages 2..STAGES+1: micro-rotations ----------------------------------------
+            for (k = 0; k < STAGES; k = k + 1) begin : g_stage
+                localparam [63:0] ATAN_FULL = (atan62(k) + (64'd1 << (61 - ACC_W))) >> (62 - ACC_W);
+                localparam [ACC_W-1:0] ATAN_K = ATAN_FULL[ACC_W-1:0];  // < 2^(ACC_W-3)
 
-                // y - (x >>> k) or y + (x >>> k)
+                wire signed [DP_W-1:0]  xi  = x_p[k*DP_W +: DP_W];
+                wire signed [DP_W-1:0]  yi  = y_p[k*DP_W +: DP_W];
+                wire        [ACC_W-1:0] zi  = z_p[k*ACC_W +: ACC_W];
+                wire signed [DP_W-1:0]  ysh = yi >>> k;
+                wire                    neg = yi[DP_W-1];  // y < 0: rotate counter-clockwise
+
+                // a +- b as one adder with carry-in, a + (b ^ {s}) + s (half the LUTs of a mux of a
+                // sum and a difference): x + (y >>> k) or x - (y >>> k); z + ATAN[k] or z - ATAN[k].
                 always @(posedge clk) begin
                     if (ce) begin
-                        y_p[(k+1)*DP_W +: DP_W] <= yi + (xsh ^ {DP_W{~neg}}) + {{(DP_W-1){1'b0}}, ~neg};
+                        x_p[(k+1)*DP_W +: DP_W]   <= xi + (ysh ^ {DP_W{neg}}) + {{(DP_W-1){1'b0}}, neg};
+                        z_p[(k+1)*ACC_W +: ACC_W] <= zi + (ATAN_K ^ {ACC_W{neg}}) + {{(ACC_W-1){1'b0}}, neg};
+                    end
+                end
+
+                if (k < STAGES - 1) begin : g_y
+                    wire signed [DP_W-1:0] xsh = xi >>> k;
+
+                    // y - (x >>> k) or y + (x >>> k)
+                    always @(posedge clk) begin
+                        if (ce) begin
+                            y_p[(k+1)*DP_W +: DP_W] <= yi + (xsh ^ {DP_W{~neg}}) + {{(DP_W-1){1'b0}}, ~neg};
+                        end
                     end
                 end
             end
+
+            assign x_last = x_p[STAGES*DP_W +: DP_W];
+            assign z_last = z_p[STAGES*ACC_W +: ACC_W];
+            assign ready  = 1'b1;
+
+            // ---- valid (the only reset registers) and sideband, LATENCY stages ----------------
+            fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
+                .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+                .out_valid(out_valid), .out_data(out_user)
+            );
+        end else begin : g_iterative
+            // One register holds the sample: step k after k micro-rotations (k = 0: pre-rotated,
+            // loaded by the clock enable that takes the sample), stage k applied at step k; at
+            // step STAGES the output register takes the result, and the same clock enable may
+            // load the next sample. Same LATENCY as the pipeline. The step is one-hot, so the
+            // shifts and the angle are AND-OR selections (fewer logic levels than a barrel shifter
+            // on the loop x/y -> shift -> add -> x/y).
+            reg                    busy;
+            reg [STAGES:0]         step;     // step[k]: k micro-rotations done
+            reg signed [DP_W-1:0]  xr, yr;
+            reg [ACC_W-1:0]        zr;
+            reg [USER_W-1:0]       user_r, user_o;
+            reg                    valid_o;
+
+            // the angle table, ATAN[k] at [k*ACC_W +: ACC_W] (entry STAGES is 0: never selected)
+            wire [(STAGES+1)*ACC_W-1:0] atan_all;
+            for (k = 0; k <= STAGES; k = k + 1) begin : g_atan
+                localparam [63:0] ATAN_FULL = (k < STAGES) ? (atan62(k) + (64'd1 << (61 - ACC_W))) >> (62 - ACC_W)
+                                                           : 64'd0;
+                assign atan_all[k*ACC_W +: ACC_W] = ATAN_FULL[ACC_W-1:0];
+            end
+
+            wire                    done = busy && step[STAGES];
+            wire                    take = in_valid && (!busy || done);
+            reg  [ACC_W-1:0]        atan_k;
+            reg  signed [DP_W-1:0]  ysh, xsh;
+            reg  signed [DP_W-1:0]  ysh_i, xsh_i;  // arithmetic shifts in a signed context of their own
+            wire                    neg = yr[DP_W-1];  // y < 0: rotate counter-clockwise
+            integer i;
+
+            // ATAN[k], y >>> k, x >>> k for the one k with step[k] = 1 (0 at step STAGES: unused)
+            always @(*) begin
+                atan_k = {ACC_W{1'b0}};
+                ysh    = {DP_W{1'b0}};
+                xsh    = {DP_W{1'b0}};
+                for (i = 0; i < STAGES; i = i + 1) begin
+                    atan_k = atan_k | (atan_all[i*ACC_W +: ACC_W] & {ACC_W{step[i]}});
+                    ysh_i  = yr >>> i;
+                    xsh_i  = xr >>> i;
+                    ysh    = ysh | (ysh_i & {DP_W{step[i]}});
+                    xsh    = xsh | (xsh_i & {DP_W{step[i]}});
+                end
+            end
+
+            assign ready = !busy || done;
+
+            always @(posedge clk) begin
+                if (rst) begin
+                    busy    <= 1'b0;
+                    valid_o <= 1'b0;
+                end else if (ce) begin
+                    busy    <= take || (busy && !done);
+                    valid_o <= done;
+                end
+            end
+
+            // the micro-rotation as in the pipeline: one adder with carry-in per value
+            always @(posedge clk) begin
+                if (ce) begin
+                    if (take) begin
+                        xr     <= x_abs <<< GUARD;
+                        yr     <= y_pre <<< GUARD;
+                        zr     <= x_neg ? HALF_TURN : {ACC_W{1'b0}};
+                        step   <= {{STAGES{1'b0}}, 1'b1};
+                        user_r <= in_user;
+                    end else if (busy && !done) begin
+                        xr   <= xr + (ysh ^ {DP_W{neg}}) + {{(DP_W-1){1'b0}}, neg};
+                        yr   <= yr + (xsh ^ {DP_W{~neg}}) + {{(DP_W-1){1'b0}}, ~neg};
+                        zr   <= zr + (atan_k ^ {ACC_W{neg}}) + {{(ACC_W-1){1'b0}}, neg};
+                        step <= {step[STAGES-1:0], 1'b0};
+                    end
+                    user_o <= user_r;   // with the output registers below
+                end
+            end
+
+            assign x_last    = xr;
+            assign z_last    = zr;
+            assign out_valid = valid_o;
+            assign out_user  = user_o;
         end
     endgenerate
 
     // ---- stage STAGES+2: output rounding --------------------------------------------------------
-    wire signed [DP_W-1:0]  x_last = x_p[STAGES*DP_W +: DP_W];
-    wire        [ACC_W-1:0] z_last = z_p[STAGES*ACC_W +: ACC_W];
     wire signed [DP_W-1:0]  x_rnd;
     wire        [ACC_W-1:0] z_rnd;
 
@@ -180,12 +283,6 @@ module fringe_cordic #(
 
     // x >= 0 after the pre-rotation and only grows, below 1.17 * 2^(IN_W+GUARD): its sign bit is 0.
     wire unused_sign = &{1'b0, x_rnd[DP_W-1]};
-
-    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
-    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
-        .out_valid(out_valid), .out_data(out_user)
-    );
 
 endmodule
 

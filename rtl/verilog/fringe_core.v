@@ -1,4 +1,7 @@
-// fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock.
+// fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock
+// (COMPACT = 1: one sample per CLOCKS_PER_SAMPLE = CORDIC_STAGES + 1 clock enables, in_ready = 0 in
+// between; the CORDIC iterates one micro-rotation stage, the quadrature's products share one
+// multiplier; same words, same LATENCY).
 //
 //   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1: the online offset/gain tracker, docs/blocks/fringe_drift.md]
 //   -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
@@ -52,6 +55,7 @@ module fringe_core #(
     parameter integer FINE_W           = 16,    // fine phase bits per signal period, 8..30
     parameter integer CORDIC_STAGES    = 18,    // CORDIC micro-rotations, 4..32
     parameter integer CORDIC_GUARD     = 3,     // extra fraction bits inside the CORDIC, 0..8
+    parameter integer COMPACT          = 0,     // 1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)
     parameter integer LP_ADDR_W        = 8,     // long-period table entries per revolution = 2^LP_ADDR_W, <= 16
     parameter integer LP_W             = 18,    // long-period table value/slope width, <= 32
     parameter integer LP_FRAC          = 4,     // fraction bits of the long-period correction (fine counts)
@@ -94,8 +98,9 @@ module fringe_core #(
     input  wire             clk,
     input  wire             rst,          // synchronous, active high: clears the sample pipeline
     input  wire             ce,           // clock enable: the pipeline advances when 1
-    // sample in
+    // sample in: taken at a clock enable with in_valid = 1 and in_ready = 1
     input  wire             in_valid,
+    output wire             in_ready,     // 1 with COMPACT = 0; COMPACT = 1: 0 for CLOCKS_PER_SAMPLE-1 clock enables after a sample
     input  wire [ADC_W-1:0] sin,          // s(ADC_W)
     input  wire [ADC_W-1:0] cos,          // s(ADC_W)
     input  wire [((COARSE_W > 0) ? COARSE_W : 1)-1:0] coarse,  // u(COARSE_W); 1 bit, ignored, when COARSE_W = 0
@@ -116,6 +121,8 @@ module fringe_core #(
     /* verilator lint_off UNUSEDPARAM */
     localparam integer LATENCY = fringe_core_latency(CORDIC_STAGES, TRIM, DRIFT);
     /* verilator lint_on UNUSEDPARAM */
+    // Clock enables from one sample to the next at full speed (fringe.fixed.config clocks_per_sample).
+    localparam integer CLOCKS_PER_SAMPLE = 1 + COMPACT * (CORDIC_STAGES + CORDIC_ITER_CLOCKS_BASE - 1);  // COMPACT: 0 or 1
     localparam integer POS_W   = $clog2(LINES) + FINE_W;        // clog2(LINES * 2^FINE_W)
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width
     localparam integer AMP_W   = WAVE_W + 1;   // CORDIC magnitude u(WAVE_W+1)
@@ -147,6 +154,9 @@ module fringe_core #(
         if (TRIM != 0 && MAP_PSI_W + MAP_PHI_W > 15) begin : g_bad_map_w
             $error("fringe_core: MAP_PSI_W + MAP_PHI_W = %0d > 15: a trim map bank must fit the 16-bit word address (instance %m)",
                    MAP_PSI_W + MAP_PHI_W);
+        end
+        if (COMPACT != 0 && COMPACT != 1) begin : g_bad_compact
+            $error("fringe_core: COMPACT = %0d must be 0 or 1 (instance %m)", COMPACT);
         end
         if (DRIFT != 0 && DRIFT != 1) begin : g_bad_drift
             $error("fringe_core: DRIFT = %0d must be 0 or 1 (instance %m)", DRIFT);
@@ -191,6 +201,35 @@ module fringe_core #(
     wire [LP_ADDR_W:0]     lp_wr_addr   = {wr_bank_r, wr_word[LP_ADDR_W-1:0]};
     wire [MAP_PSI_W+MAP_PHI_W+1:0] trim_wr_addr = {wr_bank_r, wr_word[MAP_PSI_W+MAP_PHI_W:0]};
 
+    // ---- sample admission: COMPACT = 1 takes a sample every CLOCKS_PER_SAMPLE clock enables -------
+    // The spacing holds through the pipeline (every stage advances on the same ce), so the iterated
+    // CORDIC is free whenever a sample reaches it.
+    wire take_in = in_valid && in_ready;
+
+    generate
+        if (COMPACT != 0) begin : g_admit
+            localparam integer WAIT_W = $clog2(CLOCKS_PER_SAMPLE);
+            localparam [31:0]  GAP_32 = CLOCKS_PER_SAMPLE - 1;
+            reg [WAIT_W-1:0]   wait_r;   // clock enables until the next sample may be taken
+
+            always @(posedge clk) begin
+                if (rst) begin
+                    wait_r <= {WAIT_W{1'b0}};
+                end else if (ce) begin
+                    if (take_in) begin
+                        wait_r <= GAP_32[WAIT_W-1:0];
+                    end else if (wait_r != {WAIT_W{1'b0}}) begin
+                        wait_r <= wait_r - 1'b1;
+                    end
+                end
+            end
+
+            assign in_ready = (wait_r == {WAIT_W{1'b0}});
+        end else begin : g_admit_all
+            assign in_ready = 1'b1;
+        end
+    endgenerate
+
     // ---- the drift normaliser (DRIFT = 1) or the raw codes ----------------------------------------
     // The sample takes the active bank when it is accepted; the flags of the raw codes (CLIP_*) and of
     // the normalisation (a saturated normalised code) travel with it, with the normalised codes the
@@ -220,7 +259,7 @@ module fringe_core #(
                 .FWD_SIN_INIT(FWD_SIN_INIT), .FWD_COS_INIT(FWD_COS_INIT), .USER_W(CW + 3)
             ) u_drift (
                 .clk(clk), .rst(rst), .ce(ce),
-                .in_valid(in_valid), .raw_sin(sin), .raw_cos(cos), .in_user({coarse, bank_r, raw_clip_c, raw_clip_s}),
+                .in_valid(take_in), .raw_sin(sin), .raw_cos(cos), .in_user({coarse, bank_r, raw_clip_c, raw_clip_s}),
                 .norm_valid(n_valid), .y_sin(n_sin), .y_cos(n_cos), .norm_sat(n_sat), .norm_user(nu),
                 .obs_valid(c_valid), .obs_phase(phase), .obs_y_sin(c_dx[DX_W-1 -: ADC_W]),
                 .obs_y_cos(c_dx[ADC_W+2:3]), .obs_bank(c_bank),
@@ -236,7 +275,7 @@ module fringe_core #(
             // the tracker's state is observable in simulation; the samples carry norm_sat
             wire unused_drift = &{1'b0, off_s, off_c, ginv_s, ginv_c, track_sat, c_dx[2:0]};
         end else begin : g_no_drift
-            assign n_valid  = in_valid;
+            assign n_valid  = take_in;
             assign n_sin    = sin;
             assign n_cos    = cos;
             assign n_sat    = 1'b0;
@@ -402,7 +441,7 @@ module fringe_core #(
     wire              q_sat;
     wire [U_Q-1:0]    q_user;
 
-    fringe_quadrature #(.WAVE_W(WAVE_W), .COEF_W(COEF_W), .USER_W(U_Q)) u_quad (
+    fringe_quadrature #(.WAVE_W(WAVE_W), .COEF_W(COEF_W), .USER_W(U_Q), .SHARED_MUL(COMPACT)) u_quad (
         .clk(clk), .rst(rst), .ce(ce),
         .in_valid(wl_valid), .xs(xs), .xc(xc), .in_user({wl_dx, wl_coarse, wl_clip_c, wl_clip_s, wl_bank}),
         .ofs_s(ofs_s_r), .ofs_c(ofs_c_r), .k_ss(k_ss_r), .k_sc(k_sc_r), .k_cc(k_cc_r),
@@ -418,11 +457,14 @@ module fringe_core #(
     wire [AMP_W-1:0]  mag;
     wire [U_C-1:0]    c_user;
 
+    wire              c_ready;   // always 1 here: the admission above spaces the samples
+
     fringe_cordic #(
-        .IN_W(WAVE_W), .FINE_W(FINE_W), .STAGES(CORDIC_STAGES), .GUARD(CORDIC_GUARD), .USER_W(U_C)
+        .IN_W(WAVE_W), .FINE_W(FINE_W), .STAGES(CORDIC_STAGES), .GUARD(CORDIC_GUARD), .USER_W(U_C),
+        .ITERATIVE(COMPACT)
     ) u_cordic (
         .clk(clk), .rst(rst), .ce(ce),
-        .in_valid(q_valid), .x(qc), .y(qs), .in_user({q_dx, q_user[CW+2:3], q_any, q_user[2:0]}),
+        .in_valid(q_valid), .x(qc), .y(qs), .in_user({q_dx, q_user[CW+2:3], q_any, q_user[2:0]}), .ready(c_ready),
         .out_valid(c_valid), .phase(phase), .mag(mag), .out_user(c_user)
     );
 
@@ -505,7 +547,7 @@ module fringe_core #(
 
     // The cosine table runs in step with the sine table (same latency): its valid and sideband
     // are duplicates. cfg_wr_data above the widest table word is not used.
-    wire unused_ok = &{1'b0, wl_valid_c, wl_user_c, wr_data, wr_word, c_bank};
+    wire unused_ok = &{1'b0, wl_valid_c, wl_user_c, wr_data, wr_word, c_bank, c_ready};
 
     // status word: bit 0 CLIP_SIN .. 6 SATURATED, 7 BANK (the blocks' sideband, registered)
     assign status = l_user;

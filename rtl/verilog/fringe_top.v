@@ -8,7 +8,8 @@
 //   m_axis_tdata = {status (8 bits), position lane (8*ceil(POS_W/8) bits)}, the position
 //                  right-aligned and zero-padded.
 //   Backpressure: the whole pipeline advances on ce = !m_axis_tvalid || m_axis_tready and
-//   s_axis_tready = ce: one sample per clock, nothing lost or duplicated. m_axis_tvalid is the
+//   s_axis_tready = ce && the core's in_ready: one sample per clock (COMPACT = 1: per CLOCKS_PER_SAMPLE
+//   = CORDIC_STAGES + 1 clock enables), nothing lost or duplicated. m_axis_tvalid is the
 //   core's registered out_valid, so m_axis_tdata is stable while the sink stalls.
 //   Configuration write port and active_bank: see rtl/verilog/fringe_core.v.
 // rst (synchronous, active high) empties the pipeline: m_axis_tvalid is 0 after it, samples in
@@ -30,6 +31,7 @@ module fringe_top #(
     parameter integer FINE_W           = 16,    // fine phase bits per signal period, 8..30
     parameter integer CORDIC_STAGES    = 18,    // CORDIC micro-rotations, 4..32
     parameter integer CORDIC_GUARD     = 3,     // extra fraction bits inside the CORDIC, 0..8
+    parameter integer COMPACT          = 0,     // 1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)
     parameter integer LP_ADDR_W        = 8,     // long-period table entries per revolution = 2^LP_ADDR_W, <= 16
     parameter integer LP_W             = 18,    // long-period table value/slope width, <= 32
     parameter integer LP_FRAC          = 4,     // fraction bits of the long-period correction (fine counts)
@@ -93,6 +95,8 @@ module fringe_top #(
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
     localparam integer LATENCY = fringe_core_latency(CORDIC_STAGES, TRIM, DRIFT);
+    // Clock enables from one sample to the next at full speed (fringe.fixed.config clocks_per_sample).
+    localparam integer CLOCKS_PER_SAMPLE = 1 + COMPACT * (CORDIC_STAGES + CORDIC_ITER_CLOCKS_BASE - 1);  // COMPACT: 0 or 1
     /* verilator lint_on UNUSEDPARAM */
     localparam integer CW          = (COARSE_W > 0) ? COARSE_W : 1;  // coarse port width of the core
     localparam integer POS_W       = $clog2(LINES) + FINE_W;         // position bits
@@ -100,7 +104,8 @@ module fringe_top #(
     localparam integer POS_LANE    = 8 * ((POS_W + 7) / 8);          // bits of the position lane
 
     wire ce = !m_axis_tvalid || m_axis_tready;
-    assign s_axis_tready = ce;
+    wire in_ready;
+    assign s_axis_tready = ce && in_ready;
 
     wire [CW-1:0] coarse;
 
@@ -119,10 +124,10 @@ module fringe_top #(
         // BEGIN generated core map (written by python sim/hdlgen.py; do not edit)
         .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
         .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
-        .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
-        .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W),
-        .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT), .SECT_RECIP(SECT_RECIP),
-        .SECT_SHIFT(SECT_SHIFT), .DRIFT(DRIFT), .DRIFT_BLOCK_LOG2(DRIFT_BLOCK_LOG2),
+        .COMPACT(COMPACT), .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF),
+        .LP_RECIP(LP_RECIP), .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W),
+        .MAP_PHI_W(MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT),
+        .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT), .DRIFT(DRIFT), .DRIFT_BLOCK_LOG2(DRIFT_BLOCK_LOG2),
         .DRIFT_MU_LOG2(DRIFT_MU_LOG2), .DRIFT_OFS_FRAC(DRIFT_OFS_FRAC), .DRIFT_GINV_W(DRIFT_GINV_W),
         .DRIFT_FWD_W(DRIFT_FWD_W), .DRIFT_TABLE_W(DRIFT_TABLE_W), .DRIFT_TABLE_FRAC(DRIFT_TABLE_FRAC),
         .DRIFT_KG_W(DRIFT_KG_W), .DRIFT_KG_SHIFT(DRIFT_KG_SHIFT), .REGS_INIT(REGS_INIT),
@@ -131,7 +136,7 @@ module fringe_top #(
         // END generated core map
     ) u_core (
         .clk(clk), .rst(rst), .ce(ce),
-        .in_valid(s_axis_tvalid),
+        .in_valid(s_axis_tvalid), .in_ready(in_ready),
         .sin(s_axis_tdata[ADC_W-1:0]),
         .cos(s_axis_tdata[ADC_LANE +: ADC_W]),
         .coarse(coarse),

@@ -1,8 +1,12 @@
 -- fringe_cordic: phase (arctan) and magnitude of the corrected vector, vectoring CORDIC.
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_cordic.v (same generics, ports and behaviour).
--- LATENCY = STAGES + 2 clock enables, one sample per clock; ce = 0 freezes
--- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
+-- LATENCY = STAGES + 2 clock enables. ITERATIVE = 0: fully pipelined, one sample per clock, ready = 1.
+-- ITERATIVE = 1: one x/y/z register and one micro-rotation stage iterated STAGES times (the same
+-- micro-rotations in the same order, so the same words and the same LATENCY), one sample per
+-- STAGES + CORDIC_ITER_CLOCKS_BASE clock enables; ready = 0 while a sample is in the register, and an
+-- in_valid while ready = 0 is ignored. ce = 0 freezes every register, rst (synchronous, active high)
+-- clears only the valid pipeline and the state, never the data registers.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_cordic.md.
 -- Bit-exact model: model/fringe/fixed/cordic.py.
 
@@ -17,7 +21,8 @@ entity fringe_cordic is
         FINE_W : integer := 16;  -- output phase bits per period, 8..30
         STAGES : integer := 18;  -- CORDIC micro-rotations, 4..32 (>= FINE_W+1 for full precision)
         GUARD  : integer := 3;   -- extra fractional bits of x, y and the angle accumulator, 0..8
-        USER_W : integer := 1    -- sideband width, >= 1
+        USER_W : integer := 1;   -- sideband width, >= 1
+        ITERATIVE : integer := 0 -- 1 = one micro-rotation stage iterated (one sample per STAGES + 1 clocks)
     );
     port (
         clk       : in  std_logic;
@@ -28,6 +33,7 @@ entity fringe_cordic is
         x         : in  std_logic_vector(IN_W - 1 downto 0);    -- s(IN_W), cosine
         y         : in  std_logic_vector(IN_W - 1 downto 0);    -- s(IN_W), sine
         in_user   : in  std_logic_vector(USER_W - 1 downto 0);
+        ready     : out std_logic;                              -- 1: in_valid now is taken (1 when ITERATIVE = 0)
         -- phase and magnitude out
         out_valid : out std_logic;
         phase     : out std_logic_vector(FINE_W - 1 downto 0);  -- u(FINE_W), fraction of a period
@@ -46,6 +52,7 @@ architecture rtl of fringe_cordic is
         check_range("fringe_cordic", "STAGES", STAGES, 4, 32);
         check_range("fringe_cordic", "GUARD", GUARD, 0, 8);
         check_min("fringe_cordic", "USER_W", USER_W, 1);
+        check_range("fringe_cordic", "ITERATIVE", ITERATIVE, 0, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
@@ -108,65 +115,153 @@ architecture rtl of fringe_cordic is
     end function atan_table;
     constant ATAN : acc_arr_t(0 to STAGES - 1) := atan_table;
 
-    -- Index k: the values after k micro-rotations (k = 0: pre-rotated). y after the last
-    -- micro-rotation is not needed.
-    signal x_p : dp_arr_t(0 to STAGES);
-    signal y_p : dp_arr_t(0 to STAGES - 1);
-    signal z_p : acc_arr_t(0 to STAGES);
-
+    -- the pre-rotated input (x into the right half plane, scaled by 2^GUARD) and its angle
+    signal x_pre, y_pre : signed(DP_W - 1 downto 0);
+    signal z_pre        : unsigned(ACC_W - 1 downto 0);
+    -- the vector and angle after the last micro-rotation
+    signal x_last       : signed(DP_W - 1 downto 0);
+    signal z_last       : unsigned(ACC_W - 1 downto 0);
 
 begin
 
-    p_data : process (clk)
+    p_pre : process (x, y)
         variable x_ext, y_ext : signed(DP_W - 1 downto 0);
-        variable x_rnd        : signed(DP_W - 1 downto 0);
-        variable z_rnd        : unsigned(ACC_W - 1 downto 0);
+    begin
+        x_ext := resize(signed(x), DP_W);
+        y_ext := resize(signed(y), DP_W);
+        if x(IN_W - 1) = '1' then
+            x_pre <= shift_left(-x_ext, GUARD);
+            y_pre <= shift_left(-y_ext, GUARD);
+            z_pre <= shift_left(to_unsigned(1, ACC_W), ACC_W - 1);  -- half a turn
+        else
+            x_pre <= shift_left(x_ext, GUARD);
+            y_pre <= shift_left(y_ext, GUARD);
+            z_pre <= (others => '0');
+        end if;
+    end process p_pre;
+
+    g_pipelined : if ITERATIVE = 0 generate
+        -- Index k: the values after k micro-rotations (k = 0: pre-rotated). y after the last
+        -- micro-rotation is not needed.
+        signal x_p : dp_arr_t(0 to STAGES);
+        signal y_p : dp_arr_t(0 to STAGES - 1);
+        signal z_p : acc_arr_t(0 to STAGES);
+    begin
+        p_stages : process (clk)
+        begin
+            if rising_edge(clk) then
+                if ce = '1' then
+                    -- stage 1: pre-rotation register
+                    x_p(0) <= x_pre;
+                    y_p(0) <= y_pre;
+                    z_p(0) <= z_pre;
+
+                    -- stages 2..STAGES+1: micro-rotations
+                    for k in 0 to STAGES - 1 loop
+                        if y_p(k)(DP_W - 1) = '0' then
+                            x_p(k + 1) <= x_p(k) + shift_right(y_p(k), k);
+                            z_p(k + 1) <= z_p(k) + ATAN(k);
+                            if k < STAGES - 1 then
+                                y_p(k + 1) <= y_p(k) - shift_right(x_p(k), k);
+                            end if;
+                        else
+                            x_p(k + 1) <= x_p(k) - shift_right(y_p(k), k);
+                            z_p(k + 1) <= z_p(k) - ATAN(k);
+                            if k < STAGES - 1 then
+                                y_p(k + 1) <= y_p(k) + shift_right(x_p(k), k);
+                            end if;
+                        end if;
+                    end loop;
+                end if;
+            end if;
+        end process p_stages;
+
+        x_last <= x_p(STAGES);
+        z_last <= z_p(STAGES);
+        ready  <= '1';
+
+        -- valid (the only reset registers) and sideband, LATENCY stages
+        u_valid : entity work.fringe_delay
+            generic map (WIDTH => USER_W, DEPTH => LATENCY)
+            port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                      out_valid => out_valid, out_data => out_user);
+    end generate g_pipelined;
+
+    g_iterative : if ITERATIVE = 1 generate
+        -- One register holds the sample: step = k after k micro-rotations (k = 0: pre-rotated,
+        -- loaded by the clock enable that takes the sample), stage k applied at step k; at
+        -- step = STAGES the output register takes the result, and the same clock enable may load
+        -- the next sample. Same LATENCY as the pipeline.
+        signal busy, valid_o  : std_logic;
+        signal step           : integer range 0 to STAGES;
+        signal xr, yr         : signed(DP_W - 1 downto 0);
+        signal zr             : unsigned(ACC_W - 1 downto 0);
+        signal user_r, user_o : std_logic_vector(USER_W - 1 downto 0);
+        signal done, take     : std_logic;
+    begin
+        done  <= '1' when busy = '1' and step = STAGES else '0';
+        take  <= in_valid and (not busy or done);
+        ready <= not busy or done;
+
+        p_ctrl : process (clk)
+        begin
+            if rising_edge(clk) then
+                if rst = '1' then
+                    busy    <= '0';
+                    valid_o <= '0';
+                elsif ce = '1' then
+                    busy    <= take or (busy and not done);
+                    valid_o <= done;
+                end if;
+            end if;
+        end process p_ctrl;
+
+        p_iter : process (clk)
+        begin
+            if rising_edge(clk) then
+                if ce = '1' then
+                    if take = '1' then
+                        xr     <= x_pre;
+                        yr     <= y_pre;
+                        zr     <= z_pre;
+                        step   <= 0;
+                        user_r <= in_user;
+                    elsif busy = '1' and done = '0' then
+                        if yr(DP_W - 1) = '0' then
+                            xr <= xr + shift_right(yr, step);
+                            yr <= yr - shift_right(xr, step);
+                            zr <= zr + ATAN(step);
+                        else
+                            xr <= xr - shift_right(yr, step);
+                            yr <= yr + shift_right(xr, step);
+                            zr <= zr - ATAN(step);
+                        end if;
+                        step <= step + 1;
+                    end if;
+                    user_o <= user_r;   -- with the output registers
+                end if;
+            end if;
+        end process p_iter;
+
+        x_last    <= xr;
+        z_last    <= zr;
+        out_valid <= valid_o;
+        out_user  <= user_o;
+    end generate g_iterative;
+
+    -- ---- stage STAGES+2: output rounding (x >= 0 here, below 1.17 * 2^(IN_W+GUARD)) -----------
+    p_out : process (clk)
+        variable x_rnd : signed(DP_W - 1 downto 0);
+        variable z_rnd : unsigned(ACC_W - 1 downto 0);
     begin
         if rising_edge(clk) then
             if ce = '1' then
-                -- stage 1: pre-rotation into the right half plane, scale by 2^GUARD
-                x_ext := resize(signed(x), DP_W);
-                y_ext := resize(signed(y), DP_W);
-                if x(IN_W - 1) = '1' then
-                    x_p(0) <= shift_left(-x_ext, GUARD);
-                    y_p(0) <= shift_left(-y_ext, GUARD);
-                    z_p(0) <= shift_left(to_unsigned(1, ACC_W), ACC_W - 1);  -- half a turn
-                else
-                    x_p(0) <= shift_left(x_ext, GUARD);
-                    y_p(0) <= shift_left(y_ext, GUARD);
-                    z_p(0) <= (others => '0');
-                end if;
-
-                -- stages 2..STAGES+1: micro-rotations
-                for k in 0 to STAGES - 1 loop
-                    if y_p(k)(DP_W - 1) = '0' then
-                        x_p(k + 1) <= x_p(k) + shift_right(y_p(k), k);
-                        z_p(k + 1) <= z_p(k) + ATAN(k);
-                        if k < STAGES - 1 then
-                            y_p(k + 1) <= y_p(k) - shift_right(x_p(k), k);
-                        end if;
-                    else
-                        x_p(k + 1) <= x_p(k) - shift_right(y_p(k), k);
-                        z_p(k + 1) <= z_p(k) - ATAN(k);
-                        if k < STAGES - 1 then
-                            y_p(k + 1) <= y_p(k) + shift_right(x_p(k), k);
-                        end if;
-                    end if;
-                end loop;
-
-                -- stage STAGES+2: output rounding (x >= 0 here, below 1.17 * 2^(IN_W+GUARD))
-                x_rnd := x_p(STAGES) + round_half(DP_W, GUARD);
-                z_rnd := z_p(STAGES) + unsigned(round_half(ACC_W, GUARD));
+                x_rnd := x_last + round_half(DP_W, GUARD);
+                z_rnd := z_last + unsigned(round_half(ACC_W, GUARD));
                 phase <= std_logic_vector(z_rnd(ACC_W - 1 downto GUARD));
                 mag   <= std_logic_vector(x_rnd(IN_W + GUARD downto GUARD));
             end if;
         end if;
-    end process p_data;
-
-    -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
-    u_valid : entity work.fringe_delay
-        generic map (WIDTH => USER_W, DEPTH => LATENCY)
-        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
-                  out_valid => out_valid, out_data => out_user);
+    end process p_out;
 
 end architecture rtl;

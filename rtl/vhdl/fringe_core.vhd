@@ -1,4 +1,7 @@
--- fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock.
+-- fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock
+-- (COMPACT = 1: one sample per CLOCKS_PER_SAMPLE = CORDIC_STAGES + 1 clock enables, in_ready = '0' in
+-- between; the CORDIC iterates one micro-rotation stage, the quadrature's products share one
+-- multiplier; same words, same LATENCY).
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_core.v (same generics, ports, latency and bit-exact
 -- behaviour).
@@ -56,6 +59,7 @@ entity fringe_core is
         FINE_W           : integer := 16;  -- fine phase bits per signal period, 8..30
         CORDIC_STAGES    : integer := 18;  -- CORDIC micro-rotations, 4..32
         CORDIC_GUARD     : integer := 3;   -- extra fraction bits inside the CORDIC, 0..8
+        COMPACT          : integer := 0;   -- 1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)
         LP_ADDR_W        : integer := 8;   -- long-period table entries per revolution = 2^LP_ADDR_W, <= 16
         LP_W             : integer := 18;  -- long-period table value/slope width, <= 32
         LP_FRAC          : integer := 4;   -- fraction bits of the long-period correction (fine counts)
@@ -99,8 +103,9 @@ entity fringe_core is
         clk         : in  std_logic;
         rst         : in  std_logic;      -- synchronous, active high: clears the sample pipeline
         ce          : in  std_logic;      -- clock enable: the pipeline advances when 1
-        -- sample in
+        -- sample in: taken at a clock enable with in_valid = '1' and in_ready = '1'
         in_valid    : in  std_logic;
+        in_ready    : out std_logic;      -- '1' with COMPACT = 0; COMPACT = 1: '0' for CLOCKS_PER_SAMPLE-1 clock enables after a sample
         sin         : in  std_logic_vector(ADC_W - 1 downto 0);   -- s(ADC_W)
         cos         : in  std_logic_vector(ADC_W - 1 downto 0);   -- s(ADC_W)
         coarse      : in  std_logic_vector(maximum(COARSE_W, 1) - 1 downto 0);  -- u(COARSE_W); 1 bit, ignored, when 0
@@ -143,6 +148,8 @@ architecture rtl of fringe_core is
         assert TRIM = 0 or MAP_PSI_W + MAP_PHI_W <= 15
             report "fringe_core: MAP_PSI_W + MAP_PHI_W = " & integer'image(MAP_PSI_W + MAP_PHI_W)
                    & " > 15: a trim map bank must fit the 16-bit word address" severity failure;
+        assert COMPACT = 0 or COMPACT = 1
+            report "fringe_core: COMPACT = " & integer'image(COMPACT) & " must be 0 or 1" severity failure;
         assert DRIFT = 0 or DRIFT = 1
             report "fringe_core: DRIFT = " & integer'image(DRIFT) & " must be 0 or 1" severity failure;
         assert LP_W <= 32
@@ -154,6 +161,8 @@ architecture rtl of fringe_core is
 
     constant LAT_T   : integer := TRIM * TRIM_LATENCY;   -- fringe_trim (TRIM = 1)
     constant LATENCY : integer := core_latency(CORDIC_STAGES, TRIM, DRIFT);
+    -- clock enables from one sample to the next at full speed (fringe.fixed.config clocks_per_sample)
+    constant CLOCKS_PER_SAMPLE : integer := 1 + COMPACT * (CORDIC_STAGES + CORDIC_ITER_CLOCKS_BASE - 1);  -- COMPACT is 0 or 1
     constant AMP_W   : integer := WAVE_W + 1;   -- CORDIC magnitude u(WAVE_W+1)
     constant BR_W    : integer := ADC_W + 1;    -- branch thresholds s(ADC_W+1)
 
@@ -191,6 +200,9 @@ architecture rtl of fringe_core is
                                  + CORDIC_LATENCY_BASE;   -- normaliser outputs -> CORDIC outputs
     signal raw_clip_s, raw_clip_c : std_logic;
     signal n_valid      : std_logic;
+    signal take_in      : std_logic;    -- the sample is taken (in_valid and in_ready)
+    signal in_ready_i   : std_logic;
+    signal c_ready      : std_logic;    -- always '1': the admission spaces the samples
     signal n_sin, n_cos : std_logic_vector(ADC_W - 1 downto 0);
     signal n_sat, n_bank, n_clip_s, n_clip_c : std_logic;
     signal n_coarse     : std_logic_vector(CW - 1 downto 0);
@@ -302,6 +314,35 @@ begin
     lp_wr_addr   <= wr_bank_r & std_logic_vector(wr_word(LP_ADDR_W - 1 downto 0));
     trim_wr_addr <= wr_bank_r & std_logic_vector(wr_word(MAP_PSI_W + MAP_PHI_W downto 0));
 
+    -- ---- sample admission: COMPACT = 1 takes a sample every CLOCKS_PER_SAMPLE clock enables -------
+    -- The spacing holds through the pipeline (every stage advances on the same ce), so the iterated
+    -- CORDIC is free whenever a sample reaches it.
+    take_in  <= in_valid and in_ready_i;
+    in_ready <= in_ready_i;
+
+    g_admit : if COMPACT /= 0 generate
+        signal wait_r : integer range 0 to CLOCKS_PER_SAMPLE - 1;  -- clock enables until the next sample
+    begin
+        p_admit : process (clk)
+        begin
+            if rising_edge(clk) then
+                if rst = '1' then
+                    wait_r <= 0;
+                elsif ce = '1' then
+                    if take_in = '1' then
+                        wait_r <= CLOCKS_PER_SAMPLE - 1;
+                    elsif wait_r /= 0 then
+                        wait_r <= wait_r - 1;
+                    end if;
+                end if;
+            end if;
+        end process p_admit;
+
+        in_ready_i <= '1' when wait_r = 0 else '0';
+    else generate
+        in_ready_i <= '1';
+    end generate g_admit;
+
     -- ---- the drift normaliser (DRIFT = 1) or the raw codes ----------------------------------------
     -- The sample takes the active bank when it is accepted; the flags of the raw codes (CLIP_*) and of
     -- the normalisation travel with it, with the normalised codes the observer needs at the CORDIC output.
@@ -331,7 +372,7 @@ begin
                          FWD_SIN_INIT => FWD_SIN_INIT, FWD_COS_INIT => FWD_COS_INIT, USER_W => CW + 3)
             port map (
                 clk => clk, rst => rst, ce => ce,
-                in_valid => in_valid, raw_sin => sin, raw_cos => cos, in_user => d_in_user,
+                in_valid => take_in, raw_sin => sin, raw_cos => cos, in_user => d_in_user,
                 norm_valid => n_valid, y_sin => n_sin, y_cos => n_cos, norm_sat => n_sat, norm_user => nu,
                 obs_valid => c_valid, obs_phase => phase,
                 obs_y_sin => c_dx(DX_W - 1 downto ADC_W + 3), obs_y_cos => c_dx(ADC_W + 2 downto 3),
@@ -350,7 +391,7 @@ begin
         n_clip_c <= nu(1);
         n_clip_s <= nu(0);
     else generate
-        n_valid  <= in_valid;
+        n_valid  <= take_in;
         n_sin    <= sin;
         n_cos    <= cos;
         n_sat    <= '0';
@@ -485,7 +526,7 @@ begin
     q_in_user <= wl_user(U_WL - 1 downto 1) & wl_clip_c & wl_clip_s & wl_bank;
 
     u_quad : entity work.fringe_quadrature
-        generic map (WAVE_W => WAVE_W, COEF_W => COEF_W, USER_W => U_Q)
+        generic map (WAVE_W => WAVE_W, COEF_W => COEF_W, USER_W => U_Q, SHARED_MUL => COMPACT)
         port map (
             clk => clk, rst => rst, ce => ce,
             in_valid => wl_valid, xs => xs, xc => xc, in_user => q_in_user,
@@ -499,10 +540,10 @@ begin
 
     u_cordic : entity work.fringe_cordic
         generic map (IN_W => WAVE_W, FINE_W => FINE_W, STAGES => CORDIC_STAGES, GUARD => CORDIC_GUARD,
-                     USER_W => U_C)
+                     USER_W => U_C, ITERATIVE => COMPACT)
         port map (
             clk => clk, rst => rst, ce => ce,
-            in_valid => q_valid, x => qc, y => qs, in_user => c_in_user,
+            in_valid => q_valid, x => qc, y => qs, in_user => c_in_user, ready => c_ready,
             out_valid => c_valid, phase => phase, mag => mag, out_user => c_user
         );
 

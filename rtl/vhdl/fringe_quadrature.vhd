@@ -1,7 +1,9 @@
 -- fringe_quadrature: offset, gain and quadrature correction (seed 001 eq. 21, Heydemann form).
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_quadrature.v (same generics, ports and behaviour).
--- LATENCY = 5 clock enables, one sample per clock; ce = 0 freezes
+-- LATENCY = 5 clock enables, one sample per clock (SHARED_MUL = 1: the three products k_ss*ds, k_sc*dc,
+-- k_cc*dc through one multiplier (two halves when the difference is split) in three clock enables, same
+-- words and LATENCY, samples at least SHARED_MIN_CLOCKS = 4 clock enables apart, fixed/quadrature.py); ce = 0 freezes
 -- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_quadrature.md.
 -- Bit-exact model: model/fringe/fixed/quadrature.py.
@@ -15,7 +17,8 @@ entity fringe_quadrature is
     generic (
         WAVE_W : integer := 18;   -- data, offset and output width, 8..32
         COEF_W : integer := 18;   -- gain coefficient width, 8..27 (COEF_W-2 fractional bits)
-        USER_W : integer := 1     -- sideband width, >= 1
+        USER_W : integer := 1;    -- sideband width, >= 1
+        SHARED_MUL : integer := 0     -- 1 = one multiplier for the three products (samples >= 4 clock enables apart)
     );
     port (
         clk       : in  std_logic;
@@ -49,6 +52,7 @@ architecture rtl of fringe_quadrature is
         check_range("fringe_quadrature", "WAVE_W", WAVE_W, 8, 32);
         check_range("fringe_quadrature", "COEF_W", COEF_W, 8, 27);
         check_min("fringe_quadrature", "USER_W", USER_W, 1);
+        check_range("fringe_quadrature", "SHARED_MUL", SHARED_MUL, 0, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
@@ -83,8 +87,8 @@ architecture rtl of fringe_quadrature is
 
     signal ds1, dc1           : signed(D_W - 1 downto 0);
     signal k_ss1, k_sc1, k_cc1 : signed(COEF_W - 1 downto 0);
-    signal pss3, psc3, pcc3   : signed(S_W - 1 downto 0);   -- k_ss*ds + RND, k_sc*dc, k_cc*dc + RND
-    signal sum_s3, sum_c3     : signed(S_W - 1 downto 0);
+    -- the sums the output stage shifts and saturates: k_ss*ds + k_sc*dc + RND and k_cc*dc + RND
+    signal sum_s, sum_c       : signed(S_W - 1 downto 0);
 
 
 begin
@@ -94,75 +98,178 @@ begin
     begin
         if rising_edge(clk) then
             if ce = '1' then
-                -- stage 1: differences; coefficients travel with the sample
-                ds1   <= resize(signed(xs), D_W) - resize(signed(ofs_s), D_W);
-                dc1   <= resize(signed(xc), D_W) - resize(signed(ofs_c), D_W);
-                k_ss1 <= signed(k_ss);
-                k_sc1 <= signed(k_sc);
-                k_cc1 <= signed(k_cc);
-                -- stage 4: the sine sum
-                sum_s3 <= pss3 + psc3;
-                sum_c3 <= pcc3;
+                -- stage 1: differences; coefficients travel with the sample (SHARED_MUL = 1 reads
+                -- them until stage 4: they take only a valid sample)
+                if SHARED_MUL = 0 or in_valid = '1' then
+                    ds1   <= resize(signed(xs), D_W) - resize(signed(ofs_s), D_W);
+                    dc1   <= resize(signed(xc), D_W) - resize(signed(ofs_c), D_W);
+                    k_ss1 <= signed(k_ss);
+                    k_sc1 <= signed(k_sc);
+                    k_cc1 <= signed(k_cc);
+                end if;
                 -- stage 5: shift (floor) and saturate
-                saturate(sum_s3(S_W - 1 downto COEF_FRAC), s, ovf_s);
-                saturate(sum_c3(S_W - 1 downto COEF_FRAC), c, ovf_c);
+                saturate(sum_s(S_W - 1 downto COEF_FRAC), s, ovf_s);
+                saturate(sum_c(S_W - 1 downto COEF_FRAC), c, ovf_c);
                 sat <= '1' when ovf_s or ovf_c else '0';
             end if;
         end if;
     end process p_data;
 
-    -- ---- stages 2, 3: products, assembled with the rounding constant ------------------------
-    g_narrow : if not WIDE generate
-        signal pss2, psc2, pcc2 : signed(P_W - 1 downto 0);
+    g_parallel : if SHARED_MUL = 0 generate
+        signal pss3, psc3, pcc3 : signed(S_W - 1 downto 0);   -- k_ss*ds + RND, k_sc*dc, k_cc*dc + RND
+        signal sum_s3, sum_c3   : signed(S_W - 1 downto 0);
     begin
-        p_prod : process (clk)
+        -- ---- stages 2, 3: products, assembled with the rounding constant ------------------------
+        g_narrow : if not WIDE generate
+            signal pss2, psc2, pcc2 : signed(P_W - 1 downto 0);
+        begin
+            p_prod : process (clk)
+            begin
+                if rising_edge(clk) then
+                    if ce = '1' then
+                        pss2 <= k_ss1 * ds1;
+                        psc2 <= k_sc1 * dc1;
+                        pcc2 <= k_cc1 * dc1;
+                        pss3 <= resize(pss2, S_W) + RND;
+                        psc3 <= resize(psc2, S_W);
+                        pcc3 <= resize(pcc2, S_W) + RND;
+                    end if;
+                end if;
+            end process p_prod;
+        else generate
+            constant LO_W : integer := COEF_W + L + 1;   -- k * d_lo
+            constant HI_W : integer := COEF_W + DH_W;    -- k * d_hi
+            signal pss_lo2, psc_lo2, pcc_lo2 : signed(LO_W - 1 downto 0);
+            signal pss_hi2, psc_hi2, pcc_hi2 : signed(HI_W - 1 downto 0);
+
+            -- hi * 2^L: its low L bits are zero
+            function shifted(hi : signed) return signed is
+            begin
+                return shift_left(resize(hi, S_W), L);
+            end function shifted;
+        begin
+            p_prod : process (clk)
+            begin
+                if rising_edge(clk) then
+                    if ce = '1' then
+                        pss_lo2 <= k_ss1 * signed('0' & ds1(L - 1 downto 0));
+                        psc_lo2 <= k_sc1 * signed('0' & dc1(L - 1 downto 0));
+                        pcc_lo2 <= k_cc1 * signed('0' & dc1(L - 1 downto 0));
+                        pss_hi2 <= k_ss1 * ds1(D_W - 1 downto L);
+                        psc_hi2 <= k_sc1 * dc1(D_W - 1 downto L);
+                        pcc_hi2 <= k_cc1 * dc1(D_W - 1 downto L);
+                        psc3 <= shifted(psc_hi2) + resize(psc_lo2, S_W);
+                        if COEF_FRAC - 1 < L then
+                            -- RND lies in the zero bits of hi * 2^L: no third operand
+                            pss3 <= (shifted(pss_hi2) or RND) + resize(pss_lo2, S_W);
+                            pcc3 <= (shifted(pcc_hi2) or RND) + resize(pcc_lo2, S_W);
+                        else
+                            pss3 <= shifted(pss_hi2) + resize(pss_lo2, S_W) + RND;
+                            pcc3 <= shifted(pcc_hi2) + resize(pcc_lo2, S_W) + RND;
+                        end if;
+                    end if;
+                end if;
+            end process p_prod;
+        end generate g_narrow;
+
+        -- ---- stage 4: the sine sum
+        p_sum : process (clk)
         begin
             if rising_edge(clk) then
                 if ce = '1' then
-                    pss2 <= k_ss1 * ds1;
-                    psc2 <= k_sc1 * dc1;
-                    pcc2 <= k_cc1 * dc1;
-                    pss3 <= resize(pss2, S_W) + RND;
-                    psc3 <= resize(psc2, S_W);
-                    pcc3 <= resize(pcc2, S_W) + RND;
+                    sum_s3 <= pss3 + psc3;
+                    sum_c3 <= pcc3;
                 end if;
             end if;
-        end process p_prod;
-    else generate
-        constant LO_W : integer := COEF_W + L + 1;   -- k * d_lo
-        constant HI_W : integer := COEF_W + DH_W;    -- k * d_hi
-        signal pss_lo2, psc_lo2, pcc_lo2 : signed(LO_W - 1 downto 0);
-        signal pss_hi2, psc_hi2, pcc_hi2 : signed(HI_W - 1 downto 0);
+        end process p_sum;
+        sum_s <= sum_s3;
+        sum_c <= sum_c3;
+    end generate g_parallel;
 
-        -- hi * 2^L: its low L bits are zero
-        function shifted(hi : signed) return signed is
-        begin
-            return shift_left(resize(hi, S_W), L);
-        end function shifted;
+    -- One multiplier, the sample's three products at stages 2, 3 and 4 (k_ss*ds, k_sc*dc, k_cc*dc);
+    -- the stage-1 registers hold the sample until stage 4 reads them (samples >= 4 clock enables
+    -- apart). acc_s = k_ss*ds + RND at stage 3, sum_s3 adds k_sc*dc at stage 4, k_cc*dc + RND goes
+    -- straight to the output stage: the parallel datapath's sums at the same clock enables.
+    g_shared : if SHARED_MUL = 1 generate
+        signal at1         : std_logic;   -- the sample is in stage 1
+        signal k_m         : signed(COEF_W - 1 downto 0);
+        signal d_m         : signed(D_W - 1 downto 0);
+        signal prod        : signed(S_W - 1 downto 0);
+        signal acc_s, sum_s3 : signed(S_W - 1 downto 0);
     begin
-        p_prod : process (clk)
+        -- The operands are registered (the DSP's input registers): k_ss and x_s - ofs_s with the
+        -- sample (stage 1), then k_sc, dc and k_cc, dc from the stage-1 registers.
+        p_ops : process (clk)
         begin
             if rising_edge(clk) then
                 if ce = '1' then
-                    pss_lo2 <= k_ss1 * signed('0' & ds1(L - 1 downto 0));
-                    psc_lo2 <= k_sc1 * signed('0' & dc1(L - 1 downto 0));
-                    pcc_lo2 <= k_cc1 * signed('0' & dc1(L - 1 downto 0));
-                    pss_hi2 <= k_ss1 * ds1(D_W - 1 downto L);
-                    psc_hi2 <= k_sc1 * dc1(D_W - 1 downto L);
-                    pcc_hi2 <= k_cc1 * dc1(D_W - 1 downto L);
-                    psc3 <= shifted(psc_hi2) + resize(psc_lo2, S_W);
-                    if COEF_FRAC - 1 < L then
-                        -- RND lies in the zero bits of hi * 2^L: no third operand
-                        pss3 <= (shifted(pss_hi2) or RND) + resize(pss_lo2, S_W);
-                        pcc3 <= (shifted(pcc_hi2) or RND) + resize(pcc_lo2, S_W);
+                    if in_valid = '1' then
+                        k_m <= signed(k_ss);
+                        d_m <= resize(signed(xs), D_W) - resize(signed(ofs_s), D_W);
+                    elsif at1 = '1' then
+                        k_m <= k_sc1;
+                        d_m <= dc1;
                     else
-                        pss3 <= shifted(pss_hi2) + resize(pss_lo2, S_W) + RND;
-                        pcc3 <= shifted(pcc_hi2) + resize(pcc_lo2, S_W) + RND;
+                        k_m <= k_cc1;
+                        d_m <= dc1;
                     end if;
                 end if;
             end if;
-        end process p_prod;
-    end generate g_narrow;
+        end process p_ops;
+
+        p_at : process (clk)
+        begin
+            if rising_edge(clk) then
+                if rst = '1' then
+                    at1 <= '0';
+                elsif ce = '1' then
+                    at1 <= in_valid;
+                end if;
+            end if;
+        end process p_at;
+
+        g_narrow_m : if not WIDE generate
+            signal m2 : signed(P_W - 1 downto 0);
+        begin
+            p_mul : process (clk)
+            begin
+                if rising_edge(clk) then
+                    if ce = '1' then
+                        m2 <= k_m * d_m;
+                    end if;
+                end if;
+            end process p_mul;
+            prod <= resize(m2, S_W);
+        else generate
+            constant LO_W : integer := COEF_W + L + 1;   -- k * d_lo
+            constant HI_W : integer := COEF_W + DH_W;    -- k * d_hi
+            signal m_lo2 : signed(LO_W - 1 downto 0);
+            signal m_hi2 : signed(HI_W - 1 downto 0);
+        begin
+            p_mul : process (clk)
+            begin
+                if rising_edge(clk) then
+                    if ce = '1' then
+                        m_lo2 <= k_m * signed('0' & d_m(L - 1 downto 0));
+                        m_hi2 <= k_m * d_m(D_W - 1 downto L);
+                    end if;
+                end if;
+            end process p_mul;
+            prod <= shift_left(resize(m_hi2, S_W), L) + resize(m_lo2, S_W);   -- hi * 2^L + lo, exact
+        end generate g_narrow_m;
+
+        p_acc : process (clk)
+        begin
+            if rising_edge(clk) then
+                if ce = '1' then
+                    acc_s  <= prod + RND;
+                    sum_s3 <= acc_s + prod;
+                end if;
+            end if;
+        end process p_acc;
+        sum_s <= sum_s3;
+        sum_c <= prod + RND;
+    end generate g_shared;
 
     -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
     u_valid : entity work.fringe_delay

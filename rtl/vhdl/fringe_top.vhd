@@ -10,7 +10,8 @@
 --   m_axis_tdata = {status (8 bits), position lane (8*ceil(POS_W/8) bits)}, the position
 --                  right-aligned and zero-padded.
 --   Backpressure: the whole pipeline advances on ce = !m_axis_tvalid || m_axis_tready and
---   s_axis_tready = ce: one sample per clock, nothing lost or duplicated. m_axis_tvalid is the
+--   s_axis_tready = ce and the core's in_ready: one sample per clock (COMPACT = 1: per CLOCKS_PER_SAMPLE
+--   = CORDIC_STAGES + 1 clock enables), nothing lost or duplicated. m_axis_tvalid is the
 --   core's registered out_valid, so m_axis_tdata is stable while the sink stalls.
 --   Configuration write port and active_bank: see rtl/vhdl/fringe_core.vhd.
 -- rst (synchronous, active high) empties the pipeline: m_axis_tvalid is 0 after it, samples in
@@ -36,6 +37,7 @@ entity fringe_top is
         FINE_W           : integer := 16;  -- fine phase bits per signal period, 8..30
         CORDIC_STAGES    : integer := 18;  -- CORDIC micro-rotations, 4..32
         CORDIC_GUARD     : integer := 3;   -- extra fraction bits inside the CORDIC, 0..8
+        COMPACT          : integer := 0;   -- 1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)
         LP_ADDR_W        : integer := 8;   -- long-period table entries per revolution = 2^LP_ADDR_W, <= 16
         LP_W             : integer := 18;  -- long-period table value/slope width, <= 32
         LP_FRAC          : integer := 4;   -- fraction bits of the long-period correction (fine counts)
@@ -100,12 +102,15 @@ end entity fringe_top;
 architecture rtl of fringe_top is
 
     constant LATENCY  : integer := core_latency(CORDIC_STAGES, TRIM, DRIFT);
+    -- clock enables from one sample to the next at full speed (fringe.fixed.config clocks_per_sample)
+    constant CLOCKS_PER_SAMPLE : integer := 1 + COMPACT * (CORDIC_STAGES + CORDIC_ITER_CLOCKS_BASE - 1);  -- COMPACT is 0 or 1
     constant CW       : integer := maximum(COARSE_W, 1);      -- coarse port width of the core
     constant POS_W    : integer := clog2(LINES) + FINE_W;     -- position bits
     constant ADC_LANE : integer := 8 * ((ADC_W + 7) / 8);     -- bits of the sin and cos lanes
     constant POS_LANE : integer := 8 * ((POS_W + 7) / 8);     -- bits of the position lane
 
     signal ce        : std_logic;
+    signal in_ready  : std_logic;
     signal out_valid : std_logic;
     signal coarse    : std_logic_vector(CW - 1 downto 0);
     signal pos       : std_logic_vector(POS_W - 1 downto 0);
@@ -114,7 +119,7 @@ architecture rtl of fringe_top is
 begin
 
     ce            <= (not out_valid) or m_axis_tready;
-    s_axis_tready <= ce;
+    s_axis_tready <= ce and in_ready;
     m_axis_tvalid <= out_valid;
 
     g_coarse : if COARSE_W > 0 generate
@@ -128,10 +133,10 @@ begin
             -- BEGIN generated core map (written by python sim/hdlgen.py; do not edit)
             ADC_W => ADC_W, LINES => LINES, COARSE_W => COARSE_W, WAVE_ADDR_W => WAVE_ADDR_W, WAVE_W => WAVE_W,
             COEF_W => COEF_W, FINE_W => FINE_W, CORDIC_STAGES => CORDIC_STAGES, CORDIC_GUARD => CORDIC_GUARD,
-            LP_ADDR_W => LP_ADDR_W, LP_W => LP_W, LP_FRAC => LP_FRAC, LP_IF => LP_IF, LP_RECIP => LP_RECIP,
-            LP_SHIFT => LP_SHIFT, TRIM => TRIM, SPEED_LOG2 => SPEED_LOG2, MAP_PSI_W => MAP_PSI_W,
-            MAP_PHI_W => MAP_PHI_W, TRIM_W => TRIM_W, TRIM_FRAC => TRIM_FRAC, G_SHIFT => G_SHIFT,
-            SECT_RECIP => SECT_RECIP, SECT_SHIFT => SECT_SHIFT, DRIFT => DRIFT,
+            COMPACT => COMPACT, LP_ADDR_W => LP_ADDR_W, LP_W => LP_W, LP_FRAC => LP_FRAC, LP_IF => LP_IF,
+            LP_RECIP => LP_RECIP, LP_SHIFT => LP_SHIFT, TRIM => TRIM, SPEED_LOG2 => SPEED_LOG2,
+            MAP_PSI_W => MAP_PSI_W, MAP_PHI_W => MAP_PHI_W, TRIM_W => TRIM_W, TRIM_FRAC => TRIM_FRAC,
+            G_SHIFT => G_SHIFT, SECT_RECIP => SECT_RECIP, SECT_SHIFT => SECT_SHIFT, DRIFT => DRIFT,
             DRIFT_BLOCK_LOG2 => DRIFT_BLOCK_LOG2, DRIFT_MU_LOG2 => DRIFT_MU_LOG2, DRIFT_OFS_FRAC => DRIFT_OFS_FRAC,
             DRIFT_GINV_W => DRIFT_GINV_W, DRIFT_FWD_W => DRIFT_FWD_W, DRIFT_TABLE_W => DRIFT_TABLE_W,
             DRIFT_TABLE_FRAC => DRIFT_TABLE_FRAC, DRIFT_KG_W => DRIFT_KG_W, DRIFT_KG_SHIFT => DRIFT_KG_SHIFT,
@@ -142,7 +147,7 @@ begin
         )
         port map (
             clk => clk, rst => rst, ce => ce,
-            in_valid => s_axis_tvalid,
+            in_valid => s_axis_tvalid, in_ready => in_ready,
             sin => s_axis_tdata(ADC_W - 1 downto 0),
             cos => s_axis_tdata(ADC_LANE + ADC_W - 1 downto ADC_LANE),
             coarse => coarse,

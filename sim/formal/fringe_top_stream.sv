@@ -9,7 +9,8 @@
 //   stream:  m_axis_tvalid equals the reference's last valid bit and the output's tag its tag, so
 //            every sample comes out once, after exactly LATENCY clock enables, in order (a lost,
 //            duplicated or reordered sample shifts the tag sequence, which the solver can make
-//            differ at any place); s_axis_tready is the clock enable.
+//            differ at any place); s_axis_tready is the clock enable, and with COMPACT = 1 it is 0 for
+//            CLOCKS_PER_SAMPLE - 1 clock enables after every handshake (the documented admission).
 //   stable:  m_axis_tdata and m_axis_tvalid hold while m_axis_tvalid && !m_axis_tready (AXI4-Stream).
 //   reset:   the clock after rst, m_axis_tvalid = 0 and fringe_period_count has no previous sample;
 //            with stream (the reference is emptied by rst): no sample accepted before a reset ever
@@ -29,7 +30,9 @@ module fringe_top_stream #(
     parameter integer TRIM = 0, parameter integer SPEED_LOG2 = 5, parameter integer MAP_PSI_W = 6,
     parameter integer MAP_PHI_W = 5, parameter integer TRIM_W = 18, parameter integer TRIM_FRAC = 4,
     parameter integer G_SHIFT = 24, parameter [63:0] SECT_RECIP = 64'd1, parameter integer SECT_SHIFT = 18,
-    parameter integer LATENCY = 28
+    parameter integer COMPACT = 0,            // 1: the time-multiplexed core (run.py's *_compact tasks)
+    parameter integer LATENCY = 28,
+    parameter integer CLOCKS_PER_SAMPLE = 1   // fringe.fixed.config clocks_per_sample, passed by run.py
 ) (
     input wire clk,
     input wire rst,
@@ -54,7 +57,8 @@ module fringe_top_stream #(
         .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
         .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
         .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W),
-        .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT), .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT)
+        .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT), .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT),
+        .COMPACT(COMPACT)
     ) dut (
         .clk(clk), .rst(rst),
         .s_axis_tdata(s_axis_tdata), .s_axis_tvalid(s_axis_tvalid), .s_axis_tready(s_axis_tready),
@@ -73,6 +77,16 @@ module fringe_top_stream #(
 
     // ---- reference pipeline
     wire ce = !m_axis_tvalid || m_axis_tready;
+    wire accepted = s_axis_tvalid && s_axis_tready;
+    // the documented admission: a sample, then CLOCKS_PER_SAMPLE - 1 clock enables without one
+    integer ref_wait;
+    always @(posedge clk) begin
+        if (rst) begin
+            ref_wait <= 0;
+        end else if (ce) begin
+            ref_wait <= accepted ? CLOCKS_PER_SAMPLE - 1 : (ref_wait > 0 ? ref_wait - 1 : 0);
+        end
+    end
     reg [LATENCY-1:0] ref_valid;
     reg [2:0]         ref_tag [0:LATENCY-1];
     integer i;
@@ -80,7 +94,7 @@ module fringe_top_stream #(
         if (rst) begin
             ref_valid <= {LATENCY{1'b0}};
         end else if (ce) begin
-            ref_valid <= {ref_valid[LATENCY-2:0], s_axis_tvalid};
+            ref_valid <= {ref_valid[LATENCY-2:0], accepted};
         end
         if (ce) begin
             ref_tag[0] <= in_tag;
@@ -99,7 +113,7 @@ module fringe_top_stream #(
 `ifdef CHECK_STREAM
     always @(*) begin
         if (!f_init) begin
-            assert (s_axis_tready == ce);
+            assert (s_axis_tready == (ce && ref_wait == 0));
             assert (m_axis_tvalid == ref_valid[LATENCY-1]);
             if (m_axis_tvalid) assert (out_tag == ref_tag[LATENCY-1]);
         end

@@ -12,6 +12,8 @@ Each task proves properties of the wrappers in this folder (their headers say wh
   bank_taps    every bank select of fringe_core (each table's read bank, the register taps) is the
                bank of the sample it serves, around any pattern of swaps (bmc)
   stream_trim, bank_taps_trim  the same two with fringe_trim built (TRIM = 1; --trim)
+  stream_compact, stable_compact, reset_compact  stream, stable and reset of the time-multiplexed core
+               (COMPACT = 1: s_axis_tready also 0 for CLOCKS_PER_SAMPLE - 1 clock enables after a sample)
   reset_miter  two copies: nothing accepted before a reset changes any output after it (bmc, slow)
   bank0/bank1  two copies: a sample served by one bank reads nothing of the other bank (bmc, slow)
 for any tvalid/tready pattern, configuration writes (bank swaps among them) and resets: bmc to
@@ -64,6 +66,8 @@ FORMAL_CONFIG = CoreConfig(adc_w=4, lines=4, coarse_w=2, wave_addr_w=2, wave_w=8
                            cordic_stages=4, cordic_guard=1, lp_addr_w=2, lp_w=8, lp_frac=2, lp_if=2)
 #: with fringe_trim (TRIM = 1): its smallest legal tables (2 sectors x 4 bins, 8-bit values)
 TRIM_CONFIG = dataclasses.replace(FORMAL_CONFIG, trim=1, map_psi_w=1, map_phi_w=2, trim_w=8, speed_log2=1)
+#: the time-multiplexed core (COMPACT = 1): one sample per CORDIC_STAGES + 1 = 5 clock enables
+COMPACT_CONFIG = dataclasses.replace(FORMAL_CONFIG, compact=1)
 EXTRA_DEPTH = 12       # bmc: clocks beyond LATENCY
 MIN_EXTRA_DEPTH = 8    # issue 11: at least LATENCY + 8 (the two-copy miters, the slowest, run to exactly that)
 #: prove (k-induction): k; the proof then holds at every depth (the base case runs to k as well)
@@ -84,10 +88,11 @@ class Task:
     extra_depth: int = EXTRA_DEPTH                # bmc: clocks beyond LATENCY
     map_memories: bool = False                    # memories as flip-flops (yices: 5x faster on the miters)
     trim: bool = False                            # built with fringe_trim (TRIM_CONFIG), else FORMAL_CONFIG
+    compact: bool = False                         # built with COMPACT = 1 (COMPACT_CONFIG)
 
     @property
     def config(self) -> CoreConfig:
-        return TRIM_CONFIG if self.trim else FORMAL_CONFIG
+        return TRIM_CONFIG if self.trim else COMPACT_CONFIG if self.compact else FORMAL_CONFIG
 
 
 #: bank_taps: the wires of fringe_core that choose a bank for a sample (fringe_core.v, the bank pipeline)
@@ -111,6 +116,10 @@ TASKS = {t.name: t for t in (
     Task("stream_trim", "fringe_top_stream.sv", "bmc", ("CHECK_STREAM",), trim=True),
     Task("bank_taps_trim", "fringe_top_stream.sv", "bmc", ("CHECK_BANK_TAPS",), trim=True,
          probes=(*BANK_PROBES, ("g_trim_bank.probe_trim", "dut.u_core.g_trim.u_trim.bank"))),
+    Task("stream_compact", "fringe_top_stream.sv", "bmc", ("CHECK_STREAM",), compact=True),
+    Task("stable_compact", "fringe_top_stream.sv", "prove", ("CHECK_STABLE",), compact=True),
+    Task("reset_compact", "fringe_top_stream.sv", "prove", ("CHECK_RESET",), compact=True,
+         probes=(("probe_have_prev", "dut.u_core.u_count.have_prev"),)),
     Task("reset_miter", "fringe_top_miter.sv", "bmc", (), (("MODE", 1),), slow=True, extra_depth=MIN_EXTRA_DEPTH,
          map_memories=True),
     Task("bank0", "fringe_top_miter.sv", "bmc", (), (("MODE", 0), ("CHECK_BANK", 0)), slow=True,
@@ -132,13 +141,20 @@ class Mutant:
 
 
 MUTANTS = (
-    Mutant("ready_ignores_stall", "fringe_top.v", "assign s_axis_tready = ce;", "assign s_axis_tready = 1'b1;",
-           ("stream",), "s_axis_tready stays 1 during a stall: samples offered then are lost"),
+    Mutant("ready_ignores_stall", "fringe_top.v", "assign s_axis_tready = ce && in_ready;",
+           "assign s_axis_tready = in_ready;", ("stream", "stream_compact"),
+           "s_axis_tready ignores a stall: samples offered then are lost"),
     Mutant("write_moves_stalled_output", "fringe_top.v", ".clk(clk), .rst(rst), .ce(ce),",
-           ".clk(clk), .rst(rst), .ce(ce | cfg_wr_en),", ("stable_valid", "stable"),
+           ".clk(clk), .rst(rst), .ce(ce | cfg_wr_en),", ("stable_valid", "stable", "stable_compact"),
            "a configuration write advances the pipeline while the sink stalls"),
     Mutant("valid_survives_reset", "fringe_delay.v", "valid_sr <= {DEPTH{1'b0}};", "valid_sr <= valid_sr;",
-           ("reset", "stream"), "fringe_delay's valid stages (every block's valid pipeline) are not cleared by rst"),
+           ("reset", "stream", "reset_compact"),
+           "fringe_delay's valid stages (every block's valid pipeline) are not cleared by rst"),
+    Mutant("compact_admits_early", "fringe_core.v", "wait_r <= GAP_32[WAIT_W-1:0];",
+           "wait_r <= GAP_32[WAIT_W-1:0] - 1'b1;", ("stream_compact",),
+           "COMPACT = 1 takes the next sample one clock enable early, while the iterated CORDIC is busy"),
+    Mutant("cordic_busy_survives_reset", "fringe_cordic.v", "busy    <= 1'b0;", "busy    <= busy;",
+           ("stream_compact",), "the iterated CORDIC finishes a sample accepted before a reset"),
     Mutant("counter_survives_reset", "fringe_period_count.v", "have_prev <= 1'b0;", "have_prev <= have_prev;",
            ("reset", "reset_miter"), "the period count keeps its previous sample across a reset"),
     Mutant("quadrature_tap_late", "fringe_core.v", "wire bank_q = bank_d[TAP_Q];",
@@ -202,6 +218,7 @@ def script_lines(task: Task, names: list[str], cfg: CoreConfig) -> list[str]:
     params = hdl_parameters(cfg)
     if task.wrapper == "fringe_top_stream.sv":
         params["LATENCY"] = core_latency(cfg)
+        params["CLOCKS_PER_SAMPLE"] = cfg.clocks_per_sample
     params.update(dict(task.params))
     defines = " ".join(f"-D{d}" for d in task.defines)
     chparam = " ".join(f"-set {k} {v}" for k, v in params.items())

@@ -8,7 +8,7 @@
 // OUT.bin: n little-endian uint64, every m_axis_tdata word in order.
 // stdout:  one JSON line {"samples", "latency", "cycles"}.
 // The protocol is model/fringe/hardware/rtl_stream.py's (the cocotb path): rst high for 3 clocks, then one sample
-// per clock with m_axis_tready = 1; the ROM images and registers come from the init-file
+// per clock (each when s_axis_tready = 1: COMPACT = 1 takes one per CORDIC_STAGES + 1) with m_axis_tready = 1; the ROM images and registers come from the init-file
 // parameters the binary was built with (read by $readmemh when the model starts).
 #include <cstdint>
 #include <cstdio>
@@ -88,10 +88,11 @@ int main(int argc, char** argv) {
     // next rising edge consumes both. latency = the clock at which the first output is consumed.
     long long latency = -1;
     size_t cyc = 0;
-    const size_t limit = n + 1000;
+    size_t k = 0;   // next sample to present; taken at an edge with s_axis_tready = 1 (COMPACT = 1: 0 between)
+    const size_t limit = (n + 1000) * 64;   // clocks per sample <= CORDIC_STAGES + 1 <= 33
     while (out.size() < n) {
-        if (cyc < n) {
-            const int32_t* r = &rec[3 * cyc];
+        if (k < n) {
+            const int32_t* r = &rec[3 * k];
             u128 w = (u128(uint32_t(r[0])) & adc_mask) | ((u128(uint32_t(r[1])) & adc_mask) << adc_lane);
             if (coarse_w) w |= (u128(uint32_t(r[2])) & coarse_mask) << (2 * adc_lane);
             assign_word(top->s_axis_tdata, w);
@@ -100,11 +101,13 @@ int main(int argc, char** argv) {
             top->s_axis_tvalid = 0;
         }
         top->eval();
+        const bool taken = k < n && top->s_axis_tready;
         if (top->m_axis_tvalid) {
             out.push_back(static_cast<uint64_t>(top->m_axis_tdata));
             if (latency < 0) latency = static_cast<long long>(cyc);
         }
         tick();
+        if (taken) ++k;
         if (++cyc > limit) {
             std::fprintf(stderr, "fringe_stream: %zu of %zu outputs after %zu clocks\n", out.size(), n, cyc);
             return 3;

@@ -41,6 +41,7 @@ HDL_PARAMETER_DOCS = {
     "FINE_W": "fine phase bits per signal period, 8..30",
     "CORDIC_STAGES": "CORDIC micro-rotations, 4..32",
     "CORDIC_GUARD": "extra fraction bits inside the CORDIC, 0..8",
+    "COMPACT": "1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)",
     "LP_ADDR_W": "long-period table entries per revolution = 2^LP_ADDR_W, <= 16",
     "LP_W": "long-period table value/slope width, <= 32",
     "LP_FRAC": "fraction bits of the long-period correction (fine counts)",
@@ -91,6 +92,7 @@ class CoreConfig(PositionWidths):
     fine_w: int = 16           # FINE_W: fine phase bits per signal period
     cordic_stages: int = 18    # CORDIC_STAGES: CORDIC iterations (>= FINE_W+1 for full precision)
     cordic_guard: int = 3      # CORDIC_GUARD: extra fraction bits inside the CORDIC
+    compact: int = 0           # COMPACT: 1 = one sample per clocks_per_sample clocks, iterated CORDIC (same words)
     lp_addr_w: int = 8         # LP_ADDR_W: long-period table entries per revolution = 2^LP_ADDR_W
     lp_w: int = 18             # LP_W: long-period table value/slope width
     lp_frac: int = 4           # LP_FRAC: fraction bits of the long-period correction (fine counts)
@@ -120,6 +122,8 @@ class CoreConfig(PositionWidths):
         HDL's messages: ValueError names the first one this configuration breaks. fringe_trim and fringe_drift
         are checked when they are built (TRIM = 1, DRIFT = 1), fringe_drift with the core's PIPE_LATENCY. The core's
         own checks of LINES, LP_ADDR_W, LP_W, WAVE_W and ADC_W are implied by its blocks' narrower ranges."""
+        if self.compact not in (0, 1):
+            raise ValueError(f"fringe_core: COMPACT = {self.compact} must be 0 or 1")
         self.wave_lut(), self.quadrature(), self.cordic(), long_period_params(self), period_count_params(self)
         if self.pos_w > 31:
             raise ValueError(f"fringe_core: POS_W = clog2(LINES) + FINE_W = {self.pos_w} > 31: registers are 32-bit")
@@ -170,7 +174,19 @@ class CoreConfig(PositionWidths):
 
     def cordic(self) -> CordicParams:
         return CordicParams(in_w=self.wave_w, fine_w=self.fine_w, stages=self.cordic_stages,
-                            guard=self.cordic_guard)
+                            guard=self.cordic_guard, iterative=self.compact)
+
+    @property
+    def clocks_per_sample(self) -> int:
+        """Clock enables from one accepted sample to the next at full speed (in_ready / s_axis_tready is 0 in
+        between): 1 for the pipelined core; with COMPACT = 1 the iterated CORDIC's, CORDIC_STAGES + 1. The
+        latency (fixed/core.py core_latency) and every output word are the same for both."""
+        return self.cordic().clocks_per_sample
+
+    @property
+    def samples_per_clock(self) -> float:
+        """Throughput in samples per clock at full speed, 1 / clocks_per_sample."""
+        return 1.0 / self.clocks_per_sample
 
     def trim_params(self) -> TrimParams:
         return TrimParams(lines=self.lines, fine_w=self.fine_w, amp_w=self.wave_w + 1, speed_log2=self.speed_log2,
@@ -212,7 +228,7 @@ class CoreConfig(PositionWidths):
 
     @property
     def test_id(self) -> str:
-        return f"adc{self.adc_w}-L{self.lines}-c{self.coarse_w}-f{self.fine_w}"
+        return f"adc{self.adc_w}-L{self.lines}-c{self.coarse_w}-f{self.fine_w}" + ("-compact" if self.compact else "")
 
 
 def long_period_params(cfg: CoreConfig) -> lp_mod.LongPeriodParams:

@@ -18,8 +18,10 @@ The zero vector (x = y = 0) gives ``mag = 0`` and ``phase = round(sum(ATAN)) >>>
 (about 0.2775 of a turn for STAGES >= 8): every stage takes the ``y >= 0`` branch. It carries
 no information; the top flags it through the magnitude threshold (AMP_LOW).
 
-The RTL is fully pipelined with ``LATENCY = STAGES + 2`` enabled clocks (pre-rotation register,
-STAGES stage registers, output rounding register).
+The RTL has ``LATENCY = STAGES + 2`` enabled clocks (pre-rotation register, STAGES stage registers,
+output rounding register). ITERATIVE = 0 pipelines them (one sample per clock); ITERATIVE = 1 iterates one
+micro-rotation stage on one register, the same stages in the same order (the same words, the same
+latency), and takes one sample per ``STAGES + ITER_CLOCKS_BASE`` clock enables (``clocks_per_sample``).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from .limits import check_integers, check_range
 
 __all__ = [
     "ATAN62",
+    "ITER_CLOCKS_BASE",
     "CordicParams",
     "atan_table",
     "cordic",
@@ -84,6 +87,10 @@ ATAN62 = (
 #: Width of the shared table's fractions (bits of a turn).
 ATAN62_BITS = 62
 
+#: ITERATIVE = 1: clock enables per sample beyond STAGES (the clock enable that loads the pre-rotated
+#: vector; the one that hands the result to the output register may load the next sample).
+ITER_CLOCKS_BASE = 1
+
 
 @dataclass(frozen=True)
 class CordicParams:
@@ -93,14 +100,16 @@ class CordicParams:
     fine_w: int  # FINE_W: output phase bits per period, 8..30
     stages: int  # STAGES: CORDIC micro-rotations, 4..32 (>= FINE_W + 1 for full precision)
     guard: int   # GUARD: extra fractional bits of x, y and the angle accumulator, 0..8
+    iterative: int = 0  # ITERATIVE: 1 = one micro-rotation stage iterated, one sample per clocks_per_sample
 
     def __post_init__(self) -> None:
         block = "fringe_cordic"
-        check_integers(block, self, ("in_w", "fine_w", "stages", "guard"))
+        check_integers(block, self, ("in_w", "fine_w", "stages", "guard", "iterative"))
         check_range(block, "IN_W", self.in_w, 8, 30)
         check_range(block, "FINE_W", self.fine_w, 8, 30)
         check_range(block, "STAGES", self.stages, 4, 32)
         check_range(block, "GUARD", self.guard, 0, 8)
+        check_range(block, "ITERATIVE", self.iterative, 0, 1)
 
     # ---- derived constants (names as in the HDL)
     @property
@@ -123,9 +132,16 @@ class CordicParams:
         """LATENCY: enabled clocks from in_valid to out_valid, STAGES + 2."""
         return self.stages + 2
 
+    @property
+    def clocks_per_sample(self) -> int:
+        """Clock enables from one accepted sample to the next at full speed: 1, or STAGES + ITER_CLOCKS_BASE
+        with ITERATIVE = 1 (ready is 0 in between)."""
+        return self.stages + ITER_CLOCKS_BASE if self.iterative else 1
+
     def hdl_parameters(self) -> dict[str, int]:
-        """The HDL parameter/generic map (``IN_W``, ``FINE_W``, ``STAGES``, ``GUARD``)."""
-        return {"IN_W": self.in_w, "FINE_W": self.fine_w, "STAGES": self.stages, "GUARD": self.guard}
+        """The HDL parameter/generic map (``IN_W``, ``FINE_W``, ``STAGES``, ``GUARD``, ``ITERATIVE``)."""
+        return {"IN_W": self.in_w, "FINE_W": self.fine_w, "STAGES": self.stages, "GUARD": self.guard,
+                "ITERATIVE": self.iterative}
 
 
 def latency(params: CordicParams) -> int:

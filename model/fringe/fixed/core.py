@@ -72,7 +72,8 @@ def core_latency(cfg: CoreConfig) -> int:
     The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 5, CORDIC
     CORDIC_STAGES + 2, period count 3, long-period table 8; CORDIC_STAGES + 24 in all, plus fringe_trim's
     LATENCY with TRIM = 1 and fringe_drift's normaliser (NORM_LATENCY) with DRIFT = 1 (INPUT_LATENCY and
-    drift_pipe_latency: fixed/config.py).
+    drift_pipe_latency: fixed/config.py). The same for COMPACT = 1, which only takes fewer samples: one per
+    ``cfg.clocks_per_sample`` clock enables (fixed/config.py, from the CORDIC's ``clocks_per_sample``).
     """
     return ((drift_mod.NORM_LATENCY if cfg.drift else 0) + drift_pipe_latency(cfg)
             + pc_mod.LATENCY + (trim_mod.LATENCY if cfg.trim else 0) + lp_mod.LATENCY)

@@ -35,6 +35,9 @@ __all__ = [
 #: assembled with the rounding constant (partial products of a split multiply summed), sine sum,
 #: shift/saturate).
 LATENCY = 5
+#: SHARED_MUL = 1 (the compact core's): the three products through one multiplier at stages 2..4, so the
+#: next sample may enter 4 clock enables after the last one at the earliest
+SHARED_MIN_CLOCKS = 4
 
 _COEF_NAMES = ("k_ss", "k_sc", "k_cc")
 _OFS_NAMES = ("ofs_s", "ofs_c")
