@@ -4,7 +4,8 @@ Exchange directory ``$FRINGE_RTL_STREAM_DIR``:
 - in:  ``input.txt`` (one s_axis_tdata word per line, hex), ``meta.json`` (``n``, ``latency``);
 - out: ``output.txt`` (every m_axis_tdata word, hex, in order), ``result.json`` (measured latency).
 
-The sink never stalls (``m_axis_tready`` = 1), so the pipeline runs one sample per clock; the
+The sink never stalls (``m_axis_tready`` = 1), so the pipelined core takes one sample per clock and the
+compact one (COMPACT = 1) one per ``clocks_per_sample``: a sample is held until s_axis_tready takes it. The
 samples are driven and the outputs read at the falling edge (both settled there).
 """
 
@@ -24,7 +25,7 @@ async def rtl_stream(dut):
     xdir = Path(os.environ["FRINGE_RTL_STREAM_DIR"])
     words = [int(x, 16) for x in (xdir / "input.txt").read_text().split()]
     meta = json.loads((xdir / "meta.json").read_text())
-    n, lat = int(meta["n"]), int(meta["latency"])
+    n, lat, per = int(meta["n"]), int(meta["latency"]), int(meta.get("clocks_per_sample", 1))
     assert len(words) == n, f"input.txt has {len(words)} words, meta.json says {n}"
 
     cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start(start_high=False))
@@ -42,13 +43,16 @@ async def rtl_stream(dut):
     out: list[int] = []
     first_out = None
     tdata, tvalid, m_valid, m_data = dut.s_axis_tdata, dut.s_axis_tvalid, dut.m_axis_tvalid, dut.m_axis_tdata
-    cyc = 0
-    limit = n + lat + 50
+    tready = dut.s_axis_tready
+    cyc = k = 0
+    limit = n * per + lat + 50
     while len(out) < n:
-        # at a falling edge: the next rising edge takes this input and the output shown now
-        if cyc < n:
-            tdata.value = words[cyc]
+        # at a falling edge: the next rising edge takes this input (if s_axis_tready) and the output shown now
+        if k < n:
+            tdata.value = words[k]
             tvalid.value = 1
+            if int(tready.value):
+                k += 1
         else:
             tvalid.value = 0
         if int(m_valid.value):

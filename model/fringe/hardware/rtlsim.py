@@ -270,6 +270,7 @@ def _run_cocotb(cr, params: dict, work: Path, sim: str, n: int, cfg: CoreConfig,
         words = pack_inputs(cfg, sin_c, cos_c, coarse_c)
         (Path(xdir) / "input.txt").write_text("".join(f"{w:x}\n" for w in words))
         (Path(xdir) / "meta.json").write_text(json.dumps({"n": n, "latency": core_latency(cfg),
+                                                          "clocks_per_sample": cfg.clocks_per_sample,
                                                           "config": cfg.to_dict()}))
         try:
             cr.run_block(TOPLEVEL, STREAM_MODULE, params, sim=sim, timeout_s=timeout_s,
