@@ -927,11 +927,27 @@ PHASE_DOMAIN_WHERE = ("the waveform stage made straight (a common gain change th
                       "phase error of the channels' shape in fringe_trim's fine-phase map after the arctan")
 
 
+def engine_rms(state: LoopState, meas: Measurement) -> float | None:
+    """The validation RMS on the bit-exact engine (the core's own arithmetic, tables and block interplay), None
+    where the core cannot run the calibration."""
+    from .engines import run_engine
+    from .hardware.closed_loop import unsupported
+
+    if unsupported(state.cal):
+        return None
+    try:
+        return evaluate(state, meas, run_engine("model", state.cal, meas, None)).rms
+    except (FringeInputError, ValueError):
+        return None
+
+
 def best_amplitude_remedy(state: LoopState, trial: LoopState, val_after: Evaluation, fit_data: Measurement,
                           val_data: Measurement) -> tuple[LoopState, Evaluation, str]:
     """Of the magnitude-dependent term (`trial`), the phase-domain structure (with and without that term) and the
-    amplitude normaliser (the drift tracker), the one with the least error on the validation data."""
-    best = (val_after.rms, trial, val_after, "")
+    amplitude normaliser (the drift tracker), the one with the least error on the validation data: on the
+    bit-exact engine where the core runs every candidate (the remedies live in different blocks, whose float
+    twins do not show how they combine in the core), else on the float engine."""
+    found = [("", trial, val_after)]
     for keep, label in ((False, PHASE_DOMAIN), (True, PHASE_DOMAIN + " and magnitude term"), (None, NORMALISER)):
         try:
             if keep is None:      # the channels' gains tracked online ahead of the tables (fringe_drift)
@@ -941,12 +957,17 @@ def best_amplitude_remedy(state: LoopState, trial: LoopState, val_after: Evaluat
                                 list(state.artefacts), state.ref_lag_s)
             else:
                 alt = phase_domain(trial if keep else state, fit_data, keep)
-            ev = evaluate(alt, val_data)
+            found.append((label, alt, evaluate(alt, val_data)))
         except (FringeInputError, ValueError, TypeError, KeyError, np.linalg.LinAlgError):
             continue
-        if ev.rms < (1 - 0.5 * MIN_GAIN) * best[0]:
-            best = (ev.rms, alt, ev, label)
-    return best[1], best[2], best[3]
+    core = [engine_rms(alt, val_data) for _, alt, _ in found]
+    scores = core if all(c is not None for c in core) else [ev.rms for _, _, ev in found]
+    best = 0
+    for k in range(1, len(found)):
+        if scores[k] < (1 - 0.5 * MIN_GAIN) * scores[best]:
+            best = k
+    label, alt, ev = found[best]
+    return alt, ev, label
 
 
 EVAL_ROWS = 1 << 18      # the error before and after on a long validation recording: evaluated this many rows at
