@@ -937,8 +937,8 @@ def engine_rms(state: LoopState, meas: Measurement) -> float | None:
         return None
     try:
         return evaluate(state, meas, run_engine("model", state.cal, meas, None)).rms
-    except (FringeInputError, ValueError):
-        return None
+    except (FringeInputError, ValueError, TypeError, KeyError, ArithmeticError, np.linalg.LinAlgError):
+        return None     # a configuration the core cannot take: the candidates are compared on the float engine
 
 
 def best_amplitude_remedy(state: LoopState, trial: LoopState, val_after: Evaluation, fit_data: Measurement,
