@@ -930,13 +930,15 @@ PHASE_DOMAIN_WHERE = ("the waveform stage made straight (a common gain change th
 def engine_rms(state: LoopState, meas: Measurement) -> float | None:
     """The validation RMS on the bit-exact engine (the core's own arithmetic, tables and block interplay), None
     where the core cannot run the calibration."""
-    from .engines import run_engine
     from .hardware.closed_loop import unsupported
+    from .hardware.corefiles import core_config
+    from .hardware.tables import run_model
 
     if unsupported(state.cal):
         return None
     try:
-        return evaluate(state, meas, run_engine("model", state.cal, meas, None)).rms
+        res = run_model(state.cal, core_config(state.cal), meas.sin, meas.cos, meas.coarse)
+        return evaluate(state, meas, res).rms
     except (FringeInputError, ValueError, TypeError, KeyError, ArithmeticError, np.linalg.LinAlgError):
         return None     # a configuration the core cannot take: the candidates are compared on the float engine
 
