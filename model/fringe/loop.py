@@ -724,17 +724,10 @@ def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) ->
 
 
 def joint_fit(r: np.ndarray, ctx: Context, terms: list[FittedEffect]) -> np.ndarray:
-    """Least squares of r on the terms' columns together (plus a constant, dropped), accumulated block by block
-    as normal equations: no design matrix of the whole recording is held."""
+    """Least squares of r on the terms' columns together (test_terms: blockwise normal equations, no design matrix
+    of the whole recording held)."""
     design = lambda sl: np.column_stack([_design(t.name, ctx.rows(sl), t.tone_hz) for t in terms])  # noqa: E731
-    gram = rhs = None
-    for start in range(0, len(r), CHUNK):
-        sl = slice(start, min(len(r), start + CHUNK))
-        xa = np.column_stack([design(sl), np.ones(sl.stop - sl.start)])
-        g, b = xa.T @ xa, xa.T @ r[sl]
-        gram, rhs = (g, b) if gram is None else (gram + g, rhs + b)
-    scale = np.sqrt(np.maximum(np.diag(gram), 1e-300))
-    return (np.linalg.lstsq(gram / np.outer(scale, scale), rhs / scale, rcond=None)[0] / scale)[:-1]
+    return test_terms(r, design, 1.0, "joint").weights
 
 
 def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> Calibration:
@@ -1003,14 +996,16 @@ def validation_figures(state: LoopState, meas: Measurement) -> dict:
         r[start:b], frac[start:b] = block[start - a:], ev.ctx.phi[start - a:] / (2 * np.pi)
         rev[start:b] = ev.ctx.psi[start - a:] / (2 * np.pi)
     r -= r.mean()
-    fig = error_figures(r, frac, rev).to_dict()
-    return {"rms_arcsec": round(fig["rms_arcsec"], 4), "pp_arcsec": round(float(np.ptp(r)), 4),
-            "interp_pp_arcsec": fig["interp_pp_arcsec"], "lp_pp_arcsec": fig["lp_pp_arcsec"]}
+    return _report_figures(r, error_figures(r, frac, rev).to_dict())
+
+
+def _report_figures(r: np.ndarray, figures: dict) -> dict:
+    return {"rms_arcsec": round(float(np.sqrt(np.mean(r * r))), 4), "pp_arcsec": round(float(np.ptp(r)), 4),
+            "interp_pp_arcsec": figures["interp_pp_arcsec"], "lp_pp_arcsec": figures["lp_pp_arcsec"]}
 
 
 def _figs(ev: Evaluation) -> dict:
-    return {"rms_arcsec": round(ev.rms, 4), "pp_arcsec": round(float(np.ptp(ev.r)), 4),
-            "interp_pp_arcsec": ev.figures["interp_pp_arcsec"], "lp_pp_arcsec": ev.figures["lp_pp_arcsec"]}
+    return _report_figures(ev.r, ev.figures)
 
 
 def _fourier(x: np.ndarray, orders) -> np.ndarray:
