@@ -42,6 +42,9 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
             cfg = trim_config(cal, cfg)
         if "drift" not in base:    # and the drift tracker fringe_drift
             cfg = drift_config(cal, cfg)
+        if "cancel" not in base and cal.canceller:    # and the interference canceller fringe_canceller
+            cfg = dataclasses.replace(cfg, cancel=1, **{k: cal.canceller[k] for k in
+                                                        ("cancel_block_log2", "cancel_mu_log2")})
         if "lp_w" not in base and "lp_frac" not in base:    # the long-period table's format from its values
             cfg = long_period_config(cal, cfg)
         return cfg
