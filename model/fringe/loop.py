@@ -637,7 +637,8 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
     elif kind == "adaptive":
         new.cal = choose_tracker(dataclasses.replace(new.cal, adaptive=True), new, fit_data)
     elif kind == "canceller":
-        new.cal = choose_canceller(new.cal, new, fit_data, t.tone_hz)
+        meas = shift_reference(fit_data, state.ref_lag_s)
+        new.cal = choose_canceller(refit_around_interference(new.cal, new, meas, t.tone_hz), new, meas, t.tone_hz)
     else:
         new.artefacts.append(fitted)
         if t.name == "tone":     # the declared model was fitted with the tone in its residual: fit it without
@@ -705,6 +706,25 @@ def choose_canceller(cal: Calibration, state: LoopState, meas: Measurement, tone
             if best is None or rms < best[0]:
                 best = (rms, trial)
     return best[1]
+
+
+def refit_around_interference(cal: Calibration, state: LoopState, meas: Measurement, tone_hz: float) -> Calibration:
+    """Re-calibrate the declared model on readings with the tone taken out: the first calibration fitted its
+    waveforms and long-period table to readings that held it (a strong tone bends both), and the canceller only
+    removes it from the signals the core sees. The tone (cos, sin at its frequency) is fitted to each channel's
+    reading minus the calibrated waveform at the reference's phase, and the model calibrated again on the
+    readings without it. (One round: the channel errors of a calibration made without the tone are taken in
+    a frame that no longer shows it whole.)"""
+    t = sample_times(len(meas), meas.t_s)
+    x = np.column_stack([np.ones_like(t), np.cos(2 * np.pi * tone_hz * t), np.sin(2 * np.pi * tone_hz * t)])
+    plain = dataclasses.replace(cal, canceller={})
+    e = channel_errors(evaluate(LoopState(plain, state.artefacts, state.ref_lag_s), meas))
+    if e is None:
+        return plain
+    w, *_ = np.linalg.lstsq(x, e.T, rcond=None)
+    tone = x[:, 1:] @ w[1:]          # the offsets stay in the readings: the waveform fit has its own
+    clean = dataclasses.replace(meas, sin=meas.sin - tone[:, 0], cos=meas.cos - tone[:, 1])
+    return carry_loop(recalibrate(clean, cal), plain)
 
 
 def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measurement, rounds: int = 3) -> Calibration:
