@@ -26,6 +26,7 @@ class Calibration:
     amp_high: float = 1.5
     adaptive: bool = False                       # online offset/gain tracker (closed loop: drift)
     tracker: dict = field(default_factory=dict)  # its constants chosen on the data: drift_block_log2, drift_mu_log2
+    canceller: dict = field(default_factory=dict)   # interference canceller: tone_hz, sample_rate_hz, cancel_*
     rev_norm: object | None = None               # offsets/gains over the revolution (effects.RevNormalisation)
     angle_terms: list = field(default_factory=list)   # closed-loop hardware terms (effects.FittedEffect)
     waves: dict = field(default_factory=dict)    # fitted channel models (for reports and plots)
@@ -34,11 +35,24 @@ class Calibration:
     fit: dict = field(default_factory=dict)
 
 
-def static_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
+def static_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray, canceller=None):
     """Fine phase (fraction of a period) and magnitude through the calibration's fixed stages: the
-    waveform inverse per channel, the quadrature, the arctan (without the closed loop's revolution
-    normalisation and drift tracker, which `pipeline.fine_phase` adds)."""
+    waveform inverse per channel, the quadrature, the interference canceller (one from reset unless a
+    stream's `canceller` is given), the arctan (without the closed loop's revolution normalisation and
+    drift tracker, which `pipeline.fine_phase` adds)."""
     xs = cal.inv_sin(sin, cos) if cal.inv_sin is not None else sin
     xc = cal.inv_cos(cos, sin) if cal.inv_cos is not None else cos
     s, c = cal.quad.apply(xs, xc)
+    if cal.canceller:
+        c, s = (canceller or float_canceller(cal)).run(c, s)
     return (np.arctan2(s, c) / (2 * np.pi)) % 1.0, np.hypot(s, c)
+
+
+CANCELLER_KEYS = ("tone_hz", "sample_rate_hz", "cancel_block_log2", "cancel_mu_log2")
+
+
+def float_canceller(cal: Calibration):
+    """The float twin of fringe_canceller for cal.canceller, from reset (fixed/canceller.py, CancelFloat)."""
+    from .fixed.canceller import CancelFloat, freq_word
+    k = cal.canceller
+    return CancelFloat(freq_word(k["tone_hz"], k["sample_rate_hz"]), k["cancel_block_log2"], k["cancel_mu_log2"])

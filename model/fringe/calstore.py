@@ -1,12 +1,13 @@
 """CAL_DIR: the calibration as JSON (units, provenance) plus the waveform tables as CSV."""
 
 import json
+import math
 import os
 
 import numpy as np
 
 from . import __version__
-from .calibration import Calibration
+from .calibration import CANCELLER_KEYS, Calibration
 from .encoder import encoder_from_dict
 from .errors import FringeInputError
 from .longperiod import FourierSeries
@@ -50,7 +51,7 @@ def to_json_dict(cal: Calibration) -> dict:
             "status": {"amp_low": cal.amp_low, "amp_high": cal.amp_high,
                        "units": "corrected vector magnitude (1 = unit circle)"},
         },
-        "closed_loop": {"adaptive_offset_gain": cal.adaptive, "tracker": cal.tracker,
+        "closed_loop": {"adaptive_offset_gain": cal.adaptive, "tracker": cal.tracker, "canceller": cal.canceller,
                         "rev_normalisation": None if cal.rev_norm is None else cal.rev_norm.to_dict(),
                         "angle_terms": [t.to_dict() for t in cal.angle_terms]},
         "skipped": cal.skipped,
@@ -92,6 +93,21 @@ def write_wave_tables(path: str, inv_sin: WaveformInverse, inv_cos: WaveformInve
         np.savetxt(f, data, fmt="%.12g", delimiter=",")
 
 
+def _canceller(d, path: str) -> dict:
+    """closed_loop.canceller: {} or the tone (Hz), the sample rate (samples/s) and the canceller's constants."""
+    if not d:
+        return {}
+    ok = (isinstance(d, dict) and set(d) == set(CANCELLER_KEYS)
+          and all(isinstance(d[k], (int, float)) and not isinstance(d[k], bool) and math.isfinite(d[k])
+                  for k in CANCELLER_KEYS)
+          and d["sample_rate_hz"] > 0 and d["tone_hz"] >= 0
+          and all(isinstance(d[k], int) for k in ("cancel_block_log2", "cancel_mu_log2")))
+    if not ok:
+        raise FringeInputError(f"closed_loop.canceller must map {', '.join(CANCELLER_KEYS)} to finite numbers "
+                               "(a tone >= 0 Hz, a sample rate > 0, integer constants)", path)
+    return dict(d)
+
+
 def load_calibration(cal_dir: str) -> Calibration:
     """Read CAL_DIR after checking it is complete and unedited (its manifest's checksums)."""
     path = os.path.join(cal_dir, CAL_JSON)
@@ -122,6 +138,7 @@ def load_calibration(cal_dir: str) -> Calibration:
                 not all(k in TRACKER_KEYS and isinstance(v, int) for k, v in tracker.items()):
             raise FringeInputError(f"closed_loop.tracker must map {', '.join(TRACKER_KEYS)} to integers", path)
         cal.tracker = dict(tracker)
+        cal.canceller = _canceller(loop.get("canceller") or {}, path)
         if loop.get("rev_normalisation"):
             from .effects import RevNormalisation
             cal.rev_norm = RevNormalisation.from_dict(loop["rev_normalisation"])

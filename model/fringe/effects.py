@@ -226,10 +226,10 @@ INTERFERENCE = dict(
     cause="additive interference on the signals at a fixed frequency (switching supply, motor drive, pick-up)",
     signature="a line at the frequency in each channel's error against the reference's phase; in the angle, "
               "sidebands at plus and minus the electrical frequency",
-    correction="float engine",
-    where="the float engine: a canceller at the named frequency that estimates the tone on each channel from "
-          "the recording's own Lissajous radius (no reference needed) and removes its angle image; the bit-exact "
-          "core does not carry it (no core block exists yet)")
+    correction="adaptive",
+    where="fringe_canceller between the quadrature and the CORDIC: an adaptive canceller at the named frequency "
+          "that estimates the tone on each corrected channel from the Lissajous radius (no reference needed) "
+          "and subtracts it, converging anew after every reset (docs/blocks/fringe_canceller.md)")
 
 
 def interference_columns(ctx: Context, f: float) -> np.ndarray:

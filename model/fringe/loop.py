@@ -614,7 +614,7 @@ def describe(name: str) -> dict:
 def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
     new = LoopState(dataclasses.replace(state.cal, angle_terms=list(state.cal.angle_terms)), list(state.artefacts),
                     state.ref_lag_s)
-    kind = {"tone": "artefact", "interference": "float engine"}.get(t.name) or \
+    kind = {"tone": "artefact", "interference": "canceller"}.get(t.name) or \
         (describe(t.name)["correction"] if t.name.startswith("generic:") else LIBRARY[t.name].correction)
     fitted = FittedEffect(t.name, t.weights, t.tone_hz, "float" if kind == "float engine" else "core")
     if t.name == "ref_lag":
@@ -636,6 +636,8 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
         new.cal = refit_angle_terms(new.cal, shift_reference(fit_data, state.ref_lag_s))
     elif kind == "adaptive":
         new.cal = choose_tracker(dataclasses.replace(new.cal, adaptive=True), new, fit_data)
+    elif kind == "canceller":
+        new.cal = choose_canceller(new.cal, new, fit_data, t.tone_hz)
     else:
         new.artefacts.append(fitted)
         if t.name == "tone":     # the declared model was fitted with the tone in its residual: fit it without
@@ -659,7 +661,7 @@ def recalibrate(meas: Measurement, cal: Calibration, known_error_arcsec: np.ndar
 def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
     """A fresh calibration of the declared model with the closed loop's additions of `cal` carried over."""
     kept = dict(rev_norm=cal.rev_norm, adaptive=cal.adaptive, tracker=dict(cal.tracker),
-                angle_terms=list(cal.angle_terms))
+                canceller=dict(cal.canceller), angle_terms=list(cal.angle_terms))
     return dataclasses.replace(fresh, **{**kept, **changes})
 
 
@@ -676,6 +678,29 @@ def choose_tracker(cal: Calibration, state: LoopState, meas: Measurement) -> Cal
     for block in TRACKER_BLOCK_LOG2:
         for mu in TRACKER_MU_LOG2:
             trial = dataclasses.replace(cal, tracker={"drift_block_log2": block, "drift_mu_log2": mu})
+            rms = evaluate(LoopState(trial, state.artefacts, state.ref_lag_s), meas).rms
+            if best is None or rms < best[0]:
+                best = (rms, trial)
+    return best[1]
+
+
+CANCEL_BLOCK_LOG2 = (4, 5, 6)          # fringe_canceller's update block
+CANCEL_MU_LOG2 = (4, 6, 8, 10)         # and its final step (the gear shift starts every run at 1/2)
+
+
+def choose_canceller(cal: Calibration, state: LoopState, meas: Measurement, tone_hz: float) -> Calibration:
+    """The interference canceller (fringe_canceller, ahead of the CORDIC) at the named tone, with the constants
+    that leave the least error on the fit data: a fast canceller converges sooner after reset and follows a
+    tone that wanders, a slow one passes less noise into the phase. Like the drift tracker it has no fitted
+    weights (it estimates the tone from the signals on every run), so its in-sample error is a fair score.
+    The tone's frequency is in the recording's time units (cycles per sample without time stamps)."""
+    t = sample_times(len(meas), meas.t_s)
+    fs = sample_rate(t[uniform_run(t)])
+    best = None
+    for block in CANCEL_BLOCK_LOG2:
+        for mu in CANCEL_MU_LOG2:
+            trial = dataclasses.replace(cal, canceller={"tone_hz": float(tone_hz), "sample_rate_hz": float(fs),
+                                                        "cancel_block_log2": block, "cancel_mu_log2": mu})
             rms = evaluate(LoopState(trial, state.artefacts, state.ref_lag_s), meas).rms
             if best is None or rms < best[0]:
                 best = (rms, trial)

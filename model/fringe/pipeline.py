@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 
-from .calibration import Calibration, static_phase
+from .calibration import Calibration, float_canceller, static_phase
 from .encoder import ARCSEC_PER_REV
 from .fixed import drift as drift_mod
 from .hardware.closed_loop import build_drift_tables, drift_config
@@ -42,9 +42,10 @@ def tracked_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
     words = np.stack([drift_mod.pack_words(v, p) for v in t.fwd])
 
     mags = []       # drift_float feeds every sample once, in order
+    stream = float_canceller(cal) if cal.canceller else None
 
     def phase_of(ys, yc):
-        frac, mag = fine_phase(plain, ys, yc)
+        frac, mag = static_phase(plain, ys, yc, stream)
         mags.append(mag)
         return frac * scale
 

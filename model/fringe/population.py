@@ -26,8 +26,8 @@ STRENGTH_RANGE = (0.5, 50.0)      # effect RMS on the angle, in units of the flo
 CLASSES = ("rev_offset_gain", "sampling_skew", "hysteresis", "ref_lag", "drift", "amplitude", "tone",
            "interference", "common_gain")
 TRAJECTORIES = ("steady", "sweeps", "reversals", "slow", "fast")
-#: effects whose correction the bit-exact core does not carry (the float engine does)
-FLOAT_ONLY = {"interference"}
+#: effects whose correction the bit-exact core does not carry (the float engine does): none since fringe_canceller
+FLOAT_ONLY: set[str] = set()
 
 
 def _log_uniform(rng, lo, hi):

@@ -30,6 +30,7 @@ localparam [4:0]   REG_W0_S                = 5'd16;  // s(ADC_W+DRIFT_TABLE_FRAC
 localparam [4:0]   REG_W0_C                = 5'd17;  // s(ADC_W+DRIFT_TABLE_FRAC)
 localparam [4:0]   REG_KG_S                = 5'd18;  // u(DRIFT_KG_W)
 localparam [4:0]   REG_KG_C                = 5'd19;  // u(DRIFT_KG_W)
+localparam [4:0]   REG_CANCEL_FREQ         = 5'd20;  // u(32)
 localparam [15:0]  CTRL_WORD               = 16'd128;  // register-space word of CTRL
 localparam integer CTRL_SWAP               = 0;  // CTRL bit: 1 swaps the banks
 localparam integer SPACE_LSB               = 16;  // cfg_wr_addr bit where the address space starts

@@ -59,6 +59,13 @@ module fringe_top #(
     parameter integer DRIFT_TABLE_FRAC = 4,     // fraction bits of the forward tables and W0_S/W0_C, 0..12
     parameter integer DRIFT_KG_W       = 18,    // KG_S/KG_C width, 8..24
     parameter integer DRIFT_KG_SHIFT   = 40,    // right shift of the gain-loop product, 1..60
+    parameter integer CANCEL           = 0,     // 1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)
+    parameter integer CANCEL_LUT_W     = 10,    // 2^CANCEL_LUT_W entries of the canceller's sine table, 4..12
+    parameter integer CANCEL_C_W       = 16,    // canceller sine table value width, 8..18
+    parameter integer CANCEL_BLOCK_LOG2 = 4,    // samples per canceller update = 2^CANCEL_BLOCK_LOG2, 4..12
+    parameter integer CANCEL_MU_LOG2   = 6,     // final canceller step 2^-CANCEL_MU_LOG2 per block, 1..12
+    parameter integer CANCEL_A_FRAC    = 4,     // fraction bits of the canceller coefficients, 0..12
+    parameter integer CANCEL_A_W       = 20,    // canceller coefficient width, 8..min(32, WAVE_W + CANCEL_A_FRAC)
     // initial contents: $readmemh images, "" = zeros
     parameter         REGS_INIT        = "",    // $readmemh image of the registers, 2 x 32 words of 32 bits
     parameter         WAVE_SIN_INIT    = "",    // $readmemh image of the sine table, both banks
@@ -68,7 +75,8 @@ module fringe_top #(
     parameter         SPEED_INIT       = "",    // $readmemh image of the trim speed table, both banks (TRIM = 1)
     parameter         AMP_INIT         = "",    // $readmemh image of the trim magnitude table, both banks (TRIM = 1)
     parameter         FWD_SIN_INIT     = "",    // $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
-    parameter         FWD_COS_INIT     = ""     // $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
+    parameter         FWD_COS_INIT     = "",    // $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
+    parameter         CANCEL_LUT_INIT  = ""     // $readmemh image of the canceller's sine table (CANCEL = 1; canceller.sine_table)
     // END generated parameters
 ) (
     input  wire                clk,
@@ -130,9 +138,12 @@ module fringe_top #(
         .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT), .DRIFT(DRIFT), .DRIFT_BLOCK_LOG2(DRIFT_BLOCK_LOG2),
         .DRIFT_MU_LOG2(DRIFT_MU_LOG2), .DRIFT_OFS_FRAC(DRIFT_OFS_FRAC), .DRIFT_GINV_W(DRIFT_GINV_W),
         .DRIFT_FWD_W(DRIFT_FWD_W), .DRIFT_TABLE_W(DRIFT_TABLE_W), .DRIFT_TABLE_FRAC(DRIFT_TABLE_FRAC),
-        .DRIFT_KG_W(DRIFT_KG_W), .DRIFT_KG_SHIFT(DRIFT_KG_SHIFT), .REGS_INIT(REGS_INIT),
+        .DRIFT_KG_W(DRIFT_KG_W), .DRIFT_KG_SHIFT(DRIFT_KG_SHIFT), .CANCEL(CANCEL), .CANCEL_LUT_W(CANCEL_LUT_W),
+        .CANCEL_C_W(CANCEL_C_W), .CANCEL_BLOCK_LOG2(CANCEL_BLOCK_LOG2), .CANCEL_MU_LOG2(CANCEL_MU_LOG2),
+        .CANCEL_A_FRAC(CANCEL_A_FRAC), .CANCEL_A_W(CANCEL_A_W), .REGS_INIT(REGS_INIT),
         .WAVE_SIN_INIT(WAVE_SIN_INIT), .WAVE_COS_INIT(WAVE_COS_INIT), .LP_INIT(LP_INIT), .MAP_INIT(MAP_INIT),
-        .SPEED_INIT(SPEED_INIT), .AMP_INIT(AMP_INIT), .FWD_SIN_INIT(FWD_SIN_INIT), .FWD_COS_INIT(FWD_COS_INIT)
+        .SPEED_INIT(SPEED_INIT), .AMP_INIT(AMP_INIT), .FWD_SIN_INIT(FWD_SIN_INIT), .FWD_COS_INIT(FWD_COS_INIT),
+        .CANCEL_LUT_INIT(CANCEL_LUT_INIT)
         // END generated core map
     ) u_core (
         .clk(clk), .rst(rst), .ce(ce),

@@ -83,6 +83,7 @@ package fringe_pkg is
     constant REG_W0_C                : integer := 17;  -- s(ADC_W+DRIFT_TABLE_FRAC)
     constant REG_KG_S                : integer := 18;  -- u(DRIFT_KG_W)
     constant REG_KG_C                : integer := 19;  -- u(DRIFT_KG_W)
+    constant REG_CANCEL_FREQ         : integer := 20;  -- u(32)
     constant CTRL_WORD               : integer := 128;  -- register-space word of CTRL
     constant CTRL_SWAP               : integer := 0;  -- CTRL bit: 1 swaps the banks
     constant SPACE_LSB               : integer := 16;  -- cfg_wr_addr bit where the address space starts

@@ -65,6 +65,13 @@ entity fringe_top is
         DRIFT_TABLE_FRAC : integer := 4;   -- fraction bits of the forward tables and W0_S/W0_C, 0..12
         DRIFT_KG_W       : integer := 18;  -- KG_S/KG_C width, 8..24
         DRIFT_KG_SHIFT   : integer := 40;  -- right shift of the gain-loop product, 1..60
+        CANCEL           : integer := 0;   -- 1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)
+        CANCEL_LUT_W     : integer := 10;  -- 2^CANCEL_LUT_W entries of the canceller's sine table, 4..12
+        CANCEL_C_W       : integer := 16;  -- canceller sine table value width, 8..18
+        CANCEL_BLOCK_LOG2 : integer := 4;  -- samples per canceller update = 2^CANCEL_BLOCK_LOG2, 4..12
+        CANCEL_MU_LOG2   : integer := 6;   -- final canceller step 2^-CANCEL_MU_LOG2 per block, 1..12
+        CANCEL_A_FRAC    : integer := 4;   -- fraction bits of the canceller coefficients, 0..12
+        CANCEL_A_W       : integer := 20;  -- canceller coefficient width, 8..min(32, WAVE_W + CANCEL_A_FRAC)
         -- initial contents: $readmemh images, "" = zeros
         REGS_INIT        : string  := "";  -- $readmemh image of the registers, 2 x 32 words of 32 bits
         WAVE_SIN_INIT    : string  := "";  -- $readmemh image of the sine table, both banks
@@ -74,7 +81,8 @@ entity fringe_top is
         SPEED_INIT       : string  := "";  -- $readmemh image of the trim speed table, both banks (TRIM = 1)
         AMP_INIT         : string  := "";  -- $readmemh image of the trim magnitude table, both banks (TRIM = 1)
         FWD_SIN_INIT     : string  := "";  -- $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
-        FWD_COS_INIT     : string  := ""   -- $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
+        FWD_COS_INIT     : string  := "";  -- $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
+        CANCEL_LUT_INIT  : string  := ""   -- $readmemh image of the canceller's sine table (CANCEL = 1; canceller.sine_table)
         -- END generated generics
     );
     port (
@@ -140,9 +148,12 @@ begin
             DRIFT_BLOCK_LOG2 => DRIFT_BLOCK_LOG2, DRIFT_MU_LOG2 => DRIFT_MU_LOG2, DRIFT_OFS_FRAC => DRIFT_OFS_FRAC,
             DRIFT_GINV_W => DRIFT_GINV_W, DRIFT_FWD_W => DRIFT_FWD_W, DRIFT_TABLE_W => DRIFT_TABLE_W,
             DRIFT_TABLE_FRAC => DRIFT_TABLE_FRAC, DRIFT_KG_W => DRIFT_KG_W, DRIFT_KG_SHIFT => DRIFT_KG_SHIFT,
-            REGS_INIT => REGS_INIT, WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT,
-            LP_INIT => LP_INIT, MAP_INIT => MAP_INIT, SPEED_INIT => SPEED_INIT, AMP_INIT => AMP_INIT,
-            FWD_SIN_INIT => FWD_SIN_INIT, FWD_COS_INIT => FWD_COS_INIT
+            CANCEL => CANCEL, CANCEL_LUT_W => CANCEL_LUT_W, CANCEL_C_W => CANCEL_C_W,
+            CANCEL_BLOCK_LOG2 => CANCEL_BLOCK_LOG2, CANCEL_MU_LOG2 => CANCEL_MU_LOG2,
+            CANCEL_A_FRAC => CANCEL_A_FRAC, CANCEL_A_W => CANCEL_A_W, REGS_INIT => REGS_INIT,
+            WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT, LP_INIT => LP_INIT,
+            MAP_INIT => MAP_INIT, SPEED_INIT => SPEED_INIT, AMP_INIT => AMP_INIT, FWD_SIN_INIT => FWD_SIN_INIT,
+            FWD_COS_INIT => FWD_COS_INIT, CANCEL_LUT_INIT => CANCEL_LUT_INIT
             -- END generated core map
         )
         port map (

@@ -44,7 +44,8 @@ import numpy as np
 
 from .limits import check_integers, check_range
 
-__all__ = ["LATENCY", "NAME", "CancelParams", "CancelResult", "cancel", "freq_word", "sine_table"]
+__all__ = ["ADAPT_LATENCY", "LATENCY", "NAME", "CancelParams", "CancelResult", "CancelFloat", "CancelStream", "cancel",
+           "freq_word", "sine_table"]
 
 NAME = "fringe_canceller"
 #: Enabled clocks from in_valid to out_valid (LUT read, products, sum and rounding, subtraction and saturation).
@@ -141,54 +142,116 @@ class CancelResult:
     coefs: np.ndarray
 
 
+class CancelStream:
+    """The canceller over a stream given in pieces of any length (the core's model feeds it as fringe_drift
+    asks for phases): the same words as one `cancel` over the whole stream."""
+
+    def __init__(self, params: CancelParams):
+        self.p = params
+        self.lut = sine_table(params)
+        self.n = 0                            # samples since reset
+        self.acc = 0                          # NCO phase of the next sample
+        self.rows = [[0, 0, 0, 0], [0, 0, 0, 0]]   # row k: the coefficients of block k
+        self.row_sat = [False, False]
+        self.sums = [0, 0, 0, 0]              # of the block in progress
+
+    def run(self, c, s, freq):
+        """(c_out, s_out, sat, track_sat) of the next piece; freq: int or one NCO word per sample."""
+        p = self.p
+        c, s = np.asarray(c, dtype=np.int64), np.asarray(s, dtype=np.int64)
+        n = len(c)
+        if s.shape != c.shape:
+            raise ValueError(f"{NAME}: c and s must have the same length")
+        f = np.broadcast_to(np.asarray(freq, dtype=np.int64), c.shape)
+        if f.size and (f.min() < 0 or f.max() >= 1 << NCO_W):
+            raise ValueError(f"{NAME}: FREQ must be a u({NCO_W}) word")
+        mask = (1 << NCO_W) - 1
+        acc = np.empty(n, dtype=np.uint64)
+        if n:
+            acc[0] = self.acc
+            acc[1:] = np.uint64(self.acc) + np.cumsum(f[:-1].astype(np.uint64))   # wraps mod 2^64: mod 2^32 exact
+            self.acc = int((int(acc[-1]) + int(f[-1])) & mask)
+        i = ((acc & np.uint64(mask)) >> np.uint64(NCO_W - p.lut_w)).astype(np.int64)
+        sw = self.lut[i]
+        cw = self.lut[(i + (1 << (p.lut_w - 2))) & ((1 << p.lut_w) - 1)]
+        lo, hi = _limits(p.wave_w)
+        alo, ahi = _limits(p.a_w)
+        est_shift = p.c_w - 1 + p.a_frac
+        est_rnd = 1 << (est_shift - 1)
+        out_c, out_s = np.empty(n, np.int64), np.empty(n, np.int64)
+        sat, tsat = np.zeros(n, bool), np.zeros(n, bool)
+        start = 0
+        while start < n:
+            k, pos = divmod(self.n, p.b)
+            r = slice(start, min(n, start + p.b - pos))
+            cwk, swk = cw[r], sw[r]
+            a_c, b_c, a_s, b_s = self.rows[k]
+            yc = c[r] - ((a_c * cwk + b_c * swk + est_rnd) >> est_shift)
+            ys = s[r] - ((a_s * cwk + b_s * swk + est_rnd) >> est_shift)
+            sat[r] = (yc < lo) | (yc > hi) | (ys < lo) | (ys > hi)
+            yc, ys = np.clip(yc, lo, hi), np.clip(ys, lo, hi)
+            out_c[r], out_s[r] = yc, ys
+            tsat[r] = self.row_sat[k]
+            e = np.clip(((yc * yc + ys * ys) >> (p.wave_w - 2)) - p.radius, lo, hi)
+            uc, us = (e * yc) >> (p.wave_w - 2), (e * ys) >> (p.wave_w - 2)
+            for m, x in enumerate((uc * cwk, uc * swk, us * cwk, us * swk)):
+                self.sums[m] += _sum_exact(x)
+            taken = r.stop - r.start
+            self.n += taken
+            start = r.stop
+            if pos + taken == p.b:          # block k complete: its update is the state of block k + 2
+                sh = p.sh0 + p.gear(k)
+                new = [x + ((sx + (1 << (sh - 1))) >> sh) for x, sx in zip(self.rows[k + 1], self.sums, strict=True)]
+                self.rows.append([min(max(v, alo), ahi) for v in new])
+                self.row_sat.append(self.row_sat[k + 1] or any(v < alo or v > ahi for v in new))
+                self.sums = [0, 0, 0, 0]
+        return out_c, out_s, sat, tsat
+
+
 def cancel(c, s, freq, params: CancelParams) -> CancelResult:
     """One stream from reset. ``freq``: the NCO word (int, or one per sample: the register of its bank)."""
-    p = params
-    c = np.asarray(c, dtype=np.int64)
-    s = np.asarray(s, dtype=np.int64)
-    n = len(c)
-    if s.shape != c.shape:
-        raise ValueError(f"{NAME}: c and s must have the same length")
-    f = np.broadcast_to(np.asarray(freq, dtype=np.int64), c.shape)
-    if f.size and (f.min() < 0 or f.max() >= 1 << NCO_W):
-        raise ValueError(f"{NAME}: FREQ must be a u({NCO_W}) word")
-    acc = np.zeros(n, dtype=np.uint64)
-    if n > 1:
-        acc[1:] = np.cumsum(f[:-1].astype(np.uint64))     # wraps mod 2^64, so mod 2^32 stays exact
-    i = ((acc & np.uint64((1 << NCO_W) - 1)) >> np.uint64(NCO_W - p.lut_w)).astype(np.int64)
-    lut = sine_table(p)
-    sw = lut[i]
-    cw = lut[(i + (1 << (p.lut_w - 2))) & ((1 << p.lut_w) - 1)]
+    st = CancelStream(params)
+    oc, os_, sat, tsat = st.run(c, s, freq)
+    blocks = -(-len(oc) // params.b)
+    rows = st.rows + [st.rows[-1]] * max(0, blocks + 2 - len(st.rows))
+    return CancelResult(oc, os_, sat, tsat, np.array(rows[:blocks + 2], dtype=np.int64).reshape(-1, 4))
 
-    lo, hi = _limits(p.wave_w)
-    alo, ahi = _limits(p.a_w)
-    est_shift = p.c_w - 1 + p.a_frac
-    est_rnd = 1 << (est_shift - 1)
-    out_c, out_s = np.empty(n, np.int64), np.empty(n, np.int64)
-    sat = np.zeros(n, bool)
-    tsat = np.zeros(n, bool)
-    blocks = -(-n // p.b)
-    coefs = np.zeros((blocks + 2, 4), dtype=np.int64)
-    row_sat = np.zeros(blocks + 2, bool)    # row k came from a saturated update (held)
-    for k in range(blocks):
-        a_c, b_c, a_s, b_s = (int(v) for v in coefs[k])
-        r = slice(k * p.b, min(n, (k + 1) * p.b))
-        cwk, swk = cw[r], sw[r]
-        nc = (a_c * cwk + b_c * swk + est_rnd) >> est_shift
-        ns = (a_s * cwk + b_s * swk + est_rnd) >> est_shift
-        yc, ys = c[r] - nc, s[r] - ns
-        sat[r] = (yc < lo) | (yc > hi) | (ys < lo) | (ys > hi)
-        yc, ys = np.clip(yc, lo, hi), np.clip(ys, lo, hi)
-        out_c[r], out_s[r] = yc, ys
-        tsat[r] = row_sat[k]
-        if r.stop - r.start < p.b:
-            coefs[k + 2], row_sat[k + 2] = coefs[k + 1], row_sat[k + 1]
-            break               # a partial block never completes: its sums are never applied
-        e = np.clip(((yc * yc + ys * ys) >> (p.wave_w - 2)) - p.radius, lo, hi)
-        uc, us = (e * yc) >> (p.wave_w - 2), (e * ys) >> (p.wave_w - 2)
-        sums = (_sum_exact(uc * cwk), _sum_exact(uc * swk), _sum_exact(us * cwk), _sum_exact(us * swk))
-        sh = p.sh0 + p.gear(k)
-        new = [int(x) + ((sx + (1 << (sh - 1))) >> sh) for x, sx in zip(coefs[k + 1], sums, strict=True)]
-        row_sat[k + 2] = row_sat[k + 1] or any(v < alo or v > ahi for v in new)
-        coefs[k + 2] = [min(max(v, alo), ahi) for v in new]
-    return CancelResult(out_c, out_s, sat, tsat, coefs)
+
+class CancelFloat:
+    """The float twin (the float engine's canceller, `calibration.static_phase`): the same equations on the
+    unit circle without rounding, the LUT replaced by exact cos/sin of the same 32-bit NCO phase; the
+    coefficients step by (2 / B) 2^-G_j times the block sums. A stream in pieces gives the same values."""
+
+    def __init__(self, freq: int, block_log2: int, mu_log2: int):
+        self.freq, self.b, self.mu_log2 = int(freq), 1 << block_log2, mu_log2
+        self.n = 0
+        self.rows = [np.zeros(4), np.zeros(4)]
+        self.sums = np.zeros(4)
+
+    def run(self, c, s):
+        """(c_out, s_out) of the next piece (unit-circle floats)."""
+        c, s = np.asarray(c, float), np.asarray(s, float)
+        n = len(c)
+        idx = self.n + np.arange(n, dtype=np.uint64)
+        theta = 2 * np.pi * ((idx * np.uint64(self.freq)) & np.uint64((1 << NCO_W) - 1)) / 2.0 ** NCO_W
+        cw, sw = np.cos(theta), np.sin(theta)
+        out_c, out_s = np.empty(n), np.empty(n)
+        start = 0
+        while start < n:
+            k, pos = divmod(self.n, self.b)
+            r = slice(start, min(n, start + self.b - pos))
+            a_c, b_c, a_s, b_s = self.rows[k]
+            yc = c[r] - (a_c * cw[r] + b_c * sw[r])
+            ys = s[r] - (a_s * cw[r] + b_s * sw[r])
+            out_c[r], out_s[r] = yc, ys
+            e = yc * yc + ys * ys - 1.0
+            uc, us = e * yc, e * ys
+            self.sums += [uc @ cw[r], uc @ sw[r], us @ cw[r], us @ sw[r]]
+            taken = r.stop - r.start
+            self.n += taken
+            start = r.stop
+            if pos + taken == self.b:
+                step = 2.0 / self.b * 2.0 ** -min(self.mu_log2, (k + 1).bit_length())
+                self.rows.append(self.rows[k + 1] + step * self.sums)
+                self.sums = np.zeros(4)
+        return out_c, out_s

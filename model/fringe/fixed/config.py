@@ -15,6 +15,8 @@ from . import long_period as lp_mod
 from . import period_count as pc_mod
 from . import quadrature as quad_mod
 from . import wave_lut as wave_mod
+from .canceller import LATENCY as CANCEL_LATENCY
+from .canceller import CancelParams
 from .cordic import CordicParams
 from .drift import DriftParams
 from .period_count import PositionWidths
@@ -26,6 +28,8 @@ WAVE_LSB_ARCSEC = 2.0   # default table width: one LSB of a waveform table moves
 TRIM_FIELDS = ("trim", "speed_log2", "map_psi_w", "map_phi_w", "trim_w", "trim_frac", "g_shift")
 DRIFT_FIELDS = ("drift", "drift_block_log2", "drift_mu_log2", "drift_ofs_frac", "drift_ginv_w", "drift_fwd_w",
                 "drift_table_w", "drift_table_frac", "drift_kg_w", "drift_kg_shift")
+CANCEL_FIELDS = ("cancel", "cancel_lut_w", "cancel_c_w", "cancel_block_log2", "cancel_mu_log2", "cancel_a_frac",
+                 "cancel_a_w")
 
 #: The parameters/generics of fringe_core and fringe_top (both HDLs) and of sim/synth_wrap.v, in declaration
 #: order, with their meaning and limits: the CoreConfig fields (upper case), the index mappings derived from
@@ -67,6 +71,13 @@ HDL_PARAMETER_DOCS = {
     "DRIFT_TABLE_FRAC": "fraction bits of the forward tables and W0_S/W0_C, 0..12",
     "DRIFT_KG_W": "KG_S/KG_C width, 8..24",
     "DRIFT_KG_SHIFT": "right shift of the gain-loop product, 1..60",
+    "CANCEL": "1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)",
+    "CANCEL_LUT_W": "2^CANCEL_LUT_W entries of the canceller's sine table, 4..12",
+    "CANCEL_C_W": "canceller sine table value width, 8..18",
+    "CANCEL_BLOCK_LOG2": "samples per canceller update = 2^CANCEL_BLOCK_LOG2, 4..12",
+    "CANCEL_MU_LOG2": "final canceller step 2^-CANCEL_MU_LOG2 per block, 1..12",
+    "CANCEL_A_FRAC": "fraction bits of the canceller coefficients, 0..12",
+    "CANCEL_A_W": "canceller coefficient width, 8..min(32, WAVE_W + CANCEL_A_FRAC)",
     "REGS_INIT": "$readmemh image of the registers, 2 x 32 words of 32 bits",
     "WAVE_SIN_INIT": "$readmemh image of the sine table, both banks",
     "WAVE_COS_INIT": "$readmemh image of the cosine table, both banks",
@@ -76,6 +87,7 @@ HDL_PARAMETER_DOCS = {
     "AMP_INIT": "$readmemh image of the trim magnitude table, both banks (TRIM = 1)",
     "FWD_SIN_INIT": "$readmemh image of the drift sine forward table, both banks (DRIFT = 1)",
     "FWD_COS_INIT": "$readmemh image of the drift cosine forward table, both banks (DRIFT = 1)",
+    "CANCEL_LUT_INIT": "$readmemh image of the canceller's sine table (CANCEL = 1; canceller.sine_table)",
 }
 #: the 64-bit (Verilog) multipliers of the index mappings
 HDL_WIDE_PARAMETERS = ("LP_RECIP", "SECT_RECIP")
@@ -116,6 +128,14 @@ class CoreConfig(PositionWidths):
     drift_table_frac: int = 4  # DRIFT_TABLE_FRAC: fraction bits of the forward tables (ADC codes)
     drift_kg_w: int = 18       # DRIFT_KG_W: gain-loop constants u(DRIFT_KG_W)
     drift_kg_shift: int = 40   # DRIFT_KG_SHIFT: right shift of the gain-loop product
+    # fringe_canceller (the interference canceller, docs/blocks/fringe_canceller.md); CANCEL = 0: not built
+    cancel: int = 0            # CANCEL: 1 = fringe_canceller between the quadrature and the CORDIC
+    cancel_lut_w: int = 10     # CANCEL_LUT_W: 2^CANCEL_LUT_W sine table entries per turn
+    cancel_c_w: int = 16       # CANCEL_C_W: sine table value width
+    cancel_block_log2: int = 4  # CANCEL_BLOCK_LOG2: samples per update = 2^CANCEL_BLOCK_LOG2
+    cancel_mu_log2: int = 6    # CANCEL_MU_LOG2: final step 2^-CANCEL_MU_LOG2 per block (gear shift from 1/2)
+    cancel_a_frac: int = 4     # CANCEL_A_FRAC: fraction bits of the coefficients (data LSBs)
+    cancel_a_w: int = 20       # CANCEL_A_W: coefficient width
 
     def __post_init__(self) -> None:
         """The limits fringe_core checks at elaboration, its blocks' and its own (rtl/*/fringe_core.*), with the
@@ -137,8 +157,12 @@ class CoreConfig(PositionWidths):
                              "map bank must fit the 16-bit word address")
         if self.drift not in (0, 1):
             raise ValueError(f"fringe_core: DRIFT = {self.drift} must be 0 or 1")
+        if self.cancel not in (0, 1):
+            raise ValueError(f"fringe_core: CANCEL = {self.cancel} must be 0 or 1")
         if self.trim:
             self.trim_params()
+        if self.cancel:
+            self.cancel_params()
         if self.drift:
             self.drift_params(drift_pipe_latency(self))
 
@@ -201,10 +225,15 @@ class CoreConfig(PositionWidths):
                            fwd_w=self.drift_fwd_w, table_w=self.drift_table_w, table_frac=self.drift_table_frac,
                            kg_w=self.drift_kg_w, kg_shift=self.drift_kg_shift, pipe_latency=pipe_latency)
 
+    def cancel_params(self) -> CancelParams:
+        return CancelParams(wave_w=self.wave_w, lut_w=self.cancel_lut_w, c_w=self.cancel_c_w,
+                            block_log2=self.cancel_block_log2, mu_log2=self.cancel_mu_log2,
+                            a_frac=self.cancel_a_frac, a_w=self.cancel_a_w)
+
     def hdl_parameters(self) -> dict[str, int]:
         """Parameters/generics of fringe_core and fringe_top (with the long-period index mapping)."""
         p = {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self)
-             if f.name not in TRIM_FIELDS + DRIFT_FIELDS}
+             if f.name not in TRIM_FIELDS + DRIFT_FIELDS + CANCEL_FIELDS}
         p["LP_RECIP"], p["LP_SHIFT"] = lp_mod.index_mapping(self.lines, self.fine_w, self.lp_addr_w, self.lp_if)
         if self.trim:     # without fringe_trim its parameters are not passed (the HDL defaults stand)
             p.update({name.upper(): getattr(self, name) for name in TRIM_FIELDS})
@@ -212,11 +241,13 @@ class CoreConfig(PositionWidths):
             p["SECT_RECIP"], p["SECT_SHIFT"] = tp.recip, tp.shift
         if self.drift:    # likewise fringe_drift's
             p.update({name.upper(): getattr(self, name) for name in DRIFT_FIELDS})
+        if self.cancel:   # and fringe_canceller's
+            p.update({name.upper(): getattr(self, name) for name in CANCEL_FIELDS})
         return p
 
     def hdl_parameter_defaults(self) -> dict[str, int | str]:
-        """Every HDL parameter of HDL_PARAMETER_DOCS with this configuration's value (the trim and drift
-        ones too, whatever TRIM and DRIFT are; init files empty)."""
+        """Every HDL parameter of HDL_PARAMETER_DOCS with this configuration's value (the trim, drift and
+        canceller ones too, whatever TRIM, DRIFT and CANCEL are; init files empty)."""
         p = {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self)}
         p.update(self.hdl_parameters())
         tp = self.trim_params()
@@ -228,7 +259,8 @@ class CoreConfig(PositionWidths):
 
     @property
     def test_id(self) -> str:
-        return f"adc{self.adc_w}-L{self.lines}-c{self.coarse_w}-f{self.fine_w}" + ("-compact" if self.compact else "")
+        return (f"adc{self.adc_w}-L{self.lines}-c{self.coarse_w}-f{self.fine_w}" + ("-compact" if self.compact else "")
+                + ("-cancel" if self.cancel else ""))
 
 
 def long_period_params(cfg: CoreConfig) -> lp_mod.LongPeriodParams:
@@ -245,5 +277,6 @@ INPUT_LATENCY = 2
 
 def drift_pipe_latency(cfg: CoreConfig) -> int:
     """Clock enables from fringe_drift's normaliser outputs to its observer inputs: the input registers,
-    the waveform tables, the quadrature and the CORDIC (PIPE_LATENCY)."""
-    return INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + cfg.cordic().latency
+    the waveform tables, the quadrature, the canceller (CANCEL = 1) and the CORDIC (PIPE_LATENCY)."""
+    return (INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + (CANCEL_LATENCY if cfg.cancel else 0)
+            + cfg.cordic().latency)

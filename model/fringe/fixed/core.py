@@ -16,6 +16,7 @@ import numpy as np
 
 from ..encoder import ARCSEC_PER_REV
 from ..result import AMP_HIGH, AMP_LOW, BANK, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, SATURATED
+from . import canceller as cancel_mod
 from . import cordic as cordic_mod
 from . import drift as drift_mod
 from . import long_period as lp_mod
@@ -43,6 +44,7 @@ class CoreTables:
     amp_high: int
     trim: object | None = None    # hardware.closed_loop.TrimTables of fringe_trim (TRIM = 1), else None
     drift: object | None = None   # hardware.closed_loop.DriftTables of fringe_drift (DRIFT = 1), else None
+    cancel_freq: int = 0          # CANCEL_FREQ register: fringe_canceller's NCO word (CANCEL = 1)
 
 
 def branch_select(own: np.ndarray, other: np.ndarray, regs: tuple[int, int, int]) -> np.ndarray:
@@ -71,9 +73,10 @@ def core_latency(cfg: CoreConfig) -> int:
 
     The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 5, CORDIC
     CORDIC_STAGES + 2, period count 3, long-period table 8; CORDIC_STAGES + 24 in all, plus fringe_trim's
-    LATENCY with TRIM = 1 and fringe_drift's normaliser (NORM_LATENCY) with DRIFT = 1 (INPUT_LATENCY and
-    drift_pipe_latency: fixed/config.py). The same for COMPACT = 1, which only takes fewer samples: one per
-    ``cfg.clocks_per_sample`` clock enables (fixed/config.py, from the CORDIC's ``clocks_per_sample``).
+    LATENCY with TRIM = 1, fringe_canceller's with CANCEL = 1 (in drift_pipe_latency) and fringe_drift's
+    normaliser (NORM_LATENCY) with DRIFT = 1 (INPUT_LATENCY and drift_pipe_latency: fixed/config.py). The
+    same for COMPACT = 1, which only takes fewer samples: one per ``cfg.clocks_per_sample`` clock enables
+    (fixed/config.py, from the CORDIC's ``clocks_per_sample``).
     """
     return ((drift_mod.NORM_LATENCY if cfg.drift else 0) + drift_pipe_latency(cfg)
             + pc_mod.LATENCY + (trim_mod.LATENCY if cfg.trim else 0) + lp_mod.LATENCY)
@@ -103,6 +106,8 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
         coarse = np.zeros(n, dtype=np.int64)
     coarse = np.asarray(coarse, dtype=np.int64)
     wl, qp = cfg.wave_lut(), cfg.quadrature()
+    # fringe_canceller's NCO and coefficients follow the stream (its NCO word each sample's bank)
+    canceller = cancel_mod.CancelStream(cfg.cancel_params()) if cfg.cancel else None
 
     def pick(values):
         """values[b] computed with bank b -> per-sample selection."""
@@ -127,6 +132,9 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
         xs, xc, cs, cc = (pick_b([p[k] for p in per]) for k in range(4))
         per = [quad_mod.quadrature(xs, xc, t.quad, qp) for t in banks]
         s_, c_, sat_ = (pick_b([p[k] for p in per]) for k in range(3))
+        if canceller is not None:
+            c_, s_, csat, ctrack = canceller.run(c_, s_, pick_b([np.full(len(bk), t.cancel_freq) for t in banks]))
+            sat_ = sat_ | csat | ctrack
         ph, mg = cordic_mod.cordic(c_, s_, cfg.cordic())
         return cs, cc, sat_, ph, mg
 
@@ -190,8 +198,8 @@ class CoreStream:
     where they stood. fringe_drift's tracker carries state over the whole stream: DRIFT = 1 is not streamed."""
 
     def __init__(self, t: CoreTables, cfg: CoreConfig):
-        if cfg.drift:
-            raise ValueError("fringe_drift's tracker state spans the whole stream: run it in one piece")
+        if cfg.drift or cfg.cancel:
+            raise ValueError("fringe_drift's and fringe_canceller's state spans the whole stream: run it in one piece")
         self.t, self.cfg = t, cfg
         self.keep = 1 + (cfg.trim_params().window if cfg.trim else 0)
         self.tail = None          # (sin, cos, coarse) of the last rows, the counter position of the first

@@ -48,8 +48,10 @@ REGISTERS = (
     Reg(17, "W0_C", True, "ADC_W+DRIFT_TABLE_FRAC", "drift tracker: mean of the calibrated cosine waveform"),
     Reg(18, "KG_S", False, "DRIFT_KG_W", "drift tracker: sine gain-loop constant"),
     Reg(19, "KG_C", False, "DRIFT_KG_W", "drift tracker: cosine gain-loop constant"),
+    # fringe_canceller (CANCEL = 1, docs/blocks/fringe_canceller.md); 0 otherwise
+    Reg(20, "CANCEL_FREQ", False, "32", "interference canceller: NCO word, tone frequency / sample rate x 2^32"),
 )
-N_REGS = 32       # words per bank (20..31 reserved, written as 0)
+N_REGS = 32       # words per bank (21..31 reserved, written as 0)
 
 #: configuration write port: cfg_wr_addr[19:16] selects the address space (the ROM image written there),
 #: cfg_wr_addr[15:0] the word within one bank; spaces 4..6 exist with TRIM = 1, 7 and 8 with DRIFT = 1
@@ -64,7 +66,7 @@ CTRL_SWAP = 0
 def widths(cfg: CoreConfig) -> dict[str, int]:
     w = {"COEF_W": cfg.coef_w, "WAVE_W": cfg.wave_w, "ADC_W+1": cfg.adc_w + 1, "POS_W+1": cfg.pos_w + 1,
          "POS_W": cfg.pos_w, "1": 1, "WAVE_W+1": cfg.wave_w + 1,
-         "ADC_W+DRIFT_TABLE_FRAC": cfg.adc_w + cfg.drift_table_frac, "DRIFT_KG_W": cfg.drift_kg_w}
+         "ADC_W+DRIFT_TABLE_FRAC": cfg.adc_w + cfg.drift_table_frac, "DRIFT_KG_W": cfg.drift_kg_w, "32": 32}
     return {r.name: w[r.width] for r in REGISTERS}
 
 

@@ -42,12 +42,21 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
             cfg = trim_config(cal, cfg)
         if "drift" not in base:    # and the drift tracker fringe_drift
             cfg = drift_config(cal, cfg)
+        if "cancel" not in base and cal.canceller:    # and the interference canceller fringe_canceller
+            cfg = cancel_config(cal, cfg)
         if "lp_w" not in base and "lp_frac" not in base:    # the long-period table's format from its values
             cfg = long_period_config(cal, cfg)
         return cfg
     except (TypeError, ValueError) as e:
         where = " ".join(f"--{k.replace('_', '-')} {v}" for k, v in overrides.items()) or path
         raise FringeInputError(f"core configuration not possible: {e}", where or "core configuration") from None
+
+
+def cancel_config(cal: Calibration, cfg: CoreConfig) -> CoreConfig:
+    """cfg with fringe_canceller on, its constants the calibration's, its coefficients able to hold a tone of up
+    to half the calibrated radius (A_W = WAVE_W + A_FRAC - 2)."""
+    return dataclasses.replace(cfg, cancel=1, cancel_a_w=min(32, cfg.wave_w + cfg.cancel_a_frac - 2),
+                               **{k: cal.canceller[k] for k in ("cancel_block_log2", "cancel_mu_log2")})
 
 
 MAX_LP_W = 24     # the widest long-period table word chosen for a calibration (fringe_long_period accepts 32)

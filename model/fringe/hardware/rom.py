@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import __version__
+from ..fixed import canceller as cancel_mod
 from ..fixed import drift as drift_mod
 from ..fixed import long_period as lp_mod
 from ..fixed import trim as trim_mod
@@ -43,7 +44,8 @@ def register_values(t: CoreTables) -> dict[str, int]:
             "COARSE_OFS": t.coarse_ofs, "ZERO": t.zero, "DIR": t.direction,
             "AMP_LOW": t.amp_low, "AMP_HIGH": t.amp_high,
             "W0_S": 0 if t.drift is None else int(t.drift.w0[0]), "W0_C": 0 if t.drift is None else int(t.drift.w0[1]),
-            "KG_S": 0 if t.drift is None else int(t.drift.kg[0]), "KG_C": 0 if t.drift is None else int(t.drift.kg[1])}
+            "KG_S": 0 if t.drift is None else int(t.drift.kg[0]), "KG_C": 0 if t.drift is None else int(t.drift.kg[1]),
+            "CANCEL_FREQ": t.cancel_freq}
 
 
 def images(t: CoreTables, cfg: CoreConfig) -> list[Image]:
@@ -78,6 +80,10 @@ def images(t: CoreTables, cfg: CoreConfig) -> list[Image]:
         out += [Image(f"drift_fwd_{k}", two_banks(drift_mod.pack_words(t.drift.fwd[i], dp)), 2 * dp.table_w,
                       f"fringe_drift forward {k} waveform minus its mean {{slope, value}} per fine-phase bin")
                 for i, k in enumerate(("sin", "cos"))]
+    if cfg.cancel:      # a constant table, one image (not banked)
+        cp = cfg.cancel_params()
+        out.append(Image("cancel_lut", cancel_mod.sine_table(cp) & ((1 << cp.c_w) - 1), cp.c_w,
+                         "fringe_canceller sine table, one turn (not banked: a constant)"))
     return out
 
 

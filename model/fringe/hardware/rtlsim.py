@@ -56,11 +56,14 @@ INIT_FILES = {"REGS_INIT": "regs", "WAVE_SIN_INIT": "wave_sin", "WAVE_COS_INIT":
 TRIM_INIT_FILES = {"MAP_INIT": "trim_map", "SPEED_INIT": "trim_speed", "AMP_INIT": "trim_amp"}
 #: ... and those of fringe_drift, with DRIFT = 1
 DRIFT_INIT_FILES = {"FWD_SIN_INIT": "drift_fwd_sin", "FWD_COS_INIT": "drift_fwd_cos"}
+#: ... and fringe_canceller's, with CANCEL = 1
+CANCEL_INIT_FILES = {"CANCEL_LUT_INIT": "cancel_lut"}
 
 
 def init_files(cfg: CoreConfig) -> dict[str, str]:
     """{generic: ROM image stem} of a configuration."""
-    return INIT_FILES | (TRIM_INIT_FILES if cfg.trim else {}) | (DRIFT_INIT_FILES if cfg.drift else {})
+    return (INIT_FILES | (TRIM_INIT_FILES if cfg.trim else {}) | (DRIFT_INIT_FILES if cfg.drift else {})
+            | (CANCEL_INIT_FILES if cfg.cancel else {}))
 
 
 # --------------------------------------------------------------------------- top-level formats

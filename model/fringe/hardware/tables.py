@@ -13,6 +13,7 @@ from ..fixed import cordic as cordic_mod
 from ..fixed import long_period as lp_mod
 from ..fixed import quadrature as quad_mod
 from ..fixed import wave_lut as wave_mod
+from ..fixed.canceller import freq_word
 from ..fixed.config import CoreConfig, drift_pipe_latency, long_period_params
 from ..fixed.core import CoreTables, run_core, to_adc_codes
 from ..result import Result
@@ -58,9 +59,14 @@ def build_tables(cal: Calibration, cfg: CoreConfig) -> CoreTables:
         drift = build_drift_tables(cal, cfg, drift_pipe_latency(cfg))
     elif cal.adaptive:
         raise ValueError("this calibration tracks drift online: the core needs DRIFT = 1")
+    cancel_freq = 0
+    if cfg.cancel and cal.canceller:
+        cancel_freq = freq_word(cal.canceller["tone_hz"], cal.canceller["sample_rate_hz"])
+    elif cal.canceller:
+        raise ValueError("this calibration cancels interference online: the core needs CANCEL = 1")
     return CoreTables(wave["sin"], wave["cos"], branch_registers(cal.inv_sin), branch_registers(cal.inv_cos),
                       quad, coarse_ofs, lp, zero, 1 if cal.direction < 0 else 0,
-                      round(cal.amp_low * gain), round(cal.amp_high * gain), trim, drift)
+                      round(cal.amp_low * gain), round(cal.amp_high * gain), trim, drift, cancel_freq)
 
 
 def run_model(cal: Calibration, cfg: CoreConfig, sin, cos, coarse=None, tables: CoreTables | None = None) -> Result:
