@@ -147,8 +147,9 @@ begin
 
     -- ---- input side: NCO, sample counter, the coefficients of the current block -------------------------
     acc_in    <= ce and in_valid and not rst;
-    blk_first <= acc_in when cnt = 0 else '0';
-    in_last   <= '1' when cnt = CNT_LAST else '0';
+    -- (no numeric_std comparison on the undefined counter before the first reset)
+    blk_first <= '1' when acc_in = '1' and cnt = 0 else '0';
+    in_last   <= '1' when not is_x(cnt) and cnt = CNT_LAST else '0';
     upd_wr    <= ce and a14_go and not rst;
     upd_sat   <= sat_k(0) or sat_k(1) or sat_k(2) or sat_k(3);
 
@@ -329,7 +330,7 @@ begin
                       b => std_logic_vector(lut10k), p => term12(k));
 
         nx       <= resize(lat_r, N_W) + resize(stp14, N_W) + resize(signed'('0' & rb14), N_W);
-        sat_k(k) <= '1' when outside(nx, A_W) else '0';
+        sat_k(k) <= '1' when not is_x(nx) and outside(nx, A_W) else '0';
 
         p_sum : process (clk)
             variable acc_n : signed(S_W - 1 downto 0);
