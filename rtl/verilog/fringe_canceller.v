@@ -85,9 +85,8 @@ module fringe_canceller #(
     localparam integer W    = WAVE_W;
     localparam integer NSH  = C_W - 1 + A_FRAC;                    // shift of the estimate
     localparam integer PW   = A_W + C_W;                           // A * cw
-    localparam integer NW   = W + 2;                               // n_c (|n_c| <= 2^W)
-    localparam integer EW   = ((PW + 2 > NSH + NW + 1) ? PW + 2 : NSH + NW + 1);   // the sum before >>> NSH
-    localparam integer DW   = W + 3;                               // c - n_c
+    localparam integer DW   = W + 3;                               // c - n_c (|n_c| <= 2^W)
+    localparam integer EW   = ((PW + 2 > NSH + DW) ? PW + 2 : NSH + DW) + 1;   // c 2^NSH + 2^(NSH-1) - 1 - A cw - B sw
     localparam integer SQ_W = 2 * W;                               // c_out^2, e * c_out
     localparam integer T_W  = 2 * W + 1;                           // c_out^2 + s_out^2 - 2^(2W-4)
     localparam integer TE_W = T_W - (W - 2);                       // that >>> (W - 2)
@@ -99,7 +98,7 @@ module fringe_canceller #(
     localparam integer N_W  = A_W + 3;                             // X + step
     localparam [LUT_W-1:0]      QUARTER  = {{(LUT_W-2){1'b0}}, 2'b01} << (LUT_W - 2);
     localparam [BLOCK_LOG2-1:0] CNT_LAST = {BLOCK_LOG2{1'b1}};
-    localparam signed [EW-1:0]  RND_N    = $signed({{(EW-1){1'b0}}, 1'b1}) <<< (NSH - 1);
+    localparam [NSH-1:0]        K_LOW    = {1'b0, {(NSH-1){1'b1}}};                 // 2^(NSH-1) - 1
     localparam [5:0]            SH0_6    = SH0[5:0];
     localparam integer          KW       = (MU_LOG2 > 1) ? MU_LOG2 : 1;              // gear counter width
     localparam integer          CAP_I    = (MU_LOG2 > 1) ? 1 << (MU_LOG2 - 1) : 1;
@@ -168,23 +167,22 @@ module fringe_canceller #(
 
     wire [LUT_W-1:0]      idx_s = nco[31 -: LUT_W];
     wire [LUT_W-1:0]      idx_c = idx_s + QUARTER;
-    reg  signed [C_W-1:0] sw1, cw1;
+    reg  signed [C_W-1:0] sw1, cw1, sw2, cw2;
     reg  signed [W-1:0]   c1, s1, c2, s2, c3, s3;
-    reg  signed [NW-1:0]  nc3, ns3;
     reg                   ts2, ts3;
-    wire [2*C_W-1:0]      lut1 = {sw1, cw1};         // coefficient k multiplies lut1 word k % 2 (cw, sw)
-    wire [4*PW-1:0]       prod2;                     // stage 2: A_C cw, B_C sw, A_S cw, B_S sw
+    wire [2*C_W-1:0]      lut2 = {sw2, cw2};         // coefficient k multiplies lut2 word k % 2 (cw, sw)
+    wire [4*PW-1:0]       prod3;                     // stage 3: A_C cw, B_C sw, A_S cw, B_S sw
 
-    // stage 3: n = (A cw + B sw + 2^(NSH-1)) >>> NSH
-    wire signed [EW-1:0]  sum_c = {{(EW-PW){prod2[1*PW-1]}}, prod2[0*PW +: PW]}
-                                  + {{(EW-PW){prod2[2*PW-1]}}, prod2[1*PW +: PW]} + RND_N;
-    wire signed [EW-1:0]  sum_s = {{(EW-PW){prod2[3*PW-1]}}, prod2[2*PW +: PW]}
-                                  + {{(EW-PW){prod2[4*PW-1]}}, prod2[3*PW +: PW]} + RND_N;
-    wire signed [EW-1:0]  shc   = sum_c >>> NSH;
-    wire signed [EW-1:0]  shs   = sum_s >>> NSH;
-    // stage 4: c - n, saturated to s(W)
-    wire signed [DW-1:0]  dc    = {{(DW-W){c3[W-1]}}, c3} - {{(DW-NW){nc3[NW-1]}}, nc3};
-    wire signed [DW-1:0]  ds    = {{(DW-W){s3[W-1]}}, s3} - {{(DW-NW){ns3[NW-1]}}, ns3};
+    // stage 4: c - n = c - ((A cw + B sw + 2^(NSH-1)) >>> NSH) = (c 2^NSH + 2^(NSH-1) - 1 - A cw - B sw) >>> NSH
+    // (one sum: the rounding and the subtraction in one carry chain), saturated to s(W)
+    wire signed [EW-1:0]  sum_c = {{(EW-NSH-W){c3[W-1]}}, c3, K_LOW}
+                                  - {{(EW-PW){prod3[1*PW-1]}}, prod3[0*PW +: PW]}
+                                  - {{(EW-PW){prod3[2*PW-1]}}, prod3[1*PW +: PW]};
+    wire signed [EW-1:0]  sum_s = {{(EW-NSH-W){s3[W-1]}}, s3, K_LOW}
+                                  - {{(EW-PW){prod3[3*PW-1]}}, prod3[2*PW +: PW]}
+                                  - {{(EW-PW){prod3[4*PW-1]}}, prod3[3*PW +: PW]};
+    wire signed [DW-1:0]  dc    = sum_c[NSH +: DW];  // |c - n_c| < 2^(W+1): the bits above are sign copies
+    wire signed [DW-1:0]  ds    = sum_s[NSH +: DW];
     wire                  dc_over = dc[DW-1] ? ~&dc[DW-1:W-1] : |dc[DW-1:W-1];
     wire                  ds_over = ds[DW-1] ? ~&ds[DW-1:W-1] : |ds[DW-1:W-1];
     wire signed [W-1:0]   y_max = {1'b0, {(W-1){1'b1}}};
@@ -192,22 +190,22 @@ module fringe_canceller #(
 
     always @(posedge clk) begin
         if (ce) begin
-            // 1: table reads at the sample's phase, input registers
+            // 1: table reads at the sample's phase (the block RAM's register), input registers
             sw1 <= rom[idx_s];
             cw1 <= rom[idx_c];
             c1  <= c;
             s1  <= s;
-            // 2: the products (g_coef), the block's track_sat
+            // 2: the table words registered (no logic after the RAM), the block's coefficients (g_coef)
+            sw2 <= sw1;
+            cw2 <= cw1;
             c2  <= c1;
             s2  <= s1;
             ts2 <= act_sat;
-            // 3: the estimate
+            // 3: the products (g_coef)
             c3  <= c2;
             s3  <= s2;
-            nc3 <= shc[NW-1:0];
-            ns3 <= shs[NW-1:0];
             ts3 <= ts2;
-            // 4: subtraction and saturation
+            // 4: c - n, saturated
             c_out     <= dc_over ? (dc[DW-1] ? y_min : y_max) : dc[W-1:0];
             s_out     <= ds_over ? (ds[DW-1] ? y_min : y_max) : ds[W-1:0];
             sat       <= dc_over | ds_over;
@@ -239,8 +237,8 @@ module fringe_canceller #(
         .out_valid(a12_valid), .out_data(a12_last)
     );
 
-    fringe_delay #(.WIDTH(2 * C_W), .DEPTH(9)) u_lut_carry (
-        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data(lut1),
+    fringe_delay #(.WIDTH(2 * C_W), .DEPTH(8)) u_lut_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data(lut2),
         .out_valid(unused_v1), .out_data(lut10)
     );
 
@@ -305,7 +303,8 @@ module fringe_canceller #(
     generate
         for (gk = 0; gk < 4; gk = gk + 1) begin : g_coef
             reg  signed [A_W-1:0] act_r, lat_r, prv_r;    // this block's, the latest, the one before
-            reg  signed [PW-1:0]  p2;
+            reg  signed [A_W-1:0] a2;                     // the sample's (stage 2)
+            reg  signed [PW-1:0]  p3;
             reg  signed [S_W-1:0] acc, snap;
             reg  signed [R_W-1:0] stp14;
             reg                   rb14;
@@ -330,7 +329,8 @@ module fringe_canceller #(
 
             always @(posedge clk) begin
                 if (ce) begin
-                    p2 <= $signed(act_r) * $signed(lut1[(gk%2)*C_W +: C_W]);     // 2
+                    a2 <= act_r;                                                   // 2
+                    p3 <= a2 * $signed(lut2[(gk%2)*C_W +: C_W]);                 // 3
                     // 14: the step clipped to s(A_W+2): beyond it X + step saturates either way
                     stp14 <= r_over ? (r14[XR_W-1] ? r_min : r_max) : r14[R_W-1:0];
                     rb14  <= v14[0];
@@ -365,14 +365,15 @@ module fringe_canceller #(
                 end
             end
 
-            assign prod2[gk*PW +: PW] = p2;
+            assign prod3[gk*PW +: PW] = p3;
             assign sat_k[gk]          = n_over;
         end
     endgenerate
 
-    // Bits that carry nothing: the sign copies above the estimate and above e * c_out, the bits
-    // shifted off t and e * c_out, the data-only delays' valid outputs.
-    wire unused = &{1'b0, shc[EW-1:NW], shs[EW-1:NW], t7[W-3:0], pe_c[2*W-1], pe_s[2*W-1], pe_c[W-3:0],
+    // Bits that carry nothing: the sign copies above c - n and above e * c_out, the bits shifted off
+    // c - n, t and e * c_out, the data-only delays' valid outputs.
+    wire unused = &{1'b0, sum_c[EW-1:NSH+DW], sum_s[EW-1:NSH+DW], sum_c[NSH-1:0], sum_s[NSH-1:0], t7[W-3:0],
+                    pe_c[2*W-1], pe_s[2*W-1], pe_c[W-3:0],
                     pe_s[W-3:0], unused_v1, unused_v2};
 
 endmodule

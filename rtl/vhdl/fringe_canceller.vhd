@@ -80,9 +80,8 @@ architecture rtl of fringe_canceller is
     constant SH0  : integer := BLOCK_LOG2 + C_W - 2 - A_FRAC;
     constant NSH  : integer := C_W - 1 + A_FRAC;                    -- shift of the estimate
     constant PW   : integer := A_W + C_W;                           -- A * cw
-    constant NW   : integer := W + 2;                               -- n_c (|n_c| <= 2^W)
-    constant EW   : integer := maximum(PW + 2, NSH + NW + 1);       -- the sum before >>> NSH
-    constant DW   : integer := W + 3;                               -- c - n_c
+    constant DW   : integer := W + 3;                               -- c - n_c (|n_c| <= 2^W)
+    constant EW   : integer := maximum(PW + 2, NSH + DW) + 1;       -- c 2^NSH + 2^(NSH-1) - 1 - A cw - B sw
     constant SQ_W : integer := 2 * W;                               -- c_out^2, e * c_out
     constant T_W  : integer := 2 * W + 1;                           -- c_out^2 + s_out^2 - 2^(2W-4)
     constant U_W  : integer := W + 1;                               -- u = (e * c_out) >>> (W - 2)
@@ -94,7 +93,7 @@ architecture rtl of fringe_canceller is
     constant N_LUT : integer := 2 ** LUT_W;
     constant CAP  : integer := 2 ** (MU_LOG2 - 1);                  -- gear counter top
     constant CNT_LAST : unsigned(BLOCK_LOG2 - 1 downto 0) := (others => '1');
-    constant RND_N : signed(EW - 1 downto 0) := shift_left(to_signed(1, EW), NSH - 1);
+    constant K_LOW : signed(NSH - 1 downto 0) := '0' & (NSH - 2 downto 0 => '1');   -- 2^(NSH-1) - 1
     constant R2K  : signed(T_W - 1 downto 0) := shift_left(to_signed(1, T_W), 2 * W - 4);   -- R 2^(W-2)
 
     subtype rom_t is word_array(0 to N_LUT - 1)(C_W - 1 downto 0);
@@ -116,13 +115,12 @@ architecture rtl of fringe_canceller is
     signal in_last   : std_logic;
 
     -- output path
-    signal sw1, cw1  : signed(C_W - 1 downto 0);
+    signal sw1, cw1, sw2, cw2 : signed(C_W - 1 downto 0);
     signal c1, s1, c2, s2, c3, s3 : signed(W - 1 downto 0);
-    signal nc3, ns3  : signed(NW - 1 downto 0);
     signal ts2, ts3  : std_logic;
-    signal prod2     : prod_t;
+    signal prod3     : prod_t;
     signal c4, s4    : signed(W - 1 downto 0);
-    signal lut1      : std_logic_vector(2 * C_W - 1 downto 0);      -- {sw, cw}
+    signal lut2      : std_logic_vector(2 * C_W - 1 downto 0);      -- {sw, cw} at stage 2
 
     -- adaptation
     signal a12_valid, a12_last, unused_v1, unused_v2 : std_logic;
@@ -189,8 +187,8 @@ begin
         end if;
     end process p_in;
 
-    -- ---- stages 1..4: table reads, the products, the estimate, subtraction and saturation -------------
-    lut1 <= std_logic_vector(sw1) & std_logic_vector(cw1);
+    -- ---- stages 1..4: table reads, their registers, the products, c - n saturated ---------------------
+    lut2 <= std_logic_vector(sw2) & std_logic_vector(cw2);
 
     p_out : process (clk)
         variable idx_s, idx_c : unsigned(LUT_W - 1 downto 0);
@@ -199,28 +197,29 @@ begin
     begin
         if rising_edge(clk) then
             if ce = '1' then
-                -- 1: table reads at the sample's phase, input registers
+                -- 1: table reads at the sample's phase (the block RAM's register), input registers
                 idx_s := nco(31 downto 32 - LUT_W);
                 idx_c := idx_s + to_unsigned(2 ** (LUT_W - 2), LUT_W);
                 sw1 <= signed(rom(to_integer(idx_s)));
                 cw1 <= signed(rom(to_integer(idx_c)));
                 c1  <= signed(c);
                 s1  <= signed(s);
-                -- 2: the products (g_coef), the block's track_sat
+                -- 2: the table words registered (no logic after the RAM), the block's coefficients (g_coef)
+                sw2 <= sw1;
+                cw2 <= cw1;
                 c2  <= c1;
                 s2  <= s1;
                 ts2 <= act_sat;
-                -- 3: n = (A cw + B sw + 2^(NSH-1)) >>> NSH
-                sum_c := resize(prod2(0), EW) + resize(prod2(1), EW) + RND_N;
-                sum_s := resize(prod2(2), EW) + resize(prod2(3), EW) + RND_N;
+                -- 3: the products (g_coef)
                 c3  <= c2;
                 s3  <= s2;
-                nc3 <= resize(shift_right(sum_c, NSH), NW);
-                ns3 <= resize(shift_right(sum_s, NSH), NW);
                 ts3 <= ts2;
-                -- 4: c - n, saturated to s(W)
-                dc := resize(c3, DW) - resize(nc3, DW);
-                ds := resize(s3, DW) - resize(ns3, DW);
+                -- 4: c - n = c - ((A cw + B sw + 2^(NSH-1)) >>> NSH) = (c 2^NSH + 2^(NSH-1) - 1 - A cw - B sw) >>> NSH
+                -- (one sum: the rounding and the subtraction in one carry chain), saturated to s(W)
+                sum_c := resize(c3 & K_LOW, EW) - resize(prod3(0), EW) - resize(prod3(1), EW);
+                sum_s := resize(s3 & K_LOW, EW) - resize(prod3(2), EW) - resize(prod3(3), EW);
+                dc := sum_c(NSH + DW - 1 downto NSH);     -- |c - n_c| < 2^(W+1): the bits above are sign copies
+                ds := sum_s(NSH + DW - 1 downto NSH);
                 c4 <= saturate(dc, W);
                 s4 <= saturate(ds, W);
                 if outside(dc, W) or outside(ds, W) then
@@ -250,8 +249,8 @@ begin
                   out_valid => a12_valid, out_data(0) => a12_last);
 
     u_lut_carry : entity work.fringe_delay
-        generic map (WIDTH => 2 * C_W, DEPTH => 9)
-        port map (clk => clk, rst => rst, ce => ce, in_valid => '0', in_data => lut1,
+        generic map (WIDTH => 2 * C_W, DEPTH => 8)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0', in_data => lut2,
                   out_valid => unused_v1, out_data => lut10);
 
     y4 <= std_logic_vector(s4) & std_logic_vector(c4);
@@ -315,13 +314,14 @@ begin
     -- coefficient k: A_C, B_C, A_S, B_S = channel k / 2 (c, s) times table word k mod 2 (cw, sw)
     g_coef : for k in 0 to 3 generate
         signal act_r, lat_r, prv_r : signed(A_W - 1 downto 0);     -- this block's, the latest, the one before
+        signal a2                  : signed(A_W - 1 downto 0);     -- the sample's (stage 2)
         signal acc, snap           : signed(S_W - 1 downto 0);
         signal stp14               : signed(R_W - 1 downto 0);
         signal rb14                : std_logic;
         signal nx                  : signed(N_W - 1 downto 0);
-        signal lutk, lut10k        : signed(C_W - 1 downto 0);
+        signal lut2k, lut10k       : signed(C_W - 1 downto 0);
     begin
-        lutk   <= signed(lut1((k mod 2 + 1) * C_W - 1 downto (k mod 2) * C_W));
+        lut2k  <= signed(lut2((k mod 2 + 1) * C_W - 1 downto (k mod 2) * C_W));
         lut10k <= signed(lut10((k mod 2 + 1) * C_W - 1 downto (k mod 2) * C_W));
 
         u_term : entity work.fringe_split_mul
@@ -343,7 +343,8 @@ begin
                 v14 := shift_right(snap, SH0 + gear - 1);
                 r14 := shift_right(resize(v14, XR_W), 1);
                 if ce = '1' then
-                    prod2(k) <= act_r * lutk;                                      -- 2
+                    a2       <= act_r;                                             -- 2
+                    prod3(k) <= a2 * lut2k;                                        -- 3
                     -- 14: the step clipped to s(A_W+2): beyond it X + step saturates either way
                     stp14 <= saturate(r14, R_W);
                     rb14  <= v14(0);
