@@ -122,3 +122,35 @@ def test_cli_loop_calibration_rtl_rows_equal_model(sim, tmp_path, case):
     rows = {e: [ln for ln in (d / f"{e}.csv").read_text().splitlines() if not ln.startswith("#")]
             for e in ("model", engine)}
     assert len(rows["model"]) == 4001 and rows["model"] == rows[engine]
+
+
+def test_run_rtl_with_canceller_matches_model(sim):
+    """A calibration that cancels interference online (CANCEL = 1, the core's config from it) on a recording
+    with an additive tone: every word of the RTL engine (rtlsim, CANCEL_LUT_INIT, CANCEL_FREQ) equals
+    ``run_core``'s, and the canceller's words are not those of the same core without it."""
+    from fringe.calibrate import calibrate
+    from fringe.evaluate import measurement_of
+    from fringe.fixed.core import run_core, to_adc_codes
+    from fringe.hardware.corefiles import core_config
+    from fringe.hardware.rtlsim import run_rtl
+    from fringe.hardware.tables import build_tables
+    from fringe.simulate import SimulationConfig, simulate
+
+    base = SimulationConfig(samples=6000)
+    noisy = dataclasses.replace(base, interference_fs=0.01, interference_hz=0.137 * base.sample_rate_hz)
+    cal = calibrate(measurement_of(simulate(dataclasses.replace(base, samples=20_000), 1)), base.encoder())
+    cal = dataclasses.replace(cal, canceller={"tone_hz": noisy.interference_hz, "sample_rate_hz": base.sample_rate_hz,
+                                              "cancel_block_log2": 4, "cancel_mu_log2": 8})
+    cfg = core_config(cal)
+    assert cfg.cancel == 1
+    m = measurement_of(simulate(noisy, 2))
+    tables = build_tables(cal, cfg)
+    sin, cos = to_adc_codes(m.sin, cfg.adc_w, "sin"), to_adc_codes(m.cos, cfg.adc_w, "cos")
+    expected = run_core(tables, cfg, sin, cos, m.coarse)
+    without = run_core(tables, dataclasses.replace(cfg, cancel=0), sin, cos, m.coarse)
+    assert (expected.pos != without.pos).mean() > 0.5
+    got = run_rtl(cal, cfg, m.sin, m.cos, m.coarse, sim=sim, tables=tables)
+    bad = np.flatnonzero((got.pos != expected.pos) | (got.status != expected.status))
+    assert bad.size == 0, (f"{bad.size} of {len(m.sin)} words differ; first at {bad[0]}: RTL pos={got.pos[bad[0]]} "
+                           f"status={got.status[bad[0]]:#04x}, model pos={expected.pos[bad[0]]} "
+                           f"status={expected.status[bad[0]]:#04x}")

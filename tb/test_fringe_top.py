@@ -20,10 +20,12 @@ and the configuration port at every clock):
 - ``top_saturation``: extreme quadrature registers into the inactive bank, swap, random codes
   (SATURATED, AMP_HIGH).
 Configurations: the seed preset (12-bit ADC, 256 lines, 9-bit coarse code), the same with fringe_trim
-(TRIM = 1, random trim tables in both banks and through the configuration port), with fringe_drift, and a
-16-bit ADC, 1 line, no coarse code; each pipelined (COMPACT = 0) and also time-multiplexed on the simulators
-COMPACT_CONFIGS names (COMPACT = 1: the monitor checks s_axis_tready against clocks_per_sample at every edge,
-the words are the same model's). Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_top.py``.
+(TRIM = 1, random trim tables in both banks and through the configuration port), with fringe_drift, with
+fringe_canceller (CANCEL = 1: the stream carries an additive tone at bank A's CANCEL_FREQ, bank B's word
+differs, so a swap changes the NCO word), and a 16-bit ADC, 1 line, no coarse code; each pipelined
+(COMPACT = 0) and also time-multiplexed on the simulators COMPACT_CONFIGS names (COMPACT = 1: the monitor
+checks s_axis_tready against clocks_per_sample at every edge, the words are the same model's).
+Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_top.py``.
 """
 
 from __future__ import annotations
@@ -559,25 +561,32 @@ CONFIGS = {
     "adc16-L1-c0": (lambda: CoreConfig.for_encoder(Encoder(1, 16, 0)), one_line_sim, 8),
     "adc12-L256-c9-trim": (lambda: CoreConfig(trim=1, map_psi_w=4, map_phi_w=5, g_shift=20), seed_sim, 1),
     "adc12-L256-c9-drift": (lambda: CoreConfig(drift=1, drift_block_log2=7, drift_fwd_w=6), seed_sim, 1),
+    "adc12-L256-c9-cancel": (lambda: CoreConfig(cancel=1), seed_sim, 1),
 }
+#: CANCEL = 1: the tone on the stream (fraction of FS, Hz) and bank A's / B's CANCEL_FREQ tones (Hz)
+CANCEL_TONE = (0.02, 437.0)
+CANCEL_TONES_HZ = (437.0, 1210.0)
 N_STREAM = 2500
 #: the configurations also run with COMPACT = 1 (the same tests), on these simulators. A compact run takes
 #: CORDIC_STAGES + 1 clocks per sample: about 70 s each on Verilator, 100-250 s on GHDL (measured 2026-12-02).
 #: Within the CI budget: every configuration on Verilator, the seed preset on GHDL too (the VHDL of the
 #: iterated CORDIC is also checked on its own, tb/test_fringe_cordic.py, on both simulators).
 COMPACT_CONFIGS = {"adc12-L256-c9": ("verilator", "ghdl"), "adc16-L1-c0": ("verilator",),
-                   "adc12-L256-c9-trim": ("verilator",), "adc12-L256-c9-drift": ("verilator",)}
+                   "adc12-L256-c9-trim": ("verilator",), "adc12-L256-c9-drift": ("verilator",),
+                   "adc12-L256-c9-cancel": ("verilator",)}
 VARIANTS = [(name, 0) for name in CONFIGS] + [(name, 1) for name in COMPACT_CONFIGS]
 
 
 def cfg_words(t: CoreTables, cfg: CoreConfig) -> list[tuple[int, int]]:
-    """(cfg_wr_addr, cfg_wr_data) of one bank of every image: registers, sine, cosine, long period."""
+    """(cfg_wr_addr, cfg_wr_data) of one bank of every banked image: registers, sine, cosine, long period, ..."""
     from fringe.hardware.rom import images
 
     sel = {"regs": 0, "wave_sin": 1, "wave_cos": 2, "long_period": 3, "trim_map": 4, "trim_speed": 5, "trim_amp": 6,
            "drift_fwd_sin": 7, "drift_fwd_cos": 8}
     out = []
     for im in images(t, cfg):
+        if im.name == "cancel_lut":     # a constant ROM (CANCEL_LUT_INIT), no address space
+            continue
         half = len(im.words) // 2
         out += [((sel[im.name] << 16) | i, int(w)) for i, w in enumerate(im.words[:half])]
     return out
@@ -626,7 +635,14 @@ def prepare(name: str, compact: int = 0) -> Path:
         rng = np.random.default_rng(DEFAULT_SEED)
         tab_a = dataclasses.replace(tab_a, trim=random_trim(cfg, rng))
         tab_b = dataclasses.replace(tab_b, trim=random_trim(cfg, rng))
-    rec = simulate(make_sim(samples=N_STREAM * dec), seed=13)   # samples the DUT sees
+    tone = {}
+    if cfg.cancel:     # the tone on the stream; each bank's NCO word (a swap changes it)
+        from fringe.fixed.canceller import freq_word
+
+        fa, fb = (freq_word(f, sc.sample_rate_hz) for f in CANCEL_TONES_HZ)
+        tab_a, tab_b = dataclasses.replace(tab_a, cancel_freq=fa), dataclasses.replace(tab_b, cancel_freq=fb)
+        tone = {"interference_fs": CANCEL_TONE[0], "interference_hz": CANCEL_TONE[1]}
+    rec = simulate(make_sim(samples=N_STREAM * dec, **tone), seed=13)   # samples the DUT sees
     cols = rec.columns
     stream = {"sin": cols["sin"][::dec].astype(np.int64), "cos": cols["cos"][::dec].astype(np.int64),
               "coarse": (cols["coarse"][::dec] if cfg.coarse_w else np.zeros(N_STREAM)).astype(np.int64)}
@@ -666,17 +682,17 @@ def test_latency_documented():
 
     from lib.hdl_constants import block_constant, both_languages, package_function
 
-    from fringe.fixed import long_period, period_count, quadrature, trim, wave_lut
+    from fringe.fixed import canceller, long_period, period_count, quadrature, trim, wave_lut
 
     rng = np.random.default_rng(20261201)
     configs = [CoreConfig(cordic_stages=int(rng.integers(4, 33)), trim=int(rng.integers(0, 2)),
-                          drift=int(rng.integers(0, 2))) for _ in range(20)]
+                          drift=int(rng.integers(0, 2)), cancel=int(rng.integers(0, 2))) for _ in range(20)]
     for lang in ("verilog", "vhdl"):
         for cfg in configs:
             got = package_function(lang, "core_latency", cordic_stages=cfg.cordic_stages, trim=cfg.trim,
-                                   drift=cfg.drift)
+                                   drift=cfg.drift, cancel=cfg.cancel)
             assert got == core_latency(cfg), (lang, cfg)
-    call = re.compile(r"LATENCY\s*(:\s*integer\s*:)?=\s*(fringe_)?core_latency\(CORDIC_STAGES, TRIM, DRIFT\)")
+    call = re.compile(r"LATENCY\s*(:\s*integer\s*:)?=\s*(fringe_)?core_latency\(CORDIC_STAGES, TRIM, DRIFT, CANCEL\)")
     for f in both_languages("fringe_core") + both_languages("fringe_top"):
         assert call.search(f.read_text()), f
     # the core's bank pipeline taps (registers read one clock enable ahead) use the blocks' latencies
@@ -686,9 +702,10 @@ def test_latency_documented():
         for cfg in configs:
             assert block_constant(f, "LAT_C", {"CORDIC_STAGES": cfg.cordic_stages}) == cfg.cordic().latency
             assert block_constant(f, "LAT_T", {"TRIM": cfg.trim}) == cfg.trim * trim.LATENCY
+            assert block_constant(f, "LAT_X", {"CANCEL": cfg.cancel}) == cfg.cancel * canceller.LATENCY
     for block, n in (("fringe_wave_lut", wave_lut.LATENCY), ("fringe_quadrature", quadrature.LATENCY),
                      ("fringe_period_count", period_count.LATENCY), ("fringe_long_period", long_period.LATENCY),
-                     ("fringe_trim", trim.LATENCY)):
+                     ("fringe_trim", trim.LATENCY), ("fringe_canceller", canceller.LATENCY)):
         for f in both_languages(block):
             assert block_constant(f, "LATENCY") == n, f
     for f in both_languages("fringe_cordic"):

@@ -5,6 +5,7 @@
 //
 //   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1: the online offset/gain tracker, docs/blocks/fringe_drift.md]
 //   -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
+//   [-> fringe_canceller, CANCEL = 1: the interference canceller, docs/blocks/fringe_canceller.md]
 //   -> fringe_cordic -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W))
 //   [-> fringe_trim, TRIM = 1: the closed loop's corrections, docs/blocks/fringe_trim.md]
 //   -> fringe_long_period -> pos u(POS_W), status (8 bits)
@@ -15,7 +16,8 @@
 // REGS_INIT (bank 0 words 0..31, then bank 1). Every sample takes the active bank when it is
 // accepted and carries the bank bit (and its early flags: clip, sat, magnitude) in the blocks'
 // user sideband, so each stage reads the tables and registers of the sample's own bank:
-//   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, AMP_LOW/AMP_HIGH
+//   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, CANCEL_FREQ at the
+//   canceller input (CANCEL = 1), AMP_LOW/AMP_HIGH
 //   at the CORDIC output, COARSE_OFS at the period-count input, ZERO/DIR at the long-period input.
 // Configuration write port (independent of ce): cfg_wr_addr[19:16] selects 0 registers and
 // control, 1 sine table, 2 cosine table, 3 long-period table, and with TRIM = 1: 4 trim map,
@@ -33,11 +35,12 @@
 // the register file, the tables and the active bank are configuration and keep their values
 // (power-up: bank 0, the init files).
 //
-// LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1) clock enables from in_valid to out_valid:
+// LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1, + 4 with CANCEL = 1) clock
+// enables from in_valid to out_valid:
 //   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
-//   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count [+ 12 fringe_trim] + 8 fringe_long_period
+//   [+ 4 fringe_canceller] + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count [+ 12 fringe_trim] + 8 fringe_long_period
 //   [+ 4 in front: fringe_drift's normaliser, DRIFT = 1; the sample takes its bank when accepted].
-// The registers a block takes with the sample (quadrature coefficients, magnitude thresholds,
+// The registers a block takes with the sample (quadrature coefficients, CANCEL_FREQ, magnitude thresholds,
 // COARSE_OFS, ZERO/DIR) are read one clock enable ahead, with the sample's bank from a copy of
 // the bank pipeline (taps at the blocks' latencies), so no register-file mux feeds block logic.
 // ce = 0 freezes the pipeline (the tables keep their write port).
@@ -127,7 +130,7 @@ module fringe_core #(
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = fringe_core_latency(CORDIC_STAGES, TRIM, DRIFT);
+    localparam integer LATENCY = fringe_core_latency(CORDIC_STAGES, TRIM, DRIFT, CANCEL);
     /* verilator lint_on UNUSEDPARAM */
     // Clock enables from one sample to the next at full speed (fringe.fixed.config clocks_per_sample).
     localparam integer CLOCKS_PER_SAMPLE = 1 + COMPACT * (CORDIC_STAGES + CORDIC_ITER_CLOCKS_BASE - 1);  // COMPACT: 0 or 1
@@ -168,6 +171,9 @@ module fringe_core #(
         end
         if (DRIFT != 0 && DRIFT != 1) begin : g_bad_drift
             $error("fringe_core: DRIFT = %0d must be 0 or 1 (instance %m)", DRIFT);
+        end
+        if (CANCEL != 0 && CANCEL != 1) begin : g_bad_cancel
+            $error("fringe_core: CANCEL = %0d must be 0 or 1 (instance %m)", CANCEL);
         end
         if (LP_W > 32) begin : g_bad_lp_w
             $error("fringe_core: LP_W = %0d > 32: a table word {slope, value} must fit cfg_wr_data (instance %m)",
@@ -243,7 +249,8 @@ module fringe_core #(
     // the normalisation (a saturated normalised code) travel with it, with the normalised codes the
     // tracker's observer needs at the CORDIC output: dx = {y_sin, y_cos, norm_sat, clip_c, clip_s}.
     localparam integer DX_W   = 2 * ADC_W + 3;
-    localparam integer PIPE_D = CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + CORDIC_STAGES
+    localparam integer LAT_X  = CANCEL * 4;   // fringe_canceller's LATENCY (CANCEL = 1)
+    localparam integer PIPE_D = CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + LAT_X + CORDIC_STAGES
                                 + CORDIC_LATENCY_BASE;   // normaliser outputs -> CORDIC outputs
     localparam [ADC_W-1:0] ADC_MIN = {1'b1, {(ADC_W-1){1'b0}}}, ADC_MAX = {1'b0, {(ADC_W-1){1'b1}}};
     wire             raw_clip_s = (sin == ADC_MIN) || (sin == ADC_MAX);
@@ -372,8 +379,9 @@ module fringe_core #(
     localparam integer LAT_P  = PERIOD_COUNT_LATENCY;
     localparam integer LAT_T  = TRIM * TRIM_LATENCY;    // fringe_trim (TRIM = 1)
     localparam integer TAP_Q  = LAT_WL - 2;             // quadrature coefficients
-    localparam integer TAP_C  = LAT_WL + LAT_Q + LAT_C - 2;          // magnitude thresholds, COARSE_OFS
-    localparam integer TAP_P  = LAT_WL + LAT_Q + LAT_C + LAT_P + LAT_T - 2;  // ZERO, DIR
+    localparam integer TAP_X  = LAT_WL + LAT_Q - 2;                  // CANCEL_FREQ (CANCEL = 1)
+    localparam integer TAP_C  = LAT_WL + LAT_Q + LAT_X + LAT_C - 2;  // magnitude thresholds, COARSE_OFS
+    localparam integer TAP_P  = LAT_WL + LAT_Q + LAT_X + LAT_C + LAT_P + LAT_T - 2;  // ZERO, DIR
     reg [TAP_P:0] bank_d;
 
     always @(posedge clk) begin
@@ -456,10 +464,50 @@ module fringe_core #(
         .out_valid(q_valid), .s(qs), .c(qc), .sat(q_sat), .out_user(q_user)
     );
 
-    // ---- stages 12..CORDIC_STAGES+13: CORDIC (x = c, y = s) -------------------------------------
+    wire              q_any = q_sat | q_user[U_Q-DX_W+2];  // the quadrature or the normaliser (dx[2]) saturated
+
+    // ---- [stages 12..15: fringe_canceller (CANCEL = 1), NCO word of the sample's bank] -----------
+    wire              x_valid;
+    wire [WAVE_W-1:0] x_c, x_s;
+    wire              x_any;                    // q_any, or the canceller's subtraction or coefficients saturated
+    wire [U_Q-1:0]    x_user;
+
+    generate
+        if (CANCEL != 0) begin : g_cancel
+            reg  [REG_W-1:0] freq_r;             // CANCEL_FREQ, read one clock enable ahead like the others
+            wire             x_sat, x_tsat;
+            wire [U_Q:0]     xu;
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    freq_r <= regs[{bank_d[TAP_X], REG_CANCEL_FREQ}];
+                end
+            end
+
+            fringe_canceller #(
+                .WAVE_W(WAVE_W), .LUT_W(CANCEL_LUT_W), .C_W(CANCEL_C_W), .BLOCK_LOG2(CANCEL_BLOCK_LOG2),
+                .MU_LOG2(CANCEL_MU_LOG2), .A_FRAC(CANCEL_A_FRAC), .A_W(CANCEL_A_W), .LUT_INIT(CANCEL_LUT_INIT),
+                .USER_W(U_Q + 1)
+            ) u_cancel (
+                .clk(clk), .rst(rst), .ce(ce),
+                .in_valid(q_valid), .c(qc), .s(qs), .freq(freq_r), .in_user({q_any, q_user}),
+                .out_valid(x_valid), .c_out(x_c), .s_out(x_s), .sat(x_sat), .track_sat(x_tsat), .out_user(xu)
+            );
+
+            assign x_user = xu[U_Q-1:0];
+            assign x_any  = xu[U_Q] | x_sat | x_tsat;
+        end else begin : g_no_cancel
+            assign x_valid = q_valid;
+            assign x_c     = qc;
+            assign x_s     = qs;
+            assign x_user  = q_user;
+            assign x_any   = q_any;
+        end
+    endgenerate
+
+    // ---- stages 12..CORDIC_STAGES+13 (+ 4 with CANCEL = 1): CORDIC (x = c, y = s) ------------------
     localparam integer U_C = DX_W + CW + 4;    // {dx, coarse, sat, clip_c, clip_s, bank}
-    wire [DX_W-1:0]   q_dx  = q_user[U_Q-1 -: DX_W];
-    wire              q_any = q_sat | q_dx[2];  // the quadrature or the normaliser saturated
+    wire [DX_W-1:0]   x_dx  = x_user[U_Q-1 -: DX_W];
     wire              c_valid;
     wire [FINE_W-1:0] phase;
     wire [AMP_W-1:0]  mag;
@@ -472,7 +520,7 @@ module fringe_core #(
         .ITERATIVE(COMPACT)
     ) u_cordic (
         .clk(clk), .rst(rst), .ce(ce),
-        .in_valid(q_valid), .x(qc), .y(qs), .in_user({q_dx, q_user[CW+2:3], q_any, q_user[2:0]}), .ready(c_ready),
+        .in_valid(x_valid), .x(x_c), .y(x_s), .in_user({x_dx, x_user[CW+2:3], x_any, x_user[2:0]}), .ready(c_ready),
         .out_valid(c_valid), .phase(phase), .mag(mag), .out_user(c_user)
     );
 

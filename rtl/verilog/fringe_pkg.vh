@@ -65,16 +65,18 @@ localparam integer DRIFT_OBS_LATENCY       = 15;  // fringe_drift observer
 // END generated constants
 /* verilator lint_on UNUSEDPARAM */
 
-// LATENCY of fringe_core and fringe_top (trim, drift: the TRIM and DRIFT parameters, 0 or 1): the
-// input registers and the blocks in the chain, from the generated block latencies above
+// LATENCY of fringe_core and fringe_top (trim, drift, cancel: the TRIM, DRIFT and CANCEL parameters, 0 or
+// 1): the input registers and the blocks in the chain, from the generated block latencies above
+// (fringe_canceller's LATENCY, 4, written out: not among the generated constants yet)
 function integer fringe_core_latency;
     input integer cordic_stages;
     input integer trim;
     input integer drift;
+    input integer cancel;
     begin
         fringe_core_latency = CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + cordic_stages
                               + CORDIC_LATENCY_BASE + PERIOD_COUNT_LATENCY + LONG_PERIOD_LATENCY
-                              + trim * TRIM_LATENCY + drift * DRIFT_NORM_LATENCY;
+                              + trim * TRIM_LATENCY + drift * DRIFT_NORM_LATENCY + cancel * 4;
     end
 endfunction
 

@@ -59,13 +59,13 @@ module fringe_split_mul #(
         chunk_w = (i < n - 1) ? L + 1 : x - L * (n - 1);
     endfunction
 
-    // lowest bit and signed width (from bit 0) of term t after stage s: its partial products
-    // k in [t G^s, (t + 1) G^s) have no bits below L (i + j) and fit s(L (i + j) + chunk widths)
-    function integer term_lo(input integer s, input integer t);
+    // lowest bit and signed width (from bit 0) of term t after stage st: its partial products
+    // k in [t G^st, (t + 1) G^st) have no bits below L (i + j) and fit s(L (i + j) + chunk widths)
+    function integer term_lo(input integer st, input integer t);
         integer span, k, lo;
         begin
             span = 1;
-            for (k = 0; k < s; k = k + 1) span = span * G;
+            for (k = 0; k < st; k = k + 1) span = span * G;
             term_lo = P_W;
             for (k = t * span; k < (t + 1) * span && k < NP; k = k + 1) begin
                 lo = L * (k / NB + k % NB);
@@ -74,11 +74,11 @@ module fringe_split_mul #(
         end
     endfunction
 
-    function integer term_hi(input integer s, input integer t);
+    function integer term_hi(input integer st, input integer t);
         integer span, k, hi, n;
         begin
             span = 1;
-            for (k = 0; k < s; k = k + 1) span = span * G;
+            for (k = 0; k < st; k = k + 1) span = span * G;
             term_hi = 0;
             n = 0;
             for (k = t * span; k < (t + 1) * span && k < NP; k = k + 1) begin

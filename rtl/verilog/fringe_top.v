@@ -102,7 +102,7 @@ module fringe_top #(
 
     // The documented latency (fringe.fixed.core.core_latency); read by the testbench, not by the logic.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = fringe_core_latency(CORDIC_STAGES, TRIM, DRIFT);
+    localparam integer LATENCY = fringe_core_latency(CORDIC_STAGES, TRIM, DRIFT, CANCEL);
     // Clock enables from one sample to the next at full speed (fringe.fixed.config clocks_per_sample).
     localparam integer CLOCKS_PER_SAMPLE = 1 + COMPACT * (CORDIC_STAGES + CORDIC_ITER_CLOCKS_BASE - 1);  // COMPACT: 0 or 1
     /* verilator lint_on UNUSEDPARAM */

@@ -7,6 +7,7 @@
 -- behaviour).
 --
 --   sin, cos s(ADC_W) -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
+--   [-> fringe_canceller, CANCEL = 1: the interference canceller, docs/blocks/fringe_canceller.md]
 --   -> fringe_cordic -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W))
 --   -> fringe_long_period -> pos u(POS_W), status (8 bits)
 -- Formats, register map and status word: docs/architecture.md. Bit-exact model:
@@ -16,7 +17,8 @@
 -- REGS_INIT (bank 0 words 0..31, then bank 1). Every sample takes the active bank when it is
 -- accepted and carries the bank bit (and its early flags: clip, sat, magnitude) in the blocks'
 -- user sideband, so each stage reads the tables and registers of the sample's own bank:
---   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, AMP_LOW/AMP_HIGH
+--   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, CANCEL_FREQ at the
+--   canceller input (CANCEL = 1), AMP_LOW/AMP_HIGH
 --   at the CORDIC output, COARSE_OFS at the period-count input, ZERO/DIR at the long-period input.
 -- Configuration write port (independent of ce): cfg_wr_addr[19:16] selects 0 registers and
 -- control, 1 sine table, 2 cosine table, 3 long-period table, and with TRIM = 1: 4 trim map,
@@ -34,10 +36,11 @@
 -- the register file, the tables and the active bank are configuration and keep their values
 -- (power-up: bank 0, the init files).
 --
--- LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1) clock enables from in_valid to out_valid:
+-- LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1, + 4 with CANCEL = 1) clock
+-- enables from in_valid to out_valid:
 --   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
---   + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count + 8 fringe_long_period.
--- The registers a block takes with the sample (quadrature coefficients, magnitude thresholds,
+--   [+ 4 fringe_canceller] + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count + 8 fringe_long_period.
+-- The registers a block takes with the sample (quadrature coefficients, CANCEL_FREQ, magnitude thresholds,
 -- COARSE_OFS, ZERO/DIR) are read one clock enable ahead, with the sample's bank from a copy of
 -- the bank pipeline (taps at the blocks' latencies), so no register-file mux feeds block logic.
 -- ce = 0 freezes the pipeline (the tables keep their write port).
@@ -160,6 +163,8 @@ architecture rtl of fringe_core is
             report "fringe_core: COMPACT = " & integer'image(COMPACT) & " must be 0 or 1" severity failure;
         assert DRIFT = 0 or DRIFT = 1
             report "fringe_core: DRIFT = " & integer'image(DRIFT) & " must be 0 or 1" severity failure;
+        assert CANCEL = 0 or CANCEL = 1
+            report "fringe_core: CANCEL = " & integer'image(CANCEL) & " must be 0 or 1" severity failure;
         assert LP_W <= 32
             report "fringe_core: LP_W = " & integer'image(LP_W)
                    & " > 32: a table word {slope, value} must fit cfg_wr_data" severity failure;
@@ -168,7 +173,7 @@ architecture rtl of fringe_core is
     constant GENERICS_CHECKED : boolean := generics_ok;
 
     constant LAT_T   : integer := TRIM * TRIM_LATENCY;   -- fringe_trim (TRIM = 1)
-    constant LATENCY : integer := core_latency(CORDIC_STAGES, TRIM, DRIFT);
+    constant LATENCY : integer := core_latency(CORDIC_STAGES, TRIM, DRIFT, CANCEL);
     -- clock enables from one sample to the next at full speed (fringe.fixed.config clocks_per_sample)
     constant CLOCKS_PER_SAMPLE : integer := 1 + COMPACT * (CORDIC_STAGES + CORDIC_ITER_CLOCKS_BASE - 1);  -- COMPACT is 0 or 1
     constant AMP_W   : integer := WAVE_W + 1;   -- CORDIC magnitude u(WAVE_W+1)
@@ -204,7 +209,8 @@ architecture rtl of fringe_core is
     -- the drift normaliser (DRIFT = 1) or the raw codes; dx = {y_sin, y_cos, norm_sat, clip_c, clip_s}
     -- travels with the sample to the CORDIC output (the tracker's observer), CLIP_* of the raw codes
     constant DX_W   : integer := 2 * ADC_W + 3;
-    constant PIPE_D : integer := CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + CORDIC_STAGES
+    constant LAT_X  : integer := CANCEL * 4;   -- fringe_canceller's LATENCY (CANCEL = 1)
+    constant PIPE_D : integer := CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + LAT_X + CORDIC_STAGES
                                  + CORDIC_LATENCY_BASE;   -- normaliser outputs -> CORDIC outputs
     signal raw_clip_s, raw_clip_c : std_logic;
     signal n_valid      : std_logic;
@@ -238,8 +244,9 @@ architecture rtl of fringe_core is
     constant LAT_C  : integer := CORDIC_STAGES + CORDIC_LATENCY_BASE;
     constant LAT_P  : integer := PERIOD_COUNT_LATENCY;
     constant TAP_Q  : integer := LAT_WL - 2;             -- quadrature coefficients
-    constant TAP_C  : integer := LAT_WL + LAT_Q + LAT_C - 2;          -- magnitude thresholds, COARSE_OFS
-    constant TAP_P  : integer := LAT_WL + LAT_Q + LAT_C + LAT_P + LAT_T - 2;  -- ZERO, DIR
+    constant TAP_X  : integer := LAT_WL + LAT_Q - 2;                  -- CANCEL_FREQ (CANCEL = 1)
+    constant TAP_C  : integer := LAT_WL + LAT_Q + LAT_X + LAT_C - 2;  -- magnitude thresholds, COARSE_OFS
+    constant TAP_P  : integer := LAT_WL + LAT_Q + LAT_X + LAT_C + LAT_P + LAT_T - 2;  -- ZERO, DIR
     signal bank_d       : std_logic_vector(TAP_P downto 0);
     signal ofs_s_r, ofs_c_r : std_logic_vector(WAVE_W - 1 downto 0);
     signal k_ss_r, k_sc_r, k_cc_r : std_logic_vector(COEF_W - 1 downto 0);
@@ -271,6 +278,11 @@ architecture rtl of fringe_core is
     -- CORDIC: user {dx, coarse, sat, clip_c, clip_s, bank}
     constant U_C : integer := DX_W + CW + 4;
     signal q_any        : std_logic;           -- the quadrature or the normaliser saturated
+    -- the canceller (CANCEL = 1) or the quadrature's words
+    signal x_valid      : std_logic;
+    signal x_c, x_s     : std_logic_vector(WAVE_W - 1 downto 0);
+    signal x_any        : std_logic;           -- q_any, or the canceller's subtraction or coefficients saturated
+    signal x_user       : std_logic_vector(U_Q - 1 downto 0);
     signal c_dx         : std_logic_vector(DX_W - 1 downto 0);
     signal c_in_user    : std_logic_vector(U_C - 1 downto 0);
     signal c_valid      : std_logic;
@@ -542,16 +554,56 @@ begin
             out_valid => q_valid, s => qs, c => qc, sat => q_sat, out_user => q_user
         );
 
-    -- ---- stages 12..CORDIC_STAGES+13: CORDIC (x = c, y = s) -------------------------------------
-    q_any     <= q_sat or q_user(U_Q - 1 - DX_W + 3);
-    c_in_user <= q_user(U_Q - 1 downto 3) & q_any & q_user(2 downto 0);
+    q_any <= q_sat or q_user(U_Q - 1 - DX_W + 3);
+
+    -- ---- [stages 12..15: fringe_canceller (CANCEL = 1), NCO word of the sample's bank] -----------
+    g_cancel : if CANCEL /= 0 generate
+        signal freq_r       : std_logic_vector(REG_W - 1 downto 0);   -- CANCEL_FREQ, read one clock enable ahead
+        signal x_sat, x_tsat : std_logic;
+        signal xu_in, xu    : std_logic_vector(U_Q downto 0);
+    begin
+        p_freq : process (clk)
+        begin
+            if rising_edge(clk) then
+                if ce = '1' then
+                    freq_r <= reg_field(regs, bank_d(TAP_X), REG_CANCEL_FREQ, REG_W);
+                end if;
+            end if;
+        end process p_freq;
+
+        xu_in <= q_any & q_user;
+
+        u_cancel : entity work.fringe_canceller
+            generic map (WAVE_W => WAVE_W, LUT_W => CANCEL_LUT_W, C_W => CANCEL_C_W, BLOCK_LOG2 => CANCEL_BLOCK_LOG2,
+                         MU_LOG2 => CANCEL_MU_LOG2, A_FRAC => CANCEL_A_FRAC, A_W => CANCEL_A_W,
+                         LUT_INIT => CANCEL_LUT_INIT, USER_W => U_Q + 1)
+            port map (
+                clk => clk, rst => rst, ce => ce,
+                in_valid => q_valid, c => qc, s => qs, freq => freq_r, in_user => xu_in,
+                out_valid => x_valid, c_out => x_c, s_out => x_s, sat => x_sat, track_sat => x_tsat, out_user => xu
+            );
+
+        x_user <= xu(U_Q - 1 downto 0);
+        x_any  <= xu(U_Q) or x_sat or x_tsat;
+    end generate g_cancel;
+
+    g_no_cancel : if CANCEL = 0 generate
+        x_valid <= q_valid;
+        x_c     <= qc;
+        x_s     <= qs;
+        x_user  <= q_user;
+        x_any   <= q_any;
+    end generate g_no_cancel;
+
+    -- ---- stages 12..CORDIC_STAGES+13 (+ 4 with CANCEL = 1): CORDIC (x = c, y = s) ------------------
+    c_in_user <= x_user(U_Q - 1 downto 3) & x_any & x_user(2 downto 0);
 
     u_cordic : entity work.fringe_cordic
         generic map (IN_W => WAVE_W, FINE_W => FINE_W, STAGES => CORDIC_STAGES, GUARD => CORDIC_GUARD,
                      USER_W => U_C, ITERATIVE => COMPACT)
         port map (
             clk => clk, rst => rst, ce => ce,
-            in_valid => q_valid, x => qc, y => qs, in_user => c_in_user, ready => c_ready,
+            in_valid => x_valid, x => x_c, y => x_s, in_user => c_in_user, ready => c_ready,
             out_valid => c_valid, phase => phase, mag => mag, out_user => c_user
         );
 

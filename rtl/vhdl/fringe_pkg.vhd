@@ -56,9 +56,10 @@ package fringe_pkg is
     -- `what` names the file in the failure messages ("fringe_table_ram: INIT_FILE").
     impure function read_memh(fname : string; depth, width : positive; what : string) return word_array;
 
-    -- LATENCY of fringe_core and fringe_top (trim, drift: the TRIM and DRIFT generics, 0 or 1):
-    -- the input registers and the blocks in the chain, from the generated block latencies below
-    function core_latency(cordic_stages, trim, drift : natural) return natural;
+    -- LATENCY of fringe_core and fringe_top (trim, drift, cancel: the TRIM, DRIFT and CANCEL generics, 0 or
+    -- 1): the input registers and the blocks in the chain, from the generated block latencies below
+    -- (fringe_canceller's LATENCY, 4, written out: not among the generated constants yet)
+    function core_latency(cordic_stages, trim, drift, cancel : natural) return natural;
 
     -- BEGIN generated constants (written by python sim/hdlgen.py; do not edit)
     constant REG_W                   : integer := 32;  -- bits per register word
@@ -253,10 +254,11 @@ package body fringe_pkg is
         return not (top = (top'range => '0') or top = (top'range => '1'));
     end function outside;
 
-    function core_latency(cordic_stages, trim, drift : natural) return natural is
+    function core_latency(cordic_stages, trim, drift, cancel : natural) return natural is
     begin
         return CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + cordic_stages + CORDIC_LATENCY_BASE
-               + PERIOD_COUNT_LATENCY + LONG_PERIOD_LATENCY + trim * TRIM_LATENCY + drift * DRIFT_NORM_LATENCY;
+               + PERIOD_COUNT_LATENCY + LONG_PERIOD_LATENCY + trim * TRIM_LATENCY + drift * DRIFT_NORM_LATENCY
+               + cancel * 4;
     end function core_latency;
 
     impure function read_memh(fname : string; depth, width : positive; what : string) return word_array is

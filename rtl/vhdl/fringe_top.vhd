@@ -109,7 +109,7 @@ end entity fringe_top;
 
 architecture rtl of fringe_top is
 
-    constant LATENCY  : integer := core_latency(CORDIC_STAGES, TRIM, DRIFT);
+    constant LATENCY  : integer := core_latency(CORDIC_STAGES, TRIM, DRIFT, CANCEL);
     -- clock enables from one sample to the next at full speed (fringe.fixed.config clocks_per_sample)
     constant CLOCKS_PER_SAMPLE : integer := 1 + COMPACT * (CORDIC_STAGES + CORDIC_ITER_CLOCKS_BASE - 1);  -- COMPACT is 0 or 1
     constant CW       : integer := maximum(COARSE_W, 1);      -- coarse port width of the core

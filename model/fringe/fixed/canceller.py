@@ -50,9 +50,10 @@ __all__ = ["ADAPT_LATENCY", "LATENCY", "NAME", "CancelParams", "CancelResult", "
 NAME = "fringe_canceller"
 #: Enabled clocks from in_valid to out_valid (LUT read, products, sum and rounding, subtraction and saturation).
 LATENCY = 4
-#: Enabled clocks from a sample's input to its terms in the block sums: the adaptation path; a block's
-#: update is ready ADAPT_LATENCY clock enables after its last sample, and a block takes at least B of them.
-ADAPT_LATENCY = 10
+#: Enabled clocks from a block's last sample at the input (its own clock enable counted) until the
+#: block's update is in place (the adaptation path beside the output: squares, e, u, the products with
+#: cw / sw, the sums, the step); at most B, so block j's update is there before block j + 2 begins.
+ADAPT_LATENCY = 15
 NCO_W = 32
 
 
