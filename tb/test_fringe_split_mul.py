@@ -16,15 +16,14 @@ import os
 
 import numpy as np
 import pytest
+from lib.cocotb_optional import cocotb
+from lib.launch import block_env
 
 TOPLEVEL = "fringe_split_mul"
 DEFAULT_SEED = 20261202
 
-try:
-    import cocotb
+if cocotb is not None:
     from cocotb.triggers import FallingEdge
-except ImportError:  # pragma: no cover - pytest side without cocotb
-    cocotb = None
 
 
 def operand(rng: np.random.Generator, width: int, is_signed: bool) -> int:
@@ -101,7 +100,6 @@ def _id(p: dict[str, int]) -> str:
 def test_fringe_split_mul(sim, params):
     from cocotb_runner import run_block
 
-    seed = os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))
-    print(f"fringe_split_mul: seed {seed}, {params}")
-    run_block(TOPLEVEL, "test_fringe_split_mul", params, sim=sim, timeout_s=300,
-              extra_env={"FRINGE_SPLIT_MUL_PARAMS": json.dumps(params), "FRINGE_SEED": seed})
+    env = block_env("FRINGE_SPLIT_MUL_PARAMS", params, DEFAULT_SEED)
+    print(f"fringe_split_mul: seed {env['FRINGE_SEED']}, {params}")
+    run_block(TOPLEVEL, "test_fringe_split_mul", params, sim=sim, timeout_s=300, extra_env=env)

@@ -3,6 +3,9 @@ message "<unit>: <NAME> = <value> out of range <lo>..<hi>" the model raises, and
 FINE_W, LINES and POS_W of the blocks that count in REV)."""
 
 import re
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]   # the checkout: rtl/, sim/ and docs/ below it
 
 
 def vhdl_checks_range(text: str, unit: str, name: str, rng: str) -> bool:
@@ -36,6 +39,21 @@ def vhdl_checks_position(text: str, unit: str, pos_w_max: int) -> bool:
     return (f'check_position("{unit}", FINE_W, LINES, {pos_w_max})' in text
             and 'unit & ": POS_W = FINE_W + clog2(LINES) = " & integer\'image(fine_w + clog2(lines))' in body
             and '& " exceeds " & integer\'image(pos_w_max)' in body and "fine_w + clog2(lines) <= pos_w_max" in body)
+
+
+def verilog_checks_range(text: str, unit: str, name: str, rng: str) -> bool:
+    """Whether the Verilog checks NAME against the range "lo..hi" with the model's message: the $error
+    written out, or fringe_pkg.vh's FRINGE_CHECK_RANGE(label, unit, NAME, NAME, lo, hi), whose format
+    builds that message."""
+    if f'"{unit}: {name} = %0d out of range {rng} (instance %m)"' in text:
+        return True
+    lo, hi = rng.split("..")
+    call = (rf'`FRINGE_CHECK_RANGE\(\w+, "{re.escape(unit)}", "{re.escape(name)}", {re.escape(name)}, '
+            rf'{re.escape(lo)}, {re.escape(hi)}\)')
+    pkg = (REPO / "rtl" / "verilog" / "fringe_pkg.vh").read_text()
+    macro = ('if ((V) < (LO) || (V) > (HI)) begin : LABEL \\\n'
+             '        $error("%s: %s = %0d out of range %0d..%0d (instance %m)", UNIT, NAME, V, LO, HI);')
+    return re.search(call, text) is not None and macro in pkg
 
 
 def vhdl_block_text(repo, block: str) -> str:

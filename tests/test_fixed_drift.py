@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
-from hdl_text import vhdl_block_text, vhdl_checks_range
+from hdl_text import REPO, verilog_checks_range, vhdl_block_text, vhdl_checks_range
 
 from fringe.fixed.drift import (
     NORM_LATENCY,
@@ -22,8 +21,6 @@ from fringe.fixed.drift import (
     pack_words,
     unpack_words,
 )
-
-REPO = Path(__file__).resolve().parent.parent
 
 P1 = DriftParams(adc_w=14, fine_w=16, block_log2=8, mu_log2=3, ofs_frac=4, ginv_w=18, fwd_w=6, table_w=18,
                  table_frac=2, kg_w=18, kg_shift=38)
@@ -190,13 +187,14 @@ def test_hdl_messages_match_model():
     for name, rng in (("ADC_W", "4..24"), ("FINE_W", "8..30"), ("BLOCK_LOG2", "4..12"), ("MU_LOG2", "0..8"),
                       ("OFS_FRAC", "0..8"), ("GINV_W", "8..24"), ("TABLE_W", "8..24"), ("TABLE_FRAC", "0..12"),
                       ("KG_W", "8..24"), ("KG_SHIFT", "1..60")):
-        assert f'"fringe_drift: {name} = %0d out of range {rng} (instance %m)"' in v, name
+        assert verilog_checks_range(v, "fringe_drift", name, rng), name
         assert vhdl_checks_range(h, "fringe_drift", name, rng), name
     for frag in ("out of range 2..min(10, FINE_W-1) = ", "ADC_W + OFS_FRAC = ", " exceeds 32",
                  "NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = ", "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = ",
                  ": the update would come too late"):
         assert frag in v and frag in h, frag
-    assert "USER_W = " in v and 'check_min("fringe_drift", "USER_W", USER_W, 1)' in h
+    assert '`FRINGE_CHECK_MIN(g_bad_user_w, "fringe_drift", "USER_W", USER_W, 1)' in v
+    assert 'check_min("fringe_drift", "USER_W", USER_W, 1)' in h
     assert "PIPE_LATENCY = %0d must be >= 0" in v and 'check_min("fringe_drift", "PIPE_LATENCY", PIPE_LATENCY, 0)' in h
 
 

@@ -5,11 +5,10 @@ from __future__ import annotations
 import math
 import re
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
-from hdl_text import vhdl_block_text, vhdl_checks_position, vhdl_checks_range
+from hdl_text import REPO, verilog_checks_range, vhdl_block_text, vhdl_checks_position, vhdl_checks_range
 
 from fringe.fixed.trim import (
     LATENCY,
@@ -29,8 +28,6 @@ from fringe.fixed.trim import (
     trim_words,
     unpack_words,
 )
-
-REPO = Path(__file__).resolve().parent.parent
 
 P1 = TrimParams(lines=256, fine_w=16, amp_w=12, speed_log2=5, map_psi_w=4, map_phi_w=6, trim_w=18, trim_frac=4,
                 g_shift=20)
@@ -113,7 +110,7 @@ def test_hdl_messages_match_model():
     for name, rng in (("FINE_W", "8..30"), ("LINES", "1..2^20"), ("AMP_W", "4..32"), ("SPEED_LOG2", "0..8"),
                       ("MAP_PSI_W", "0..8"), ("TRIM_W", "8..24"), ("TRIM_FRAC", "0..16"), ("G_SHIFT", "1..48"),
                       ("SECT_SHIFT", "0..127")):
-        assert f'"fringe_trim: {name} = %0d out of range {rng} (instance %m)"' in v, name
+        assert verilog_checks_range(v, "fringe_trim", name, rng), name
         assert vhdl_checks_range(h, "fringe_trim", name, rng), name
     for frag in ("out of range 2..min(10, FINE_W-1) = ", "POS_W = FINE_W + clog2(LINES) = ", "take them from "):
         assert frag in v and frag in h, frag
@@ -122,7 +119,8 @@ def test_hdl_messages_match_model():
     assert "do not map every position to floor(pos * 2^MAP_PSI_W / REV);" in v
     assert "take them from sector_mapping()" in v
     assert 'check_mapping("fringe_trim", "SECT", "MAP_PSI_W", "sector_mapping"' in h
-    assert "USER_W = " in v and 'check_min("fringe_trim", "USER_W", USER_W, 1)' in h
+    assert '`FRINGE_CHECK_MIN(g_bad_user_w, "fringe_trim", "USER_W", USER_W, 1)' in v
+    assert 'check_min("fringe_trim", "USER_W", USER_W, 1)' in h
 
 
 # ---------------------------------------------------------------------------- sector mapping
