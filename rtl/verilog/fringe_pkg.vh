@@ -64,6 +64,23 @@ localparam integer DRIFT_OBS_LATENCY       = 15;  // fringe_drift observer
 // END generated constants
 /* verilator lint_on UNUSEDPARAM */
 
+// Parameter checks inside a generate region: stop elaboration with the model's ValueError text (and
+// the instance path). LABEL names the generate block, UNIT and NAME are string literals, NAME's value V.
+`ifndef FRINGE_CHECK_RANGE
+`define FRINGE_CHECK_RANGE(LABEL, UNIT, NAME, V, LO, HI) \
+    if ((V) < (LO) || (V) > (HI)) begin : LABEL \
+        $error("%s: %s = %0d out of range %0d..%0d (instance %m)", UNIT, NAME, V, LO, HI); \
+    end
+`define FRINGE_CHECK_MIN(LABEL, UNIT, NAME, V, LO) \
+    if ((V) < (LO)) begin : LABEL \
+        $error("%s: %s = %0d must be >= %0d (instance %m)", UNIT, NAME, V, LO); \
+    end
+`define FRINGE_CHECK_BIT(LABEL, UNIT, NAME, V) \
+    if ((V) != 0 && (V) != 1) begin : LABEL \
+        $error("%s: %s = %0d must be 0 or 1 (instance %m)", UNIT, NAME, V); \
+    end
+`endif
+
 // LATENCY of fringe_core and fringe_top (trim, drift: the TRIM and DRIFT parameters, 0 or 1): the
 // input registers and the blocks in the chain, from the generated block latencies above
 function integer fringe_core_latency;

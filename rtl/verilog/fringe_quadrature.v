@@ -48,18 +48,10 @@ module fringe_quadrature #(
     localparam [S_W-1:0] RND     = {{(S_W-1){1'b0}}, 1'b1} << (COEF_FRAC - 1);
 
     generate
-        if (WAVE_W < 8 || WAVE_W > 32) begin : g_bad_wave_w
-            $error("fringe_quadrature: WAVE_W = %0d out of range 8..32 (instance %m)", WAVE_W);
-        end
-        if (COEF_W < 8 || COEF_W > 27) begin : g_bad_coef_w
-            $error("fringe_quadrature: COEF_W = %0d out of range 8..27 (instance %m)", COEF_W);
-        end
-        if (USER_W < 1) begin : g_bad_user_w
-            $error("fringe_quadrature: USER_W = %0d must be >= 1 (instance %m)", USER_W);
-        end
-        if (SHARED_MUL != 0 && SHARED_MUL != 1) begin : g_bad_shared
-            $error("fringe_quadrature: SHARED_MUL = %0d must be 0 or 1 (instance %m)", SHARED_MUL);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_wave_w, "fringe_quadrature", "WAVE_W", WAVE_W, 8, 32)
+        `FRINGE_CHECK_RANGE(g_bad_coef_w, "fringe_quadrature", "COEF_W", COEF_W, 8, 27)
+        `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_quadrature", "USER_W", USER_W, 1)
+        `FRINGE_CHECK_BIT(g_bad_shared, "fringe_quadrature", "SHARED_MUL", SHARED_MUL)
     endgenerate
 
     // ---- stage 1: differences; coefficients travel with the sample --------------------------
