@@ -50,10 +50,32 @@ def verilog_checks_range(text: str, unit: str, name: str, rng: str) -> bool:
     lo, hi = rng.split("..")
     call = (rf'`FRINGE_CHECK_RANGE\(\w+, "{re.escape(unit)}", "{re.escape(name)}", {re.escape(name)}, '
             rf'{re.escape(lo)}, {re.escape(hi)}\)')
-    pkg = (REPO / "rtl" / "verilog" / "fringe_pkg.vh").read_text()
+    pkg = _verilog_pkg()
     macro = ('if ((V) < (LO) || (V) > (HI)) begin : LABEL \\\n'
              '        $error("%s: %s = %0d out of range %0d..%0d (instance %m)", UNIT, NAME, V, LO, HI);')
-    return re.search(call, text) is not None and macro in pkg
+    if re.search(call, text) is not None and macro in pkg:
+        return True
+    # FINE_W and LINES, checked by fringe_pkg.vh's FRINGE_CHECK_POSITION(unit, FINE_W, LINES, pos_w_max)
+    position = {"FINE_W": '`FRINGE_CHECK_RANGE(g_bad_fine_w, UNIT, "FINE_W", FW, 8, 30)',
+                "LINES": '$error("%s: LINES = %0d out of range 1..2^20 (instance %m)", UNIT, LN);'}
+    return (name in position and f"{name}:{rng}" in ("FINE_W:8..30", "LINES:1..2^20") and macro in pkg
+            and position[name] in pkg and re.search(_position_call(unit), text) is not None)
+
+
+def _verilog_pkg() -> str:
+    return (REPO / "rtl" / "verilog" / "fringe_pkg.vh").read_text()
+
+
+def _position_call(unit: str, pos_w_max: int | None = None) -> str:
+    mx = r"\d+" if pos_w_max is None else str(pos_w_max)
+    return rf'`FRINGE_CHECK_POSITION\("{re.escape(unit)}", FINE_W, LINES, {mx}\)'
+
+
+def verilog_checks_position(text: str, unit: str, pos_w_max: int) -> bool:
+    """Whether the Verilog checks POS_W = FINE_W + clog2(LINES) <= pos_w_max with the model's message
+    "<unit>: POS_W = FINE_W + clog2(LINES) = <v> exceeds <pos_w_max>" (fringe_pkg.vh's FRINGE_CHECK_POSITION)."""
+    fmt = '$error("%s: POS_W = FINE_W + clog2(LINES) = %0d exceeds %0d (instance %m)", UNIT, (FW) + $clog2(LN), PMAX);'
+    return re.search(_position_call(unit, pos_w_max), text) is not None and fmt in _verilog_pkg()
 
 
 def vhdl_block_text(repo, block: str) -> str:

@@ -52,13 +52,7 @@ module fringe_long_period #(
     localparam           MAP_OK  = fringe_mapping_exact(LP_RECIP, LP_SHIFT, LP_ADDR_W, LINES, FINE_W);
 
     generate
-        `FRINGE_CHECK_RANGE(g_bad_fine_w, "fringe_long_period", "FINE_W", FINE_W, 8, 30)
-        if (LINES < 1 || LINES > (1 << 20)) begin : g_bad_lines
-            $error("fringe_long_period: LINES = %0d out of range 1..2^20 (instance %m)", LINES);
-        end
-        if (POS_W > 48) begin : g_bad_pos_w
-            $error("fringe_long_period: POS_W = FINE_W + clog2(LINES) = %0d exceeds 48 (instance %m)", POS_W);
-        end
+        `FRINGE_CHECK_POSITION("fringe_long_period", FINE_W, LINES, 48)
         if (LP_ADDR_W < 2 || LP_ADDR_W > 16) begin : g_bad_addr_w
             $error("fringe_long_period: LP_ADDR_W = %0d out of range 2..16 (instance %m)", LP_ADDR_W);
         end else if ((64'd1 << LP_ADDR_W) > REV64) begin : g_bad_entries

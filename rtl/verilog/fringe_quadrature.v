@@ -74,6 +74,19 @@ module fringe_quadrature #(
     // the sums the output stage shifts and saturates: k_ss*ds + k_sc*dc + RND and k_cc*dc + RND
     wire signed [S_W-1:0] sum_s, sum_c;
 
+    // ---- valid (the only reset registers) and sideband, LATENCY stages: stage 1, then the rest -------
+    wire              at1;       // the sample is in stage 1 (SHARED_MUL = 1 picks the operands by it)
+    wire [USER_W-1:0] user1;
+
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(1)) u_valid1 (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(at1), .out_data(user1)
+    );
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY - 1)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(at1), .in_data(user1),
+        .out_valid(out_valid), .out_data(out_user)
+    );
+
     generate
         if (SHARED_MUL == 0) begin : g_parallel
             // ---- stage 2: the products, bare: fringe_split_mul with LATENCY 1 registers the 18x18
@@ -116,7 +129,6 @@ module fringe_quadrature #(
             // datapath, at the same clock enables.
             // The operands are registered (the DSP's input registers): k_ss and x_s - ofs_s with the
             // sample (stage 1), then k_sc, dc and k_cc, dc from the stage-1 registers.
-            reg                     at1;     // the sample is in stage 1
             reg  signed [COEF_W-1:0] k_m;
             reg  signed [D_W-1:0]    d_m;
             wire signed [D_W-1:0]    ds0 = $signed({xs[WAVE_W-1], xs}) - $signed({ofs_s[WAVE_W-1], ofs_s});
@@ -133,14 +145,6 @@ module fringe_quadrature #(
                         k_m <= at1 ? k_sc1 : k_cc1;
                         d_m <= dc1;
                     end
-                end
-            end
-
-            always @(posedge clk) begin
-                if (rst) begin
-                    at1 <= 1'b0;
-                end else if (ce) begin
-                    at1 <= in_valid;
                 end
             end
 
@@ -176,12 +180,6 @@ module fringe_quadrature #(
             sat <= ovf_s3 | ovf_c3;
         end
     end
-
-    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
-    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
-        .out_valid(out_valid), .out_data(out_user)
-    );
 
     // The low COEF_FRAC bits of the sums are the fraction dropped by the shift.
     wire unused_ok = &{1'b0, sum_s[COEF_FRAC-1:0], sum_c[COEF_FRAC-1:0], ds1, k_ss1};

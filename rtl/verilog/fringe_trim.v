@@ -61,13 +61,7 @@ module fringe_trim #(
     localparam integer   PHI_MAX = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
 
     generate
-        `FRINGE_CHECK_RANGE(g_bad_fine_w, "fringe_trim", "FINE_W", FINE_W, 8, 30)
-        if (LINES < 1 || LINES > (1 << 20)) begin : g_bad_lines
-            $error("fringe_trim: LINES = %0d out of range 1..2^20 (instance %m)", LINES);
-        end
-        if (POS_W > 31) begin : g_bad_pos_w
-            $error("fringe_trim: POS_W = FINE_W + clog2(LINES) = %0d exceeds 31 (instance %m)", POS_W);
-        end
+        `FRINGE_CHECK_POSITION("fringe_trim", FINE_W, LINES, 31)
         `FRINGE_CHECK_RANGE(g_bad_amp_w, "fringe_trim", "AMP_W", AMP_W, 4, 32)
         `FRINGE_CHECK_RANGE(g_bad_speed_log2, "fringe_trim", "SPEED_LOG2", SPEED_LOG2, 0, 8)
         `FRINGE_CHECK_RANGE(g_bad_psi_w, "fringe_trim", "MAP_PSI_W", MAP_PSI_W, 0, 8)

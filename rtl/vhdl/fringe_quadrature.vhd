@@ -86,6 +86,8 @@ architecture rtl of fringe_quadrature is
     signal k_ss1, k_sc1, k_cc1 : signed(COEF_W - 1 downto 0);
     -- the sums the output stage shifts and saturates: k_ss*ds + k_sc*dc + RND and k_cc*dc + RND
     signal sum_s, sum_c       : signed(S_W - 1 downto 0);
+    signal at1                : std_logic;   -- the sample is in stage 1 (SHARED_MUL = 1 picks the operands by it)
+    signal user1              : std_logic_vector(USER_W - 1 downto 0);
 
 
 begin
@@ -152,7 +154,6 @@ begin
     -- unregistered); acc_s = k_ss*ds + RND at stage 3, sum_s3 adds k_sc*dc at stage 4, k_cc*dc + RND
     -- goes straight to the output stage: the parallel datapath's sums at the same clock enables.
     g_shared : if SHARED_MUL = 1 generate
-        signal at1         : std_logic;   -- the sample is in stage 1
         signal k_m         : signed(COEF_W - 1 downto 0);
         signal d_m         : signed(D_W - 1 downto 0);
         signal m           : std_logic_vector(P_W - 1 downto 0);
@@ -179,17 +180,6 @@ begin
             end if;
         end process p_ops;
 
-        p_at : process (clk)
-        begin
-            if rising_edge(clk) then
-                if rst = '1' then
-                    at1 <= '0';
-                elsif ce = '1' then
-                    at1 <= in_valid;
-                end if;
-            end if;
-        end process p_at;
-
         u_mul : entity work.fringe_split_mul
             generic map (A_W => COEF_W, B_W => D_W, LATENCY => 1)
             port map (clk => clk, ce => ce, a => std_logic_vector(k_m), b => std_logic_vector(d_m), p => m);
@@ -208,10 +198,14 @@ begin
         sum_c <= prod + RND;
     end generate g_shared;
 
-    -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
-    u_valid : entity work.fringe_delay
-        generic map (WIDTH => USER_W, DEPTH => LATENCY)
+    -- ---- valid (the only reset registers) and sideband, LATENCY stages: stage 1, then the rest
+    u_valid1 : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => 1)
         port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => at1, out_data => user1);
+    u_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => LATENCY - 1)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => at1, in_data => user1,
                   out_valid => out_valid, out_data => out_user);
 
 end architecture rtl;
