@@ -19,7 +19,7 @@ import os
 import numpy as np
 import pytest
 from lib.cocotb_optional import cocotb
-from lib.launch import block_env
+from lib.launch import run_seeded
 
 from fringe.fixed.cordic import CordicParams, cordic
 
@@ -285,9 +285,5 @@ def _id(ps) -> str:
 
 @pytest.mark.parametrize("ps", PARAM_SETS, ids=[_id(ps) for ps in PARAM_SETS])
 def test_fringe_cordic(sim, ps):
-    from cocotb_runner import run_block
-
     p, user_w = ps
-    params = {**p.hdl_parameters(), "USER_W": user_w}
-    run_block(TOPLEVEL, "test_fringe_cordic", params, sim=sim, timeout_s=240,
-              extra_env=block_env("FRINGE_CORDIC_PARAMS", params, DEFAULT_SEED))
+    run_seeded(TOPLEVEL, {**p.hdl_parameters(), "USER_W": user_w}, sim, "FRINGE_CORDIC_PARAMS", DEFAULT_SEED, 240)

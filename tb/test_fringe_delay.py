@@ -15,7 +15,7 @@ import os
 import numpy as np
 import pytest
 from lib.cocotb_optional import cocotb
-from lib.launch import block_env
+from lib.launch import run_seeded
 
 TOPLEVEL = "fringe_delay"
 DEFAULT_SEED = 20261201
@@ -92,7 +92,4 @@ PARAM_SETS = param_sets()
 
 @pytest.mark.parametrize("params", PARAM_SETS, ids=[f"W{p['WIDTH']}-D{p['DEPTH']}" for p in PARAM_SETS])
 def test_fringe_delay(sim, params):
-    from cocotb_runner import run_block
-
-    run_block(TOPLEVEL, "test_fringe_delay", params, sim=sim, timeout_s=120,
-              extra_env=block_env("FRINGE_DELAY_PARAMS", params, DEFAULT_SEED))
+    run_seeded(TOPLEVEL, params, sim, "FRINGE_DELAY_PARAMS", DEFAULT_SEED, 120)

@@ -32,7 +32,7 @@ import pytest
 from elab_check import refusal_tests
 from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
-from lib.launch import block_env
+from lib.launch import run_seeded
 
 from fringe.fixed.period_count import LATENCY, PeriodCountParams, period_count
 
@@ -330,9 +330,5 @@ test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration 
 
 @pytest.mark.parametrize("ps", PARAM_SETS, ids=[_id(ps) for ps in PARAM_SETS])
 def test_fringe_period_count(sim, ps):
-    from cocotb_runner import run_block
-
     p, user_w = ps
-    params = {**p.hdl_parameters(), "USER_W": user_w}
-    run_block(TOPLEVEL, "test_fringe_period_count", params, sim=sim, timeout_s=240,
-              extra_env=block_env("FRINGE_PC_PARAMS", params, DEFAULT_SEED))
+    run_seeded(TOPLEVEL, {**p.hdl_parameters(), "USER_W": user_w}, sim, "FRINGE_PC_PARAMS", DEFAULT_SEED, 240)

@@ -81,3 +81,22 @@ def verilog_checks_position(text: str, unit: str, pos_w_max: int) -> bool:
 def vhdl_block_text(repo, block: str) -> str:
     """A VHDL block's source with fringe_pkg's, where its checks build their messages."""
     return (repo / "rtl" / "vhdl" / f"{block}.vhd").read_text() + (repo / "rtl" / "vhdl" / "fringe_pkg.vhd").read_text()
+
+
+def block_texts(block: str) -> tuple[str, str]:
+    """A block's Verilog source, and its VHDL source with fringe_pkg's (``vhdl_block_text``)."""
+    return (REPO / "rtl" / "verilog" / f"{block}.v").read_text(), vhdl_block_text(REPO, block)
+
+
+def missing_checks(block: str, ranges, pos_w_max: int | None = None) -> list[str]:
+    """The checks with the model's messages a block lacks, in either language: a range check per
+    (NAME, "lo..hi") of ``ranges``, and the POS_W <= pos_w_max check where given. Empty when all are there."""
+    v, h = block_texts(block)
+    missing = []
+    for name, rng in ranges:
+        missing += [f"Verilog {name} {rng}"] * (not verilog_checks_range(v, block, name, rng))
+        missing += [f"VHDL {name} {rng}"] * (not vhdl_checks_range(h, block, name, rng))
+    if pos_w_max is not None:
+        missing += [f"Verilog POS_W <= {pos_w_max}"] * (not verilog_checks_position(v, block, pos_w_max))
+        missing += [f"VHDL POS_W <= {pos_w_max}"] * (not vhdl_checks_position(h, block, pos_w_max))
+    return missing

@@ -7,14 +7,7 @@ import re
 
 import numpy as np
 import pytest
-from hdl_text import (
-    REPO,
-    verilog_checks_position,
-    verilog_checks_range,
-    vhdl_block_text,
-    vhdl_checks_position,
-    vhdl_checks_range,
-)
+from hdl_text import block_texts, missing_checks
 
 from fringe.fixed.period_count import (
     LATENCY,
@@ -289,13 +282,9 @@ def test_parameter_validation(args, msg):
 
 def test_hdl_messages_match_model():
     """The HDL checks carry the model's messages (plus the instance path in Verilog)."""
-    v = (REPO / "rtl/verilog/fringe_period_count.v").read_text()
-    h = vhdl_block_text(REPO, "fringe_period_count")
-    for name, rng in (("FINE_W", "8..30"), ("LINES", "1..2^20")):
-        assert verilog_checks_range(v, "fringe_period_count", name, rng)
-        assert vhdl_checks_range(h, "fringe_period_count", name, rng)
-    assert verilog_checks_position(v, "fringe_period_count", 48)
-    assert vhdl_checks_position(h, "fringe_period_count", 48)
+    v, h = block_texts("fringe_period_count")
+    ranges = (("FINE_W", "8..30"), ("LINES", "1..2^20"))
+    assert not missing_checks("fringe_period_count", ranges, pos_w_max=48)
     tail = "out of range: 0 (no coarse code) or 1..24 with COARSE_W <= FINE_W - 2"
     assert f"COARSE_W = %0d {tail} (instance %m)" in v and f'" {tail}"' in h
     assert "2^COARSE_W = %0d is less than LINES = %0d (instance %m)" in v and '" is less than LINES = "' in h
