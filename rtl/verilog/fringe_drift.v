@@ -4,8 +4,6 @@
 // NORM_LATENCY = 4 clock enables (in_valid to norm_valid); OBS_LATENCY = 15 (a
 // block's last observer sample to its pending update), one sample per clock; ce = 0 freezes
 // every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
-// The two halves are fringe_drift_norm (normaliser, application of the pending update) and
-// fringe_drift_obs (observer, update), one module each; this one checks the parameters and joins them.
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_drift.md.
 // Bit-exact model: model/fringe/fixed/drift.py.
 
@@ -38,9 +36,9 @@ module fringe_drift #(
     input  wire [USER_W-1:0]                 in_user,
     // normaliser out
     output wire                              norm_valid,
-    output wire signed [ADC_W-1:0]           y_sin,      // s(ADC_W)
-    output wire signed [ADC_W-1:0]           y_cos,
-    output wire                              norm_sat,   // y saturated (either channel)
+    output reg  signed [ADC_W-1:0]           y_sin,      // s(ADC_W)
+    output reg  signed [ADC_W-1:0]           y_cos,
+    output reg                               norm_sat,   // y saturated (either channel)
     output wire [USER_W-1:0]                 norm_user,
     // observer in
     input  wire                              obs_valid,
@@ -58,11 +56,11 @@ module fringe_drift #(
     input  wire [FWD_W:0]                    wr_addr,    // {bank, bin}
     input  wire [2*TABLE_W-1:0]              wr_data,    // {slope, value}
     // tracker state
-    output wire signed [ADC_W+OFS_FRAC-1:0]  off_sin,    // OFF, s(ADC_W + OFS_FRAC)
-    output wire signed [ADC_W+OFS_FRAC-1:0]  off_cos,
-    output wire [GINV_W-1:0]                 ginv_sin,   // GINV, u(GINV_W)
-    output wire [GINV_W-1:0]                 ginv_cos,
-    output wire                              track_sat   // the last applied update saturated
+    output reg  signed [ADC_W+OFS_FRAC-1:0]  off_sin,    // OFF, s(ADC_W + OFS_FRAC)
+    output reg  signed [ADC_W+OFS_FRAC-1:0]  off_cos,
+    output reg  [GINV_W-1:0]                 ginv_sin,   // GINV, u(GINV_W)
+    output reg  [GINV_W-1:0]                 ginv_cos,
+    output reg                               track_sat   // the last applied update saturated
 );
 
     `include "fringe_pkg.vh"
@@ -100,36 +98,385 @@ module fringe_drift #(
         `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_drift", "USER_W", USER_W, 1)
     endgenerate
 
-    // ---- the normaliser (fringe_drift_norm) and the observer (fringe_drift_obs) -----------------------
-    localparam integer OW = ADC_W + OFS_FRAC;                         // OFF
-    wire                 pend_valid, pend_sat, take;
-    wire signed [OW-1:0] pend_off_s, pend_off_c;
-    wire [GINV_W-1:0]    pend_ginv_s, pend_ginv_c;
+    // ---- widths ---------------------------------------------------------------------------------------
+    localparam integer OW     = ADC_W + OFS_FRAC;                     // OFF
+    localparam integer SHN    = OFS_FRAC + GINV_W - 2;                // normaliser shift
+    localparam integer PW     = OW + GINV_W + 2;                      // (raw * 2^OFS_FRAC - OFF) * GINV
+    localparam integer QW     = PW - SHN;                             // that >>> SHN (ADC_W + 4)
+    localparam integer TW     = TABLE_W;
+    localparam integer FB     = FINE_W - FWD_W;                       // >= 1
+    localparam integer AW     = TW + 1;                               // a
+    localparam integer YW     = ADC_W + TABLE_FRAC + 1;               // y * 2^TABLE_FRAC - W0
+    localparam integer E_W    = ((YW > AW) ? YW : AW) + 1;            // e
+    localparam integer EA_W   = E_W + AW;                             // e * a
+    localparam integer SE_W   = E_W + BLOCK_LOG2;
+    localparam integer SEA_W  = EA_W + BLOCK_LOG2;
+    localparam integer SW_W   = FINE_W + BLOCK_LOG2;                  // SWEEP
+    localparam integer SH_O   = BLOCK_LOG2 + TABLE_FRAC + MU_LOG2;    // offset step shift
+    localparam integer XW     = SE_W + OFS_FRAC + 1;                  // SE * 2^OFS_FRAC
+    localparam integer OS_W   = XW + 1;                               // OFF + step
+    localparam integer KP_W   = SEA_W + KG_W + 1;                     // SEA * KG
+    localparam integer PR_W   = ((KP_W > KG_SHIFT) ? KP_W : KG_SHIFT) + 1;   // + 2^(KG_SHIFT-1)
+    localparam integer DG_W   = PR_W - KG_SHIFT;                      // the GINV step
+    localparam integer GS_W   = (((GINV_W + 1) > DG_W) ? GINV_W + 1 : DG_W) + 1;   // GINV - step
+    localparam [GINV_W-1:0] UNITY = {{(GINV_W-2){1'b0}}, 2'b01} << (GINV_W - 2);
+    localparam [BLOCK_LOG2-1:0] CNT_D    = D[BLOCK_LOG2-1:0];
+    localparam [BLOCK_LOG2-1:0] CNT_LAST = {BLOCK_LOG2{1'b1}};
 
-    fringe_drift_norm #(
-        .ADC_W(ADC_W), .BLOCK_LOG2(BLOCK_LOG2), .OFS_FRAC(OFS_FRAC), .GINV_W(GINV_W), .USER_W(USER_W)
-    ) u_norm (
-        .clk(clk), .rst(rst), .ce(ce),
-        .in_valid(in_valid), .raw_sin(raw_sin), .raw_cos(raw_cos), .in_user(in_user),
-        .norm_valid(norm_valid), .y_sin(y_sin), .y_cos(y_cos), .norm_sat(norm_sat), .norm_user(norm_user),
-        .pend_valid(pend_valid), .pend_off_s(pend_off_s), .pend_off_c(pend_off_c),
-        .pend_ginv_s(pend_ginv_s), .pend_ginv_c(pend_ginv_c), .pend_sat(pend_sat), .take(take),
-        .off_sin(off_sin), .off_cos(off_cos), .ginv_sin(ginv_sin), .ginv_cos(ginv_cos), .track_sat(track_sat)
+    // ---- application of the pending update (normaliser input side) ---------------------------------
+    wire                   acc_n = ce & in_valid & ~rst;
+    reg  [BLOCK_LOG2-1:0]  ncnt;          // accepted input samples since reset, mod B
+    reg                    npast;         // at least B accepted since reset
+    reg                    pend_valid;
+    reg  signed [OW-1:0]   pend_off_s, pend_off_c;
+    reg  [GINV_W-1:0]      pend_ginv_s, pend_ginv_c;
+    reg                    pend_sat;
+    wire                   take = acc_n & npast & (ncnt == CNT_D) & pend_valid;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            ncnt      <= {BLOCK_LOG2{1'b0}};
+            npast     <= 1'b0;
+            off_sin   <= {OW{1'b0}};
+            off_cos   <= {OW{1'b0}};
+            ginv_sin  <= UNITY;
+            ginv_cos  <= UNITY;
+            track_sat <= 1'b0;
+        end else if (acc_n) begin
+            ncnt <= ncnt + 1'b1;
+            if (ncnt == CNT_LAST) begin
+                npast <= 1'b1;
+            end
+            if (take) begin
+                off_sin   <= pend_off_s;
+                off_cos   <= pend_off_c;
+                ginv_sin  <= pend_ginv_s;
+                ginv_cos  <= pend_ginv_c;
+                track_sat <= pend_sat;
+            end
+        end
+    end
+
+    // ---- normaliser ------------------------------------------------------------------------------------
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(NORM_LATENCY)) u_norm_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(norm_valid), .out_data(norm_user)
     );
 
-    fringe_drift_obs #(
-        .ADC_W(ADC_W), .FINE_W(FINE_W), .BLOCK_LOG2(BLOCK_LOG2), .MU_LOG2(MU_LOG2), .OFS_FRAC(OFS_FRAC),
-        .GINV_W(GINV_W), .FWD_W(FWD_W), .TABLE_W(TABLE_W), .TABLE_FRAC(TABLE_FRAC), .KG_W(KG_W),
-        .KG_SHIFT(KG_SHIFT), .FWD_SIN_INIT(FWD_SIN_INIT), .FWD_COS_INIT(FWD_COS_INIT)
-    ) u_obs (
-        .clk(clk), .rst(rst), .ce(ce),
-        .obs_valid(obs_valid), .obs_phase(obs_phase), .obs_y_sin(obs_y_sin), .obs_y_cos(obs_y_cos),
-        .obs_bank(obs_bank), .w0_sin(w0_sin), .w0_cos(w0_cos), .kg_sin(kg_sin), .kg_cos(kg_cos),
-        .wr_en(wr_en), .wr_sel(wr_sel), .wr_addr(wr_addr), .wr_data(wr_data),
-        .off_sin(off_sin), .off_cos(off_cos), .ginv_sin(ginv_sin), .ginv_cos(ginv_cos),
-        .pend_valid(pend_valid), .pend_off_s(pend_off_s), .pend_off_c(pend_off_c),
-        .pend_ginv_s(pend_ginv_s), .pend_ginv_c(pend_ginv_c), .pend_sat(pend_sat), .take(take)
+    reg  signed [ADC_W-1:0] n1_s, n1_c;
+    reg  signed [OW:0]      n2_s, n2_c;
+    reg         [GINV_W-1:0] n2_gs, n2_gc;
+    reg  signed [PW-1:0]    n3_s, n3_c;
+    wire signed [OW:0]      n1_sx = {{(OFS_FRAC+1){n1_s[ADC_W-1]}}, n1_s} <<< OFS_FRAC;
+    wire signed [OW:0]      n1_cx = {{(OFS_FRAC+1){n1_c[ADC_W-1]}}, n1_c} <<< OFS_FRAC;
+    // (P + 2^(SHN-1)) >>> SHN = (P >>> SHN) + P[SHN-1]
+    wire signed [QW-1:0]    q_s = n3_s[PW-1:SHN] + {{(QW-1){1'b0}}, n3_s[SHN-1]};
+    wire signed [QW-1:0]    q_c = n3_c[PW-1:SHN] + {{(QW-1){1'b0}}, n3_c[SHN-1]};
+    // in range of s(ADC_W) <=> bits QW-1 .. ADC_W-1 all equal the sign
+    wire                    qs_over = q_s[QW-1] ? ~&q_s[QW-1:ADC_W-1] : |q_s[QW-1:ADC_W-1];
+    wire                    qc_over = q_c[QW-1] ? ~&q_c[QW-1:ADC_W-1] : |q_c[QW-1:ADC_W-1];
+    wire signed [ADC_W-1:0] y_max = {1'b0, {(ADC_W-1){1'b1}}};
+    wire signed [ADC_W-1:0] y_min = {1'b1, {(ADC_W-1){1'b0}}};
+
+    always @(posedge clk) begin
+        if (ce) begin
+            // 1: input registers
+            n1_s <= raw_sin;
+            n1_c <= raw_cos;
+            // 2: d = raw * 2^OFS_FRAC - OFF (the state after this sample's acceptance)
+            n2_s  <= n1_sx - {off_sin[OW-1], off_sin};
+            n2_c  <= n1_cx - {off_cos[OW-1], off_cos};
+            n2_gs <= ginv_sin;
+            n2_gc <= ginv_cos;
+            // 3: d * GINV
+            n3_s <= n2_s * $signed({1'b0, n2_gs});
+            n3_c <= n2_c * $signed({1'b0, n2_gc});
+            // 4: rounded (P[SHN-1] as a carry), >>> SHN, saturate
+            y_sin    <= qs_over ? (q_s[QW-1] ? y_min : y_max) : q_s[ADC_W-1:0];
+            y_cos    <= qc_over ? (q_c[QW-1] ? y_min : y_max) : q_c[ADC_W-1:0];
+            norm_sat <= qs_over | qc_over;
+        end
+    end
+
+    // ---- observer: counters --------------------------------------------------------------------------
+    wire                  acc_o = ce & obs_valid & ~rst;
+    reg  [BLOCK_LOG2-1:0] ocnt;           // accepted observer samples since reset, mod B
+    reg                   ohave;          // a previous phase exists (not the first sample after reset)
+    reg  [FINE_W-1:0]     last_phase;
+    reg  [KG_W-1:0]       kg_hold_s, kg_hold_c;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            ocnt  <= {BLOCK_LOG2{1'b0}};
+            ohave <= 1'b0;
+        end else if (acc_o) begin
+            ocnt  <= ocnt + 1'b1;
+            ohave <= 1'b1;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (acc_o) begin
+            last_phase <= obs_phase;
+            if (ocnt == CNT_LAST) begin
+                kg_hold_s <= kg_sin;
+                kg_hold_c <= kg_cos;
+            end
+        end
+    end
+
+    // ---- observer: tables, stages 1..4: a = value + ((slope * frac + 2^(FB-1)) >>> FB) --------------
+    wire [FWD_W:0]       rd_addr = {obs_bank, obs_phase[FINE_W-1:FB]};
+    wire signed [AW-1:0] o4_as, o4_ac;
+
+    fringe_interp_table #(
+        .ADDR_W(FWD_W), .W(TW), .FB(FB), .OUT_W(AW), .ROUND_SHIFT(0), .INIT_FILE(FWD_SIN_INIT)
+    ) u_fwd_sin (
+        .clk(clk), .ce(ce),
+        .wr_en(wr_en && !wr_sel), .wr_addr(wr_addr), .wr_data(wr_data),
+        .rd_addr(rd_addr), .frac(obs_phase[FB-1:0]), .result(o4_as)
     );
+
+    fringe_interp_table #(
+        .ADDR_W(FWD_W), .W(TW), .FB(FB), .OUT_W(AW), .ROUND_SHIFT(0), .INIT_FILE(FWD_COS_INIT)
+    ) u_fwd_cos (
+        .clk(clk), .ce(ce),
+        .wr_en(wr_en && wr_sel), .wr_addr(wr_addr), .wr_data(wr_data),
+        .rd_addr(rd_addr), .frac(obs_phase[FB-1:0]), .result(o4_ac)
+    );
+
+    // ---- observer: pipeline --------------------------------------------------------------------------
+    wire o8_valid, o8_last;           // stage 8: valid, the block's last sample (9: o9_go)
+
+    fringe_delay #(.WIDTH(1), .DEPTH(8)) u_obs_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(obs_valid), .in_data(ocnt == CNT_LAST),
+        .out_valid(o8_valid), .out_data(o8_last)
+    );
+
+    // 1
+    reg  [FINE_W-1:0]        o1_phase, o1_prev;
+    reg                      o1_nz;
+    reg  signed [ADC_W-1:0]  o1_ys, o1_yc;
+    reg  signed [YW-2:0]     o1_w0s, o1_w0c;
+    // 2
+    reg  [FINE_W-1:0]        o2_dl;
+    reg  signed [YW-1:0]     o2_yws, o2_ywc;
+    // 3
+    reg  signed [YW-1:0]     o3_yws, o3_ywc;
+    reg  [FINE_W-1:0]        o3_abs;
+    // 4
+    reg  signed [YW-1:0]     o4_yws, o4_ywc;
+    reg  [FINE_W-1:0]        o4_abs;
+    // 5
+    reg  signed [E_W-1:0]    o5_es, o5_ec;
+    reg  signed [AW-1:0]     o5_as, o5_ac;
+    reg  [FINE_W-1:0]        o5_abs;
+    // 6..8 (e * a in g_ch)
+    wire signed [E_W-1:0]    o8_es, o8_ec;
+    wire [FINE_W-1:0]        o8_abs;
+
+    wire signed [YW-1:0] ys_x  = {{(TABLE_FRAC+1){o1_ys[ADC_W-1]}}, o1_ys} <<< TABLE_FRAC;
+    wire signed [YW-1:0] yc_x  = {{(TABLE_FRAC+1){o1_yc[ADC_W-1]}}, o1_yc} <<< TABLE_FRAC;
+    wire [FINE_W-1:0]    delta = o1_phase - o1_prev;     // wraps into [-2^(FINE_W-1), 2^(FINE_W-1))
+
+    always @(posedge clk) begin
+        if (ce) begin
+            // 1: input registers (the table read is in the RAMs)
+            o1_phase <= obs_phase;
+            o1_prev  <= last_phase;
+            o1_nz    <= ohave;
+            o1_ys    <= obs_y_sin;
+            o1_yc    <= obs_y_cos;
+            o1_w0s   <= w0_sin;
+            o1_w0c   <= w0_cos;
+            // 2: phase delta; y * 2^TABLE_FRAC - W0
+            o2_dl   <= o1_nz ? delta : {FINE_W{1'b0}};
+            o2_yws  <= ys_x - {o1_w0s[YW-2], o1_w0s};
+            o2_ywc  <= yc_x - {o1_w0c[YW-2], o1_w0c};
+            // 3: |delta| (2^(FINE_W-1) fits unsigned)
+            o3_yws <= o2_yws;
+            o3_ywc <= o2_ywc;
+            o3_abs <= o2_dl[FINE_W-1] ? -o2_dl : o2_dl;
+            // 4: a from the tables
+            o4_yws <= o3_yws;
+            o4_ywc <= o3_ywc;
+            o4_abs <= o3_abs;
+            // 5: e = yw - a
+            o5_es  <= {{(E_W-YW){o4_yws[YW-1]}}, o4_yws} - {{(E_W-AW){o4_as[AW-1]}}, o4_as};
+            o5_ec  <= {{(E_W-YW){o4_ywc[YW-1]}}, o4_ywc} - {{(E_W-AW){o4_ac[AW-1]}}, o4_ac};
+            o5_as  <= o4_as;
+            o5_ac  <= o4_ac;
+            o5_abs <= o4_abs;
+        end
+    end
+
+    // ---- e * a (stages 6..8): 18x18 partial products (fringe_split_mul); e and |delta| carried along --
+    wire o8_carry_valid;
+
+    fringe_delay #(.WIDTH(2 * E_W + FINE_W), .DEPTH(3)) u_obs_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({o5_es, o5_ec, o5_abs}),
+        .out_valid(o8_carry_valid), .out_data({o8_es, o8_ec, o8_abs})
+    );
+
+    wire [2*E_W-1:0]  ea_e = {o5_ec, o5_es};        // {cosine, sine}
+    wire [2*AW-1:0]   ea_a = {o5_ac, o5_as};
+    wire [2*EA_W-1:0] ea_p;
+    // (the two channels' multipliers: g_ch below)
+    wire signed [EA_W-1:0] o8_eas = ea_p[0 +: EA_W];
+    wire signed [EA_W-1:0] o8_eac = ea_p[EA_W +: EA_W];
+
+    // 9: accumulators; the block's last sample goes to the snapshot and clears them
+    reg  signed [SE_W-1:0]  se_s, se_c, snap_se_s, snap_se_c;
+    reg  signed [SEA_W-1:0] sea_s, sea_c, snap_sea_s, snap_sea_c;
+    reg  [SW_W-1:0]         sweep, snap_sweep;
+    reg                     o9_go;
+    wire signed [SE_W-1:0]  se_s_n  = se_s + {{BLOCK_LOG2{o8_es[E_W-1]}}, o8_es};
+    wire signed [SE_W-1:0]  se_c_n  = se_c + {{BLOCK_LOG2{o8_ec[E_W-1]}}, o8_ec};
+    wire signed [SEA_W-1:0] sea_s_n = sea_s + {{BLOCK_LOG2{o8_eas[EA_W-1]}}, o8_eas};
+    wire signed [SEA_W-1:0] sea_c_n = sea_c + {{BLOCK_LOG2{o8_eac[EA_W-1]}}, o8_eac};
+    wire [SW_W-1:0]         sweep_n = sweep + {{BLOCK_LOG2{1'b0}}, o8_abs};
+    wire                    blk_end = o8_valid & o8_last;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            o9_go <= 1'b0;
+        end else if (ce) begin
+            o9_go <= blk_end;
+        end
+    end
+
+    // cleared by a reset and by the block's last sample (after its snapshot)
+    always @(posedge clk) begin
+        if (rst || (ce && blk_end)) begin
+            se_s  <= {SE_W{1'b0}};
+            se_c  <= {SE_W{1'b0}};
+            sea_s <= {SEA_W{1'b0}};
+            sea_c <= {SEA_W{1'b0}};
+            sweep <= {SW_W{1'b0}};
+        end else if (ce && o8_valid) begin
+            se_s  <= se_s_n;
+            se_c  <= se_c_n;
+            sea_s <= sea_s_n;
+            sea_c <= sea_c_n;
+            sweep <= sweep_n;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce && blk_end) begin
+            snap_se_s  <= se_s_n;
+            snap_se_c  <= se_c_n;
+            snap_sea_s <= sea_s_n;
+            snap_sea_c <= sea_c_n;
+            snap_sweep <= sweep_n;
+        end
+    end
+
+    // ---- the update (stages 10..15) -------------------------------------------------------------------
+    // 10..13 P = SEA * KG: 18x18 partial products (fringe_split_mul); OFF + step, OFF saturated, SWEEP test
+    // 14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   15 GINV saturated: pending
+    localparam integer P_W = SEA_W + KG_W;                  // SEA * KG, exact
+    wire [2*SEA_W-1:0] kg_e = {snap_sea_c, snap_sea_s};   // {cosine, sine}
+    wire [2*KG_W-1:0]  kg_k = {kg_hold_c, kg_hold_s};
+    wire [2*P_W-1:0]   kg_p;
+
+    // the multipliers of one channel (0 sine, 1 cosine): e * a (stages 6..8), SEA * KG (10..13)
+    genvar gch;
+    generate
+        for (gch = 0; gch < 2; gch = gch + 1) begin : g_ch
+            fringe_split_mul #(.A_W(E_W), .A_SIGNED(1), .B_W(AW), .B_SIGNED(1), .LATENCY(3)) u_ea (
+                .clk(clk), .ce(ce), .a(ea_e[gch*E_W +: E_W]), .b(ea_a[gch*AW +: AW]), .p(ea_p[gch*EA_W +: EA_W])
+            );
+            fringe_split_mul #(.A_W(SEA_W), .A_SIGNED(1), .B_W(KG_W), .B_SIGNED(0), .LATENCY(4)) u_kg (
+                .clk(clk), .ce(ce), .a(kg_e[gch*SEA_W +: SEA_W]), .b(kg_k[gch*KG_W +: KG_W]), .p(kg_p[gch*P_W +: P_W])
+            );
+        end
+    endgenerate
+
+    // P sign-extended to PR_W bits (the rounding below may look at bits above the product)
+    wire [PR_W+P_W-1:0] px_s = {{PR_W{kg_p[P_W-1]}}, kg_p[0 +: P_W]};
+    wire [PR_W+P_W-1:0] px_c = {{PR_W{kg_p[2*P_W-1]}}, kg_p[P_W +: P_W]};
+
+    wire signed [XW-1:0]   sex_s = {{(OFS_FRAC+1){snap_se_s[SE_W-1]}}, snap_se_s};
+    wire signed [XW-1:0]   sex_c = {{(OFS_FRAC+1){snap_se_c[SE_W-1]}}, snap_se_c};
+    wire signed [XW-1:0]   stp_s = (sex_s <<< OFS_FRAC) >>> SH_O;
+    wire signed [XW-1:0]   stp_c = (sex_c <<< OFS_FRAC) >>> SH_O;
+    reg  signed [OS_W-1:0] u1_os, u1_oc;
+    wire                   u5_valid, u5_ok; // stage 14: valid, the SWEEP test
+    reg  signed [OW-1:0]   u2_os, u2_oc;
+    reg                    u2_sat;
+    wire signed [OW-1:0]   u5_os, u5_oc;
+    wire                   u5_sat, u5_carry_valid;
+    reg  signed [GS_W-1:0] u5_gs, u5_gc;
+    // (P + 2^(KG_SHIFT-1)) >>> KG_SHIFT = (P >>> KG_SHIFT) + P[KG_SHIFT-1]
+    wire signed [DG_W-1:0] dg_s = px_s[PR_W-1:KG_SHIFT];
+    wire signed [DG_W-1:0] dg_c = px_c[PR_W-1:KG_SHIFT];
+    wire [GS_W-1:0]        dgn_s = ~{{(GS_W-DG_W){dg_s[DG_W-1]}}, dg_s};
+    wire [GS_W-1:0]        dgn_c = ~{{(GS_W-DG_W){dg_c[DG_W-1]}}, dg_c};
+    wire [GS_W-1:0]        rbn_s = {{(GS_W-1){1'b0}}, ~px_s[KG_SHIFT-1]};
+    wire [GS_W-1:0]        rbn_c = {{(GS_W-1){1'b0}}, ~px_c[KG_SHIFT-1]};
+    // OFF + step in range of s(OW) <=> bits OS_W-1 .. OW-1 all equal the sign
+    wire os_over = u1_os[OS_W-1] ? ~&u1_os[OS_W-1:OW-1] : |u1_os[OS_W-1:OW-1];
+    wire oc_over = u1_oc[OS_W-1] ? ~&u1_oc[OS_W-1:OW-1] : |u1_oc[OS_W-1:OW-1];
+    wire signed [OW-1:0] o_max = {1'b0, {(OW-1){1'b1}}};
+    wire signed [OW-1:0] o_min = {1'b1, {(OW-1){1'b0}}};
+    // GINV - step: below 0 -> 0, above 2^GINV_W - 1 -> 2^GINV_W - 1
+    wire gs_neg  = u5_gs[GS_W-1];
+    wire gc_neg  = u5_gc[GS_W-1];
+    wire gs_high = ~gs_neg & |u5_gs[GS_W-2:GINV_W];
+    wire gc_high = ~gc_neg & |u5_gc[GS_W-2:GINV_W];
+
+    fringe_delay #(.WIDTH(1), .DEPTH(5)) u_upd_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(o9_go), .in_data(|snap_sweep[SW_W-1:FINE_W]),
+        .out_valid(u5_valid), .out_data(u5_ok)
+    );
+
+    // 12..14: OFF carried along
+    fringe_delay #(.WIDTH(2 * OW + 1), .DEPTH(3)) u_upd_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({u2_os, u2_oc, u2_sat}),
+        .out_valid(u5_carry_valid), .out_data({u5_os, u5_oc, u5_sat})
+    );
+
+    always @(posedge clk) begin
+        if (ce) begin
+            // 10
+            u1_os <= {{(OS_W-OW){off_sin[OW-1]}}, off_sin} + {stp_s[XW-1], stp_s};
+            u1_oc <= {{(OS_W-OW){off_cos[OW-1]}}, off_cos} + {stp_c[XW-1], stp_c};
+            // 11
+            u2_os  <= os_over ? (u1_os[OS_W-1] ? o_min : o_max) : u1_os[OW-1:0];
+            u2_oc  <= oc_over ? (u1_oc[OS_W-1] ? o_min : o_max) : u1_oc[OW-1:0];
+            u2_sat <= os_over | oc_over;
+            // 14: GINV - step
+            u5_gs  <= {{(GS_W-GINV_W){1'b0}}, ginv_sin} + dgn_s + rbn_s;
+            u5_gc  <= {{(GS_W-GINV_W){1'b0}}, ginv_cos} + dgn_c + rbn_c;
+        end
+    end
+
+    // 15: the pending update (taken by the normaliser at its application sample)
+    always @(posedge clk) begin
+        if (rst) begin
+            pend_valid <= 1'b0;
+        end else if (ce && u5_valid && u5_ok) begin
+            pend_valid <= 1'b1;
+        end else if (take) begin
+            pend_valid <= 1'b0;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce && u5_valid && u5_ok) begin
+            pend_off_s  <= u5_os;
+            pend_off_c  <= u5_oc;
+            pend_ginv_s <= gs_neg ? {GINV_W{1'b0}} : (gs_high ? {GINV_W{1'b1}} : u5_gs[GINV_W-1:0]);
+            pend_ginv_c <= gc_neg ? {GINV_W{1'b0}} : (gc_high ? {GINV_W{1'b1}} : u5_gc[GINV_W-1:0]);
+            pend_sat    <= u5_sat | gs_neg | gs_high | gc_neg | gc_high;
+        end
+    end
+
+    // Bits that carry nothing: the rounded-off bits of the products and of the offset step; the
+    // valid outputs of the delays that carry data only.
+    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], px_s, px_c,
+                    snap_sweep[FINE_W-1:0], o8_carry_valid, u5_carry_valid};
 
 endmodule
 

@@ -5,8 +5,6 @@
 -- NORM_LATENCY = 4 clock enables (in_valid to norm_valid); OBS_LATENCY = 15 (a
 -- block's last observer sample to its pending update), one sample per clock; ce = 0 freezes
 -- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
--- The two halves are fringe_drift_norm (normaliser, application of the pending update) and
--- fringe_drift_obs (observer, update), one entity each; this one checks the parameters and joins them.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_drift.md.
 -- Bit-exact model: model/fringe/fixed/drift.py.
 
@@ -112,46 +110,436 @@ architecture rtl of fringe_drift is
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant OW : integer := ADC_W + OFS_FRAC;                      -- OFF
+    constant D      : integer := 2 ** (BLOCK_LOG2 - 1);
+    constant OW     : integer := ADC_W + OFS_FRAC;                  -- OFF
+    constant SHN    : integer := OFS_FRAC + GINV_W - 2;             -- normaliser shift
+    constant PW     : integer := OW + GINV_W + 2;                   -- (raw * 2^OFS_FRAC - OFF) * GINV
+    constant QW     : integer := PW - SHN;                          -- that >>> SHN
+    constant TW     : integer := TABLE_W;
+    constant FB     : integer := FINE_W - FWD_W;                    -- >= 1
+    constant AW     : integer := TW + 1;                            -- a
+    constant YW     : integer := ADC_W + TABLE_FRAC + 1;            -- y * 2^TABLE_FRAC - W0
+    constant E_W    : integer := maximum(YW, AW) + 1;               -- e
+    constant EA_W   : integer := E_W + AW;                          -- e * a
+    constant SE_W   : integer := E_W + BLOCK_LOG2;
+    constant SEA_W  : integer := EA_W + BLOCK_LOG2;
+    constant SW_W   : integer := FINE_W + BLOCK_LOG2;               -- SWEEP
+    constant SH_O   : integer := BLOCK_LOG2 + TABLE_FRAC + MU_LOG2; -- offset step shift
+    constant XW     : integer := SE_W + OFS_FRAC + 1;               -- SE * 2^OFS_FRAC
+    constant OS_W   : integer := XW + 1;                            -- OFF + step
+    constant KP_W   : integer := SEA_W + KG_W + 1;                  -- SEA * KG
+    constant PR_W   : integer := maximum(KP_W, KG_SHIFT) + 1;       -- + 2^(KG_SHIFT-1)
+    constant DG_W   : integer := PR_W - KG_SHIFT;                   -- the GINV step
+    constant GS_W   : integer := maximum(GINV_W + 1, DG_W) + 1;     -- GINV - step
+    constant UNITY  : unsigned(GINV_W - 1 downto 0) := shift_left(to_unsigned(1, GINV_W), GINV_W - 2);
+    constant CNT_D  : unsigned(BLOCK_LOG2 - 1 downto 0) := to_unsigned(D, BLOCK_LOG2);
+    constant CNT_LAST : unsigned(BLOCK_LOG2 - 1 downto 0) := (others => '1');
 
-    -- the observer's pending update and its application (fringe_drift_obs -> fringe_drift_norm)
-    signal pend_valid, pend_sat, take : std_logic;
-    signal pend_off_s, pend_off_c     : std_logic_vector(OW - 1 downto 0);
-    signal pend_ginv_s, pend_ginv_c   : std_logic_vector(GINV_W - 1 downto 0);
-    signal off_s, off_c               : std_logic_vector(OW - 1 downto 0);
-    signal ginv_s, ginv_c             : std_logic_vector(GINV_W - 1 downto 0);
+    -- application
+    signal acc_n      : std_logic;
+    signal take       : std_logic;
+    signal ncnt       : unsigned(BLOCK_LOG2 - 1 downto 0);
+    signal npast      : std_logic;
+    signal off_s, off_c   : signed(OW - 1 downto 0);
+    signal ginv_s, ginv_c : unsigned(GINV_W - 1 downto 0);
+    signal tsat       : std_logic;
+    signal pend_valid : std_logic;
+    signal pend_off_s, pend_off_c   : signed(OW - 1 downto 0);
+    signal pend_ginv_s, pend_ginv_c : unsigned(GINV_W - 1 downto 0);
+    signal pend_sat   : std_logic;
+
+    -- normaliser
+    signal n1_s, n1_c   : signed(ADC_W - 1 downto 0);
+    signal n2_s, n2_c   : signed(OW downto 0);
+    signal n2_gs, n2_gc : unsigned(GINV_W - 1 downto 0);
+    signal n3_s, n3_c   : signed(PW - 1 downto 0);
+
+    -- observer
+    signal acc_o      : std_logic;
+    signal ocnt       : unsigned(BLOCK_LOG2 - 1 downto 0);
+    signal ohave      : std_logic;
+    signal last_phase : unsigned(FINE_W - 1 downto 0);
+    signal kg_hold_s, kg_hold_c : unsigned(KG_W - 1 downto 0);
+    signal rd_addr    : std_logic_vector(FWD_W downto 0);
+    signal wr_en_s, wr_en_c : std_logic;
+    signal obs_frac   : std_logic_vector(FB - 1 downto 0);
+    signal a_s, a_c   : std_logic_vector(AW - 1 downto 0);   -- from the forward tables
+    signal o_last     : std_logic;                      -- the block's last sample (observer input)
+    signal o8_valid, o8_last : std_logic;               -- stage 8: valid, the block's last sample
+    signal o1_phase, o1_prev : unsigned(FINE_W - 1 downto 0);
+    signal o1_nz      : std_logic;
+    signal o1_ys, o1_yc   : signed(ADC_W - 1 downto 0);
+    signal o1_w0s, o1_w0c : signed(YW - 2 downto 0);
+    signal o2_dl      : unsigned(FINE_W - 1 downto 0);
+    signal o2_yws, o2_ywc : signed(YW - 1 downto 0);
+    signal o3_yws, o3_ywc : signed(YW - 1 downto 0);
+    signal o3_abs     : unsigned(FINE_W - 1 downto 0);
+    signal o4_yws, o4_ywc : signed(YW - 1 downto 0);
+    signal o4_abs     : unsigned(FINE_W - 1 downto 0);
+    signal o5_es, o5_ec   : signed(E_W - 1 downto 0);
+    signal o5_as, o5_ac   : signed(AW - 1 downto 0);
+    signal o5_abs     : unsigned(FINE_W - 1 downto 0);
+    signal o8_es, o8_ec   : signed(E_W - 1 downto 0);
+    signal o8_abs         : unsigned(FINE_W - 1 downto 0);
+    signal o8_carry       : std_logic_vector(2 * E_W + FINE_W - 1 downto 0);
+    signal o8_carry_valid : std_logic;
+    signal o8_eas, o8_eac : signed(EA_W - 1 downto 0);
+    signal se_s, se_c, snap_se_s, snap_se_c     : signed(SE_W - 1 downto 0);
+    signal sea_s, sea_c, snap_sea_s, snap_sea_c : signed(SEA_W - 1 downto 0);
+    signal sweep, snap_sweep : unsigned(SW_W - 1 downto 0);
+    signal o9_go      : std_logic;
+
+    -- e * a and P = SEA * KG (fringe_split_mul), P sign-extended to PR_W bits
+    constant P_W          : integer := SEA_W + KG_W;                -- SEA * KG, exact
+    signal ea_e           : std_logic_vector(2 * E_W - 1 downto 0);   -- per channel: {cosine, sine}
+    signal ea_a           : std_logic_vector(2 * AW - 1 downto 0);
+    signal ea_p           : std_logic_vector(2 * EA_W - 1 downto 0);
+    signal kg_e           : std_logic_vector(2 * SEA_W - 1 downto 0);
+    signal kg_k           : std_logic_vector(2 * KG_W - 1 downto 0);
+    signal kg_p           : std_logic_vector(2 * P_W - 1 downto 0);
+    signal px_s, px_c     : signed(PR_W - 1 downto 0);
+    signal u1_os, u1_oc : signed(OS_W - 1 downto 0);
+    signal sweep_ok     : std_logic;                    -- the SWEEP test of the snapshot
+    signal u5_valid     : std_logic;                    -- stage 14: valid
+    signal u5_ok        : std_logic_vector(0 downto 0); -- stage 14: the SWEEP test
+    signal u2_os, u2_oc, u5_os, u5_oc : signed(OW - 1 downto 0);
+    signal u2_sat, u5_sat : std_logic;
+    signal u5_carry     : std_logic_vector(2 * OW downto 0);
+    signal u5_carry_valid : std_logic;
+    signal u5_gs, u5_gc : signed(GS_W - 1 downto 0);
 
 begin
 
-    -- ---- the normaliser (fringe_drift_norm) and the observer (fringe_drift_obs) -----------------------
-    u_norm : entity work.fringe_drift_norm
-        generic map (ADC_W => ADC_W, BLOCK_LOG2 => BLOCK_LOG2, OFS_FRAC => OFS_FRAC, GINV_W => GINV_W,
-                     USER_W => USER_W)
-        port map (clk => clk, rst => rst, ce => ce,
-                  in_valid => in_valid, raw_sin => raw_sin, raw_cos => raw_cos, in_user => in_user,
-                  norm_valid => norm_valid, y_sin => y_sin, y_cos => y_cos, norm_sat => norm_sat,
-                  norm_user => norm_user,
-                  pend_valid => pend_valid, pend_off_s => pend_off_s, pend_off_c => pend_off_c,
-                  pend_ginv_s => pend_ginv_s, pend_ginv_c => pend_ginv_c, pend_sat => pend_sat, take => take,
-                  off_sin => off_s, off_cos => off_c, ginv_sin => ginv_s, ginv_cos => ginv_c,
-                  track_sat => track_sat);
+    -- ---- application of the pending update ------------------------------------------------------------
+    acc_n <= ce and in_valid and not rst;
+    take  <= '1' when acc_n = '1' and npast = '1' and ncnt = CNT_D and pend_valid = '1' else '0';
 
-    u_obs : entity work.fringe_drift_obs
-        generic map (ADC_W => ADC_W, FINE_W => FINE_W, BLOCK_LOG2 => BLOCK_LOG2, MU_LOG2 => MU_LOG2,
-                     OFS_FRAC => OFS_FRAC, GINV_W => GINV_W, FWD_W => FWD_W, TABLE_W => TABLE_W,
-                     TABLE_FRAC => TABLE_FRAC, KG_W => KG_W, KG_SHIFT => KG_SHIFT,
-                     FWD_SIN_INIT => FWD_SIN_INIT, FWD_COS_INIT => FWD_COS_INIT)
-        port map (clk => clk, rst => rst, ce => ce,
-                  obs_valid => obs_valid, obs_phase => obs_phase, obs_y_sin => obs_y_sin, obs_y_cos => obs_y_cos,
-                  obs_bank => obs_bank, w0_sin => w0_sin, w0_cos => w0_cos, kg_sin => kg_sin, kg_cos => kg_cos,
-                  wr_en => wr_en, wr_sel => wr_sel, wr_addr => wr_addr, wr_data => wr_data,
-                  off_sin => off_s, off_cos => off_c, ginv_sin => ginv_s, ginv_cos => ginv_c,
-                  pend_valid => pend_valid, pend_off_s => pend_off_s, pend_off_c => pend_off_c,
-                  pend_ginv_s => pend_ginv_s, pend_ginv_c => pend_ginv_c, pend_sat => pend_sat, take => take);
+    p_apply : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                ncnt   <= (others => '0');
+                npast  <= '0';
+                off_s  <= (others => '0');
+                off_c  <= (others => '0');
+                ginv_s <= UNITY;
+                ginv_c <= UNITY;
+                tsat   <= '0';
+            elsif acc_n = '1' then
+                ncnt <= ncnt + 1;
+                if ncnt = CNT_LAST then
+                    npast <= '1';
+                end if;
+                if take = '1' then
+                    off_s  <= pend_off_s;
+                    off_c  <= pend_off_c;
+                    ginv_s <= pend_ginv_s;
+                    ginv_c <= pend_ginv_c;
+                    tsat   <= pend_sat;
+                end if;
+            end if;
+        end if;
+    end process p_apply;
 
-    off_sin  <= off_s;
-    off_cos  <= off_c;
-    ginv_sin <= ginv_s;
-    ginv_cos <= ginv_c;
+    off_sin   <= std_logic_vector(off_s);
+    off_cos   <= std_logic_vector(off_c);
+    ginv_sin  <= std_logic_vector(ginv_s);
+    ginv_cos  <= std_logic_vector(ginv_c);
+    track_sat <= tsat;
+
+    -- ---- normaliser ------------------------------------------------------------------------------------
+    u_norm_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => NORM_LATENCY)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => norm_valid, out_data => norm_user);
+
+    p_norm : process (clk)
+        variable q_s, q_c : signed(QW - 1 downto 0);
+        variable rb_s, rb_c : signed(QW - 1 downto 0);
+        variable os, oc   : boolean;
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                -- 1: input registers
+                n1_s <= signed(raw_sin);
+                n1_c <= signed(raw_cos);
+                -- 2: d = raw * 2^OFS_FRAC - OFF (the state after this sample's acceptance)
+                n2_s  <= shift_left(resize(n1_s, OW + 1), OFS_FRAC) - resize(off_s, OW + 1);
+                n2_c  <= shift_left(resize(n1_c, OW + 1), OFS_FRAC) - resize(off_c, OW + 1);
+                n2_gs <= ginv_s;
+                n2_gc <= ginv_c;
+                -- 3: d * GINV
+                n3_s <= n2_s * signed('0' & n2_gs);
+                n3_c <= n2_c * signed('0' & n2_gc);
+                -- 4: rounded, >>> SHN, saturate: (P + 2^(SHN-1)) >>> SHN = (P >>> SHN) + P[SHN-1]
+                rb_s := (others => '0');
+                rb_c := (others => '0');
+                rb_s(0) := n3_s(SHN - 1);
+                rb_c(0) := n3_c(SHN - 1);
+                q_s := n3_s(PW - 1 downto SHN) + rb_s;
+                q_c := n3_c(PW - 1 downto SHN) + rb_c;
+                os := outside(q_s, ADC_W);
+                oc := outside(q_c, ADC_W);
+                y_sin <= std_logic_vector(saturate(q_s, ADC_W));
+                y_cos <= std_logic_vector(saturate(q_c, ADC_W));
+                norm_sat <= '1' when os or oc else '0';
+            end if;
+        end if;
+    end process p_norm;
+
+    -- ---- observer: counters ------------------------------------------------------------------------------
+    acc_o <= ce and obs_valid and not rst;
+
+    p_ocnt : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                ocnt  <= (others => '0');
+                ohave <= '0';
+            elsif acc_o = '1' then
+                ocnt  <= ocnt + 1;
+                ohave <= '1';
+            end if;
+            if acc_o = '1' then
+                last_phase <= unsigned(obs_phase);
+                if ocnt = CNT_LAST then
+                    kg_hold_s <= unsigned(kg_sin);
+                    kg_hold_c <= unsigned(kg_cos);
+                end if;
+            end if;
+        end if;
+    end process p_ocnt;
+
+    -- ---- observer: tables, stages 1..4: a = value + ((slope * frac + 2^(FB-1)) >>> FB) ----------------
+    rd_addr  <= obs_bank & obs_phase(FINE_W - 1 downto FB);
+    obs_frac <= obs_phase(FB - 1 downto 0);
+    wr_en_s <= wr_en and not wr_sel;
+    wr_en_c <= wr_en and wr_sel;
+
+    u_fwd_sin : entity work.fringe_interp_table
+        generic map (ADDR_W => FWD_W, W => TW, FB => FB, OUT_W => AW, ROUND_SHIFT => 0,
+                     INIT_FILE => FWD_SIN_INIT)
+        port map (clk => clk, ce => ce, wr_en => wr_en_s, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_addr => rd_addr, frac => obs_frac, result => a_s);
+
+    u_fwd_cos : entity work.fringe_interp_table
+        generic map (ADDR_W => FWD_W, W => TW, FB => FB, OUT_W => AW, ROUND_SHIFT => 0,
+                     INIT_FILE => FWD_COS_INIT)
+        port map (clk => clk, ce => ce, wr_en => wr_en_c, wr_addr => wr_addr, wr_data => wr_data,
+                  rd_addr => rd_addr, frac => obs_frac, result => a_c);
+
+    -- ---- observer: pipeline ------------------------------------------------------------------------------
+    o_last <= '1' when ocnt = CNT_LAST else '0';
+
+    u_obs_valid : entity work.fringe_delay
+        generic map (WIDTH => 1, DEPTH => 8)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => obs_valid, in_data(0) => o_last,
+                  out_valid => o8_valid, out_data(0) => o8_last);
+
+    p_obs : process (clk)
+        variable dl     : unsigned(FINE_W - 1 downto 0);
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                -- 1: input registers (the table read is in the RAMs)
+                o1_phase <= unsigned(obs_phase);
+                o1_prev  <= last_phase;
+                o1_nz    <= ohave;
+                o1_ys    <= signed(obs_y_sin);
+                o1_yc    <= signed(obs_y_cos);
+                o1_w0s   <= signed(w0_sin);
+                o1_w0c   <= signed(w0_cos);
+                -- 2: phase delta (wraps); y * 2^TABLE_FRAC - W0
+                if o1_nz = '1' then
+                    o2_dl <= o1_phase - o1_prev;
+                else
+                    o2_dl <= (others => '0');
+                end if;
+                o2_yws <= shift_left(resize(o1_ys, YW), TABLE_FRAC) - resize(o1_w0s, YW);
+                o2_ywc <= shift_left(resize(o1_yc, YW), TABLE_FRAC) - resize(o1_w0c, YW);
+                -- 3: |delta|
+                o3_yws <= o2_yws;
+                o3_ywc <= o2_ywc;
+                dl := o2_dl;
+                if dl(FINE_W - 1) = '1' then
+                    o3_abs <= 0 - dl;
+                else
+                    o3_abs <= dl;
+                end if;
+                -- 4: a from the tables
+                o4_yws <= o3_yws;
+                o4_ywc <= o3_ywc;
+                o4_abs <= o3_abs;
+                -- 5: e = yw - a
+                o5_es  <= resize(o4_yws, E_W) - resize(signed(a_s), E_W);
+                o5_ec  <= resize(o4_ywc, E_W) - resize(signed(a_c), E_W);
+                o5_as  <= signed(a_s);
+                o5_ac  <= signed(a_c);
+                o5_abs <= o4_abs;
+                -- 6..8: e * a (g_ch); e and |delta| carried along (u_obs_carry)
+            end if;
+        end if;
+    end process p_obs;
+
+    -- ---- e * a (stages 6..8): 18x18 partial products ---------------------------------------------------
+    ea_e <= std_logic_vector(o5_ec) & std_logic_vector(o5_es);     -- {cosine, sine}
+    ea_a <= std_logic_vector(o5_ac) & std_logic_vector(o5_as);
+
+    -- (the two channels' multipliers: g_ch below)
+    o8_eas <= signed(ea_p(EA_W - 1 downto 0));
+    o8_eac <= signed(ea_p(2 * EA_W - 1 downto EA_W));
+
+    u_obs_carry : entity work.fringe_delay
+        generic map (WIDTH => 2 * E_W + FINE_W, DEPTH => 3)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
+                  in_data => std_logic_vector(o5_es) & std_logic_vector(o5_ec) & std_logic_vector(o5_abs),
+                  out_valid => o8_carry_valid, out_data => o8_carry);
+    o8_es  <= signed(o8_carry(2 * E_W + FINE_W - 1 downto E_W + FINE_W));
+    o8_ec  <= signed(o8_carry(E_W + FINE_W - 1 downto FINE_W));
+    o8_abs <= unsigned(o8_carry(FINE_W - 1 downto 0));
+
+    -- 9: accumulators; the block's last sample goes to the snapshot and clears them
+    p_acc : process (clk)
+        variable se_s_n, se_c_n   : signed(SE_W - 1 downto 0);
+        variable sea_s_n, sea_c_n : signed(SEA_W - 1 downto 0);
+        variable sweep_n          : unsigned(SW_W - 1 downto 0);
+        variable blk_end          : boolean;
+    begin
+        if rising_edge(clk) then
+            se_s_n  := se_s + resize(o8_es, SE_W);
+            se_c_n  := se_c + resize(o8_ec, SE_W);
+            sea_s_n := sea_s + resize(o8_eas, SEA_W);
+            sea_c_n := sea_c + resize(o8_eac, SEA_W);
+            sweep_n := sweep + resize(o8_abs, SW_W);
+            blk_end := o8_valid = '1' and o8_last = '1';
+            if rst = '1' then
+                o9_go <= '0';
+            elsif ce = '1' then
+                o9_go <= '1' when blk_end else '0';
+            end if;
+            -- cleared by a reset and by the block's last sample (after its snapshot)
+            if rst = '1' or (ce = '1' and blk_end) then
+                se_s  <= (others => '0');
+                se_c  <= (others => '0');
+                sea_s <= (others => '0');
+                sea_c <= (others => '0');
+                sweep <= (others => '0');
+            elsif ce = '1' and o8_valid = '1' then
+                se_s  <= se_s_n;
+                se_c  <= se_c_n;
+                sea_s <= sea_s_n;
+                sea_c <= sea_c_n;
+                sweep <= sweep_n;
+            end if;
+            if ce = '1' and blk_end then
+                snap_se_s  <= se_s_n;
+                snap_se_c  <= se_c_n;
+                snap_sea_s <= sea_s_n;
+                snap_sea_c <= sea_c_n;
+                snap_sweep <= sweep_n;
+            end if;
+        end if;
+    end process p_acc;
+
+    -- ---- the update (stages 10..15) -------------------------------------------------------------------
+    -- 10..13 P = SEA * KG: 18x18 partial products (g_ch); 10 OFF + step, SWEEP test; 11 OFF saturated
+    -- 14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   15 GINV saturated: pending
+    kg_e <= std_logic_vector(snap_sea_c) & std_logic_vector(snap_sea_s);   -- {cosine, sine}
+    kg_k <= std_logic_vector(kg_hold_c) & std_logic_vector(kg_hold_s);
+
+    -- the multipliers of one channel (0 sine, 1 cosine): e * a (stages 6..8), SEA * KG (10..13)
+    g_ch : for ch in 0 to 1 generate
+        u_ea : entity work.fringe_split_mul
+            generic map (A_W => E_W, A_SIGNED => 1, B_W => AW, B_SIGNED => 1, LATENCY => 3)
+            port map (clk => clk, ce => ce, a => ea_e((ch + 1) * E_W - 1 downto ch * E_W),
+                      b => ea_a((ch + 1) * AW - 1 downto ch * AW), p => ea_p((ch + 1) * EA_W - 1 downto ch * EA_W));
+        u_kg : entity work.fringe_split_mul
+            generic map (A_W => SEA_W, A_SIGNED => 1, B_W => KG_W, B_SIGNED => 0, LATENCY => 4)
+            port map (clk => clk, ce => ce, a => kg_e((ch + 1) * SEA_W - 1 downto ch * SEA_W),
+                      b => kg_k((ch + 1) * KG_W - 1 downto ch * KG_W), p => kg_p((ch + 1) * P_W - 1 downto ch * P_W));
+    end generate g_ch;
+
+    px_s <= resize(signed(kg_p(P_W - 1 downto 0)), PR_W);
+    px_c <= resize(signed(kg_p(2 * P_W - 1 downto P_W)), PR_W);
+
+    sweep_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
+
+    u_upd_valid : entity work.fringe_delay
+        generic map (WIDTH => 1, DEPTH => 5)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => o9_go, in_data(0) => sweep_ok,
+                  out_valid => u5_valid, out_data => u5_ok);
+
+    -- 12..14: OFF carried along
+    u_upd_carry : entity work.fringe_delay
+        generic map (WIDTH => 2 * OW + 1, DEPTH => 3)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
+                  in_data => std_logic_vector(u2_os) & std_logic_vector(u2_oc) & u2_sat,
+                  out_valid => u5_carry_valid, out_data => u5_carry);
+    u5_os  <= signed(u5_carry(2 * OW downto OW + 1));
+    u5_oc  <= signed(u5_carry(OW downto 1));
+    u5_sat <= u5_carry(0);
+
+    p_upd : process (clk)
+        variable stp_s, stp_c : signed(XW - 1 downto 0);
+        variable dg_s, dg_c   : signed(DG_W - 1 downto 0);
+        variable rbn_s, rbn_c : signed(GS_W - 1 downto 0);
+        variable gs_neg, gc_neg, gs_high, gc_high, os_over, oc_over : boolean;
+    begin
+        if rising_edge(clk) then
+            if ce = '1' then
+                -- 10: OFF + step, SWEEP test
+                stp_s := shift_right(shift_left(resize(snap_se_s, XW), OFS_FRAC), SH_O);
+                stp_c := shift_right(shift_left(resize(snap_se_c, XW), OFS_FRAC), SH_O);
+                u1_os <= resize(off_s, OS_W) + resize(stp_s, OS_W);
+                u1_oc <= resize(off_c, OS_W) + resize(stp_c, OS_W);
+                -- 11: OFF saturated
+                os_over := outside(u1_os, OW);
+                oc_over := outside(u1_oc, OW);
+                u2_os  <= saturate(u1_os, OW);
+                u2_oc  <= saturate(u1_oc, OW);
+                u2_sat <= '1' when os_over or oc_over else '0';
+                -- 14: GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] = GINV + not dg + not P[KG_SHIFT-1]
+                dg_s := px_s(PR_W - 1 downto KG_SHIFT);
+                dg_c := px_c(PR_W - 1 downto KG_SHIFT);
+                rbn_s := (others => '0');
+                rbn_c := (others => '0');
+                rbn_s(0) := not px_s(KG_SHIFT - 1);
+                rbn_c(0) := not px_c(KG_SHIFT - 1);
+                u5_gs <= signed(resize(ginv_s, GS_W)) + (not resize(dg_s, GS_W)) + rbn_s;
+                u5_gc <= signed(resize(ginv_c, GS_W)) + (not resize(dg_c, GS_W)) + rbn_c;
+            end if;
+            -- 15: the pending update (taken by the normaliser at its application sample)
+            gs_neg  := u5_gs(GS_W - 1) = '1';
+            gc_neg  := u5_gc(GS_W - 1) = '1';
+            gs_high := not gs_neg and u5_gs(GS_W - 2 downto GINV_W) /= 0;
+            gc_high := not gc_neg and u5_gc(GS_W - 2 downto GINV_W) /= 0;
+            if rst = '1' then
+                pend_valid <= '0';
+            elsif ce = '1' and u5_valid = '1' and u5_ok(0) = '1' then
+                pend_valid <= '1';
+            elsif take = '1' then
+                pend_valid <= '0';
+            end if;
+            if ce = '1' and u5_valid = '1' and u5_ok(0) = '1' then
+                pend_off_s <= u5_os;
+                pend_off_c <= u5_oc;
+                if gs_neg then
+                    pend_ginv_s <= (others => '0');
+                elsif gs_high then
+                    pend_ginv_s <= (others => '1');
+                else
+                    pend_ginv_s <= unsigned(u5_gs(GINV_W - 1 downto 0));
+                end if;
+                if gc_neg then
+                    pend_ginv_c <= (others => '0');
+                elsif gc_high then
+                    pend_ginv_c <= (others => '1');
+                else
+                    pend_ginv_c <= unsigned(u5_gc(GINV_W - 1 downto 0));
+                end if;
+                pend_sat <= '1' when u5_sat = '1' or gs_neg or gs_high or gc_neg or gc_high else '0';
+            end if;
+        end if;
+    end process p_upd;
 
 end architecture rtl;
