@@ -51,6 +51,26 @@ async def start_clock(dut) -> None:
     await FallingEdge(dut.clk)
 
 
+def drive_ports(dut, **values: int) -> None:
+    """Set several input ports at once (e.g. the idle inputs held during a reset)."""
+    for name, v in values.items():
+        getattr(dut, name).value = v
+
+
+async def edges_until(clk, valid, limit: int) -> int | None:
+    """Rising edges of ``clk`` after the present one until ``valid`` reads 1 (looked at in the ReadOnly
+    phase, the present edge counts 0); None when it has not within ``limit`` edges. Returns in ReadOnly."""
+    n = 0
+    while True:
+        await ReadOnly()
+        if int(valid.value):
+            return n
+        n += 1
+        if n > limit:
+            return None
+        await RisingEdge(clk)
+
+
 class StreamChecker:
     """See the module docstring. ``tag`` (e.g. the seed) prefixes every failure message."""
 

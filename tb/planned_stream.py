@@ -177,3 +177,17 @@ async def play_plan(dut, cycles: Sequence[Cycle], latency: int, read_output: Cal
     dut._log.info("%d cycles, %d samples taken, %d words checked bit-exact, %d dropped by resets",
                   st.cycles, st.accepted, st.checked, st.dropped)
     return st
+
+
+def plan_tag(p, user_w: int, seed: int) -> str:
+    """What a planned run's failures name: the parameters, USER_W and how to replay the seed."""
+    return f"{p}, USER_W={user_w}, seed={seed}; replay with FRINGE_SEED={seed}"
+
+
+async def play_planned(dut, config: Callable[[], tuple], build_plan: Callable[..., Sequence[Cycle]],
+                       read_output: Callable[[object], tuple]) -> DriveStats:
+    """A block's whole planned run: ``(p, USER_W, seed) = config()``, the plan ``build_plan(p, USER_W,
+    seed)``, played (`play_plan`) against ``read_output(dut)`` with the latency ``p.latency``."""
+    p, user_w, seed = config()
+    cycles = build_plan(p, user_w, seed)
+    return await play_plan(dut, cycles, p.latency, lambda: read_output(dut), plan_tag(p, user_w, seed))

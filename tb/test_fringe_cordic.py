@@ -18,6 +18,8 @@ import os
 
 import numpy as np
 import pytest
+from lib.cocotb_optional import cocotb
+from lib.launch import run_seeded
 
 from fringe.fixed.cordic import CordicParams, cordic
 
@@ -26,12 +28,10 @@ DEFAULT_SEED = 20240611
 
 # ============================================================================ cocotb side
 
-try:
-    import cocotb
+if cocotb is not None:
     from cocotb.clock import Clock
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-except ImportError:  # pragma: no cover - pytest side without cocotb: the launcher skips
-    cocotb = None
+    from pipeline_check import drive_ports, edges_until
 
 
 def _config() -> tuple[CordicParams, int, int]:
@@ -92,12 +92,7 @@ class Bench:
     async def start(self) -> None:
         d = self.dut
         cocotb.start_soon(Clock(d.clk, 10, unit="ns").start())
-        d.rst.value = 1
-        d.ce.value = 1
-        d.in_valid.value = 0
-        d.x.value = 0
-        d.y.value = 0
-        d.in_user.value = 0
+        drive_ports(d, rst=1, ce=1, in_valid=0, x=0, y=0, in_user=0)
         for _ in range(3):
             await RisingEdge(d.clk)
         await FallingEdge(d.clk)
@@ -216,15 +211,9 @@ if cocotb is not None:
         dut.in_user.value = (1 << user_w) - 1
         await RisingEdge(dut.clk)
         dut.in_valid.value = 0
-        n = 0
-        while True:
-            await ReadOnly()
-            if int(dut.out_valid.value):
-                break
-            n += 1
-            if n > p.latency + 5:
-                bench.fail("no output")
-            await RisingEdge(dut.clk)
+        n = await edges_until(dut.clk, dut.out_valid, p.latency + 5)
+        if n is None:
+            bench.fail("no output")
         # n counts the rising edges after the one that took the input.
         if n + 1 != p.latency:
             bench.fail(f"latency {n + 1} clocks, documented LATENCY = {p.latency}")
@@ -296,10 +285,5 @@ def _id(ps) -> str:
 
 @pytest.mark.parametrize("ps", PARAM_SETS, ids=[_id(ps) for ps in PARAM_SETS])
 def test_fringe_cordic(sim, ps):
-    from cocotb_runner import run_block
-
     p, user_w = ps
-    params = {**p.hdl_parameters(), "USER_W": user_w}
-    seed = os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))
-    run_block(TOPLEVEL, "test_fringe_cordic", params, sim=sim, timeout_s=240,
-              extra_env={"FRINGE_CORDIC_PARAMS": json.dumps(params), "FRINGE_SEED": seed})
+    run_seeded(TOPLEVEL, {**p.hdl_parameters(), "USER_W": user_w}, sim, "FRINGE_CORDIC_PARAMS", DEFAULT_SEED, 240)

@@ -14,15 +14,14 @@ import os
 
 import numpy as np
 import pytest
+from lib.cocotb_optional import cocotb
+from lib.launch import run_seeded
 
 TOPLEVEL = "fringe_delay"
 DEFAULT_SEED = 20261201
 
-try:
-    import cocotb
+if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, Timer
-except ImportError:  # pragma: no cover - pytest side without cocotb
-    cocotb = None
 
 
 def _config() -> tuple[int, int, int]:
@@ -93,8 +92,4 @@ PARAM_SETS = param_sets()
 
 @pytest.mark.parametrize("params", PARAM_SETS, ids=[f"W{p['WIDTH']}-D{p['DEPTH']}" for p in PARAM_SETS])
 def test_fringe_delay(sim, params):
-    from cocotb_runner import run_block
-
-    seed = os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))
-    run_block(TOPLEVEL, "test_fringe_delay", params, sim=sim, timeout_s=120,
-              extra_env={"FRINGE_DELAY_PARAMS": json.dumps(params), "FRINGE_SEED": seed})
+    run_seeded(TOPLEVEL, params, sim, "FRINGE_DELAY_PARAMS", DEFAULT_SEED, 120)

@@ -35,7 +35,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
+from lib.launch import block_env
 
 from fringe.fixed.drift import (
     NORM_LATENCY,
@@ -49,7 +51,6 @@ from fringe.fixed.drift import (
 
 TOPLEVEL = "fringe_drift"
 DEFAULT_SEED = 777
-REPO = Path(__file__).resolve().parent.parent
 
 
 # ============================================================================ stimulus (pure Python)
@@ -187,11 +188,8 @@ def build_plan(p: DriftParams, user_w: int, seed: int):
 
 # ============================================================================ cocotb side
 
-try:
-    import cocotb
+if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-except ImportError:  # pragma: no cover
-    cocotb = None
 
 
 def params_of(raw: dict) -> DriftParams:
@@ -430,8 +428,7 @@ def test_fringe_drift(sim, ps):
 
     p, user_w = ps
     hdl = {**p.hdl_parameters(), "USER_W": user_w}
-    env = {"FRINGE_DRIFT_PARAMS": json.dumps(hdl),
-           "FRINGE_SEED": os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))}
+    env = block_env("FRINGE_DRIFT_PARAMS", hdl, DEFAULT_SEED)
     for k, path in _init_files(p).items():
         hdl[k] = path
     run_block(TOPLEVEL, "test_fringe_drift", hdl, sim=sim, timeout_s=600, extra_env=env)

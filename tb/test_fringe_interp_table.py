@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from interp_table_model import LATENCY, interp_result
+from lib.cocotb_optional import cocotb
 
 TOPLEVEL = "fringe_interp_table"
 SEED = int(os.environ.get("FRINGE_SEED", 20261202))
@@ -44,11 +45,6 @@ def image_words(cfg: dict) -> list[int]:
 
 
 # --------------------------------------------------------------------------- cocotb side
-
-try:
-    import cocotb
-except ImportError:  # pytest collection without cocotb: only the launcher is needed
-    cocotb = None
 
 if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge

@@ -33,7 +33,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
+from lib.launch import block_env
 
 from fringe.fixed.long_period import (
     LATENCY,
@@ -46,7 +48,6 @@ from fringe.fixed.long_period import (
 
 TOPLEVEL = "fringe_long_period"
 DEFAULT_SEED = 777
-REPO = Path(__file__).resolve().parent.parent
 
 
 # ============================================================================ stimulus (pure Python)
@@ -191,11 +192,6 @@ def build_plan(p: LongPeriodParams, user_w: int, seed: int):
 
 # ============================================================================ cocotb side
 
-try:
-    import cocotb
-except ImportError:  # pragma: no cover - pytest side without cocotb: the launcher skips
-    cocotb = None
-
 
 def params_of(raw: dict) -> LongPeriodParams:
     return LongPeriodParams(raw["LINES"], raw["FINE_W"], raw["LP_ADDR_W"], raw["LP_W"], raw["LP_FRAC"], raw["LP_IF"],
@@ -209,7 +205,7 @@ def _config() -> tuple[LongPeriodParams, int, int]:
 
 if cocotb is not None:
     from lib.latency import check_latency
-    from planned_stream import play_plan, start_clock
+    from planned_stream import play_planned, start_clock
 
     def _read(dut) -> tuple[int, int]:
         return int(dut.pos_out.value), int(dut.out_user.value)
@@ -238,10 +234,7 @@ if cocotb is not None:
     @cocotb.test()
     async def long_period_stream(dut):
         """The planned run: every output word against the model, exact timing, table rewrites."""
-        p, user_w, seed = _config()
-        tag = f"{p}, USER_W={user_w}, seed={seed}; replay with FRINGE_SEED={seed}"
-        cycles = build_plan(p, user_w, seed)
-        await play_plan(dut, cycles, p.latency, lambda: _read(dut), tag)
+        await play_planned(dut, _config, build_plan, _read)
 
 
 # ============================================================================ pytest side
@@ -346,6 +339,6 @@ def test_fringe_long_period(sim, ps):
     hdl = {**p.hdl_parameters(), "USER_W": user_w}
     if sim == "ghdl" and hdl["LP_RECIP"] >= 1 << 31:
         pytest.skip("LP_RECIP >= 2^31 does not fit a VHDL integer generic (documented limit)")
-    env = {"FRINGE_LP_PARAMS": json.dumps(hdl), "FRINGE_SEED": os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))}
+    env = block_env("FRINGE_LP_PARAMS", hdl, DEFAULT_SEED)
     hdl["INIT_FILE"] = _init_file(p)
     run_block(TOPLEVEL, "test_fringe_long_period", hdl, sim=sim, timeout_s=240, extra_env=env)

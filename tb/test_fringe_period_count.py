@@ -26,18 +26,18 @@ from __future__ import annotations
 
 import json
 import os
-from pathlib import Path
 
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
+from lib.launch import run_seeded
 
 from fringe.fixed.period_count import LATENCY, PeriodCountParams, period_count
 
 TOPLEVEL = "fringe_period_count"
 DEFAULT_SEED = 4242
-REPO = Path(__file__).resolve().parent.parent
 
 
 # ============================================================================ stimulus (pure Python)
@@ -225,11 +225,6 @@ def build_plan(p: PeriodCountParams, user_w: int, seed: int):
 
 # ============================================================================ cocotb side
 
-try:
-    import cocotb
-except ImportError:  # pragma: no cover - pytest side without cocotb: the launcher skips
-    cocotb = None
-
 
 def _config() -> tuple[PeriodCountParams, int, int]:
     raw = json.loads(os.environ["FRINGE_PC_PARAMS"])
@@ -239,7 +234,7 @@ def _config() -> tuple[PeriodCountParams, int, int]:
 
 if cocotb is not None:
     from lib.latency import check_latency
-    from planned_stream import play_plan, start_clock
+    from planned_stream import plan_tag, play_plan, start_clock
 
     def _read(dut) -> tuple[int, int, int, int]:
         return (int(dut.pos.value), int(dut.overspeed.value), int(dut.coarse_err.value), int(dut.out_user.value))
@@ -269,7 +264,7 @@ if cocotb is not None:
     async def period_count_stream(dut):
         """The planned run: every output word against the model, exact timing, stalls, resets."""
         p, user_w, seed = _config()
-        tag = f"{p}, USER_W={user_w}, seed={seed}; replay with FRINGE_SEED={seed}"
+        tag = plan_tag(p, user_w, seed)
         cycles, segs = build_plan(p, user_w, seed)
         st = await play_plan(dut, cycles, p.latency, lambda: _read(dut), tag)
         if st.checked != sum(len(s) for s in segs) - st.dropped:
@@ -335,10 +330,5 @@ test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration 
 
 @pytest.mark.parametrize("ps", PARAM_SETS, ids=[_id(ps) for ps in PARAM_SETS])
 def test_fringe_period_count(sim, ps):
-    from cocotb_runner import run_block
-
     p, user_w = ps
-    params = {**p.hdl_parameters(), "USER_W": user_w}
-    seed = os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))
-    run_block(TOPLEVEL, "test_fringe_period_count", params, sim=sim, timeout_s=240,
-              extra_env={"FRINGE_PC_PARAMS": json.dumps(params), "FRINGE_SEED": seed})
+    run_seeded(TOPLEVEL, {**p.hdl_parameters(), "USER_W": user_w}, sim, "FRINGE_PC_PARAMS", DEFAULT_SEED, 240)

@@ -11,10 +11,10 @@ from __future__ import annotations
 import json
 import math
 import os
-from pathlib import Path
 
 import numpy as np
 import pytest
+from lib.cocotb_optional import cocotb
 
 from fringe.fixed.quadrature import (
     LATENCY,
@@ -25,7 +25,6 @@ from fringe.fixed.quadrature import (
     quantise_coefs,
 )
 
-REPO = Path(__file__).resolve().parent.parent
 TOPLEVEL = "fringe_quadrature"
 
 # (WAVE_W, COEF_W, USER_W, seed): differences of 19 and 21 bits are split into partial products
@@ -45,11 +44,6 @@ def _ids(ps):
 
 
 # --------------------------------------------------------------------------- cocotb side
-
-try:
-    import cocotb
-except ImportError:  # pytest collection without cocotb: only the launcher is needed
-    cocotb = None
 
 if cocotb is not None:
     from pipeline_check import StreamChecker, lv, lv_signed, start_clock, to_bits

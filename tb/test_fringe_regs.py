@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from lib.cocotb_optional import cocotb
 
 from fringe.fixed.regmap import CTRL_SWAP, CTRL_WORD, N_REGS, REG_W, SPACES
 
@@ -65,11 +66,6 @@ def image(seed: int) -> list[int]:
 
 
 # --------------------------------------------------------------------------- cocotb side
-
-try:
-    import cocotb
-except ImportError:  # pytest collection without cocotb: only the launcher is needed
-    cocotb = None
 
 if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge

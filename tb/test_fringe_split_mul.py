@@ -4,7 +4,8 @@ The model is Python's integer product. Operands are random over their whole rang
 extremes, where a split into chunks would lose a carry or a sign, drawn often), a new pair on
 every clock, ce random: after every edge the output must be the product of the pair that has seen
 exactly LATENCY clock enables. Parameter sets: a fixed seed draws widths 1..80, signedness,
-LATENCY 2..5 and chunk widths LO_W 4..17, plus the corners 1 x 1 bits and one 18 x 18 multiplier.
+LATENCY 2..5 and chunk widths LO_W 4..17, plus the corners 1 x 1 bits, one 18 x 18 multiplier and
+two of LATENCY 1 (the unregistered sum: fringe_quadrature's 20 x 19 bits, and 45 x 7 in 6-bit chunks).
 Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_split_mul.py``.
 """
 
@@ -15,15 +16,14 @@ import os
 
 import numpy as np
 import pytest
+from lib.cocotb_optional import cocotb
+from lib.launch import block_env
 
 TOPLEVEL = "fringe_split_mul"
 DEFAULT_SEED = 20261202
 
-try:
-    import cocotb
+if cocotb is not None:
     from cocotb.triggers import FallingEdge
-except ImportError:  # pragma: no cover - pytest side without cocotb
-    cocotb = None
 
 
 def operand(rng: np.random.Generator, width: int, is_signed: bool) -> int:
@@ -80,7 +80,9 @@ if cocotb is not None:
 def param_sets(seed: int = DEFAULT_SEED, n_random: int = 4) -> list[dict[str, int]]:
     rng = np.random.default_rng(seed)
     sets = [{"A_W": 1, "A_SIGNED": 0, "B_W": 1, "B_SIGNED": 1, "LATENCY": 2, "LO_W": 17},
-            {"A_W": 18, "A_SIGNED": 1, "B_W": 18, "B_SIGNED": 1, "LATENCY": 2, "LO_W": 17}]
+            {"A_W": 18, "A_SIGNED": 1, "B_W": 18, "B_SIGNED": 1, "LATENCY": 2, "LO_W": 17},
+            {"A_W": 20, "A_SIGNED": 1, "B_W": 19, "B_SIGNED": 1, "LATENCY": 1, "LO_W": 17},
+            {"A_W": 45, "A_SIGNED": 0, "B_W": 7, "B_SIGNED": 1, "LATENCY": 1, "LO_W": 6}]
     sets += [{"A_W": int(rng.integers(1, 81)), "A_SIGNED": int(rng.integers(0, 2)),
               "B_W": int(rng.integers(1, 81)), "B_SIGNED": int(rng.integers(0, 2)),
               "LATENCY": int(rng.integers(2, 6)), "LO_W": int(rng.integers(4, 18))} for _ in range(n_random)]
@@ -98,7 +100,6 @@ def _id(p: dict[str, int]) -> str:
 def test_fringe_split_mul(sim, params):
     from cocotb_runner import run_block
 
-    seed = os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))
-    print(f"fringe_split_mul: seed {seed}, {params}")
-    run_block(TOPLEVEL, "test_fringe_split_mul", params, sim=sim, timeout_s=300,
-              extra_env={"FRINGE_SPLIT_MUL_PARAMS": json.dumps(params), "FRINGE_SEED": seed})
+    env = block_env("FRINGE_SPLIT_MUL_PARAMS", params, DEFAULT_SEED)
+    print(f"fringe_split_mul: seed {env['FRINGE_SEED']}, {params}")
+    run_block(TOPLEVEL, "test_fringe_split_mul", params, sim=sim, timeout_s=300, extra_env=env)

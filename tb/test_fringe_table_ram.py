@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from lib.cocotb_optional import cocotb
 
 TOPLEVEL = "fringe_table_ram"
 
@@ -44,11 +45,6 @@ def image_words(addr_w: int, data_w: int, seed: int) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- cocotb side
-
-try:
-    import cocotb
-except ImportError:  # pytest collection without cocotb: only the launcher is needed
-    cocotb = None
 
 if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge

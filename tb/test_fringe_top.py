@@ -38,6 +38,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from lib.cocotb_optional import cocotb
 
 from fringe.encoder import Encoder
 from fringe.fixed.config import CoreConfig
@@ -55,13 +56,11 @@ CTRL_DELAY = 2    # a CTRL swap takes effect at the second edge after the edge t
 
 # ============================================================================ cocotb side
 
-try:
-    import cocotb
+if cocotb is not None:
     from cocotb.clock import Clock
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
     from cocotbext.axi import AxiStreamBus, AxiStreamFrame, AxiStreamSink, AxiStreamSource
-except ImportError:  # pragma: no cover - pytest side without cocotb
-    cocotb = None
+    from pipeline_check import drive_ports, edges_until
 
 
 class Case:
@@ -248,13 +247,8 @@ class Bench:
 
 
 async def _start(dut) -> None:
-    dut.rst.value = 1
-    dut.s_axis_tvalid.value = 0
-    dut.s_axis_tdata.value = 0
-    dut.m_axis_tready.value = 1
-    dut.cfg_wr_en.value = 0
-    dut.cfg_wr_addr.value = 0
-    dut.cfg_wr_data.value = 0
+    drive_ports(dut, rst=1, s_axis_tvalid=0, s_axis_tdata=0, m_axis_tready=1, cfg_wr_en=0, cfg_wr_addr=0,
+                cfg_wr_data=0)
     cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start(start_high=False))
     for _ in range(3):
         await RisingEdge(dut.clk)
@@ -287,15 +281,9 @@ if cocotb is not None:
         assert int(dut.s_axis_tready.value) == 1
         await RisingEdge(dut.clk)            # edge 0 takes the sample
         dut.s_axis_tvalid.value = 0
-        n = 0
-        while True:
-            await ReadOnly()
-            if int(dut.m_axis_tvalid.value):
-                break
-            n += 1
-            if n > case.lat + 10:
-                raise AssertionError(f"no output {case.tag()}")
-            await RisingEdge(dut.clk)
+        n = await edges_until(dut.clk, dut.m_axis_tvalid, case.lat + 10)
+        if n is None:
+            raise AssertionError(f"no output {case.tag()}")
         # valid after edge n: consumed at edge n + 1, LATENCY = n + 1 clocks
         if n + 1 != case.lat:
             raise AssertionError(f"latency {n + 1} clocks, documented LATENCY = {case.lat} {case.tag()}")

@@ -38,7 +38,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
+from lib.launch import block_env
 
 from fringe.fixed.trim import (
     LATENCY,
@@ -53,7 +55,6 @@ from fringe.fixed.trim import (
 
 TOPLEVEL = "fringe_trim"
 DEFAULT_SEED = 4242
-REPO = Path(__file__).resolve().parent.parent
 TABLES = ("map", "speed", "amp")
 SEL = {"map": 0, "speed": 1, "amp": 2}
 
@@ -249,11 +250,6 @@ def build_plan(p: TrimParams, user_w: int, seed: int):
 
 # ============================================================================ cocotb side
 
-try:
-    import cocotb
-except ImportError:  # pragma: no cover - pytest side without cocotb: the launcher skips
-    cocotb = None
-
 
 def params_of(raw: dict) -> TrimParams:
     psi = raw["MAP_PSI_W"]
@@ -269,7 +265,7 @@ def _config() -> tuple[TrimParams, int, int]:
 
 if cocotb is not None:
     from lib.latency import check_latency
-    from planned_stream import play_plan, start_clock
+    from planned_stream import play_planned, start_clock
 
     def _read(dut) -> tuple[int, int, int, int]:
         return int(dut.pos_out.value), int(dut.dir.value), int(dut.sat.value), int(dut.out_user.value)
@@ -298,10 +294,7 @@ if cocotb is not None:
     @cocotb.test()
     async def trim_stream(dut):
         """The planned run: every output word against the model, exact timing, table rewrites."""
-        p, user_w, seed = _config()
-        tag = f"{p}, USER_W={user_w}, seed={seed}; replay with FRINGE_SEED={seed}"
-        cycles = build_plan(p, user_w, seed)
-        await play_plan(dut, cycles, p.latency, lambda: _read(dut), tag)
+        await play_planned(dut, _config, build_plan, _read)
 
 
 # ============================================================================ pytest side
@@ -415,7 +408,7 @@ def test_fringe_trim(sim, ps):
     assert (hdl["SECT_RECIP"], hdl["SECT_SHIFT"]) == sector_mapping(p.lines, p.fine_w, p.map_psi_w)
     if sim == "ghdl" and hdl["SECT_RECIP"] >= 1 << 31:
         pytest.skip("SECT_RECIP >= 2^31 does not fit a VHDL integer generic (documented limit)")
-    env = {"FRINGE_TRIM_PARAMS": json.dumps(hdl), "FRINGE_SEED": os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))}
+    env = block_env("FRINGE_TRIM_PARAMS", hdl, DEFAULT_SEED)
     for k, path in _init_files(p).items():
         hdl[f"{k.upper()}_INIT"] = path
     run_block(TOPLEVEL, "test_fringe_trim", hdl, sim=sim, timeout_s=400, extra_env=env)

@@ -19,11 +19,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
 
 from fringe.fixed.wave_lut import LATENCY, WaveLutParams, make_table, pack_words, wave_lut
-
-REPO = Path(__file__).resolve().parent.parent
 
 TOPLEVEL = "fringe_wave_lut"
 
@@ -67,11 +66,6 @@ def random_table(p: WaveLutParams, rng) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- cocotb side
-
-try:
-    import cocotb
-except ImportError:  # pytest collection without cocotb: only the launcher is needed
-    cocotb = None
 
 if cocotb is not None:
     from pipeline_check import StreamChecker, lv, lv_signed, start_clock, to_bits

@@ -79,6 +79,9 @@ def hdl_refusals(c: dict) -> list[str]:
         if bad:
             out.append(message)
 
+    def in_range(unit: str, name: str, v: int, lo: int, hi: int, hi_text: str | None = None):
+        check(not lo <= v <= hi, f"{unit}: {name} = {v} out of range {lo}..{hi if hi_text is None else hi_text}")
+
     adc_w, lines, fine_w, wave_w = g["ADC_W"], g["LINES"], g["FINE_W"], g["WAVE_W"]
     pos_w = clog2(lines) + fine_w if lines >= 1 else fine_w
     rev = lines << fine_w if lines >= 1 and fine_w >= 0 else 0
@@ -98,23 +101,22 @@ def hdl_refusals(c: dict) -> list[str]:
     check(g["DRIFT"] not in (0, 1), f"fringe_core: DRIFT = {g['DRIFT']} must be 0 or 1")
     check(g["LP_W"] > 32, f"fringe_core: LP_W = {g['LP_W']} > 32: a table word {{slope, value}} must fit cfg_wr_data")
     # fringe_wave_lut
-    check(not 4 <= adc_w <= 24, f"fringe_wave_lut: ADC_W = {adc_w} out of range 4..24")
-    check(not 2 <= g["WAVE_ADDR_W"] <= adc_w - 1,
-          f"fringe_wave_lut: WAVE_ADDR_W = {g['WAVE_ADDR_W']} out of range 2..ADC_W-1 = {adc_w - 1}")
-    check(not 8 <= wave_w <= 32, f"fringe_wave_lut: WAVE_W = {wave_w} out of range 8..32")
+    in_range("fringe_wave_lut", "ADC_W", adc_w, 4, 24)
+    in_range("fringe_wave_lut", "WAVE_ADDR_W", g["WAVE_ADDR_W"], 2, adc_w - 1, f"ADC_W-1 = {adc_w - 1}")
+    in_range("fringe_wave_lut", "WAVE_W", wave_w, 8, 32)
     # fringe_quadrature
-    check(not 8 <= wave_w <= 32, f"fringe_quadrature: WAVE_W = {wave_w} out of range 8..32")
-    check(not 8 <= g["COEF_W"] <= 27, f"fringe_quadrature: COEF_W = {g['COEF_W']} out of range 8..27")
+    in_range("fringe_quadrature", "WAVE_W", wave_w, 8, 32)
+    in_range("fringe_quadrature", "COEF_W", g["COEF_W"], 8, 27)
     # fringe_cordic (IN_W = WAVE_W)
-    check(not 8 <= wave_w <= 30, f"fringe_cordic: IN_W = {wave_w} out of range 8..30")
-    check(not 8 <= fine_w <= 30, f"fringe_cordic: FINE_W = {fine_w} out of range 8..30")
-    check(not 4 <= g["CORDIC_STAGES"] <= 32, f"fringe_cordic: STAGES = {g['CORDIC_STAGES']} out of range 4..32")
-    check(not 0 <= g["CORDIC_GUARD"] <= 8, f"fringe_cordic: GUARD = {g['CORDIC_GUARD']} out of range 0..8")
+    in_range("fringe_cordic", "IN_W", wave_w, 8, 30)
+    in_range("fringe_cordic", "FINE_W", fine_w, 8, 30)
+    in_range("fringe_cordic", "STAGES", g["CORDIC_STAGES"], 4, 32)
+    in_range("fringe_cordic", "GUARD", g["CORDIC_GUARD"], 0, 8)
     # fringe_period_count, fringe_long_period and fringe_trim share the position checks
     blocks = ["fringe_period_count", "fringe_long_period"] + (["fringe_trim"] if g["TRIM"] == 1 else [])
     for block in blocks:
-        check(not 8 <= fine_w <= 30, f"{block}: FINE_W = {fine_w} out of range 8..30")
-        check(not 1 <= lines <= 1 << 20, f"{block}: LINES = {lines} out of range 1..2^20")
+        in_range(block, "FINE_W", fine_w, 8, 30)
+        in_range(block, "LINES", lines, 1, 1 << 20, "2^20")
         limit = 31 if block == "fringe_trim" else 48
         check(pos_w > limit, f"{block}: POS_W = FINE_W + clog2(LINES) = {pos_w} exceeds {limit}")
     cw = g["COARSE_W"]
@@ -128,9 +130,9 @@ def hdl_refusals(c: dict) -> list[str]:
         out.append(f"fringe_long_period: LP_ADDR_W = {lp_addr_w} out of range 2..16")
     elif (1 << lp_addr_w) > rev:
         out.append(f"fringe_long_period: 2^LP_ADDR_W = {1 << lp_addr_w} entries exceed REV = LINES * 2^FINE_W")
-    check(not 8 <= lp_w <= 32, f"fringe_long_period: LP_W = {lp_w} out of range 8..32")
-    check(not 0 <= lp_frac <= 16, f"fringe_long_period: LP_FRAC = {lp_frac} out of range 0..16")
-    check(not 1 <= lp_if <= 16, f"fringe_long_period: LP_IF = {lp_if} out of range 1..16")
+    in_range("fringe_long_period", "LP_W", lp_w, 8, 32)
+    in_range("fringe_long_period", "LP_FRAC", lp_frac, 0, 16)
+    in_range("fringe_long_period", "LP_IF", lp_if, 1, 16)
     check(lp_w - lp_frac >= 0 and (1 << (lp_w - lp_frac)) > rev,
           f"fringe_long_period: LP_W - LP_FRAC = {lp_w - lp_frac}: corrections up to 2^{lp_w - lp_frac} fine counts "
           "exceed REV = LINES * 2^FINE_W")
@@ -138,32 +140,30 @@ def hdl_refusals(c: dict) -> list[str]:
         check(not some_mapping(lp_if, lp_addr_w, lines, fine_w), "fringe_long_period: no exact index mapping")
     if g["TRIM"] == 1:
         phi_max = min(10, fine_w - 1)
-        check(not 4 <= wave_w + 1 <= 32, f"fringe_trim: AMP_W = {wave_w + 1} out of range 4..32")
-        check(not 0 <= g["SPEED_LOG2"] <= 8, f"fringe_trim: SPEED_LOG2 = {g['SPEED_LOG2']} out of range 0..8")
-        check(not 0 <= g["MAP_PSI_W"] <= 8, f"fringe_trim: MAP_PSI_W = {g['MAP_PSI_W']} out of range 0..8")
-        check(not 2 <= g["MAP_PHI_W"] <= phi_max,
-              f"fringe_trim: MAP_PHI_W = {g['MAP_PHI_W']} out of range 2..min(10, FINE_W-1) = {phi_max}")
-        check(not 8 <= g["TRIM_W"] <= 24, f"fringe_trim: TRIM_W = {g['TRIM_W']} out of range 8..24")
-        check(not 0 <= g["TRIM_FRAC"] <= 16, f"fringe_trim: TRIM_FRAC = {g['TRIM_FRAC']} out of range 0..16")
-        check(not 1 <= g["G_SHIFT"] <= 48, f"fringe_trim: G_SHIFT = {g['G_SHIFT']} out of range 1..48")
+        in_range("fringe_trim", "AMP_W", wave_w + 1, 4, 32)
+        in_range("fringe_trim", "SPEED_LOG2", g["SPEED_LOG2"], 0, 8)
+        in_range("fringe_trim", "MAP_PSI_W", g["MAP_PSI_W"], 0, 8)
+        in_range("fringe_trim", "MAP_PHI_W", g["MAP_PHI_W"], 2, phi_max, f"min(10, FINE_W-1) = {phi_max}")
+        in_range("fringe_trim", "TRIM_W", g["TRIM_W"], 8, 24)
+        in_range("fringe_trim", "TRIM_FRAC", g["TRIM_FRAC"], 0, 16)
+        in_range("fringe_trim", "G_SHIFT", g["G_SHIFT"], 1, 48)
         if not out and g["MAP_PSI_W"] > 0:
             check(not some_mapping(0, g["MAP_PSI_W"], lines, fine_w), "fringe_trim: no exact sector mapping")
     if g["DRIFT"] == 1:
         d = {name.removeprefix("DRIFT_"): v for name, v in g.items() if name.startswith("DRIFT_")}
         phi_max = min(10, fine_w - 1)
-        check(not 4 <= adc_w <= 24, f"fringe_drift: ADC_W = {adc_w} out of range 4..24")
-        check(not 8 <= fine_w <= 30, f"fringe_drift: FINE_W = {fine_w} out of range 8..30")
-        check(not 4 <= d["BLOCK_LOG2"] <= 12, f"fringe_drift: BLOCK_LOG2 = {d['BLOCK_LOG2']} out of range 4..12")
-        check(not 0 <= d["MU_LOG2"] <= 8, f"fringe_drift: MU_LOG2 = {d['MU_LOG2']} out of range 0..8")
-        check(not 0 <= d["OFS_FRAC"] <= 8, f"fringe_drift: OFS_FRAC = {d['OFS_FRAC']} out of range 0..8")
+        in_range("fringe_drift", "ADC_W", adc_w, 4, 24)
+        in_range("fringe_drift", "FINE_W", fine_w, 8, 30)
+        in_range("fringe_drift", "BLOCK_LOG2", d["BLOCK_LOG2"], 4, 12)
+        in_range("fringe_drift", "MU_LOG2", d["MU_LOG2"], 0, 8)
+        in_range("fringe_drift", "OFS_FRAC", d["OFS_FRAC"], 0, 8)
         check(adc_w + d["OFS_FRAC"] > 32, f"fringe_drift: ADC_W + OFS_FRAC = {adc_w + d['OFS_FRAC']} exceeds 32")
-        check(not 8 <= d["GINV_W"] <= 24, f"fringe_drift: GINV_W = {d['GINV_W']} out of range 8..24")
-        check(not 2 <= d["FWD_W"] <= phi_max,
-              f"fringe_drift: FWD_W = {d['FWD_W']} out of range 2..min(10, FINE_W-1) = {phi_max}")
-        check(not 8 <= d["TABLE_W"] <= 24, f"fringe_drift: TABLE_W = {d['TABLE_W']} out of range 8..24")
-        check(not 0 <= d["TABLE_FRAC"] <= 12, f"fringe_drift: TABLE_FRAC = {d['TABLE_FRAC']} out of range 0..12")
-        check(not 8 <= d["KG_W"] <= 24, f"fringe_drift: KG_W = {d['KG_W']} out of range 8..24")
-        check(not 1 <= d["KG_SHIFT"] <= 60, f"fringe_drift: KG_SHIFT = {d['KG_SHIFT']} out of range 1..60")
+        in_range("fringe_drift", "GINV_W", d["GINV_W"], 8, 24)
+        in_range("fringe_drift", "FWD_W", d["FWD_W"], 2, phi_max, f"min(10, FINE_W-1) = {phi_max}")
+        in_range("fringe_drift", "TABLE_W", d["TABLE_W"], 8, 24)
+        in_range("fringe_drift", "TABLE_FRAC", d["TABLE_FRAC"], 0, 12)
+        in_range("fringe_drift", "KG_W", d["KG_W"], 8, 24)
+        in_range("fringe_drift", "KG_SHIFT", d["KG_SHIFT"], 1, 60)
         pipe = (k["CORE_INPUT_LATENCY"] + k["WAVE_LUT_LATENCY"] + k["QUADRATURE_LATENCY"] + g["CORDIC_STAGES"]
                 + k["CORDIC_LATENCY_BASE"])
         norm, obs = k["DRIFT_NORM_LATENCY"], k["DRIFT_OBS_LATENCY"]

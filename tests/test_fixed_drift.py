@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import dataclasses
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
-from hdl_text import vhdl_block_text, vhdl_checks_range
+from hdl_text import REPO, block_texts, missing_checks
+from param_cases import out_of_range
 
 from fringe.fixed.drift import (
     NORM_LATENCY,
@@ -22,8 +22,6 @@ from fringe.fixed.drift import (
     pack_words,
     unpack_words,
 )
-
-REPO = Path(__file__).resolve().parent.parent
 
 P1 = DriftParams(adc_w=14, fine_w=16, block_log2=8, mu_log2=3, ofs_frac=4, ginv_w=18, fwd_w=6, table_w=18,
                  table_frac=2, kg_w=18, kg_shift=38)
@@ -140,28 +138,21 @@ KEYS = {k.lower(): k for k in BASE}
 @pytest.mark.parametrize(
     "over, msg",
     [
-        ({"adc_w": 3}, "fringe_drift: ADC_W = 3 out of range 4..24"),
-        ({"adc_w": 25}, "fringe_drift: ADC_W = 25 out of range 4..24"),
+        *out_of_range("fringe_drift", "adc_w", 4, 24),
         ({"fine_w": 7, "fwd_w": 4}, "fringe_drift: FINE_W = 7 out of range 8..30"),
-        ({"fine_w": 31}, "fringe_drift: FINE_W = 31 out of range 8..30"),
-        ({"block_log2": 3}, "fringe_drift: BLOCK_LOG2 = 3 out of range 4..12"),
-        ({"block_log2": 13}, "fringe_drift: BLOCK_LOG2 = 13 out of range 4..12"),
-        ({"mu_log2": 9}, "fringe_drift: MU_LOG2 = 9 out of range 0..8"),
-        ({"ofs_frac": 9}, "fringe_drift: OFS_FRAC = 9 out of range 0..8"),
+        *out_of_range("fringe_drift", "fine_w", 8, 30, values=(31,)),
+        *out_of_range("fringe_drift", "block_log2", 4, 12),
+        *out_of_range("fringe_drift", "mu_log2", 0, 8, values=(9,)),
+        *out_of_range("fringe_drift", "ofs_frac", 0, 8, values=(9,)),
         ({"adc_w": 24, "ofs_frac": 9}, "fringe_drift: OFS_FRAC = 9 out of range 0..8"),
         ({"adc_w": 24, "ofs_frac": 8}, "NOERROR"),
-        ({"ginv_w": 7}, "fringe_drift: GINV_W = 7 out of range 8..24"),
-        ({"ginv_w": 25}, "fringe_drift: GINV_W = 25 out of range 8..24"),
-        ({"fwd_w": 1}, "fringe_drift: FWD_W = 1 out of range 2..min(10, FINE_W-1) = 10"),
-        ({"fwd_w": 11}, "fringe_drift: FWD_W = 11 out of range 2..min(10, FINE_W-1) = 10"),
+        *out_of_range("fringe_drift", "ginv_w", 8, 24),
+        *out_of_range("fringe_drift", "fwd_w", 2, 10, "min(10, FINE_W-1) = 10"),
         ({"fine_w": 9, "fwd_w": 9}, "fringe_drift: FWD_W = 9 out of range 2..min(10, FINE_W-1) = 8"),
-        ({"table_w": 7}, "fringe_drift: TABLE_W = 7 out of range 8..24"),
-        ({"table_w": 25}, "fringe_drift: TABLE_W = 25 out of range 8..24"),
-        ({"table_frac": 13}, "fringe_drift: TABLE_FRAC = 13 out of range 0..12"),
-        ({"kg_w": 7}, "fringe_drift: KG_W = 7 out of range 8..24"),
-        ({"kg_w": 25}, "fringe_drift: KG_W = 25 out of range 8..24"),
-        ({"kg_shift": 0}, "fringe_drift: KG_SHIFT = 0 out of range 1..60"),
-        ({"kg_shift": 61}, "fringe_drift: KG_SHIFT = 61 out of range 1..60"),
+        *out_of_range("fringe_drift", "table_w", 8, 24),
+        *out_of_range("fringe_drift", "table_frac", 0, 12, values=(13,)),
+        *out_of_range("fringe_drift", "kg_w", 8, 24),
+        *out_of_range("fringe_drift", "kg_shift", 1, 60),
         ({"pipe_latency": -1}, "fringe_drift: PIPE_LATENCY = -1 must be >= 0"),
         ({"pipe_latency": 111}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 111 + 15 = 130 "
                                 "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = 129: the update would come too late"),
@@ -185,18 +176,17 @@ def test_pipe_latency_limit_is_exact():
 
 
 def test_hdl_messages_match_model():
-    v = (REPO / "rtl/verilog/fringe_drift.v").read_text()
-    h = vhdl_block_text(REPO, "fringe_drift")
-    for name, rng in (("ADC_W", "4..24"), ("FINE_W", "8..30"), ("BLOCK_LOG2", "4..12"), ("MU_LOG2", "0..8"),
-                      ("OFS_FRAC", "0..8"), ("GINV_W", "8..24"), ("TABLE_W", "8..24"), ("TABLE_FRAC", "0..12"),
-                      ("KG_W", "8..24"), ("KG_SHIFT", "1..60")):
-        assert f'"fringe_drift: {name} = %0d out of range {rng} (instance %m)"' in v, name
-        assert vhdl_checks_range(h, "fringe_drift", name, rng), name
+    v, h = block_texts("fringe_drift")
+    ranges = (("ADC_W", "4..24"), ("FINE_W", "8..30"), ("BLOCK_LOG2", "4..12"), ("MU_LOG2", "0..8"),
+              ("OFS_FRAC", "0..8"), ("GINV_W", "8..24"), ("TABLE_W", "8..24"), ("TABLE_FRAC", "0..12"),
+              ("KG_W", "8..24"), ("KG_SHIFT", "1..60"))
+    assert not missing_checks("fringe_drift", ranges)
     for frag in ("out of range 2..min(10, FINE_W-1) = ", "ADC_W + OFS_FRAC = ", " exceeds 32",
                  "NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = ", "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = ",
                  ": the update would come too late"):
         assert frag in v and frag in h, frag
-    assert "USER_W = " in v and 'check_min("fringe_drift", "USER_W", USER_W, 1)' in h
+    assert '`FRINGE_CHECK_MIN(g_bad_user_w, "fringe_drift", "USER_W", USER_W, 1)' in v
+    assert 'check_min("fringe_drift", "USER_W", USER_W, 1)' in h
     assert "PIPE_LATENCY = %0d must be >= 0" in v and 'check_min("fringe_drift", "PIPE_LATENCY", PIPE_LATENCY, 0)' in h
 
 

@@ -5,11 +5,11 @@ from __future__ import annotations
 import math
 import re
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
-from hdl_text import vhdl_block_text, vhdl_checks_position, vhdl_checks_range
+from hdl_text import block_texts, missing_checks
+from param_cases import out_of_range
 
 from fringe.fixed.trim import (
     LATENCY,
@@ -29,8 +29,6 @@ from fringe.fixed.trim import (
     trim_words,
     unpack_words,
 )
-
-REPO = Path(__file__).resolve().parent.parent
 
 P1 = TrimParams(lines=256, fine_w=16, amp_w=12, speed_log2=5, map_psi_w=4, map_phi_w=6, trim_w=18, trim_frac=4,
                 g_shift=20)
@@ -75,24 +73,18 @@ BASE = dict(lines=256, fine_w=16, amp_w=12, speed_log2=5, map_psi_w=4, map_phi_w
 @pytest.mark.parametrize(
     "over, msg",
     [
-        ({"fine_w": 7}, "fringe_trim: FINE_W = 7 out of range 8..30"),
-        ({"fine_w": 31}, "fringe_trim: FINE_W = 31 out of range 8..30"),
+        *out_of_range("fringe_trim", "fine_w", 8, 30),
         ({"lines": 0}, "fringe_trim: LINES = 0 out of range 1..2^20"),
         ({"lines": (1 << 20) + 1}, "fringe_trim: LINES = 1048577 out of range 1..2^20"),
         ({"lines": 1 << 16}, "fringe_trim: POS_W = FINE_W + clog2(LINES) = 32 exceeds 31"),
-        ({"amp_w": 3}, "fringe_trim: AMP_W = 3 out of range 4..32"),
-        ({"amp_w": 33}, "fringe_trim: AMP_W = 33 out of range 4..32"),
-        ({"speed_log2": -1}, "fringe_trim: SPEED_LOG2 = -1 out of range 0..8"),
-        ({"speed_log2": 9}, "fringe_trim: SPEED_LOG2 = 9 out of range 0..8"),
-        ({"map_psi_w": 9}, "fringe_trim: MAP_PSI_W = 9 out of range 0..8"),
-        ({"map_phi_w": 1}, "fringe_trim: MAP_PHI_W = 1 out of range 2..min(10, FINE_W-1) = 10"),
-        ({"map_phi_w": 11}, "fringe_trim: MAP_PHI_W = 11 out of range 2..min(10, FINE_W-1) = 10"),
+        *out_of_range("fringe_trim", "amp_w", 4, 32),
+        *out_of_range("fringe_trim", "speed_log2", 0, 8),
+        *out_of_range("fringe_trim", "map_psi_w", 0, 8, values=(9,)),
+        *out_of_range("fringe_trim", "map_phi_w", 2, 10, "min(10, FINE_W-1) = 10"),
         ({"fine_w": 9, "map_phi_w": 9}, "fringe_trim: MAP_PHI_W = 9 out of range 2..min(10, FINE_W-1) = 8"),
-        ({"trim_w": 7}, "fringe_trim: TRIM_W = 7 out of range 8..24"),
-        ({"trim_w": 25}, "fringe_trim: TRIM_W = 25 out of range 8..24"),
-        ({"trim_frac": 17}, "fringe_trim: TRIM_FRAC = 17 out of range 0..16"),
-        ({"g_shift": 0}, "fringe_trim: G_SHIFT = 0 out of range 1..48"),
-        ({"g_shift": 49}, "fringe_trim: G_SHIFT = 49 out of range 1..48"),
+        *out_of_range("fringe_trim", "trim_w", 8, 24),
+        *out_of_range("fringe_trim", "trim_frac", 0, 16, values=(17,)),
+        *out_of_range("fringe_trim", "g_shift", 1, 48),
         ({"sect_recip": 1, "sect_shift": 128}, "fringe_trim: SECT_SHIFT = 128 out of range 0..127"),
         ({"sect_recip": 1, "sect_shift": 19}, "fringe_trim: SECT_RECIP = 1, SECT_SHIFT = 19 do not map every "
                                               "position to floor(pos * 2^MAP_PSI_W / REV); take them from "
@@ -108,21 +100,19 @@ def test_parameter_validation(over, msg):
 
 def test_hdl_messages_match_model():
     """The HDL checks carry the model's messages (plus the instance path in Verilog)."""
-    v = (REPO / "rtl/verilog/fringe_trim.v").read_text()
-    h = vhdl_block_text(REPO, "fringe_trim")
-    for name, rng in (("FINE_W", "8..30"), ("LINES", "1..2^20"), ("AMP_W", "4..32"), ("SPEED_LOG2", "0..8"),
-                      ("MAP_PSI_W", "0..8"), ("TRIM_W", "8..24"), ("TRIM_FRAC", "0..16"), ("G_SHIFT", "1..48"),
-                      ("SECT_SHIFT", "0..127")):
-        assert f'"fringe_trim: {name} = %0d out of range {rng} (instance %m)"' in v, name
-        assert vhdl_checks_range(h, "fringe_trim", name, rng), name
-    for frag in ("out of range 2..min(10, FINE_W-1) = ", "POS_W = FINE_W + clog2(LINES) = ", "take them from "):
+    v, h = block_texts("fringe_trim")
+    ranges = (("FINE_W", "8..30"), ("LINES", "1..2^20"), ("AMP_W", "4..32"), ("SPEED_LOG2", "0..8"),
+              ("MAP_PSI_W", "0..8"), ("TRIM_W", "8..24"), ("TRIM_FRAC", "0..16"), ("G_SHIFT", "1..48"),
+              ("SECT_SHIFT", "0..127"))
+    assert not missing_checks("fringe_trim", ranges, pos_w_max=31)
+    for frag in ("out of range 2..min(10, FINE_W-1) = ", "take them from "):
         assert frag in v and frag in h, frag
-    assert "exceeds 31 (instance %m)" in v and vhdl_checks_position(h, "fringe_trim", 31)
     # written out in Verilog, built by fringe_pkg's check_mapping / check_min in VHDL
     assert "do not map every position to floor(pos * 2^MAP_PSI_W / REV);" in v
     assert "take them from sector_mapping()" in v
     assert 'check_mapping("fringe_trim", "SECT", "MAP_PSI_W", "sector_mapping"' in h
-    assert "USER_W = " in v and 'check_min("fringe_trim", "USER_W", USER_W, 1)' in h
+    assert '`FRINGE_CHECK_MIN(g_bad_user_w, "fringe_trim", "USER_W", USER_W, 1)' in v
+    assert 'check_min("fringe_trim", "USER_W", USER_W, 1)' in h
 
 
 # ---------------------------------------------------------------------------- sector mapping

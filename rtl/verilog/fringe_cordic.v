@@ -43,24 +43,12 @@ module fringe_cordic #(
     localparam [ACC_W-1:0] HALF_TURN = {1'b1, {(ACC_W-1){1'b0}}};
 
     generate
-        if (IN_W < 8 || IN_W > 30) begin : g_bad_in_w
-            $error("fringe_cordic: IN_W = %0d out of range 8..30 (instance %m)", IN_W);
-        end
-        if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
-            $error("fringe_cordic: FINE_W = %0d out of range 8..30 (instance %m)", FINE_W);
-        end
-        if (STAGES < 4 || STAGES > 32) begin : g_bad_stages
-            $error("fringe_cordic: STAGES = %0d out of range 4..32 (instance %m)", STAGES);
-        end
-        if (GUARD < 0 || GUARD > 8) begin : g_bad_guard
-            $error("fringe_cordic: GUARD = %0d out of range 0..8 (instance %m)", GUARD);
-        end
-        if (USER_W < 1) begin : g_bad_user_w
-            $error("fringe_cordic: USER_W = %0d must be >= 1 (instance %m)", USER_W);
-        end
-        if (ITERATIVE != 0 && ITERATIVE != 1) begin : g_bad_iterative
-            $error("fringe_cordic: ITERATIVE = %0d must be 0 or 1 (instance %m)", ITERATIVE);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_in_w, "fringe_cordic", "IN_W", IN_W, 8, 30)
+        `FRINGE_CHECK_RANGE(g_bad_fine_w, "fringe_cordic", "FINE_W", FINE_W, 8, 30)
+        `FRINGE_CHECK_RANGE(g_bad_stages, "fringe_cordic", "STAGES", STAGES, 4, 32)
+        `FRINGE_CHECK_RANGE(g_bad_guard, "fringe_cordic", "GUARD", GUARD, 0, 8)
+        `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_cordic", "USER_W", USER_W, 1)
+        `FRINGE_CHECK_BIT(g_bad_iterative, "fringe_cordic", "ITERATIVE", ITERATIVE)
     endgenerate
 
     // atan(2^-i) / (2 pi) as a 62-bit fraction of a turn, round half up (i = 0..31). The same

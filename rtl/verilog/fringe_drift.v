@@ -73,51 +73,29 @@ module fringe_drift #(
 
     // ---- parameter checks ---------------------------------------------------------------------------
     generate
-        if (ADC_W < 4 || ADC_W > 24) begin : g_bad_adc_w
-            $error("fringe_drift: ADC_W = %0d out of range 4..24 (instance %m)", ADC_W);
-        end
-        if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
-            $error("fringe_drift: FINE_W = %0d out of range 8..30 (instance %m)", FINE_W);
-        end
-        if (BLOCK_LOG2 < 4 || BLOCK_LOG2 > 12) begin : g_bad_block_log2
-            $error("fringe_drift: BLOCK_LOG2 = %0d out of range 4..12 (instance %m)", BLOCK_LOG2);
-        end
-        if (MU_LOG2 < 0 || MU_LOG2 > 8) begin : g_bad_mu_log2
-            $error("fringe_drift: MU_LOG2 = %0d out of range 0..8 (instance %m)", MU_LOG2);
-        end
-        if (OFS_FRAC < 0 || OFS_FRAC > 8) begin : g_bad_ofs_frac
-            $error("fringe_drift: OFS_FRAC = %0d out of range 0..8 (instance %m)", OFS_FRAC);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_adc_w, "fringe_drift", "ADC_W", ADC_W, 4, 24)
+        `FRINGE_CHECK_RANGE(g_bad_fine_w, "fringe_drift", "FINE_W", FINE_W, 8, 30)
+        `FRINGE_CHECK_RANGE(g_bad_block_log2, "fringe_drift", "BLOCK_LOG2", BLOCK_LOG2, 4, 12)
+        `FRINGE_CHECK_RANGE(g_bad_mu_log2, "fringe_drift", "MU_LOG2", MU_LOG2, 0, 8)
+        `FRINGE_CHECK_RANGE(g_bad_ofs_frac, "fringe_drift", "OFS_FRAC", OFS_FRAC, 0, 8)
         if (ADC_W + OFS_FRAC > 32) begin : g_bad_ofs_w
             $error("fringe_drift: ADC_W + OFS_FRAC = %0d exceeds 32 (instance %m)", ADC_W + OFS_FRAC);
         end
-        if (GINV_W < 8 || GINV_W > 24) begin : g_bad_ginv_w
-            $error("fringe_drift: GINV_W = %0d out of range 8..24 (instance %m)", GINV_W);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_ginv_w, "fringe_drift", "GINV_W", GINV_W, 8, 24)
         if (FWD_W < 2 || FWD_W > FWD_MAX) begin : g_bad_fwd_w
             $error("fringe_drift: FWD_W = %0d out of range 2..min(10, FINE_W-1) = %0d (instance %m)", FWD_W, FWD_MAX);
         end
-        if (TABLE_W < 8 || TABLE_W > 24) begin : g_bad_table_w
-            $error("fringe_drift: TABLE_W = %0d out of range 8..24 (instance %m)", TABLE_W);
-        end
-        if (TABLE_FRAC < 0 || TABLE_FRAC > 12) begin : g_bad_table_frac
-            $error("fringe_drift: TABLE_FRAC = %0d out of range 0..12 (instance %m)", TABLE_FRAC);
-        end
-        if (KG_W < 8 || KG_W > 24) begin : g_bad_kg_w
-            $error("fringe_drift: KG_W = %0d out of range 8..24 (instance %m)", KG_W);
-        end
-        if (KG_SHIFT < 1 || KG_SHIFT > 60) begin : g_bad_kg_shift
-            $error("fringe_drift: KG_SHIFT = %0d out of range 1..60 (instance %m)", KG_SHIFT);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_table_w, "fringe_drift", "TABLE_W", TABLE_W, 8, 24)
+        `FRINGE_CHECK_RANGE(g_bad_table_frac, "fringe_drift", "TABLE_FRAC", TABLE_FRAC, 0, 12)
+        `FRINGE_CHECK_RANGE(g_bad_kg_w, "fringe_drift", "KG_W", KG_W, 8, 24)
+        `FRINGE_CHECK_RANGE(g_bad_kg_shift, "fringe_drift", "KG_SHIFT", KG_SHIFT, 1, 60)
         if (PIPE_LATENCY < 0) begin : g_bad_pipe
             $error("fringe_drift: PIPE_LATENCY = %0d must be >= 0 (instance %m)", PIPE_LATENCY);
         end else if (TOTAL > D + 1) begin : g_late
             $error("fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = %0d + %0d + %0d = %0d exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = %0d: the update would come too late (instance %m)",
                    NORM_LATENCY, PIPE_LATENCY, OBS_LATENCY, TOTAL, D + 1);
         end
-        if (USER_W < 1) begin : g_bad_user_w
-            $error("fringe_drift: USER_W = %0d must be >= 1 (instance %m)", USER_W);
-        end
+        `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_drift", "USER_W", USER_W, 1)
     endgenerate
 
     // ---- widths ---------------------------------------------------------------------------------------

@@ -27,6 +27,8 @@ module fringe_interp_table #(
     output reg  [OUT_W-1:0]        result    // s(OUT_W): value + ((slope * frac + 2^(FB-1)) >>> FB) + offset
 );
 
+    `include "fringe_pkg.vh"
+
     // The testbench reads LATENCY (tb/test_fringe_interp_table.py); the pipeline below spells it out.
     /* verilator lint_off UNUSEDPARAM */
     localparam integer LATENCY = 4;
@@ -38,19 +40,13 @@ module fringe_interp_table #(
                                                     : {S_W{1'b0}};             // 2^(ROUND_SHIFT-1), above the fraction
 
     generate
-        if (W < 2 || W > 32) begin : g_bad_w
-            $error("fringe_interp_table: W = %0d out of range 2..32 (instance %m)", W);
-        end
-        if (FB < 1 || FB > 30) begin : g_bad_fb
-            $error("fringe_interp_table: FB = %0d out of range 1..30 (instance %m)", FB);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_w, "fringe_interp_table", "W", W, 2, 32)
+        `FRINGE_CHECK_RANGE(g_bad_fb, "fringe_interp_table", "FB", FB, 1, 30)
         if (OUT_W < W || OUT_W > W + 40) begin : g_bad_out_w
             $error("fringe_interp_table: OUT_W = %0d out of range W..W+40 = %0d..%0d (instance %m)",
                    OUT_W, W, W + 40);
         end
-        if (ROUND_SHIFT < 0 || ROUND_SHIFT > 40) begin : g_bad_round_shift
-            $error("fringe_interp_table: ROUND_SHIFT = %0d out of range 0..40 (instance %m)", ROUND_SHIFT);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_round_shift, "fringe_interp_table", "ROUND_SHIFT", ROUND_SHIFT, 0, 40)
     endgenerate
 
     // ---- 1: table read (the RAM's read register) -------------------------------------------------

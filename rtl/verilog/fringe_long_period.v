@@ -52,30 +52,16 @@ module fringe_long_period #(
     localparam           MAP_OK  = fringe_mapping_exact(LP_RECIP, LP_SHIFT, LP_ADDR_W, LINES, FINE_W);
 
     generate
-        if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
-            $error("fringe_long_period: FINE_W = %0d out of range 8..30 (instance %m)", FINE_W);
-        end
-        if (LINES < 1 || LINES > (1 << 20)) begin : g_bad_lines
-            $error("fringe_long_period: LINES = %0d out of range 1..2^20 (instance %m)", LINES);
-        end
-        if (POS_W > 48) begin : g_bad_pos_w
-            $error("fringe_long_period: POS_W = FINE_W + clog2(LINES) = %0d exceeds 48 (instance %m)", POS_W);
-        end
+        `FRINGE_CHECK_POSITION("fringe_long_period", FINE_W, LINES, 48)
         if (LP_ADDR_W < 2 || LP_ADDR_W > 16) begin : g_bad_addr_w
             $error("fringe_long_period: LP_ADDR_W = %0d out of range 2..16 (instance %m)", LP_ADDR_W);
         end else if ((64'd1 << LP_ADDR_W) > REV64) begin : g_bad_entries
             $error("fringe_long_period: 2^LP_ADDR_W = %0d entries exceed REV = LINES * 2^FINE_W (instance %m)",
                    1 << LP_ADDR_W);
         end
-        if (LP_W < 8 || LP_W > 32) begin : g_bad_lp_w
-            $error("fringe_long_period: LP_W = %0d out of range 8..32 (instance %m)", LP_W);
-        end
-        if (LP_FRAC < 0 || LP_FRAC > 16) begin : g_bad_lp_frac
-            $error("fringe_long_period: LP_FRAC = %0d out of range 0..16 (instance %m)", LP_FRAC);
-        end
-        if (LP_IF < 1 || LP_IF > 16) begin : g_bad_lp_if
-            $error("fringe_long_period: LP_IF = %0d out of range 1..16 (instance %m)", LP_IF);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_lp_w, "fringe_long_period", "LP_W", LP_W, 8, 32)
+        `FRINGE_CHECK_RANGE(g_bad_lp_frac, "fringe_long_period", "LP_FRAC", LP_FRAC, 0, 16)
+        `FRINGE_CHECK_RANGE(g_bad_lp_if, "fringe_long_period", "LP_IF", LP_IF, 1, 16)
         if (LP_W - LP_FRAC >= 0 && (64'd1 << (LP_W - LP_FRAC)) > REV64) begin : g_bad_range
             $error("fringe_long_period: LP_W - LP_FRAC = %0d: corrections up to 2^%0d fine counts exceed REV = LINES * 2^FINE_W (instance %m)",
                    LP_W - LP_FRAC, LP_W - LP_FRAC);
@@ -87,9 +73,7 @@ module fringe_long_period #(
             $error("fringe_long_period: LP_RECIP = %0d, LP_SHIFT = %0d do not map every position to floor(pos * 2^LP_ADDR_W / REV); take them from index_mapping() (instance %m)",
                    LP_RECIP, LP_SHIFT);
         end
-        if (USER_W < 1) begin : g_bad_user_w
-            $error("fringe_long_period: USER_W = %0d must be >= 1 (instance %m)", USER_W);
-        end
+        `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_long_period", "USER_W", USER_W, 1)
     endgenerate
 
     // ---- widths --------------------------------------------------------------------------------------

@@ -39,15 +39,7 @@ module fringe_period_count #(
     localparam integer CW      = (COARSE_W > 0) ? COARSE_W : 1;
 
     generate
-        if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
-            $error("fringe_period_count: FINE_W = %0d out of range 8..30 (instance %m)", FINE_W);
-        end
-        if (LINES < 1 || LINES > (1 << 20)) begin : g_bad_lines
-            $error("fringe_period_count: LINES = %0d out of range 1..2^20 (instance %m)", LINES);
-        end
-        if (POS_W > 48) begin : g_bad_pos_w
-            $error("fringe_period_count: POS_W = FINE_W + clog2(LINES) = %0d exceeds 48 (instance %m)", POS_W);
-        end
+        `FRINGE_CHECK_POSITION("fringe_period_count", FINE_W, LINES, 48)
         if (COARSE_W != 0 && (COARSE_W < 1 || COARSE_W > 24 || COARSE_W > FINE_W - 2)) begin : g_bad_coarse_w
             $error("fringe_period_count: COARSE_W = %0d out of range: 0 (no coarse code) or 1..24 with COARSE_W <= FINE_W - 2 (instance %m)",
                    COARSE_W);
@@ -55,9 +47,7 @@ module fringe_period_count #(
             $error("fringe_period_count: 2^COARSE_W = %0d is less than LINES = %0d (instance %m)",
                    1 << COARSE_W, LINES);
         end
-        if (USER_W < 1) begin : g_bad_user_w
-            $error("fringe_period_count: USER_W = %0d must be >= 1 (instance %m)", USER_W);
-        end
+        `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_period_count", "USER_W", USER_W, 1)
     endgenerate
 
     // ---- valid (the only reset registers) and sideband: stages 1-2, then stage 3 -------------------

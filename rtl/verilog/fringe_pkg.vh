@@ -65,6 +65,33 @@ localparam integer DRIFT_OBS_LATENCY       = 15;  // fringe_drift observer
 // END generated constants
 /* verilator lint_on UNUSEDPARAM */
 
+// Parameter checks inside a generate region: stop elaboration with the model's ValueError text (and
+// the instance path). LABEL names the generate block, UNIT and NAME are string literals, NAME's value V.
+`ifndef FRINGE_CHECK_RANGE
+`define FRINGE_CHECK_RANGE(LABEL, UNIT, NAME, V, LO, HI) \
+    if ((V) < (LO) || (V) > (HI)) begin : LABEL \
+        $error("%s: %s = %0d out of range %0d..%0d (instance %m)", UNIT, NAME, V, LO, HI); \
+    end
+`define FRINGE_CHECK_MIN(LABEL, UNIT, NAME, V, LO) \
+    if ((V) < (LO)) begin : LABEL \
+        $error("%s: %s = %0d must be >= %0d (instance %m)", UNIT, NAME, V, LO); \
+    end
+`define FRINGE_CHECK_BIT(LABEL, UNIT, NAME, V) \
+    if ((V) != 0 && (V) != 1) begin : LABEL \
+        $error("%s: %s = %0d must be 0 or 1 (instance %m)", UNIT, NAME, V); \
+    end
+// The blocks that count in REV = LINES * 2^FINE_W: FINE_W, LINES and POS_W = FINE_W + clog2(LINES) (the
+// VHDL's check_position); generate blocks g_bad_fine_w, g_bad_lines, g_bad_pos_w.
+`define FRINGE_CHECK_POSITION(UNIT, FW, LN, PMAX) \
+    `FRINGE_CHECK_RANGE(g_bad_fine_w, UNIT, "FINE_W", FW, 8, 30) \
+    if ((LN) < 1 || (LN) > (1 << 20)) begin : g_bad_lines \
+        $error("%s: LINES = %0d out of range 1..2^20 (instance %m)", UNIT, LN); \
+    end \
+    if ((FW) + $clog2(LN) > (PMAX)) begin : g_bad_pos_w \
+        $error("%s: POS_W = FINE_W + clog2(LINES) = %0d exceeds %0d (instance %m)", UNIT, (FW) + $clog2(LN), PMAX); \
+    end
+`endif
+
 // LATENCY of fringe_core and fringe_top (trim, drift, cancel: the TRIM, DRIFT and CANCEL parameters, 0 or
 // 1): the input registers and the blocks in the chain, from the generated block latencies above
 // (fringe_canceller's LATENCY, 4, written out: not among the generated constants yet)

@@ -1,7 +1,7 @@
 // fringe_quadrature: offset, gain and quadrature correction (seed 001 eq. 21, Heydemann form).
 //
 // LATENCY = 5 clock enables, one sample per clock (SHARED_MUL = 1: the three products k_ss*ds, k_sc*dc,
-// k_cc*dc through one multiplier (two halves when the difference is split) in three clock enables, same
+// k_cc*dc through one multiplier (fringe_split_mul: partial products of a split operand) in three clock enables, same
 // words and LATENCY, samples at least SHARED_MIN_CLOCKS = 4 clock enables apart, fixed/quadrature.py); ce = 0 freezes
 // every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_quadrature.md.
@@ -44,25 +44,14 @@ module fringe_quadrature #(
     localparam integer D_W       = WAVE_W + 1;       // x - ofs, exact
     localparam integer P_W       = COEF_W + D_W;     // k * (x - ofs), exact
     localparam integer S_W       = P_W + 1;          // sum of two products + rounding, exact
-    localparam integer L         = 17;               // low part of a split difference, unsigned
-    localparam         WIDE      = D_W > 18;         // split: each partial product fits an 18x18 DSP
-    localparam integer DH_W      = WIDE ? D_W - L : 1;  // high part of a split difference, signed
     localparam integer Q_W       = S_W - COEF_FRAC;  // after the shift: WAVE_W + 4
     localparam [S_W-1:0] RND     = {{(S_W-1){1'b0}}, 1'b1} << (COEF_FRAC - 1);
 
     generate
-        if (WAVE_W < 8 || WAVE_W > 32) begin : g_bad_wave_w
-            $error("fringe_quadrature: WAVE_W = %0d out of range 8..32 (instance %m)", WAVE_W);
-        end
-        if (COEF_W < 8 || COEF_W > 27) begin : g_bad_coef_w
-            $error("fringe_quadrature: COEF_W = %0d out of range 8..27 (instance %m)", COEF_W);
-        end
-        if (USER_W < 1) begin : g_bad_user_w
-            $error("fringe_quadrature: USER_W = %0d must be >= 1 (instance %m)", USER_W);
-        end
-        if (SHARED_MUL != 0 && SHARED_MUL != 1) begin : g_bad_shared
-            $error("fringe_quadrature: SHARED_MUL = %0d must be 0 or 1 (instance %m)", SHARED_MUL);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_wave_w, "fringe_quadrature", "WAVE_W", WAVE_W, 8, 32)
+        `FRINGE_CHECK_RANGE(g_bad_coef_w, "fringe_quadrature", "COEF_W", COEF_W, 8, 27)
+        `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_quadrature", "USER_W", USER_W, 1)
+        `FRINGE_CHECK_BIT(g_bad_shared, "fringe_quadrature", "SHARED_MUL", SHARED_MUL)
     endgenerate
 
     // ---- stage 1: differences; coefficients travel with the sample --------------------------
@@ -85,78 +74,44 @@ module fringe_quadrature #(
     // the sums the output stage shifts and saturates: k_ss*ds + k_sc*dc + RND and k_cc*dc + RND
     wire signed [S_W-1:0] sum_s, sum_c;
 
+    // ---- valid (the only reset registers) and sideband, LATENCY stages: stage 1, then the rest -------
+    wire              at1;       // the sample is in stage 1 (SHARED_MUL = 1 picks the operands by it)
+    wire [USER_W-1:0] user1;
+
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(1)) u_valid1 (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .out_valid(at1), .out_data(user1)
+    );
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY - 1)) u_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(at1), .in_data(user1),
+        .out_valid(out_valid), .out_data(out_user)
+    );
+
     generate
         if (SHARED_MUL == 0) begin : g_parallel
-            // ---- stages 2, 3: products, assembled with the rounding constant -------------------
+            // ---- stage 2: the products, bare: fringe_split_mul with LATENCY 1 registers the 18x18
+            // partial products of a wide difference or gain, and adds them without a register ----
+            wire [P_W-1:0] m_ss, m_sc, m_cc;
+
+            fringe_split_mul #(.A_W(COEF_W), .B_W(D_W), .LATENCY(1)) u_mul_ss (
+                .clk(clk), .ce(ce), .a(k_ss1), .b(ds1), .p(m_ss)
+            );
+            fringe_split_mul #(.A_W(COEF_W), .B_W(D_W), .LATENCY(1)) u_mul_sc (
+                .clk(clk), .ce(ce), .a(k_sc1), .b(dc1), .p(m_sc)
+            );
+            fringe_split_mul #(.A_W(COEF_W), .B_W(D_W), .LATENCY(1)) u_mul_cc (
+                .clk(clk), .ce(ce), .a(k_cc1), .b(dc1), .p(m_cc)
+            );
+
+            // ---- stage 3: the products assembled, with the rounding constant; stage 4: the sine sum
             reg signed [S_W-1:0] pss3, psc3, pcc3;   // k_ss*ds + RND, k_sc*dc, k_cc*dc + RND
-
-            if (!WIDE) begin : g_narrow
-                reg signed [P_W-1:0] pss2, psc2, pcc2;
-
-                always @(posedge clk) begin
-                    if (ce) begin
-                        pss2 <= k_ss1 * ds1;
-                        psc2 <= k_sc1 * dc1;
-                        pcc2 <= k_cc1 * dc1;
-                        pss3 <= pss2 + $signed(RND);
-                        psc3 <= {{(S_W-P_W){psc2[P_W-1]}}, psc2};
-                        pcc3 <= pcc2 + $signed(RND);
-                    end
-                end
-            end else begin : g_wide
-                localparam integer LO_W = COEF_W + L + 1;    // k * d_lo
-                localparam integer HI_W = COEF_W + DH_W;     // k * d_hi
-                wire signed [L:0]      ds_lo = {1'b0, ds1[L-1:0]};
-                wire signed [L:0]      dc_lo = {1'b0, dc1[L-1:0]};
-                wire signed [DH_W-1:0] ds_hi = ds1[D_W-1:L];
-                wire signed [DH_W-1:0] dc_hi = dc1[D_W-1:L];
-                reg  signed [LO_W-1:0] pss_lo2, psc_lo2, pcc_lo2;
-                reg  signed [HI_W-1:0] pss_hi2, psc_hi2, pcc_hi2;
-
-                always @(posedge clk) begin
-                    if (ce) begin
-                        pss_lo2 <= k_ss1 * ds_lo;
-                        psc_lo2 <= k_sc1 * dc_lo;
-                        pcc_lo2 <= k_cc1 * dc_lo;
-                        pss_hi2 <= k_ss1 * ds_hi;
-                        psc_hi2 <= k_sc1 * dc_hi;
-                        pcc_hi2 <= k_cc1 * dc_hi;
-                    end
-                end
-
-                // hi * 2^L + lo (+ RND): the low L bits of hi * 2^L are zero
-                wire signed [S_W-1:0] hss = {{(S_W-HI_W-L){pss_hi2[HI_W-1]}}, pss_hi2, {L{1'b0}}};
-                wire signed [S_W-1:0] hsc = {{(S_W-HI_W-L){psc_hi2[HI_W-1]}}, psc_hi2, {L{1'b0}}};
-                wire signed [S_W-1:0] hcc = {{(S_W-HI_W-L){pcc_hi2[HI_W-1]}}, pcc_hi2, {L{1'b0}}};
-                wire signed [S_W-1:0] lss = {{(S_W-LO_W){pss_lo2[LO_W-1]}}, pss_lo2};
-                wire signed [S_W-1:0] lsc = {{(S_W-LO_W){psc_lo2[LO_W-1]}}, psc_lo2};
-                wire signed [S_W-1:0] lcc = {{(S_W-LO_W){pcc_lo2[LO_W-1]}}, pcc_lo2};
-
-                if (COEF_FRAC - 1 < L) begin : g_rnd_in
-                    // RND lies in those zero bits: no third operand
-                    always @(posedge clk) begin
-                        if (ce) begin
-                            pss3 <= (hss | $signed(RND)) + lss;
-                            psc3 <= hsc + lsc;
-                            pcc3 <= (hcc | $signed(RND)) + lcc;
-                        end
-                    end
-                end else begin : g_rnd_add
-                    always @(posedge clk) begin
-                        if (ce) begin
-                            pss3 <= hss + lss + $signed(RND);
-                            psc3 <= hsc + lsc;
-                            pcc3 <= hcc + lcc + $signed(RND);
-                        end
-                    end
-                end
-            end
-
-            // ---- stage 4: the sine sum -----------------------------------------------------------
             reg signed [S_W-1:0] sum_s3, sum_c3;
 
             always @(posedge clk) begin
                 if (ce) begin
+                    pss3   <= $signed({m_ss[P_W-1], m_ss}) + $signed(RND);
+                    psc3   <= $signed({m_sc[P_W-1], m_sc});
+                    pcc3   <= $signed({m_cc[P_W-1], m_cc}) + $signed(RND);
                     sum_s3 <= pss3 + psc3;
                     sum_c3 <= pcc3;
                 end
@@ -168,16 +123,18 @@ module fringe_quadrature #(
             // One multiplier, the sample's three products at stages 2, 3 and 4 (k_ss*ds, k_sc*dc,
             // k_cc*dc); the stage-1 registers hold the sample until stage 4 reads them, so the next
             // sample may enter at stage 4's clock enable at the earliest (4 clock enables apart).
-            // prod is the registered product; acc_s = k_ss*ds + RND at stage 3, sum_s3 adds k_sc*dc
-            // at stage 4, and k_cc*dc + RND goes straight to the output stage: the same sums as the
-            // parallel datapath, at the same clock enables.
+            // prod is the product (fringe_split_mul, LATENCY 1: registered partial products, their
+            // sum unregistered); acc_s = k_ss*ds + RND at stage 3, sum_s3 adds k_sc*dc at stage 4,
+            // and k_cc*dc + RND goes straight to the output stage: the same sums as the parallel
+            // datapath, at the same clock enables.
             // The operands are registered (the DSP's input registers): k_ss and x_s - ofs_s with the
             // sample (stage 1), then k_sc, dc and k_cc, dc from the stage-1 registers.
-            reg                     at1;     // the sample is in stage 1
             reg  signed [COEF_W-1:0] k_m;
             reg  signed [D_W-1:0]    d_m;
             wire signed [D_W-1:0]    ds0 = $signed({xs[WAVE_W-1], xs}) - $signed({ofs_s[WAVE_W-1], ofs_s});
-            wire signed [S_W-1:0]    prod;
+            wire        [P_W-1:0]    m;
+            wire signed [S_W-1:0]    prod = $signed({m[P_W-1], m});
+            reg  signed [S_W-1:0]    acc_s, sum_s3;
 
             always @(posedge clk) begin
                 if (ce) begin
@@ -190,41 +147,10 @@ module fringe_quadrature #(
                     end
                 end
             end
-            reg  signed [S_W-1:0]    acc_s, sum_s3;
 
-            always @(posedge clk) begin
-                if (rst) begin
-                    at1 <= 1'b0;
-                end else if (ce) begin
-                    at1 <= in_valid;
-                end
-            end
-
-            if (!WIDE) begin : g_narrow
-                reg signed [P_W-1:0] m2;
-                always @(posedge clk) begin
-                    if (ce) begin
-                        m2 <= k_m * d_m;
-                    end
-                end
-                assign prod = {{(S_W-P_W){m2[P_W-1]}}, m2};
-            end else begin : g_wide
-                localparam integer LO_W = COEF_W + L + 1;    // k * d_lo
-                localparam integer HI_W = COEF_W + DH_W;     // k * d_hi
-                wire signed [L:0]      d_lo = {1'b0, d_m[L-1:0]};
-                wire signed [DH_W-1:0] d_hi = d_m[D_W-1:L];
-                reg  signed [LO_W-1:0] m_lo2;
-                reg  signed [HI_W-1:0] m_hi2;
-                always @(posedge clk) begin
-                    if (ce) begin
-                        m_lo2 <= k_m * d_lo;
-                        m_hi2 <= k_m * d_hi;
-                    end
-                end
-                // hi * 2^L + lo, exact
-                assign prod = {{(S_W-HI_W-L){m_hi2[HI_W-1]}}, m_hi2, {L{1'b0}}}
-                              + {{(S_W-LO_W){m_lo2[LO_W-1]}}, m_lo2};
-            end
+            fringe_split_mul #(.A_W(COEF_W), .B_W(D_W), .LATENCY(1)) u_mul (
+                .clk(clk), .ce(ce), .a(k_m), .b(d_m), .p(m)
+            );
 
             always @(posedge clk) begin
                 if (ce) begin
@@ -254,12 +180,6 @@ module fringe_quadrature #(
             sat <= ovf_s3 | ovf_c3;
         end
     end
-
-    // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
-    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
-        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
-        .out_valid(out_valid), .out_data(out_user)
-    );
 
     // The low COEF_FRAC bits of the sums are the fraction dropped by the shift.
     wire unused_ok = &{1'b0, sum_s[COEF_FRAC-1:0], sum_c[COEF_FRAC-1:0], ds1, k_ss1};

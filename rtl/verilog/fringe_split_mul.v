@@ -2,9 +2,10 @@
 // partial products that each fit one 18x18 signed multiplier (LO_W = 17; 15 for 16x16).
 // Document: docs/blocks/fringe_split_mul.md.
 //
-// LATENCY clock enables (>= 2): stage 1 registers the bare partial products, stages 2..LATENCY add
+// LATENCY clock enables (>= 1): stage 1 registers the bare partial products, stages 2..LATENCY add
 // them in groups of G (the smallest G with G^(LATENCY-1) >= the number of partial products), one
-// carry chain per term. ce = 0 freezes every stage; there is no reset (data only).
+// carry chain per term; LATENCY = 1: p is the unregistered sum of the registered partial products
+// (for a caller that registers it with terms of its own). ce = 0 freezes every stage; no reset (data only).
 
 `default_nettype none
 
@@ -13,7 +14,7 @@ module fringe_split_mul #(
     parameter integer A_SIGNED = 1,   // 1: a is two's complement, 0: unsigned
     parameter integer B_W      = 18,  // width of b, >= 1
     parameter integer B_SIGNED = 1,   // 1: b is two's complement, 0: unsigned
-    parameter integer LATENCY  = 2,   // clock enables from a, b to p, >= 2
+    parameter integer LATENCY  = 2,   // clock enables from a, b to p, >= 1 (1: p is not registered)
     parameter integer LO_W     = 17   // bits of a low chunk, >= 1: partial products of (LO_W+1)-bit signed chunks
 ) (
     input  wire               clk,
@@ -102,8 +103,8 @@ module fringe_split_mul #(
 
     // ---- parameter checks -------------------------------------------------------------------------
     generate
-        if (A_W < 1 || B_W < 1 || LO_W < 1 || LATENCY < 2) begin : g_bad_generics
-            $error("fringe_split_mul: A_W = %0d, B_W = %0d, LO_W = %0d must be >= 1 and LATENCY = %0d >= 2 (instance %m)",
+        if (A_W < 1 || B_W < 1 || LO_W < 1 || LATENCY < 1) begin : g_bad_generics
+            $error("fringe_split_mul: A_W = %0d, B_W = %0d, LO_W = %0d, LATENCY = %0d must be >= 1 (instance %m)",
                    A_W, B_W, LO_W, LATENCY);
         end
     endgenerate
@@ -166,7 +167,20 @@ module fringe_split_mul #(
         end
     endgenerate
 
-    assign p = stage[NS][P_W-1:0];
+    generate
+        if (NS == 0) begin : g_sum_out
+            // LATENCY = 1: the registered partial products added without a register
+            reg [P_W-1:0] sum;
+            integer c;
+            always @* begin
+                sum = {P_W{1'b0}};
+                for (c = 0; c < NP; c = c + 1) sum = sum + stage[0][c*P_W +: P_W];
+            end
+            assign p = sum;
+        end else begin : g_reg_out
+            assign p = stage[NS][P_W-1:0];
+        end
+    endgenerate
 
     // Bits that carry nothing: the operands' extension above the top chunk, terms past the last.
     wire unused = &{1'b0, a_ext, b_ext, stage[NS]};

@@ -22,15 +22,13 @@ module fringe_table_ram #(
     output reg  [DATA_W-1:0] rd_data    // registered: valid one clock after rd_en
 );
 
+    `include "fringe_pkg.vh"
+
     localparam integer DEPTH = 2 << ADDR_W;  // both banks
 
     generate
-        if (ADDR_W < 1 || ADDR_W > 24) begin : g_bad_addr_w
-            $error("fringe_table_ram: ADDR_W = %0d out of range 1..24 (instance %m)", ADDR_W);
-        end
-        if (DATA_W < 1 || DATA_W > 64) begin : g_bad_data_w
-            $error("fringe_table_ram: DATA_W = %0d out of range 1..64 (instance %m)", DATA_W);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_addr_w, "fringe_table_ram", "ADDR_W", ADDR_W, 1, 24)
+        `FRINGE_CHECK_RANGE(g_bad_data_w, "fringe_table_ram", "DATA_W", DATA_W, 1, 64)
     endgenerate
 
     // no_rw_check: read-during-write to one address is a don't-care (callers never read the

@@ -61,37 +61,17 @@ module fringe_trim #(
     localparam integer   PHI_MAX = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
 
     generate
-        if (FINE_W < 8 || FINE_W > 30) begin : g_bad_fine_w
-            $error("fringe_trim: FINE_W = %0d out of range 8..30 (instance %m)", FINE_W);
-        end
-        if (LINES < 1 || LINES > (1 << 20)) begin : g_bad_lines
-            $error("fringe_trim: LINES = %0d out of range 1..2^20 (instance %m)", LINES);
-        end
-        if (POS_W > 31) begin : g_bad_pos_w
-            $error("fringe_trim: POS_W = FINE_W + clog2(LINES) = %0d exceeds 31 (instance %m)", POS_W);
-        end
-        if (AMP_W < 4 || AMP_W > 32) begin : g_bad_amp_w
-            $error("fringe_trim: AMP_W = %0d out of range 4..32 (instance %m)", AMP_W);
-        end
-        if (SPEED_LOG2 < 0 || SPEED_LOG2 > 8) begin : g_bad_speed_log2
-            $error("fringe_trim: SPEED_LOG2 = %0d out of range 0..8 (instance %m)", SPEED_LOG2);
-        end
-        if (MAP_PSI_W < 0 || MAP_PSI_W > 8) begin : g_bad_psi_w
-            $error("fringe_trim: MAP_PSI_W = %0d out of range 0..8 (instance %m)", MAP_PSI_W);
-        end
+        `FRINGE_CHECK_POSITION("fringe_trim", FINE_W, LINES, 31)
+        `FRINGE_CHECK_RANGE(g_bad_amp_w, "fringe_trim", "AMP_W", AMP_W, 4, 32)
+        `FRINGE_CHECK_RANGE(g_bad_speed_log2, "fringe_trim", "SPEED_LOG2", SPEED_LOG2, 0, 8)
+        `FRINGE_CHECK_RANGE(g_bad_psi_w, "fringe_trim", "MAP_PSI_W", MAP_PSI_W, 0, 8)
         if (MAP_PHI_W < 2 || MAP_PHI_W > PHI_MAX) begin : g_bad_phi_w
             $error("fringe_trim: MAP_PHI_W = %0d out of range 2..min(10, FINE_W-1) = %0d (instance %m)",
                    MAP_PHI_W, PHI_MAX);
         end
-        if (TRIM_W < 8 || TRIM_W > 24) begin : g_bad_trim_w
-            $error("fringe_trim: TRIM_W = %0d out of range 8..24 (instance %m)", TRIM_W);
-        end
-        if (TRIM_FRAC < 0 || TRIM_FRAC > 16) begin : g_bad_trim_frac
-            $error("fringe_trim: TRIM_FRAC = %0d out of range 0..16 (instance %m)", TRIM_FRAC);
-        end
-        if (G_SHIFT < 1 || G_SHIFT > 48) begin : g_bad_g_shift
-            $error("fringe_trim: G_SHIFT = %0d out of range 1..48 (instance %m)", G_SHIFT);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_trim_w, "fringe_trim", "TRIM_W", TRIM_W, 8, 24)
+        `FRINGE_CHECK_RANGE(g_bad_trim_frac, "fringe_trim", "TRIM_FRAC", TRIM_FRAC, 0, 16)
+        `FRINGE_CHECK_RANGE(g_bad_g_shift, "fringe_trim", "G_SHIFT", G_SHIFT, 1, 48)
         if (MAP_PSI_W > 0) begin : g_check_map
             if (SECT_SHIFT < 0 || SECT_SHIFT > 127) begin : g_bad_shift
                 $error("fringe_trim: SECT_SHIFT = %0d out of range 0..127 (instance %m)", SECT_SHIFT);
@@ -100,9 +80,7 @@ module fringe_trim #(
                        SECT_RECIP, SECT_SHIFT);
             end
         end
-        if (USER_W < 1) begin : g_bad_user_w
-            $error("fringe_trim: USER_W = %0d must be >= 1 (instance %m)", USER_W);
-        end
+        `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_trim", "USER_W", USER_W, 1)
     endgenerate
 
     // ---- widths ------------------------------------------------------------------------------------

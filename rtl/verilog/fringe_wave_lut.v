@@ -40,19 +40,13 @@ module fringe_wave_lut #(
     localparam integer FB      = ADC_W - WAVE_ADDR_W;  // fraction bits of the index, >= 1
 
     generate
-        if (ADC_W < 4 || ADC_W > 24) begin : g_bad_adc_w
-            $error("fringe_wave_lut: ADC_W = %0d out of range 4..24 (instance %m)", ADC_W);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_adc_w, "fringe_wave_lut", "ADC_W", ADC_W, 4, 24)
         if (WAVE_ADDR_W < 2 || WAVE_ADDR_W > ADC_W - 1) begin : g_bad_wave_addr_w
             $error("fringe_wave_lut: WAVE_ADDR_W = %0d out of range 2..ADC_W-1 = %0d (instance %m)",
                    WAVE_ADDR_W, ADC_W - 1);
         end
-        if (WAVE_W < 8 || WAVE_W > 32) begin : g_bad_wave_w
-            $error("fringe_wave_lut: WAVE_W = %0d out of range 8..32 (instance %m)", WAVE_W);
-        end
-        if (USER_W < 1) begin : g_bad_user_w
-            $error("fringe_wave_lut: USER_W = %0d must be >= 1 (instance %m)", USER_W);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_wave_w, "fringe_wave_lut", "WAVE_W", WAVE_W, 8, 32)
+        `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_wave_lut", "USER_W", USER_W, 1)
     endgenerate
 
     // ---- stage 0 (combinational): index ----------------------------------------------------

@@ -2,7 +2,7 @@
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_quadrature.v (same generics, ports and behaviour).
 -- LATENCY = 5 clock enables, one sample per clock (SHARED_MUL = 1: the three products k_ss*ds, k_sc*dc,
--- k_cc*dc through one multiplier (two halves when the difference is split) in three clock enables, same
+-- k_cc*dc through one multiplier (fringe_split_mul: partial products of a split operand) in three clock enables, same
 -- words and LATENCY, samples at least SHARED_MIN_CLOCKS = 4 clock enables apart, fixed/quadrature.py); ce = 0 freezes
 -- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_quadrature.md.
@@ -63,9 +63,6 @@ architecture rtl of fringe_quadrature is
     constant P_W       : integer := COEF_W + D_W;      -- k * (x - ofs), exact
     constant S_W       : integer := P_W + 1;           -- sum of two products + rounding, exact
     constant Q_W       : integer := S_W - COEF_FRAC;   -- after the shift: WAVE_W + 4
-    constant L         : integer := 17;                -- low part of a split difference, unsigned
-    constant WIDE      : boolean := D_W > 18;          -- split: each partial product fits an 18x18 DSP
-    constant DH_W      : integer := maximum(D_W - L, 1);  -- high part of a split difference, signed
     constant RND       : signed(S_W - 1 downto 0) := shift_left(to_signed(1, S_W), COEF_FRAC - 1);
     constant MAX_W     : signed(WAVE_W - 1 downto 0) := '0' & (WAVE_W - 2 downto 0 => '1');
     constant MIN_W     : signed(WAVE_W - 1 downto 0) := '1' & (WAVE_W - 2 downto 0 => '0');
@@ -89,6 +86,8 @@ architecture rtl of fringe_quadrature is
     signal k_ss1, k_sc1, k_cc1 : signed(COEF_W - 1 downto 0);
     -- the sums the output stage shifts and saturates: k_ss*ds + k_sc*dc + RND and k_cc*dc + RND
     signal sum_s, sum_c       : signed(S_W - 1 downto 0);
+    signal at1                : std_logic;   -- the sample is in stage 1 (SHARED_MUL = 1 picks the operands by it)
+    signal user1              : std_logic_vector(USER_W - 1 downto 0);
 
 
 begin
@@ -116,67 +115,30 @@ begin
     end process p_data;
 
     g_parallel : if SHARED_MUL = 0 generate
+        signal m_ss, m_sc, m_cc : std_logic_vector(P_W - 1 downto 0);
         signal pss3, psc3, pcc3 : signed(S_W - 1 downto 0);   -- k_ss*ds + RND, k_sc*dc, k_cc*dc + RND
         signal sum_s3, sum_c3   : signed(S_W - 1 downto 0);
     begin
-        -- ---- stages 2, 3: products, assembled with the rounding constant ------------------------
-        g_narrow : if not WIDE generate
-            signal pss2, psc2, pcc2 : signed(P_W - 1 downto 0);
-        begin
-            p_prod : process (clk)
-            begin
-                if rising_edge(clk) then
-                    if ce = '1' then
-                        pss2 <= k_ss1 * ds1;
-                        psc2 <= k_sc1 * dc1;
-                        pcc2 <= k_cc1 * dc1;
-                        pss3 <= resize(pss2, S_W) + RND;
-                        psc3 <= resize(psc2, S_W);
-                        pcc3 <= resize(pcc2, S_W) + RND;
-                    end if;
-                end if;
-            end process p_prod;
-        else generate
-            constant LO_W : integer := COEF_W + L + 1;   -- k * d_lo
-            constant HI_W : integer := COEF_W + DH_W;    -- k * d_hi
-            signal pss_lo2, psc_lo2, pcc_lo2 : signed(LO_W - 1 downto 0);
-            signal pss_hi2, psc_hi2, pcc_hi2 : signed(HI_W - 1 downto 0);
+        -- ---- stage 2: the products, bare: fringe_split_mul with LATENCY 1 registers the 18x18
+        -- partial products of a wide difference or gain, and adds them without a register
+        u_mul_ss : entity work.fringe_split_mul
+            generic map (A_W => COEF_W, B_W => D_W, LATENCY => 1)
+            port map (clk => clk, ce => ce, a => std_logic_vector(k_ss1), b => std_logic_vector(ds1), p => m_ss);
+        u_mul_sc : entity work.fringe_split_mul
+            generic map (A_W => COEF_W, B_W => D_W, LATENCY => 1)
+            port map (clk => clk, ce => ce, a => std_logic_vector(k_sc1), b => std_logic_vector(dc1), p => m_sc);
+        u_mul_cc : entity work.fringe_split_mul
+            generic map (A_W => COEF_W, B_W => D_W, LATENCY => 1)
+            port map (clk => clk, ce => ce, a => std_logic_vector(k_cc1), b => std_logic_vector(dc1), p => m_cc);
 
-            -- hi * 2^L: its low L bits are zero
-            function shifted(hi : signed) return signed is
-            begin
-                return shift_left(resize(hi, S_W), L);
-            end function shifted;
-        begin
-            p_prod : process (clk)
-            begin
-                if rising_edge(clk) then
-                    if ce = '1' then
-                        pss_lo2 <= k_ss1 * signed('0' & ds1(L - 1 downto 0));
-                        psc_lo2 <= k_sc1 * signed('0' & dc1(L - 1 downto 0));
-                        pcc_lo2 <= k_cc1 * signed('0' & dc1(L - 1 downto 0));
-                        pss_hi2 <= k_ss1 * ds1(D_W - 1 downto L);
-                        psc_hi2 <= k_sc1 * dc1(D_W - 1 downto L);
-                        pcc_hi2 <= k_cc1 * dc1(D_W - 1 downto L);
-                        psc3 <= shifted(psc_hi2) + resize(psc_lo2, S_W);
-                        if COEF_FRAC - 1 < L then
-                            -- RND lies in the zero bits of hi * 2^L: no third operand
-                            pss3 <= (shifted(pss_hi2) or RND) + resize(pss_lo2, S_W);
-                            pcc3 <= (shifted(pcc_hi2) or RND) + resize(pcc_lo2, S_W);
-                        else
-                            pss3 <= shifted(pss_hi2) + resize(pss_lo2, S_W) + RND;
-                            pcc3 <= shifted(pcc_hi2) + resize(pcc_lo2, S_W) + RND;
-                        end if;
-                    end if;
-                end if;
-            end process p_prod;
-        end generate g_narrow;
-
-        -- ---- stage 4: the sine sum
+        -- ---- stage 3: the products assembled, with the rounding constant; stage 4: the sine sum
         p_sum : process (clk)
         begin
             if rising_edge(clk) then
                 if ce = '1' then
+                    pss3   <= resize(signed(m_ss), S_W) + RND;
+                    psc3   <= resize(signed(m_sc), S_W);
+                    pcc3   <= resize(signed(m_cc), S_W) + RND;
                     sum_s3 <= pss3 + psc3;
                     sum_c3 <= pcc3;
                 end if;
@@ -188,12 +150,13 @@ begin
 
     -- One multiplier, the sample's three products at stages 2, 3 and 4 (k_ss*ds, k_sc*dc, k_cc*dc);
     -- the stage-1 registers hold the sample until stage 4 reads them (samples >= 4 clock enables
-    -- apart). acc_s = k_ss*ds + RND at stage 3, sum_s3 adds k_sc*dc at stage 4, k_cc*dc + RND goes
-    -- straight to the output stage: the parallel datapath's sums at the same clock enables.
+    -- apart). prod is the product (fringe_split_mul, LATENCY 1: registered partial products, their sum
+    -- unregistered); acc_s = k_ss*ds + RND at stage 3, sum_s3 adds k_sc*dc at stage 4, k_cc*dc + RND
+    -- goes straight to the output stage: the parallel datapath's sums at the same clock enables.
     g_shared : if SHARED_MUL = 1 generate
-        signal at1         : std_logic;   -- the sample is in stage 1
         signal k_m         : signed(COEF_W - 1 downto 0);
         signal d_m         : signed(D_W - 1 downto 0);
+        signal m           : std_logic_vector(P_W - 1 downto 0);
         signal prod        : signed(S_W - 1 downto 0);
         signal acc_s, sum_s3 : signed(S_W - 1 downto 0);
     begin
@@ -217,46 +180,10 @@ begin
             end if;
         end process p_ops;
 
-        p_at : process (clk)
-        begin
-            if rising_edge(clk) then
-                if rst = '1' then
-                    at1 <= '0';
-                elsif ce = '1' then
-                    at1 <= in_valid;
-                end if;
-            end if;
-        end process p_at;
-
-        g_narrow_m : if not WIDE generate
-            signal m2 : signed(P_W - 1 downto 0);
-        begin
-            p_mul : process (clk)
-            begin
-                if rising_edge(clk) then
-                    if ce = '1' then
-                        m2 <= k_m * d_m;
-                    end if;
-                end if;
-            end process p_mul;
-            prod <= resize(m2, S_W);
-        else generate
-            constant LO_W : integer := COEF_W + L + 1;   -- k * d_lo
-            constant HI_W : integer := COEF_W + DH_W;    -- k * d_hi
-            signal m_lo2 : signed(LO_W - 1 downto 0);
-            signal m_hi2 : signed(HI_W - 1 downto 0);
-        begin
-            p_mul : process (clk)
-            begin
-                if rising_edge(clk) then
-                    if ce = '1' then
-                        m_lo2 <= k_m * signed('0' & d_m(L - 1 downto 0));
-                        m_hi2 <= k_m * d_m(D_W - 1 downto L);
-                    end if;
-                end if;
-            end process p_mul;
-            prod <= shift_left(resize(m_hi2, S_W), L) + resize(m_lo2, S_W);   -- hi * 2^L + lo, exact
-        end generate g_narrow_m;
+        u_mul : entity work.fringe_split_mul
+            generic map (A_W => COEF_W, B_W => D_W, LATENCY => 1)
+            port map (clk => clk, ce => ce, a => std_logic_vector(k_m), b => std_logic_vector(d_m), p => m);
+        prod <= resize(signed(m), S_W);
 
         p_acc : process (clk)
         begin
@@ -271,10 +198,14 @@ begin
         sum_c <= prod + RND;
     end generate g_shared;
 
-    -- ---- valid (the only reset registers) and sideband, LATENCY stages ---------------------
-    u_valid : entity work.fringe_delay
-        generic map (WIDTH => USER_W, DEPTH => LATENCY)
+    -- ---- valid (the only reset registers) and sideband, LATENCY stages: stage 1, then the rest
+    u_valid1 : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => 1)
         port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+                  out_valid => at1, out_data => user1);
+    u_valid : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => LATENCY - 1)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => at1, in_data => user1,
                   out_valid => out_valid, out_data => out_user);
 
 end architecture rtl;

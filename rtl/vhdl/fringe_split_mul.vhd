@@ -2,9 +2,10 @@
 -- partial products that each fit one 18x18 signed multiplier (LO_W = 17; 15 for 16x16).
 -- VHDL-2008 twin of rtl/verilog/fringe_split_mul.v. Document: docs/blocks/fringe_split_mul.md.
 --
--- LATENCY clock enables (>= 2): stage 1 registers the bare partial products, stages 2..LATENCY add
+-- LATENCY clock enables (>= 1): stage 1 registers the bare partial products, stages 2..LATENCY add
 -- them in groups of G (the smallest G with G^(LATENCY-1) >= the number of partial products), one
--- carry chain per term. ce = 0 freezes every stage; there is no reset (data only).
+-- carry chain per term; LATENCY = 1: p is the unregistered sum of the registered partial products
+-- (for a caller that registers it with terms of its own). ce = 0 freezes every stage; no reset (data only).
 
 library ieee;
 use ieee.std_logic_1164.all;
@@ -17,7 +18,7 @@ entity fringe_split_mul is
         A_SIGNED : integer := 1;   -- 1: a is two's complement, 0: unsigned
         B_W      : integer := 18;  -- width of b, >= 1
         B_SIGNED : integer := 1;   -- 1: b is two's complement, 0: unsigned
-        LATENCY  : integer := 2;   -- clock enables from a, b to p, >= 2
+        LATENCY  : integer := 2;   -- clock enables from a, b to p, >= 1 (1: p is not registered)
         LO_W     : integer := 17   -- bits of a low chunk, >= 1: partial products of (LO_W+1)-bit signed chunks
     );
     port (
@@ -34,9 +35,9 @@ architecture rtl of fringe_split_mul is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
     begin
-        assert A_W >= 1 and B_W >= 1 and LO_W >= 1 and LATENCY >= 2
+        assert A_W >= 1 and B_W >= 1 and LO_W >= 1 and LATENCY >= 1
             report "fringe_split_mul: A_W = " & integer'image(A_W) & ", B_W = " & integer'image(B_W) & ", LO_W = "
-                   & integer'image(LO_W) & " must be >= 1 and LATENCY = " & integer'image(LATENCY) & " >= 2"
+                   & integer'image(LO_W) & ", LATENCY = " & integer'image(LATENCY) & " must be >= 1"
             severity failure;
         return true;
     end function generics_ok;
@@ -66,12 +67,15 @@ architecture rtl of fringe_split_mul is
     constant NP  : integer := NA * NB;                    -- partial products, term k = (k / NB, k mod NB)
     constant NS  : integer := LATENCY - 1;                -- adding stages
 
-    -- the smallest g >= 2 with g^n_stages >= n_terms (1 for one term: the adding stages only delay)
+    -- the smallest g >= 2 with g^n_stages >= n_terms (1 for one term: the adding stages only delay;
+    -- no adding stage: all terms, as the Verilog's)
     function group_size(n_terms, n_stages : integer) return integer is
         variable g : integer := 2;
     begin
         if n_terms <= 1 then
             return 1;
+        elsif n_stages = 0 then
+            return n_terms;
         end if;
         while g ** n_stages < n_terms loop
             g := g + 1;
@@ -198,6 +202,19 @@ begin
         end generate g_term;
     end generate g_stage;
 
-    p <= std_logic_vector(stage(NS)(0));
+    g_sum_out : if NS = 0 generate
+        -- LATENCY = 1: the registered partial products added without a register
+        p_sum : process (stage)
+            variable acc : unsigned(P_W - 1 downto 0);
+        begin
+            acc := (others => '0');
+            for k in 0 to NP - 1 loop
+                acc := acc + stage(0)(k);
+            end loop;
+            p <= std_logic_vector(acc);
+        end process p_sum;
+    else generate
+        p <= std_logic_vector(stage(NS)(0));
+    end generate g_sum_out;
 
 end architecture rtl;
