@@ -38,17 +38,17 @@ module fringe_split_mul #(
 
     // the smallest g >= 2 with g^r >= t (1 if t = 1: the adding stages only delay)
     function integer group_size(input integer t, input integer r);
-        integer g, n, s;
+        integer g, n, k;   // not s: it would hide a caller's port of that name
         begin
             group_size = 1;
             if (t > 1) begin
                 g = 2;
                 n = 2;
-                for (s = 1; s < r; s = s + 1) n = n * 2;
+                for (k = 1; k < r; k = k + 1) n = n * 2;
                 while (n < t) begin
                     g = g + 1;
                     n = g;
-                    for (s = 1; s < r; s = s + 1) n = n * g;
+                    for (k = 1; k < r; k = k + 1) n = n * g;
                 end
                 group_size = g;
             end
