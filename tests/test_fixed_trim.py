@@ -23,6 +23,7 @@ from fringe.fixed.trim import (
     sector_mapping,
     sectors_of,
     slopes,
+    speed_window_log2,
     speeds,
     trim,
     trim_detail,
@@ -170,6 +171,24 @@ def test_speed_and_dir_on_synthetic_motion():
     assert r["dir"].min() == 0 and r["dir"].max() == 1           # both directions, reversals
     np.testing.assert_array_equal(r["pos_out"], pos)             # zero tables: no correction
     assert not r["sat"].any()
+
+
+@pytest.mark.parametrize("lines", [1, 2, 3, 4, 5, 7, 8, 9, 15, 16, 17, 33, 1000, 4095])
+def test_generated_speed_window_never_wraps_below_overspeed(lines):
+    """The generator's window (CoreConfig.for_encoder) keeps the speed exact up to the overspeed limit, a quarter
+    period per sample, both ways: longer windows would alias the speed, and the direction with it, silently."""
+    from fringe.encoder import Encoder
+    from fringe.fixed.config import CoreConfig
+
+    cfg = CoreConfig.for_encoder(Encoder(lines_per_rev=lines, adc_bits=12))
+    p = TrimParams(lines=lines, fine_w=12, amp_w=12, speed_log2=cfg.speed_log2, map_psi_w=0, map_phi_w=4,
+                   trim_w=16, trim_frac=0, g_shift=8)
+    assert cfg.speed_log2 == speed_window_log2(lines) and (cfg.speed_log2 == 5 or 2 << cfg.speed_log2 >= 2 * lines)
+    step = (1 << p.fine_w) // 4 - 1                     # just under a quarter period per sample
+    for sign in (1, -1):
+        un = sign * step * np.arange(4 * p.window + 8, dtype=np.int64)
+        sp = speeds(un % p.rev, p)
+        np.testing.assert_array_equal(sp[p.window:], sign * step * p.window)
 
 
 def _wrap_ref(d, rev):

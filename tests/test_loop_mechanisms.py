@@ -221,3 +221,24 @@ def test_validation_figures_in_blocks_equal_the_whole(monkeypatch, coarse_bits, 
     blocks = loop.validation_figures(state, meas)
     assert blocks["rms_arcsec"] == pytest.approx(whole["rms_arcsec"], rel=1e-3), (blocks, whole)
     assert blocks["pp_arcsec"] == pytest.approx(whole["pp_arcsec"], rel=1e-2), (blocks, whole)
+
+
+def test_a_float_only_term_leaves_the_core_terms_as_they_were():
+    """refit_angle_terms fits the core's terms first and the float engine's terms on what they leave: the core,
+    which runs without the float-only term, keeps exactly the weights it would have had without it (fitted
+    jointly, a speed^2 term over a narrow speed range trades weight with a speed term and the constant shape)."""
+    from fringe.calibrate import calibrate
+    from fringe.effects import FittedEffect, generic_name
+
+    cfg = SimulationConfig(samples=16_384, lines_per_rev=64, coarse_bits=0, sampling_skew_s=2e-5,
+                           speed_mean_rev_s=1.0, speed_swing_rev_s=0.3)
+    meas = measurement_of(simulate(cfg, 3))
+    cal = calibrate(meas, cfg.encoder())
+    core = [FittedEffect(generic_name("speed", 2), np.zeros(5)), FittedEffect(generic_name("1", 2), np.zeros(4))]
+    flo = FittedEffect(generic_name("speed2", 2), np.zeros(5), engine="float")
+    alone = loop.refit_angle_terms(dataclasses.replace(cal, angle_terms=list(core)), meas)
+    both = loop.refit_angle_terms(dataclasses.replace(cal, angle_terms=[core[0], flo, core[1]]), meas)
+    assert [t.name for t in both.angle_terms] == [core[0].name, flo.name, core[1].name]
+    for a, b in zip(alone.angle_terms, (both.angle_terms[0], both.angle_terms[2]), strict=True):
+        np.testing.assert_allclose(b.weights, a.weights, rtol=1e-9, atol=1e-12)
+    assert np.any(both.angle_terms[1].weights != 0)

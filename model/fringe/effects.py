@@ -22,9 +22,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .fixed.trim import speed_window_log2
 from .position import wrap
 
-SPEED_LOG2 = 5                # speed = position change over the last 2^SPEED_LOG2 samples (fringe_trim's window)
 MAG_REF = 1.0                 # amplitude terms work on magnitude - MAG_REF (a fixed point, as in the hardware)
 REV_ORDERS = 4                # revolution orders for modulated terms
 TIME_ORDERS = 3               # Legendre degree for slow changes in time
@@ -50,9 +50,10 @@ class Context:
                        self.magnitude[sl], self.lines, self.t_span or (float(self.t[0]), float(self.t[-1])))
 
 
-def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int = SPEED_LOG2) -> np.ndarray:
+def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int) -> np.ndarray:
     """Causal speed (rev/s): the position change over the last 2^log2_window samples, 0 until the
-    window is full. Exactly what fringe_trim computes in fine counts (model/fringe/fixed/trim.py)."""
+    window is full. Exactly what fringe_trim computes in fine counts (model/fringe/fixed/trim.py), with the
+    window the generator gives it (fixed.trim.speed_window_log2)."""
     n = 1 << log2_window
     v = np.zeros(len(rev_unwrapped))
     if len(v) > n:
@@ -65,7 +66,7 @@ def make_context(frac: np.ndarray, position_periods: np.ndarray, lines: int, t: 
                  magnitude: np.ndarray) -> Context:
     rev = position_periods / lines
     unwrapped = rev[0] + np.concatenate([[0.0], np.cumsum(wrap(np.diff(rev)))])
-    v = speed_estimate(unwrapped, t)
+    v = speed_estimate(unwrapped, t, speed_window_log2(lines))
     acc = np.gradient(v, t) if len(t) > 2 else np.zeros_like(v)
     d = np.where(v >= 0, 1, -1)     # standstill counts as forward (fringe_trim: dir = speed < 0)
     return Context(2 * np.pi * frac, 2 * np.pi * (rev % 1.0), t, v, acc, d, magnitude, lines)

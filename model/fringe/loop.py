@@ -27,7 +27,6 @@ from .effects import (
     GENERIC_REV_ORDERS,
     INTERFERENCE,
     LIBRARY,
-    SPEED_LOG2,
     Context,
     FittedEffect,
     factor_columns,
@@ -38,6 +37,7 @@ from .effects import (
     tone_columns,
 )
 from .encoder import ARCSEC_PER_REV, Encoder
+from .fixed.trim import speed_window_log2
 from .errors import FringeInputError
 from .metrics import error_arcsec, error_figures
 from .pipeline import run_float, sample_times
@@ -250,7 +250,7 @@ def test_fourier(r: np.ndarray, angle: np.ndarray, orders, sigma: float, name: s
 
 def settled_speed(ctx: Context) -> np.ndarray:
     """The speed estimate once its window is full (it reads 0 before, as in the hardware)."""
-    n = 1 << SPEED_LOG2
+    n = 1 << speed_window_log2(ctx.lines)
     return ctx.speed[n:] if len(ctx.speed) > 2 * n else ctx.speed
 
 
@@ -777,21 +777,35 @@ def joint_fit(r: np.ndarray, ctx: Context, terms: list[FittedEffect]) -> np.ndar
 
 def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> Calibration:
     """Re-calibrate the declared model with the terms' error held out of it, then refit the terms
-    jointly on what the declared model leaves: neither absorbs the other's error."""
+    jointly on what the declared model leaves: neither absorbs the other's error.
+
+    The core's terms come first: the declared model holds out only their error, and they are fitted together;
+    the terms only the float engine runs are then fitted on what is left. Fitted all together, a float-only
+    term (speed^2 over a narrow speed range is nearly a constant plus a speed term) would trade weight with the
+    core's terms, and the core, which runs without it, would be left with the other half of the trade."""
     terms = list(cal.angle_terms)
+    in_core = [getattr(t, "engine", "core") != "float" for t in terms]
     for _ in range(rounds):
-        res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
+        # the context as the core sees it: without the float engine's terms
+        core_terms = [t for t, c in zip(cal.angle_terms, in_core, strict=True) if c]
+        res = run_float(dataclasses.replace(cal, angle_terms=core_terms), meas.sin, meas.cos, meas.coarse, meas.t_s)
         ctx = make_context(res.frac, res.position, cal.encoder.lines_per_rev, sample_times(len(res.frac), meas.t_s),
                            res.magnitude)
-        known = cal.direction * sum(t.predict(ctx) for t in cal.angle_terms)   # output frame -> encoder frame
+        # output frame -> encoder frame
+        known = cal.direction * sum(t.predict(ctx) for t in core_terms) if core_terms else None
         base = recalibrate(meas, cal, known)
         base = carry_loop(base, cal, angle_terms=[])
         r = error_arcsec(run_float(base, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
-        w = joint_fit(r, ctx, terms)
-        widths = [len(t.weights) for t in terms]
-        terms = [dataclasses.replace(t, weights=ww)
-                 for t, ww in zip(terms, np.split(w, np.cumsum(widths)[:-1]), strict=True)]
-        cal = dataclasses.replace(base, angle_terms=terms)
+        for group in (True, False):
+            idx = [k for k, c in enumerate(in_core) if c == group]
+            if not idx:
+                continue
+            w = joint_fit(r, ctx, [terms[k] for k in idx])
+            widths = [len(terms[k].weights) for k in idx]
+            for k, ww in zip(idx, np.split(w, np.cumsum(widths)[:-1]), strict=True):
+                terms[k] = dataclasses.replace(terms[k], weights=ww)
+            r = r - sum(terms[k].predict(ctx) for k in idx)
+        cal = dataclasses.replace(base, angle_terms=list(terms))
     return cal
 
 

@@ -21,7 +21,7 @@ from .cordic import CordicParams
 from .drift import DriftParams
 from .period_count import PositionWidths
 from .quadrature import QuadratureParams
-from .trim import TrimParams
+from .trim import TrimParams, speed_window_log2
 from .wave_lut import WaveLutParams
 
 WAVE_LSB_ARCSEC = 2.0   # default table width: one LSB of a waveform table moves the angle by at most this
@@ -186,7 +186,7 @@ class CoreConfig(PositionWidths):
         base = dict(adc_w=enc.adc_bits, lines=enc.lines_per_rev, coarse_w=enc.coarse_bits,
                     wave_addr_w=min(enc.adc_bits - 1, max(8, enc.adc_bits - 4), 10),
                     wave_w=wave_w, coef_w=min(27, max(16, enc.adc_bits + 2)), fine_w=fine_w,
-                    cordic_stages=fine_w + 1)
+                    cordic_stages=fine_w + 1, speed_log2=speed_window_log2(enc.lines_per_rev))
         base.update(overrides)
         return cls(**base)
 

@@ -352,6 +352,17 @@ def _wrap(d: np.ndarray, rev: int) -> np.ndarray:
     return d - np.where(2 * d >= rev, rev, 0) + np.where(2 * d < -rev, rev, 0)
 
 
+LONGEST_SPEED_LOG2 = 5    # the longest speed window the generator chooses (32 samples: a quiet speed, little lag)
+
+
+def speed_window_log2(lines: int, longest: int = LONGEST_SPEED_LOG2) -> int:
+    """The longest speed window, up to 2^longest samples, whose position change stays within half a revolution
+    at the core's overspeed limit (a quarter period per sample): 2^SPEED_LOG2 < 2 LINES. A longer window
+    would wrap the speed into [-REV/2, REV/2) and turn it, and the direction with it, into a wrong one without
+    any fault, on encoders of few lines at speed."""
+    return min(longest, (2 * int(lines) - 1).bit_length() - 1)
+
+
 def speeds(pos, params: TrimParams) -> np.ndarray:
     """The speed of every sample of a stream that starts after a reset: ``wrap(pos[n] - pos[n-N])``
     for n >= N = 2^SPEED_LOG2, else 0; int64 in [-REV/2, REV/2) (dir = speed < 0)."""
