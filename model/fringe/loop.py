@@ -37,8 +37,8 @@ from .effects import (
     tone_columns,
 )
 from .encoder import ARCSEC_PER_REV, Encoder
-from .fixed.trim import speed_window_log2
 from .errors import FringeInputError
+from .fixed.trim import speed_window_log2
 from .metrics import error_arcsec, error_figures
 from .pipeline import run_float, sample_times
 from .position import shifted
