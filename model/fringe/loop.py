@@ -728,10 +728,12 @@ def refit_around_interference(cal: Calibration, state: LoopState, meas: Measurem
 
 
 def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measurement, rounds: int = 3) -> Calibration:
-    """Re-calibrate the declared model with the tones' error (in time, fitted on this recording) held out of it.
-    The first calibration absorbed part of the tones (its long-period table): each round fits them on the
-    residual of the previous round's calibration, which held the previous estimate out, until neither takes
-    the other's error."""
+    """Re-calibrate the declared model, and refit the closed loop's angle terms, with the tones (in time, fitted on
+    this recording) taken out of the reference. The first calibration absorbed part of the tones (its long-period
+    table): each round fits them on the residual of the previous round's calibration, which held the previous
+    estimate out, until neither takes the other's error. The angle terms are refitted with it
+    (refit_angle_terms): a declared model calibrated again without their error held out would take part of it,
+    and the terms would then correct it twice."""
     t = sample_times(len(meas), meas.t_s)
     x = np.column_stack([np.cos(2 * np.pi * tone.tone_hz * t) for tone in tones]
                         + [np.sin(2 * np.pi * tone.tone_hz * t) for tone in tones])
@@ -740,8 +742,12 @@ def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measure
     for _ in range(rounds):
         r = error_arcsec(run_float(current, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
         w, *_ = np.linalg.lstsq(x, r - r.mean(), rcond=None)
-        fresh = recalibrate(meas, cal, cal.direction * (x @ w))
-        current = carry_loop(fresh, cal)
+        # r = angle - reference: the reference plus the tone leaves the residual without it
+        quiet = dataclasses.replace(meas, ref_deg=np.mod(meas.ref_deg + (x @ w) / 3600.0, 360.0))
+        if cal.angle_terms:
+            current = refit_angle_terms(current, quiet, rounds=1)
+        else:
+            current = carry_loop(recalibrate(quiet, cal), cal)
     return current
 
 
