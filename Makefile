@@ -53,7 +53,7 @@ $(SYNTH_STAMP): $(STAMP)
 	touch $@
 
 synth: $(SYNTH_STAMP)
-	$(BIN)/python sim/synth.py --out results --configs seed,line1,seed_trim,seed_drift,seed_compact,seed_compact_trim,seed_compact_drift --devices ice40,ecp5,ecp5-8
+	$(BIN)/python sim/synth.py --out results --configs seed,line1,seed_trim,seed_drift,seed_cancel,seed_compact,seed_compact_trim,seed_compact_drift --devices ice40,ecp5,ecp5-8
 
 # Gowin, Lattice Nexus and GateMate: the seed configuration (their place and route is slow; docs/synthesis.md)
 synth-families: $(SYNTH_STAMP)

@@ -9,6 +9,8 @@ Per configuration (``--configs``):
   line1  a 16-bit ADC, 1 line per revolution, no coarse code (periods are counted)
   seed_trim   the seed configuration with fringe_trim (TRIM = 1, the closed loop's corrections)
   seed_drift  the seed configuration with fringe_drift (DRIFT = 1, the closed loop's drift tracker)
+  seed_cancel the seed configuration with fringe_canceller (CANCEL = 1): a 437 Hz tone at 2 % of full scale on
+              the recording, its CANCEL_FREQ, CANCEL_BLOCK_LOG2 5, CANCEL_MU_LOG2 6, A_W from cancel_config
   seed_compact, seed_compact_trim, seed_compact_drift  seed, seed_trim, seed_drift with COMPACT = 1 (the
          time-multiplexed core: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC; same words); their
          rows carry the issue's targets (COMPACT_TARGETS, judged on the UP5K) in ``compact_targets``; they run
@@ -185,6 +187,26 @@ def seed_drift_config():
     return drift_config(dataclasses.replace(cal, adaptive=True), cfg), cal
 
 
+#: seed_cancel: the tone on the seed encoder's channels (fraction of full scale, Hz; the tone of
+#: tb/test_fringe_top.py's adc12-L256-c9-cancel case) and canceller constants from inside the closed loop's
+#: search (loop.choose_canceller: CANCEL_BLOCK_LOG2 4..6, CANCEL_MU_LOG2 4..10)
+SEED_CANCEL_TONE = (0.02, 437.0)
+SEED_CANCEL_CONSTANTS = {"cancel_block_log2": 5, "cancel_mu_log2": 6}
+
+
+def seed_cancel_config():
+    # fringe_canceller (CANCEL = 1) as fringe.hardware.corefiles builds it for a loop calibration that names a
+    # tone: the seed recording with an additive tone, its CANCEL_FREQ from the tone, A_W sized by cancel_config
+    from fringe.hardware.corefiles import cancel_config
+
+    sim = seed_encoder()
+    sim.interference_fs, sim.interference_hz = SEED_CANCEL_TONE
+    cfg, cal = _calibrated(sim)
+    cal = dataclasses.replace(cal, canceller={"tone_hz": SEED_CANCEL_TONE[1], "sample_rate_hz": sim.sample_rate_hz,
+                                              **SEED_CANCEL_CONSTANTS})
+    return cancel_config(cal, cfg), cal
+
+
 def _compact(make):
     def config():
         cfg, cal = make()
@@ -203,6 +225,8 @@ CONFIGS = {
     "line1": ("16-bit ADC, 1 line, no coarse code", line1_config),
     "seed_trim": ("seed encoder with fringe_trim (closed-loop corrections, TRIM = 1)", seed_trim_config),
     "seed_drift": ("seed encoder with fringe_drift (the drift tracker, DRIFT = 1)", seed_drift_config),
+    "seed_cancel": ("seed encoder with fringe_canceller (an additive tone cancelled online, CANCEL = 1)",
+                    seed_cancel_config),
     "seed_compact": ("seed, time-multiplexed (COMPACT = 1)", _compact(seed_config)),
     "seed_compact_trim": ("seed_trim, time-multiplexed (COMPACT = 1)", _compact(seed_trim_config)),
     "seed_compact_drift": ("seed_drift, time-multiplexed (COMPACT = 1)", _compact(seed_drift_config)),
