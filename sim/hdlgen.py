@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fringe import result
-from fringe.fixed import cordic, drift, long_period, period_count, quadrature, regmap, trim, wave_lut
+from fringe.fixed import canceller, cordic, drift, long_period, period_count, quadrature, regmap, trim, wave_lut
 from fringe.fixed.config import HDL_PARAMETER_DOCS, HDL_WIDE_PARAMETERS, INPUT_LATENCY, CoreConfig
 
 REPO = Path(__file__).resolve().parent.parent
@@ -72,7 +72,10 @@ def constants() -> list[Const]:
             Const("TRIM_LATENCY", trim.LATENCY, "fringe_trim"),
             Const("LONG_PERIOD_LATENCY", long_period.LATENCY, "fringe_long_period"),
             Const("DRIFT_NORM_LATENCY", drift.NORM_LATENCY, "fringe_drift normaliser"),
-            Const("DRIFT_OBS_LATENCY", drift.OBS_LATENCY, "fringe_drift observer")]
+            Const("DRIFT_OBS_LATENCY", drift.OBS_LATENCY, "fringe_drift observer"),
+            Const("CANCEL_LATENCY", canceller.LATENCY, "fringe_canceller"),
+            Const("CANCEL_ADAPT_LATENCY", canceller.ADAPT_LATENCY,
+                  "fringe_canceller: a block's last sample to its update in place")]
     return out
 
 

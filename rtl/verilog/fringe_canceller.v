@@ -38,8 +38,8 @@ module fringe_canceller #(
 
     `include "fringe_pkg.vh"
 
-    localparam integer LATENCY       = 4;
-    localparam integer ADAPT_LATENCY = 15;
+    localparam integer LATENCY       = CANCEL_LATENCY;
+    localparam integer ADAPT_LATENCY = CANCEL_ADAPT_LATENCY;
     localparam integer A_W_MAX  = (WAVE_W + A_FRAC < 32) ? WAVE_W + A_FRAC : 32;
     localparam integer SH0      = BLOCK_LOG2 + C_W - 2 - A_FRAC;
 

@@ -249,7 +249,7 @@ module fringe_core #(
     // the normalisation (a saturated normalised code) travel with it, with the normalised codes the
     // tracker's observer needs at the CORDIC output: dx = {y_sin, y_cos, norm_sat, clip_c, clip_s}.
     localparam integer DX_W   = 2 * ADC_W + 3;
-    localparam integer LAT_X  = CANCEL * 4;   // fringe_canceller's LATENCY (CANCEL = 1)
+    localparam integer LAT_X  = CANCEL * CANCEL_LATENCY;   // fringe_canceller (CANCEL = 1)
     localparam integer PIPE_D = CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + LAT_X + CORDIC_STAGES
                                 + CORDIC_LATENCY_BASE;   // normaliser outputs -> CORDIC outputs
     localparam [ADC_W-1:0] ADC_MIN = {1'b1, {(ADC_W-1){1'b0}}}, ADC_MAX = {1'b0, {(ADC_W-1){1'b1}}};

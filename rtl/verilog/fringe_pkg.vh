@@ -62,6 +62,8 @@ localparam integer TRIM_LATENCY            = 12;  // fringe_trim
 localparam integer LONG_PERIOD_LATENCY     = 8;  // fringe_long_period
 localparam integer DRIFT_NORM_LATENCY      = 4;  // fringe_drift normaliser
 localparam integer DRIFT_OBS_LATENCY       = 15;  // fringe_drift observer
+localparam integer CANCEL_LATENCY          = 4;  // fringe_canceller
+localparam integer CANCEL_ADAPT_LATENCY    = 15;  // fringe_canceller: a block's last sample to its update in place
 // END generated constants
 /* verilator lint_on UNUSEDPARAM */
 
@@ -103,7 +105,7 @@ function integer fringe_core_latency;
     begin
         fringe_core_latency = CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + cordic_stages
                               + CORDIC_LATENCY_BASE + PERIOD_COUNT_LATENCY + LONG_PERIOD_LATENCY
-                              + trim * TRIM_LATENCY + drift * DRIFT_NORM_LATENCY + cancel * 4;
+                              + trim * TRIM_LATENCY + drift * DRIFT_NORM_LATENCY + cancel * CANCEL_LATENCY;
     end
 endfunction
 

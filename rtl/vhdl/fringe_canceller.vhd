@@ -45,8 +45,8 @@ end entity fringe_canceller;
 
 architecture rtl of fringe_canceller is
 
-    constant LATENCY       : integer := 4;
-    constant ADAPT_LATENCY : integer := 15;
+    constant LATENCY       : integer := CANCEL_LATENCY;
+    constant ADAPT_LATENCY : integer := CANCEL_ADAPT_LATENCY;
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is

@@ -209,7 +209,7 @@ architecture rtl of fringe_core is
     -- the drift normaliser (DRIFT = 1) or the raw codes; dx = {y_sin, y_cos, norm_sat, clip_c, clip_s}
     -- travels with the sample to the CORDIC output (the tracker's observer), CLIP_* of the raw codes
     constant DX_W   : integer := 2 * ADC_W + 3;
-    constant LAT_X  : integer := CANCEL * 4;   -- fringe_canceller's LATENCY (CANCEL = 1)
+    constant LAT_X  : integer := CANCEL * CANCEL_LATENCY;   -- fringe_canceller (CANCEL = 1)
     constant PIPE_D : integer := CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + LAT_X + CORDIC_STAGES
                                  + CORDIC_LATENCY_BASE;   -- normaliser outputs -> CORDIC outputs
     signal raw_clip_s, raw_clip_c : std_logic;

@@ -116,6 +116,8 @@ package fringe_pkg is
     constant LONG_PERIOD_LATENCY     : integer := 8;  -- fringe_long_period
     constant DRIFT_NORM_LATENCY      : integer := 4;  -- fringe_drift normaliser
     constant DRIFT_OBS_LATENCY       : integer := 15;  -- fringe_drift observer
+    constant CANCEL_LATENCY          : integer := 4;  -- fringe_canceller
+    constant CANCEL_ADAPT_LATENCY    : integer := 15;  -- fringe_canceller: a block's last sample to its update in place
     -- END generated constants
 
 end package fringe_pkg;
@@ -258,7 +260,7 @@ package body fringe_pkg is
     begin
         return CORE_INPUT_LATENCY + WAVE_LUT_LATENCY + QUADRATURE_LATENCY + cordic_stages + CORDIC_LATENCY_BASE
                + PERIOD_COUNT_LATENCY + LONG_PERIOD_LATENCY + trim * TRIM_LATENCY + drift * DRIFT_NORM_LATENCY
-               + cancel * 4;
+               + cancel * CANCEL_LATENCY;
     end function core_latency;
 
     impure function read_memh(fname : string; depth, width : positive; what : string) return word_array is
