@@ -13,6 +13,7 @@ from fringe.fixed.period_count import (
     LATENCY,
     PeriodCountParams,
     clog2,
+    coarse_absolute,
     period_count,
     rev_and_pos_w,
 )
@@ -45,6 +46,8 @@ class Contract:
         self.p = p
         self.prev: int | None = None
         self.pos: int | None = None
+        self.seen = False                 # a trusted sample since reset
+        self.lost = False                 # an overspeed since the last absolute output
 
     def step(self, phase: int, coarse: int, ofs: int) -> tuple[int, bool, bool]:
         p = self.p
@@ -59,7 +62,16 @@ class Contract:
             n = (d + m // 2) >> p.fine_w                          # floor
             r = d - n * m
             err = abs(r) > p.coarse_tol
-            pos = (n % p.lines) * m + phase
+            pos_abs = (n % p.lines) * m + phase
+            trusted = -m // 4 <= r < m // 4
+            pos_trk = None if self.pos is None else (self.pos + delta) % p.rev
+            lost = self.lost or over
+            if trusted or not self.seen:
+                err = err or (trusted and self.seen and not lost and pos_abs != pos_trk)
+                pos, self.lost = pos_abs, False
+            else:
+                pos, self.lost = pos_trk, lost
+            self.seen = self.seen or trusted
         else:
             pos = phase if self.pos is None else (self.pos + delta) % p.rev
             err = False
@@ -109,7 +121,8 @@ def test_vectorised_model_matches_the_contract(p):
                                                    (7, 9, 3)])
 def test_period_number_range_and_wrap_exhaustive(lines, fine_w, coarse_w):
     """Every phase and code, offsets over the whole supported range: n in [-2, LINES+1] before the
-    wrap (so one add or subtract of LINES suffices, as in the RTL), and pos = (n mod LINES) 2^F + phase."""
+    wrap (so one add or subtract of LINES suffices, as in the RTL), and pos_abs = (n mod LINES) 2^F + phase,
+    the output of every trusted sample."""
     p = PeriodCountParams(fine_w, lines, coarse_w)
     m = 1 << fine_w
     ph, co = np.meshgrid(np.arange(m), np.arange(1 << coarse_w))
@@ -120,9 +133,13 @@ def test_period_number_range_and_wrap_exhaustive(lines, fine_w, coarse_w):
             d = ((co * lines) << (fine_w - coarse_w)) + o - ph
             n = (d + m // 2) >> fine_w
             n_min, n_max = min(n_min, int(n.min())), max(n_max, int(n.max()))
+            pos_abs, r = coarse_absolute(ph, co, o, p)
+            np.testing.assert_array_equal(pos_abs, np.mod(n, lines) * m + ph)
+            np.testing.assert_array_equal(r, d - n * m)
             pos, _, err = period_count(ph, co, o, p)
-            np.testing.assert_array_equal(pos, np.mod(n, lines) * m + ph)
-            np.testing.assert_array_equal(err, np.abs(d - n * m) > p.coarse_tol)
+            trusted = np.abs(2 * r + 1) <= m // 2           # -m/4 <= r < m/4
+            np.testing.assert_array_equal(pos[trusted], pos_abs[trusted])
+            np.testing.assert_array_equal(err[~trusted], np.abs(r[~trusted]) > p.coarse_tol)
     assert -2 <= n_min and n_max <= lines + 1
     assert n_min == -2                                       # the range is reached
     with pytest.raises(ValueError, match="coarse_ofs"):
@@ -197,17 +214,17 @@ def test_coarse_code_wrap_and_period_edges():
     span, m = p.coarse_span, 1 << p.fine_w
     true = np.array([0, 1, m - 1, m, p.rev - 1, p.rev - m, p.rev - m - 1, 50 * m + 7, span - 1, span])
     coarse = (true + span // 2 - span // 2) // span        # ofs = span/2: no misalignment
-    pos, _, err = period_count(true % m, coarse, span // 2, p)
+    pos, r = coarse_absolute(true % m, coarse, span // 2, p)
     np.testing.assert_array_equal(pos, true)
-    assert not err.any()
+    assert not (np.abs(r) > p.coarse_tol).any()
     # misaligned by half a code: code 2^COARSE_W-1 spans the revolution wrap, then code 0
     ofs = span
     true = np.array([p.rev - 3, p.rev - 1, 0, 5, span // 2 - 1, span // 2, span // 2 + 1])
     coarse = (np.mod(true + span // 2 - ofs, p.rev) // span) % 256
     np.testing.assert_array_equal(coarse, [255, 255, 255, 255, 255, 0, 0])
-    pos, _, err = period_count(true % m, coarse, ofs, p)
+    pos, r = coarse_absolute(true % m, coarse, ofs, p)
     np.testing.assert_array_equal(pos, true)
-    assert not err.any()
+    assert not (np.abs(r) > p.coarse_tol).any()
 
 
 def test_wrong_codes_are_flagged_beyond_the_tolerance():
@@ -230,7 +247,10 @@ def test_scalar_and_per_sample_offsets_agree():
         np.testing.assert_array_equal(x, y)
     ofs2 = np.where(np.arange(phase.size) < 500, ofs, -ofs)
     pos, _, _ = period_count(phase, coarse, ofs2, p)
-    np.testing.assert_array_equal(pos[500:], period_count(phase, coarse, -ofs, p)[0][500:])
+    pos_abs, r = coarse_absolute(phase, coarse, -ofs, p)
+    trusted = np.abs(2 * r + 1) <= p.trust * 2           # -TRUST <= r < TRUST
+    assert trusted[500:].sum() >= 10
+    np.testing.assert_array_equal(pos[500:][trusted[500:]], pos_abs[500:][trusted[500:]])
 
 
 def test_empty_stream():

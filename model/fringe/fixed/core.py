@@ -94,7 +94,7 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
     the bank, so each stateless stage is evaluated per bank and selected per sample.
 
     start_pos resumes a stream in the middle (`CoreStream`): the period counter's position at the
-    first sample (COARSE_W = 0; ignored otherwise).
+    first sample (with COARSE_W > 0: the first sample's output once a trusted sample had been seen).
     """
     sin = np.asarray(sin, dtype=np.int64)
     cos = np.asarray(cos, dtype=np.int64)
@@ -162,9 +162,9 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
     else:
         clip_s, clip_c, sat, phase, mag = front(sin, cos, bank)
     pcp = period_count_params(cfg)
-    start = start_pos if cfg.coarse_w == 0 else None
-    per = [pc_mod.period_count(phase, coarse, t.coarse_ofs, pcp, start) for t in banks]
-    pos, overspeed, coarse_err = (pick([p[k] for p in per]) for k in range(3))
+    # the combination's track follows the stream, each sample's offset its bank
+    coarse_ofs = pick([np.full(n, t.coarse_ofs, dtype=np.int64) for t in banks])
+    pos, overspeed, coarse_err = pc_mod.period_count(phase, coarse, coarse_ofs, pcp, start_pos)
     trimmed = pos
     if cfg.trim:    # the speed history follows the stream; the tables follow each sample's bank
         trimmed, _, trim_sat = trim_mod.trim(pos, mag, np.stack([t.trim.map for t in banks]),
@@ -203,6 +203,7 @@ class CoreStream:
         self.t, self.cfg = t, cfg
         self.keep = 1 + (cfg.trim_params().window if cfg.trim else 0)
         self.tail = None          # (sin, cos, coarse) of the last rows, the counter position of the first
+        self.trusted_seen = False  # COARSE_W > 0: a trusted sample up to the tail's first row (the track runs)
 
     def run(self, sin, cos, coarse=None) -> tuple[np.ndarray, np.ndarray]:
         """(pos, status) of the next piece (ADC codes)."""
@@ -210,10 +211,17 @@ class CoreStream:
         coarse = np.zeros(len(sin), np.int64) if coarse is None else np.asarray(coarse, np.int64)
         k, start = 0, None
         if self.tail is not None:
-            k, start = len(self.tail[0]), self.tail[3]
+            k = len(self.tail[0])
+            # before the first trusted sample the combination is stateless: a restart there is exact
+            start = self.tail[3] if self.cfg.coarse_w == 0 or self.trusted_seen else None
             sin, cos, coarse = (np.concatenate([a, b]) for a, b in zip(self.tail[:3], (sin, cos, coarse), strict=True))
         o = run_core(self.t, self.cfg, sin, cos, coarse, start_pos=start)
         m = min(self.keep, len(sin))
+        if self.cfg.coarse_w and len(sin):
+            pcp = period_count_params(self.cfg)
+            _, r = pc_mod.coarse_absolute(o.phase, coarse, self.t.coarse_ofs, pcp)
+            trusted = (r >= -pcp.trust) & (r < pcp.trust)
+            self.trusted_seen = self.trusted_seen or bool(trusted[:len(sin) - m + 1].any())
         self.tail = (sin[-m:], cos[-m:], coarse[-m:], int(o.count_pos[-m]))
         return o.pos[k:], o.status[k:]
 
