@@ -52,8 +52,9 @@ def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse
     absolute one is taken at trusted samples and carried forward (every sample is absolute
     before the first trusted one). Flagged: a residual beyond the midpoint between half a code
     and half a period (span < 1), or a trusted sample whose absolute count differs from the
-    tracked one (a code that is really wrong; the position resynchronises there) unless a
-    quarter-period step (`overspeed`) since the last absolute sample lost the track.
+    tracked one (a code that is really wrong; the position resynchronises there, and the samples
+    tracked from it carry the flag) unless a quarter-period step (`overspeed`) since the last
+    absolute sample lost the track.
     """
     frac = np.asarray(frac, float)
     span = coarse_code_span(lines, coarse_bits)
@@ -76,7 +77,8 @@ def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse
     prev = np.concatenate([[0], last[:-1]])
     fast = np.cumsum(overspeed(frac))
     lost = fast - fast[prev] > 0
-    flag = flag | (trusted & seen & ~lost & ((to_abs - to_abs[prev]) % lines != 0))
+    resync = trusted & seen & ~lost & ((to_abs - to_abs[prev]) % lines != 0)
+    flag = flag | resync[last]                   # the samples tracked from a resync carry its flag
     return ((count + to_abs[last]) % lines) + frac, flag
 
 

@@ -6,7 +6,8 @@
 // bits of r agree), sets pos from the code; any other sample, once a trusted one was seen since reset,
 // is tracked, (pos_prev + delta) mod REV as the counter (a code of half a period or more flipped at its
 // edge is a whole period off). coarse_err: |r| > COARSE_TOL, or a trusted sample whose period number
-// differs from a track not lost by an overspeed since the last absolute output (a really wrong code).
+// differs from a track not lost by an overspeed since the last absolute output (a really wrong code:
+// pos resynchronises to the code), and every sample tracked from such a resync (track_bad).
 //
 // LATENCY = 3 clock enables, one sample per clock; ce = 0 freezes
 // every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
@@ -191,23 +192,27 @@ module fringe_period_count #(
             wire trusted  = s2_r[FINE_W-1] == s2_r[FINE_W-2];   // -TRUST <= r < TRUST
             reg  trusted_seen;                                  // state: a trusted sample since reset
             reg  track_lost;                                    // state: an overspeed since the last absolute output
+            reg  track_bad;                                     // state: the last absolute output was a resync
             wire absolute = trusted | ~trusted_seen;            // this sample's pos is the code's
             wire lost     = track_lost | s2_over;
             wire differs;                                       // the code's period number is not the track's
+            wire resync   = trusted & trusted_seen & ~lost & differs;
 
             always @(posedge clk) begin
                 if (rst) begin
                     trusted_seen <= 1'b0;
                     track_lost   <= 1'b0;
+                    track_bad    <= 1'b0;
                 end else if (done) begin
                     trusted_seen <= trusted_seen | trusted;
                     track_lost   <= ~absolute & lost;
+                    track_bad    <= absolute ? resync : track_bad;
                 end
             end
 
             always @(posedge clk) begin
                 if (done) begin
-                    coarse_err <= err | (trusted & trusted_seen & ~lost & differs);
+                    coarse_err <= err | (absolute ? resync : track_bad);
                 end
             end
 

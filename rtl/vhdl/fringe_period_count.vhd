@@ -8,7 +8,8 @@
 -- bits of r agree), sets pos from the code; any other sample, once a trusted one was seen since reset,
 -- is tracked, (pos_prev + delta) mod REV as the counter (a code of half a period or more flipped at its
 -- edge is a whole period off). coarse_err: |r| > COARSE_TOL, or a trusted sample whose period number
--- differs from a track not lost by an overspeed since the last absolute output (a really wrong code).
+-- differs from a track not lost by an overspeed since the last absolute output (a really wrong code:
+-- pos resynchronises to the code), and every sample tracked from such a resync (track_bad).
 -- LATENCY = 3 clock enables, one sample per clock; ce = 0 freezes
 -- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_period_count.md.
@@ -112,6 +113,11 @@ architecture rtl of fringe_period_count is
     signal pos_r      : unsigned(POS_W - 1 downto 0);   -- the output; pos_prev of the track
     signal trusted_seen : std_logic;                    -- state: a trusted sample since reset
     signal track_lost   : std_logic;                    -- state: an overspeed since the last absolute output
+    signal track_bad    : std_logic;                    -- state: the last absolute output was a resync
+    signal resync       : std_logic;                    -- a trusted code disagrees with a valid track
+    signal differs      : std_logic;                    -- the code's period number is not the track's
+    signal trk          : unsigned(SW - 1 downto 0);    -- the tracked position, < REV
+    signal n_wrap       : unsigned(NR - 1 downto 0);    -- the code's period number mod LINES
     signal trusted      : std_logic;                    -- -TRUST <= r < TRUST: the code cannot be flipped
     signal absolute     : std_logic;                    -- this sample's pos is the code's
     signal lost         : std_logic;                    -- the track is lost
@@ -202,51 +208,60 @@ begin
             if rst = '1' then
                 trusted_seen <= '0';
                 track_lost   <= '0';
+                track_bad    <= '0';
             elsif done = '1' then
                 trusted_seen <= trusted_seen or trusted;
                 track_lost   <= not absolute and lost;
+                if absolute = '1' then
+                    track_bad <= resync;
+                end if;
             end if;
         end if;
     end process p_track;
 
+    -- the track: (pos_prev + delta) mod REV, the three sums in parallel, chosen by sign bits; n mod
+    -- LINES (n in [-2, LINES+1]), both candidates in parallel, chosen by sign bits
+    p_comb : process (all)
+        variable sum, sum_up, sum_down : unsigned(SW - 1 downto 0);
+        variable n_up, n_down : unsigned(NR - 1 downto 0);
+    begin
+        sum      := resize(pos_r, SW) + s2_d;
+        sum_up   := resize(pos_r, SW) + s2_d_up;
+        sum_down := resize(pos_r, SW) + s2_d_down;
+        trk      <= wrapped(sum, sum_up, sum_down);
+        n_up     := s2_n + LINES_W(NR - 1 downto 0);
+        n_down   := s2_n - LINES_W(NR - 1 downto 0);
+        if LINES = 1 then
+            n_wrap <= (others => '0');      -- n mod 1 = 0
+        else
+            n_wrap <= wrapped(s2_n, n_up, n_down);
+        end if;
+    end process p_comb;
+
+    -- trk and the code's position share their low FINE_W bits (the phase)
+    differs <= '1' when resize(n_wrap, POS_W - FINE_W + 1) /= resize(trk(POS_W - 1 downto FINE_W), POS_W - FINE_W + 1)
+               else '0';
+    resync  <= trusted and trusted_seen and not lost and differs;
+
     p_stage3 : process (clk)
-        variable n_up, n_down, n_wrap : unsigned(NR - 1 downto 0);
-        variable r         : signed(FINE_W downto 0);
-        variable sum, sum_up, sum_down, trk : unsigned(SW - 1 downto 0);
-        variable err, differs : std_logic;
+        variable r   : signed(FINE_W downto 0);
+        variable err : std_logic;
     begin
         if rising_edge(clk) then
             if done = '1' then
                 overspeed <= s2_over;
-                -- the track: (pos_prev + delta) mod REV, the three sums in parallel, chosen by sign bits
-                sum      := resize(pos_r, SW) + s2_d;
-                sum_up   := resize(pos_r, SW) + s2_d_up;
-                sum_down := resize(pos_r, SW) + s2_d_down;
-                trk      := wrapped(sum, sum_up, sum_down);
                 if COARSE_W > 0 then
-                    -- |r| > tol (two compares in parallel); n mod LINES (n in [-2, LINES+1]), both
-                    -- candidates in parallel, chosen by sign bits
+                    -- |r| > tol (two compares in parallel)
                     r := resize(s2_r, FINE_W + 1);
                     err := '0';
                     if r > TOL or r < -TOL then
                         err := '1';
                     end if;
-                    n_up   := s2_n + LINES_W(NR - 1 downto 0);
-                    n_down := s2_n - LINES_W(NR - 1 downto 0);
-                    if LINES = 1 then
-                        n_wrap := (others => '0');      -- n mod 1 = 0
-                    else
-                        n_wrap := wrapped(s2_n, n_up, n_down);
-                    end if;
-                    -- trk and the code's position share their low FINE_W bits (the phase)
-                    differs := '0';
-                    if resize(n_wrap, POS_W - FINE_W + 1) /= resize(trk(POS_W - 1 downto FINE_W), POS_W - FINE_W + 1) then
-                        differs := '1';
-                    end if;
-                    coarse_err <= err or (trusted and trusted_seen and not lost and differs);
                     if absolute = '1' then
+                        coarse_err <= err or resync;
                         pos_r <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s2_phase, POS_W);
                     else
+                        coarse_err <= err or track_bad;
                         pos_r <= trk(POS_W - 1 downto 0);
                     end if;
                 else

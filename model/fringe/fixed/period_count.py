@@ -25,7 +25,10 @@ per revolution and ``POS_W = clog2(REV) = FINE_W + clog2(LINES)`` (at most 48):
   (the midpoint between half a coarse code and half a period; it cannot fire at span = 1), or a
   trusted sample after an earlier trusted one whose ``pos_abs`` differs from a valid ``pos_trk``:
   the code is really wrong, never edge jitter. That sample's output is ``pos_abs`` (the position
-  resynchronises), and the jump is flagged. The track is lost (``track_lost``) by an overspeed
+  resynchronises), and the jump is flagged, as are the samples tracked from it (``track_bad``, up to
+  the next absolute output): either side of the jump may be the wrong one, none is silent. (A wrong
+  code repeated on the trusted samples after its resync agrees with the track it set: only its
+  first sample and the samples tracked from it are flagged.) The track is lost (``track_lost``) by an overspeed
   (this sample's or one since the last ``pos_abs`` output): then a disagreement is the track's
   fault, already flagged as overspeed, and a coarse_err would blame a good code;
   With span <= 1/2 and a calibrated offset ``|r|`` stays under a quarter period plus the jitter, and
@@ -196,7 +199,7 @@ def coarse_absolute(ph: np.ndarray, co: np.ndarray, ofs, p: PeriodCountParams) -
 
 
 def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos: int | None = None,
-                 start_lost: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 start_lost: bool = False, start_bad: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Position and flags for a stream of valid samples that starts right after reset.
 
     Args:
@@ -210,7 +213,8 @@ def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos
             bits must equal the first phase); default: as after reset. With COARSE_W > 0 it also says
             that a trusted sample had been seen (resume without it when none had: the output until the
             first trusted sample is pos_abs, as after reset).
-        start_lost: with start_pos and COARSE_W > 0: track_lost after the first sample (`track_state`).
+        start_lost, start_bad: with start_pos and COARSE_W > 0: track_lost and track_bad after the
+            first sample (`track_state`).
 
     Returns:
         ``(pos, overspeed, coarse_err)``: int64 positions in [0, REV) and two bool arrays.
@@ -218,17 +222,17 @@ def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos
     Raises:
         ValueError: an input outside its format or range, or mismatched lengths.
     """
-    return _run(phase, coarse, coarse_ofs, params, start_pos, start_lost)[:3]
+    return _run(phase, coarse, coarse_ofs, params, start_pos, start_lost, start_bad)[:3]
 
 
 def track_state(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos: int | None = None,
-                start_lost: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """``(trusted_seen, track_lost)`` after each sample of `period_count` (the RTL's two state bits;
-    all False with COARSE_W = 0), to resume a stream exactly."""
-    return _run(phase, coarse, coarse_ofs, params, start_pos, start_lost)[3:]
+                start_lost: bool = False, start_bad: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(trusted_seen, track_lost, track_bad)`` after each sample of `period_count` (the RTL's state
+    bits; all False with COARSE_W = 0), to resume a stream exactly."""
+    return _run(phase, coarse, coarse_ofs, params, start_pos, start_lost, start_bad)[3:]
 
 
-def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost):
+def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost, start_bad):
     ph = _int_array("phase", phase, 0, (1 << p.fine_w) - 1)
     if ph.ndim != 1:
         raise ValueError(f"{NAME}: phase must be one-dimensional (a stream), got shape {ph.shape}")
@@ -250,12 +254,12 @@ def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost)
 
     if p.coarse_w == 0:
         if n == 0:
-            return ph.copy(), overspeed, no_state, no_state, no_state
+            return ph.copy(), overspeed, no_state, no_state, no_state, no_state
         # |running sum| < n * 2^(FINE_W-1): int64 holds 2^34 samples of the widest phase
         pos = np.cumsum(delta)
         pos += ph[0] if start_pos is None else start_pos
         pos %= p.rev
-        return pos, overspeed, no_state, no_state, no_state.copy()
+        return pos, overspeed, no_state, no_state, no_state.copy(), no_state.copy()
 
     if coarse is None:
         raise ValueError(f"{NAME}: coarse codes are required when COARSE_W = {p.coarse_w}")
@@ -268,7 +272,7 @@ def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost)
     pos_abs, r = coarse_absolute(ph, co, ofs, p)
     coarse_err = np.abs(r) > p.coarse_tol
     if n == 0:
-        return pos_abs, overspeed, coarse_err, no_state, no_state
+        return pos_abs, overspeed, coarse_err, no_state, no_state, no_state
     trusted = (r >= -p.trust) & (r < p.trust)
     # seen: a trusted sample before this one since reset (a resumed stream had one)
     seen = np.zeros(n, dtype=bool)
@@ -293,9 +297,13 @@ def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost)
     if start_pos is not None and start_lost:
         lost |= prev == 0
     lost[0] = False
-    coarse_err |= trusted & seen & ~lost & (pos_abs != pos_trk)
+    # a resync against a valid track; the samples tracked from it carry its flag (track_bad)
+    resync = trusted & seen & ~lost & (pos_abs != pos_trk)
+    if start_pos is not None:
+        resync[0] = start_bad
+    coarse_err |= resync[last]
     seen_after = seen | trusted
     lost_after = lost & ~anchor
     if start_pos is not None:
         seen_after[0], lost_after[0] = True, bool(start_lost)
-    return pos, overspeed, coarse_err, seen_after, lost_after
+    return pos, overspeed, coarse_err, seen_after, lost_after, resync[last]
