@@ -17,8 +17,9 @@ revolution wraps (pos 0 and REV-1), coarse codes following the position (every c
 wrap from 2^COARSE_W-1 to 0) with wrong codes mixed in, codes whose edges jitter (flipped codes:
 tracked samples, and at span >= 1/2 absolute positions a period off that the track must not take),
 residuals exactly at the COARSE_TOL boundary, offsets at the supported limits (+-2^FINE_W: n from
--2 to LINES+1); full speed, then random in_valid gaps and ce stalls, resets in mid-stream (with ce low too, and with a sample
-offered on the reset cycle), and restarts whose first sample jumps half a period.
+-2 to LINES+1); full speed, then random in_valid gaps and ce stalls, resets in mid-stream (with ce
+low too, and with a sample offered on the reset cycle), and restarts whose first sample jumps half
+a period.
 
 Replay a failure: ``FRINGE_SEED=<seed in the message> pytest tb/test_fringe_period_count.py -k ...``.
 """
