@@ -26,21 +26,29 @@ per revolution and ``POS_W = clog2(REV) = FINE_W + clog2(LINES)`` (at most 48):
   trusted sample after an earlier trusted one whose ``pos_abs`` differs from a valid ``pos_trk``:
   the code is really wrong, never edge jitter. That sample's output is ``pos_abs`` (the position
   resynchronises), and the jump is flagged, as are the samples tracked from it (``track_bad``, up to
-  the next absolute output): either side of the jump may be the wrong one, none is silent. (A wrong
+  the next absolute output): either side of the jump may be the wrong one, none is silent (a wrong
   code repeated on the trusted samples after its resync agrees with the track it set: only its
-  first sample and the samples tracked from it are flagged.) The track is lost (``track_lost``) by an overspeed
-  (this sample's or one since the last ``pos_abs`` output): then a disagreement is the track's
-  fault, already flagged as overspeed, and a coarse_err would blame a good code;
+  first sample and the samples tracked from it are flagged). The track is lost (``track_lost``) by
+  an overspeed (this sample's or one since the last ``pos_abs`` output): then a disagreement is the
+  track's fault, already flagged as overspeed, and is not a coarse_err (it would blame a good code).
   With span <= 1/2 and a calibrated offset ``|r|`` stays under a quarter period plus the jitter, and
   where it does not, ``pos_trk = pos_abs``: the output is that of the absolute combination;
+- ``COARSE_W = 0`` (incremental): ``pos = (pos_prev + delta) mod REV`` with ``pos_prev`` the previous
+  valid output; the first valid sample after reset gives ``pos = phase``; ``coarse_err = 0``.
+
+``coarse_ofs`` is a calibrated register (the misalignment of the coarse code plus half a code);
+calibration gives less than half a period, and the hardware supports ``|coarse_ofs| <= 2^FINE_W``:
+then ``n`` lies in [-2, LINES+1] and one add or subtract of LINES wraps it (``period_count`` checks
+the range and raises ``ValueError`` outside it).
+
 `period_count` takes a stream of valid samples that starts right after a reset (the RTL's state
 restarts there); it is vectorised (cumulative sums of delta from the last absolute sample).
 
 The RTL has ``LATENCY = 3`` enabled clocks, one carry chain per stage: (1) delta and the coarse
-centre; (2) the overspeed test, ``d + 2^(FINE_W-1)`` (period number and residual), or the counter's
-delta with its two wrapped alternatives (both modes); (3) ``|r| > COARSE_TOL``, the wrap of the period
+centre; (2) the overspeed test, ``d + 2^(FINE_W-1)`` (period number and residual), and the track's
+delta with its two wrapped alternatives (the counter's in both modes); (3) ``|r| > COARSE_TOL``, the wrap of the period
 number and the tracked sum (three sums in parallel, chosen by sign bits), then the choice between
-them and their period-number compare (the only state loop: ``pos`` and the trusted-seen bit).
+them and their period-number compare (the state loop: ``pos``, trusted_seen, track_lost, track_bad).
 """
 
 from __future__ import annotations
