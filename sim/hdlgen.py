@@ -168,7 +168,7 @@ STATUS_MEANINGS = {
     "AMP_LOW": "vector magnitude below the low threshold (loss of signal)",
     "AMP_HIGH": "vector magnitude above the high threshold",
     "OVERSPEED": "fine phase moved a quarter period or more since the last sample",
-    "COARSE_ERR": "coarse code disagrees with the fine phase",
+    "COARSE_ERR": "coarse code disagrees with the fine phase or the tracked position",
     "SATURATED": "an internal value saturated (quadrature stage, drift normaliser, canceller output or "
                  "coefficients) or the trim was clipped",
     "BANK": "which table bank served this sample (information, not a fault)",

@@ -14,10 +14,12 @@ sample. The accepted samples between resets are then exactly the streams the vec
 
 Traffic: trajectories with reversals and exact quarter- and half-period jumps across period and
 revolution wraps (pos 0 and REV-1), coarse codes following the position (every code edge, the
-wrap from 2^COARSE_W-1 to 0) with wrong codes mixed in, residuals exactly at the COARSE_TOL
-boundary, offsets at the supported limits (+-2^FINE_W: n from -2 to LINES+1); full speed, then
-random in_valid gaps and ce stalls, resets in mid-stream (with ce low too, and with a sample
-offered on the reset cycle), and restarts whose first sample jumps half a period.
+wrap from 2^COARSE_W-1 to 0) with wrong codes mixed in, codes whose edges jitter (flipped codes:
+tracked samples, and at span >= 1/2 absolute positions a period off that the track must not take),
+residuals exactly at the COARSE_TOL boundary, offsets at the supported limits (+-2^FINE_W: n from
+-2 to LINES+1); full speed, then random in_valid gaps and ce stalls, resets in mid-stream (with ce
+low too, and with a sample offered on the reset cycle), and restarts whose first sample jumps half
+a period.
 
 Replay a failure: ``FRINGE_SEED=<seed in the message> pytest tb/test_fringe_period_count.py -k ...``.
 """
@@ -34,7 +36,7 @@ from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
 from lib.launch import run_seeded
 
-from fringe.fixed.period_count import LATENCY, PeriodCountParams, period_count
+from fringe.fixed.period_count import LATENCY, PeriodCountParams, coarse_absolute, period_count
 
 TOPLEVEL = "fringe_period_count"
 DEFAULT_SEED = 4242
@@ -119,6 +121,14 @@ def sections(p: PeriodCountParams, rng: np.random.Generator) -> list[dict]:
     add(x, ofs0, "wandering, gaps and stalls", p_ce=0.75, p_valid=0.7, resets={400, 401, 1300}, wrong=0.03)
 
     if p.coarse_w:
+        # 3b. edge jitter: the code read at a position up to 0.2 period off (flipped near its edges),
+        # a slow wander over many edges, a few really wrong codes (on trusted samples: coarse_err)
+        x = int(rng.integers(0, p.rev)) + np.cumsum(np.round(
+            (np.clip(np.cumsum(rng.normal(0, 0.01, 1200)), -0.15, 0.15) + rng.normal(0, 0.02, 1200)) * period
+        ).astype(np.int64))
+        jit = np.round(np.clip(rng.normal(0, 0.07, x.size), -0.2, 0.2) * period).astype(np.int64)
+        add(x, ofs0, "edge jitter", coarse=_corrupt(p, rng, _codes(p, x + jit, ofs0), 0.01),
+            p_ce=0.9, p_valid=0.9)
         # 4. residuals at the COARSE_TOL boundary and at the rounding of n, random codes
         tol, half = p.coarse_tol, 1 << (p.fine_w - 1)
         rs = [tol, tol + 1, -tol, -tol - 1, half - 1, -half, 0, 1, -1]
@@ -282,6 +292,9 @@ PARAM_SETS = [
     (PeriodCountParams(fine_w=14, lines=3, coarse_w=0), 1),         # counting, REV not a power of two
     (PeriodCountParams(fine_w=30, lines=200_000, coarse_w=18), 1),  # widest: POS_W = 48
     (PeriodCountParams(fine_w=8, lines=1, coarse_w=1), 1),          # narrowest; a coarse code on one line
+    (PeriodCountParams(fine_w=12, lines=64, coarse_w=6), 1),        # span = 1 period: edge flips slip
+    (PeriodCountParams(fine_w=10, lines=96, coarse_w=7), 2),        # span = 3/4 period
+    (PeriodCountParams(fine_w=12, lines=64, coarse_w=7), 1),        # span = 1/2 period
 ]
 
 
@@ -304,6 +317,22 @@ def test_plan_is_effective():
         if p.coarse_w:
             err = [e[2] for e in exp]
             assert 0 < sum(err) < len(exp) / 4
+            if p.lines > 1:
+                # tracked samples whose code's position is a period off (not taken), and trusted
+                # samples that disagree with the track (flagged though |r| is small)
+                got = differs = mismatch = 0
+                for seg in segs:
+                    acc = [cycles[i] for i in seg]
+                    ph = np.array([c.drive["phase"] for c in acc])
+                    co = np.array([c.drive["coarse"] for c in acc])
+                    ofs = np.array([c.drive["coarse_ofs"] for c in acc])
+                    ofs = np.where(ofs >> p.pos_w, ofs - (1 << (p.pos_w + 1)), ofs)
+                    pos_abs, r = coarse_absolute(ph, co, ofs, p)
+                    e = np.array([c.expect for c in acc])
+                    got += len(acc)
+                    differs += int(np.sum(e[:, 0] != pos_abs))
+                    mismatch += int(np.sum(e[:, 2].astype(bool) & (np.abs(r) <= p.coarse_tol)))
+                assert 0 < differs < got / 4 and 0 < mismatch < got / 10, (_id((p, user_w)), differs, mismatch)
             codes = {c.drive["coarse"] for c in cycles if c.accepted}
             assert {0, (1 << p.coarse_w) - 1} <= codes
         assert any(c.rst and not c.ce for c in cycles) and any(c.rst and c.valid for c in cycles)

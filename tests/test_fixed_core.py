@@ -73,9 +73,9 @@ def test_period_count_coarse():
     true = np.array([0, 1023, 1024, 50 * 1024 + 512, 99 * 1024 + 1000])
     span = 100 * 1024 / 256
     coarse = np.floor(true / span).astype(np.int64)
-    pos, over, err = period_count(true % 1024, coarse, int(span / 2), p)
-    np.testing.assert_array_equal(pos, true)
-    assert not err.any()
+    for t, c in zip(true, coarse, strict=True):      # each from reset: the jumps are not motion
+        pos, over, err = period_count(np.array([t % 1024]), np.array([c]), int(span / 2), p)
+        assert pos[0] == t and not err[0]
 
 
 def test_rom_images_are_deterministic_range_checked_and_labelled(seed_setup, tmp_path):

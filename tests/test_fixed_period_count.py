@@ -13,6 +13,7 @@ from fringe.fixed.period_count import (
     LATENCY,
     PeriodCountParams,
     clog2,
+    coarse_absolute,
     period_count,
     rev_and_pos_w,
 )
@@ -45,6 +46,9 @@ class Contract:
         self.p = p
         self.prev: int | None = None
         self.pos: int | None = None
+        self.seen = False                 # a trusted sample since reset
+        self.lost = False                 # an overspeed since the last absolute output
+        self.bad = False                  # the last absolute output resynchronised a valid track
 
     def step(self, phase: int, coarse: int, ofs: int) -> tuple[int, bool, bool]:
         p = self.p
@@ -59,7 +63,17 @@ class Contract:
             n = (d + m // 2) >> p.fine_w                          # floor
             r = d - n * m
             err = abs(r) > p.coarse_tol
-            pos = (n % p.lines) * m + phase
+            pos_abs = (n % p.lines) * m + phase
+            trusted = -m // 4 <= r < m // 4
+            pos_trk = None if self.pos is None else (self.pos + delta) % p.rev
+            lost = self.lost or over
+            if trusted or not self.seen:
+                self.bad = trusted and self.seen and not lost and pos_abs != pos_trk
+                pos, self.lost = pos_abs, False
+            else:
+                pos, self.lost = pos_trk, lost
+            err = err or self.bad
+            self.seen = self.seen or trusted
         else:
             pos = phase if self.pos is None else (self.pos + delta) % p.rev
             err = False
@@ -109,7 +123,8 @@ def test_vectorised_model_matches_the_contract(p):
                                                    (7, 9, 3)])
 def test_period_number_range_and_wrap_exhaustive(lines, fine_w, coarse_w):
     """Every phase and code, offsets over the whole supported range: n in [-2, LINES+1] before the
-    wrap (so one add or subtract of LINES suffices, as in the RTL), and pos = (n mod LINES) 2^F + phase."""
+    wrap (so one add or subtract of LINES suffices, as in the RTL), and pos_abs = (n mod LINES) 2^F + phase,
+    the output of every trusted sample."""
     p = PeriodCountParams(fine_w, lines, coarse_w)
     m = 1 << fine_w
     ph, co = np.meshgrid(np.arange(m), np.arange(1 << coarse_w))
@@ -120,9 +135,13 @@ def test_period_number_range_and_wrap_exhaustive(lines, fine_w, coarse_w):
             d = ((co * lines) << (fine_w - coarse_w)) + o - ph
             n = (d + m // 2) >> fine_w
             n_min, n_max = min(n_min, int(n.min())), max(n_max, int(n.max()))
+            pos_abs, r = coarse_absolute(ph, co, o, p)
+            np.testing.assert_array_equal(pos_abs, np.mod(n, lines) * m + ph)
+            np.testing.assert_array_equal(r, d - n * m)
             pos, _, err = period_count(ph, co, o, p)
-            np.testing.assert_array_equal(pos, np.mod(n, lines) * m + ph)
-            np.testing.assert_array_equal(err, np.abs(d - n * m) > p.coarse_tol)
+            trusted = np.abs(2 * r + 1) <= m // 2           # -m/4 <= r < m/4
+            np.testing.assert_array_equal(pos[trusted], pos_abs[trusted])
+            assert np.all(err[np.abs(r) > p.coarse_tol])         # the rest: the contract test
     assert -2 <= n_min and n_max <= lines + 1
     assert n_min == -2                                       # the range is reached
     with pytest.raises(ValueError, match="coarse_ofs"):
@@ -197,17 +216,17 @@ def test_coarse_code_wrap_and_period_edges():
     span, m = p.coarse_span, 1 << p.fine_w
     true = np.array([0, 1, m - 1, m, p.rev - 1, p.rev - m, p.rev - m - 1, 50 * m + 7, span - 1, span])
     coarse = (true + span // 2 - span // 2) // span        # ofs = span/2: no misalignment
-    pos, _, err = period_count(true % m, coarse, span // 2, p)
+    pos, r = coarse_absolute(true % m, coarse, span // 2, p)
     np.testing.assert_array_equal(pos, true)
-    assert not err.any()
+    assert not (np.abs(r) > p.coarse_tol).any()
     # misaligned by half a code: code 2^COARSE_W-1 spans the revolution wrap, then code 0
     ofs = span
     true = np.array([p.rev - 3, p.rev - 1, 0, 5, span // 2 - 1, span // 2, span // 2 + 1])
     coarse = (np.mod(true + span // 2 - ofs, p.rev) // span) % 256
     np.testing.assert_array_equal(coarse, [255, 255, 255, 255, 255, 0, 0])
-    pos, _, err = period_count(true % m, coarse, ofs, p)
+    pos, r = coarse_absolute(true % m, coarse, ofs, p)
     np.testing.assert_array_equal(pos, true)
-    assert not err.any()
+    assert not (np.abs(r) > p.coarse_tol).any()
 
 
 def test_wrong_codes_are_flagged_beyond_the_tolerance():
@@ -230,7 +249,10 @@ def test_scalar_and_per_sample_offsets_agree():
         np.testing.assert_array_equal(x, y)
     ofs2 = np.where(np.arange(phase.size) < 500, ofs, -ofs)
     pos, _, _ = period_count(phase, coarse, ofs2, p)
-    np.testing.assert_array_equal(pos[500:], period_count(phase, coarse, -ofs, p)[0][500:])
+    pos_abs, r = coarse_absolute(phase, coarse, -ofs, p)
+    trusted = np.abs(2 * r + 1) <= p.trust * 2           # -TRUST <= r < TRUST
+    assert trusted[500:].sum() >= 10
+    np.testing.assert_array_equal(pos[500:][trusted[500:]], pos_abs[500:][trusted[500:]])
 
 
 def test_empty_stream():
@@ -317,3 +339,77 @@ def test_input_validation():
 # ---------------------------------------------------------------------------- speed
 
 
+
+
+# ---------------------------------------------------------------------------- edge jitter
+
+
+SPANS = [PeriodCountParams(12, 64, 6),     # span 1 period: every jittered edge flips n by one
+         PeriodCountParams(10, 96, 7),     # span 3/4
+         PeriodCountParams(12, 64, 7),     # span 1/2
+         PeriodCountParams(12, 64, 8)]     # span 1/4
+
+
+def jittered(p: PeriodCountParams, rng: np.random.Generator, n: int, jitter: float, misalign: float):
+    """A wandering position under a quarter period a sample (no overspeed) and the code a reader whose
+    edges jitter uniformly by +-jitter period gives, with the offset misaligned by misalign period."""
+    period = 1 << p.fine_w
+    speed = np.clip(np.cumsum(rng.normal(0, 0.01, n)), -0.2, 0.2) + rng.normal(0, 0.01, n)
+    steps = np.round(np.clip(speed, -0.24, 0.24) * period).astype(np.int64)
+    true = np.mod(int(rng.integers(0, p.rev)) + np.cumsum(steps), p.rev)
+    ofs = p.coarse_span // 2 + int(round(misalign * period))
+    jit = np.round(rng.uniform(-jitter, jitter, n) * period).astype(np.int64)
+    coarse = (np.mod(true + jit, p.rev) // p.coarse_span) % (1 << p.coarse_w)
+    return true, true & (period - 1), coarse, ofs
+
+
+@pytest.mark.parametrize("p", SPANS, ids=_pid)
+def test_edge_jitter_under_a_quarter_period_never_slips(p):
+    """Jitter plus misalignment under a quarter period: every output from the first trusted sample on
+    is the true position (at span <= 1/2 every output), and no coarse_err beyond today's |r| > COARSE_TOL;
+    the absolute combination alone slips at span >= 3/4."""
+    rng = np.random.default_rng(p.coarse_w * 1000 + p.lines)
+    slips_abs = 0
+    for _ in range(20):
+        misalign = rng.uniform(-0.04, 0.04)
+        true, phase, coarse, ofs = jittered(p, rng, 3000, 0.24 - abs(misalign), misalign)
+        pos, over, err = period_count(phase, coarse, ofs, p)
+        pos_abs, r = coarse_absolute(phase, coarse, ofs, p)
+        trusted = (r >= -p.trust) & (r < p.trust)
+        first = int(np.argmax(trusted))
+        assert trusted.any() and not over.any()
+        np.testing.assert_array_equal(pos[first:], true[first:])
+        if p.coarse_span * 2 <= 1 << p.fine_w:
+            np.testing.assert_array_equal(pos, true)
+            np.testing.assert_array_equal(pos, pos_abs)          # unchanged from the absolute combination
+        np.testing.assert_array_equal(err, np.abs(r) > p.coarse_tol)
+        slips_abs += int(np.sum(pos_abs != true))
+        # the float twin: the same positions and flags (no exact half-period ties here)
+        m = 1 << p.fine_w
+        fpos, fflag = coarse_fine_combine(phase / m, coarse, p.lines, p.coarse_w, ofs / m)
+        np.testing.assert_array_equal(np.round(fpos * m).astype(np.int64), pos)
+        np.testing.assert_array_equal(fflag, err)
+    if p.coarse_span * 4 >= 3 << p.fine_w:
+        assert slips_abs > 100
+
+
+@pytest.mark.parametrize("p", SPANS, ids=_pid)
+def test_a_really_wrong_code_is_never_silent(p):
+    """Isolated codes off by 1..3 (a broken reader, not jitter): every output that is not the true
+    position carries coarse_err, and wrong codes on trusted samples are flagged. (A wrong code repeated
+    on the trusted samples after a resync agrees with the track it set: see the model's docstring.)"""
+    rng = np.random.default_rng(7 + p.coarse_w)
+    flagged_wrong = 0
+    for _ in range(20):
+        true, phase, coarse, ofs = jittered(p, rng, 3000, 0.1, 0.02)
+        bad = np.arange(100, 2900, 200) + rng.integers(-50, 50, 14)
+        coarse[bad] = (coarse[bad] + rng.choice([1, -1, 2, -2, 3, -3], bad.size)) % (1 << p.coarse_w)
+        pos, over, err = period_count(phase, coarse, ofs, p)
+        _, r = coarse_absolute(phase, coarse, ofs, p)
+        trusted = (r >= -p.trust) & (r < p.trust)
+        first = int(np.argmax(trusted))
+        assert first < 50
+        wrong = pos != true
+        assert np.all(err[first:][wrong[first:]])
+        flagged_wrong += int(np.sum(err[bad] & trusted[bad]))
+    assert flagged_wrong > 20

@@ -43,18 +43,43 @@ def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse
                         offset: float) -> tuple[np.ndarray, np.ndarray]:
     """Absolute position (periods, [0, lines)) and the coarse/fine disagreement flag.
 
-    centre = code*span + offset estimates the position to within half a code; the period count
-    is the integer n that puts n + frac nearest to it. The residual exceeds half a code only
-    when the coarse code is wrong (or its edges drift): flagged beyond the midpoint between
-    half a code and half a period, which leaves half the margin to edge jitter.
+    centre = code*span + offset estimates the position to within half a code; the absolute count
+    is the integer n that puts n + frac nearest to it, and resid = centre - frac - n is the
+    sample's distance from its code's centre. A code of half a period or more can be flipped by
+    edge jitter and then n is a period off, so n is trusted only within a quarter period of the
+    centre (-1/4 <= resid < 1/4); elsewhere the count follows the fine-phase steps (as
+    `count_periods`) from the last trusted sample: the offset from the incremental count to the
+    absolute one is taken at trusted samples and carried forward (every sample is absolute
+    before the first trusted one). Flagged: a residual beyond the midpoint between half a code
+    and half a period (span < 1), or a trusted sample whose absolute count differs from the
+    tracked one (a code that is really wrong; the position resynchronises there, and the samples
+    tracked from it carry the flag) unless a quarter-period step (`overspeed`) since the last
+    absolute sample lost the track.
     """
+    frac = np.asarray(frac, float)
     span = coarse_code_span(lines, coarse_bits)
     centre = coarse * span + offset
     n = np.round(centre - frac)
     resid = centre - frac - n
     tolerance = 0.5 * (span / 2 + 0.5)
     flag = np.abs(resid) > tolerance if span < 1 else np.zeros(len(frac), bool)
-    return (n % lines) + frac, flag
+    if len(frac) == 0:
+        return (n % lines) + frac, flag
+    trusted = (resid >= -0.25) & (resid < 0.25)
+    # the incremental count in whole periods: frac[0] + the wrapped steps, less the phase
+    unwrapped = frac[0] + np.concatenate([[0.0], np.cumsum(wrap(np.diff(frac)))])
+    count = np.round(unwrapped - frac)
+    to_abs = n - count                           # whole periods from the count to the absolute position
+    seen = np.concatenate([[False], np.logical_or.accumulate(trusted[:-1])])
+    anchor = trusted | ~seen
+    idx = np.arange(len(frac))
+    last = np.maximum.accumulate(np.where(anchor, idx, 0))
+    prev = np.concatenate([[0], last[:-1]])
+    fast = np.cumsum(overspeed(frac))
+    lost = fast - fast[prev] > 0
+    resync = trusted & seen & ~lost & ((to_abs - to_abs[prev]) % lines != 0)
+    flag = flag | resync[last]                   # the samples tracked from a resync carry its flag
+    return ((count + to_abs[last]) % lines) + frac, flag
 
 
 def count_periods(frac: np.ndarray, lines: int) -> tuple[np.ndarray, np.ndarray]:

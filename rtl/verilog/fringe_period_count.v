@@ -1,6 +1,14 @@
 // fringe_period_count: coarse/fine combination (absolute position from a coarse code), or period
 // counting without one; overspeed and coarse-code checks.
 //
+// With a coarse code, r (the sample's distance from its code's centre) says whether edge jitter can
+// have flipped the code: a sample in the TRUST band, -2^(FINE_W-2) <= r < 2^(FINE_W-2) (the top two
+// bits of r agree), sets pos from the code; any other sample, once a trusted one was seen since reset,
+// is tracked, (pos_prev + delta) mod REV as the counter (a code of half a period or more flipped at its
+// edge is a whole period off). coarse_err: |r| > COARSE_TOL, or a trusted sample whose period number
+// differs from a track not lost by an overspeed since the last absolute output (a really wrong code:
+// pos resynchronises to the code), and every sample tracked from such a resync (track_bad).
+//
 // LATENCY = 3 clock enables, one sample per clock; ce = 0 freezes
 // every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_period_count.md.
@@ -116,13 +124,35 @@ module fringe_period_count #(
         end
     end
 
+    // ---- stage 2: the track's delta and its two wrapped alternatives, delta + REV and delta - REV, so
+    // stage 3 adds once (pos holds pos_prev: a loop of one clock); both modes track
+    localparam integer SW = POS_W + 2;      // signed sum: [-2^(FINE_W-1), REV + 2^(FINE_W-1))
+    localparam [63:0]   LINES64 = LINES * 64'd1;
+    localparam [SW-1:0] REV_S   = LINES64[SW-1:0] << FINE_W;
+
+    wire [SW-1:0] dx = {{(SW-FINE_W){s1_delta[FINE_W-1]}}, s1_delta};
+    reg  [SW-1:0] s2_d, s2_d_up, s2_d_down;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s2_d      <= dx;
+            s2_d_up   <= dx + REV_S;
+            s2_d_down <= dx - REV_S;
+        end
+    end
+
+    // stage 3: the three sums in parallel, chosen by sign bits; trk < REV <= 2^POS_W
+    wire [SW-1:0] sum      = {2'b00, pos} + s2_d;
+    wire [SW-1:0] sum_up   = {2'b00, pos} + s2_d_up;
+    wire [SW-1:0] sum_down = {2'b00, pos} + s2_d_down;
+    wire [SW-1:0] trk      = sum[SW-1] ? sum_up : (sum_down[SW-1] ? sum : sum_down);
+
     generate
         if (COARSE_W > 0) begin : g_coarse
             // ---- absolute position from the coarse code -----------------------------------------
             localparam integer W  = POS_W + 3;      // signed: centre and d for any s(POS_W+1) offset
             localparam integer SH = FINE_W - COARSE_W;
             localparam integer NR = W - FINE_W;     // signed period number before the wrap
-            localparam [63:0]   LINES64 = LINES * 64'd1;
             localparam [W-1:0]  LINES_W = LINES64[W-1:0];
             localparam [NR-1:0] LINES_N = LINES64[NR-1:0];
             // COARSE_TOL < 2^(FINE_W-1) + 1, as s(FINE_W+1)
@@ -155,14 +185,34 @@ module fringe_period_count #(
                 end
             end
 
-            // stage 3: coarse_err = |r| > tol (two compares in parallel), n mod LINES
+            // stage 3: |r| > tol (two compares in parallel), n mod LINES, the choice absolute/tracked
             wire signed [FINE_W:0] r   = $signed({s2_r[FINE_W-1], s2_r});
             wire signed [FINE_W:0] tol = $signed(TOL);
             wire err = (r > tol) | (r < -tol);
+            wire trusted  = s2_r[FINE_W-1] == s2_r[FINE_W-2];   // -TRUST <= r < TRUST
+            reg  trusted_seen;                                  // state: a trusted sample since reset
+            reg  track_lost;                                    // state: an overspeed since the last absolute output
+            reg  track_bad;                                     // state: the last absolute output was a resync
+            wire absolute = trusted | ~trusted_seen;            // this sample's pos is the code's
+            wire lost     = track_lost | s2_over;
+            wire differs;                                       // the code's period number is not the track's
+            wire resync   = trusted & trusted_seen & ~lost & differs;
+
+            always @(posedge clk) begin
+                if (rst) begin
+                    trusted_seen <= 1'b0;
+                    track_lost   <= 1'b0;
+                    track_bad    <= 1'b0;
+                end else if (done) begin
+                    trusted_seen <= trusted_seen | trusted;
+                    track_lost   <= ~absolute & lost;
+                    track_bad    <= absolute ? resync : track_bad;
+                end
+            end
 
             always @(posedge clk) begin
                 if (done) begin
-                    coarse_err <= err;
+                    coarse_err <= err | (absolute ? resync : track_bad);
                 end
             end
 
@@ -172,17 +222,21 @@ module fringe_period_count #(
                 wire [NR-1:0] n_up   = s2_n + LINES_N;
                 wire [NR-1:0] n_down = s2_n - LINES_N;
                 wire [NR-1:0] n_wrap = s2_n[NR-1] ? n_up : (n_down[NR-1] ? s2_n : n_down);
+                // trk and the code's position share their low FINE_W bits (the phase)
+                assign differs = n_wrap[N_W-1:0] != trk[POS_W-1:FINE_W];
 
                 always @(posedge clk) begin
                     if (done) begin
-                        pos <= {n_wrap[N_W-1:0], s2_phase};
+                        pos <= absolute ? {n_wrap[N_W-1:0], s2_phase} : trk[POS_W-1:0];
                     end
                 end
 
                 // n_wrap < LINES <= 2^N_W: its upper bits are zero
                 wire unused_n = &{1'b0, n_wrap[NR-1:N_W]};
             end else begin : g_one_line
-                // LINES = 1: n mod 1 = 0, the position is the phase
+                // LINES = 1: n mod 1 = 0, the position is the phase (the track's too)
+                assign differs = 1'b0;
+
                 always @(posedge clk) begin
                     if (done) begin
                         pos <= s2_phase;
@@ -193,41 +247,19 @@ module fringe_period_count #(
             end
 
             // the top bits of cpos are zero (cpos < REV); the counter's first-sample flag is unused
-            wire unused_c = &{1'b0, cpos[W-1:POS_W], s2_first};
+            // (trusted_seen is 0 there: the sample is absolute)
+            wire unused_c = &{1'b0, cpos[W-1:POS_W], s2_first, trk[SW-1:POS_W], trk[FINE_W-1:0]};
         end else begin : g_count
             // ---- incremental: pos = (pos_prev + delta) mod REV ----------------------------------
-            localparam integer SW = POS_W + 2;      // signed sum: [-2^(FINE_W-1), REV + 2^(FINE_W-1))
-            localparam [63:0]   LINES64 = LINES * 64'd1;
-            localparam [SW-1:0] REV_S   = LINES64[SW-1:0] << FINE_W;
-
-            // stage 2: delta and its two wrapped alternatives, delta + REV and delta - REV, so the
-            // counter adds once (pos holds pos_prev: a loop of one clock)
-            wire [SW-1:0] dx = {{(SW-FINE_W){s1_delta[FINE_W-1]}}, s1_delta};
-            reg  [SW-1:0] s2_d, s2_d_up, s2_d_down;
-
-            always @(posedge clk) begin
-                if (ce) begin
-                    s2_d      <= dx;
-                    s2_d_up   <= dx + REV_S;
-                    s2_d_down <= dx - REV_S;
-                end
-            end
-
-            // stage 3: the three sums in parallel, chosen by sign bits
-            wire [SW-1:0] sum      = {2'b00, pos} + s2_d;
-            wire [SW-1:0] sum_up   = {2'b00, pos} + s2_d_up;
-            wire [SW-1:0] sum_down = {2'b00, pos} + s2_d_down;
-            wire [SW-1:0] nxt  = sum[SW-1] ? sum_up : (sum_down[SW-1] ? sum : sum_down);
-
             always @(posedge clk) begin
                 if (done) begin
-                    pos        <= s2_first ? {{N_W{1'b0}}, s2_phase} : nxt[POS_W-1:0];
+                    pos        <= s2_first ? {{N_W{1'b0}}, s2_phase} : trk[POS_W-1:0];
                     coarse_err <= 1'b0;
                 end
             end
 
-            // no coarse code; nxt < REV <= 2^POS_W
-            wire unused_c = &{1'b0, coarse, coarse_ofs, nxt[SW-1:POS_W]};
+            // no coarse code
+            wire unused_c = &{1'b0, coarse, coarse_ofs, trk[SW-1:POS_W]};
         end
     endgenerate
 

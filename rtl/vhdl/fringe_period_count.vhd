@@ -2,6 +2,14 @@
 -- counting without one; overspeed and coarse-code checks.
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_period_count.v (same generics, ports and behaviour).
+--
+-- With a coarse code, r (the sample's distance from its code's centre) says whether edge jitter can
+-- have flipped the code: a sample in the TRUST band, -2^(FINE_W-2) <= r < 2^(FINE_W-2) (the top two
+-- bits of r agree), sets pos from the code; any other sample, once a trusted one was seen since reset,
+-- is tracked, (pos_prev + delta) mod REV as the counter (a code of half a period or more flipped at its
+-- edge is a whole period off). coarse_err: |r| > COARSE_TOL, or a trusted sample whose period number
+-- differs from a track not lost by an overspeed since the last absolute output (a really wrong code:
+-- pos resynchronises to the code), and every sample tracked from such a resync (track_bad).
 -- LATENCY = 3 clock enables, one sample per clock; ce = 0 freezes
 -- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_period_count.md.
@@ -102,7 +110,17 @@ architecture rtl of fringe_period_count is
     signal s2_n       : unsigned(NR - 1 downto 0);      -- floor((d + half) / 2^FINE_W), in [-2, LINES+1]
     signal s2_r       : signed(FINE_W - 1 downto 0);    -- residual, in [-2^(FINE_W-1), 2^(FINE_W-1))
     signal s2_d, s2_d_up, s2_d_down : unsigned(SW - 1 downto 0);  -- counter: delta, delta + REV, delta - REV
-    signal pos_r      : unsigned(POS_W - 1 downto 0);   -- the output; pos_prev of the counter
+    signal pos_r      : unsigned(POS_W - 1 downto 0);   -- the output; pos_prev of the track
+    signal trusted_seen : std_logic;                    -- state: a trusted sample since reset
+    signal track_lost   : std_logic;                    -- state: an overspeed since the last absolute output
+    signal track_bad    : std_logic;                    -- state: the last absolute output was a resync
+    signal resync       : std_logic;                    -- a trusted code disagrees with a valid track
+    signal differs      : std_logic;                    -- the code's period number is not the track's
+    signal trk          : unsigned(SW - 1 downto 0);    -- the tracked position, < REV
+    signal n_wrap       : unsigned(NR - 1 downto 0);    -- the code's period number mod LINES
+    signal trusted      : std_logic;                    -- -TRUST <= r < TRUST: the code cannot be flipped
+    signal absolute     : std_logic;                    -- this sample's pos is the code's
+    signal lost         : std_logic;                    -- the track is lost
 
 begin
 
@@ -180,41 +198,77 @@ begin
     end process p_stage2;
 
     -- ---- stage 3: position and flags ----------------------------------------------------------
+    trusted  <= '1' when s2_r(FINE_W - 1) = s2_r(FINE_W - 2) else '0';
+    absolute <= trusted or not trusted_seen;
+    lost     <= track_lost or s2_over;
+
+    p_track : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                trusted_seen <= '0';
+                track_lost   <= '0';
+                track_bad    <= '0';
+            elsif done = '1' then
+                trusted_seen <= trusted_seen or trusted;
+                track_lost   <= not absolute and lost;
+                if absolute = '1' then
+                    track_bad <= resync;
+                end if;
+            end if;
+        end if;
+    end process p_track;
+
+    -- the track: (pos_prev + delta) mod REV, the three sums in parallel, chosen by sign bits; n mod
+    -- LINES (n in [-2, LINES+1]), both candidates in parallel, chosen by sign bits
+    p_comb : process (all)
+        variable sum, sum_up, sum_down : unsigned(SW - 1 downto 0);
+        variable n_up, n_down : unsigned(NR - 1 downto 0);
+    begin
+        sum      := resize(pos_r, SW) + s2_d;
+        sum_up   := resize(pos_r, SW) + s2_d_up;
+        sum_down := resize(pos_r, SW) + s2_d_down;
+        trk      <= wrapped(sum, sum_up, sum_down);
+        n_up     := s2_n + LINES_W(NR - 1 downto 0);
+        n_down   := s2_n - LINES_W(NR - 1 downto 0);
+        if LINES = 1 then
+            n_wrap <= (others => '0');      -- n mod 1 = 0
+        else
+            n_wrap <= wrapped(s2_n, n_up, n_down);
+        end if;
+    end process p_comb;
+
+    -- trk and the code's position share their low FINE_W bits (the phase)
+    differs <= '1' when resize(n_wrap, POS_W - FINE_W + 1) /= resize(trk(POS_W - 1 downto FINE_W), POS_W - FINE_W + 1)
+               else '0';
+    resync  <= trusted and trusted_seen and not lost and differs;
+
     p_stage3 : process (clk)
-        variable n_up, n_down, n_wrap : unsigned(NR - 1 downto 0);
-        variable r         : signed(FINE_W downto 0);
-        variable sum, sum_up, sum_down, nxt : unsigned(SW - 1 downto 0);
+        variable r   : signed(FINE_W downto 0);
+        variable err : std_logic;
     begin
         if rising_edge(clk) then
             if done = '1' then
                 overspeed <= s2_over;
                 if COARSE_W > 0 then
-                    -- |r| > tol (two compares in parallel); n mod LINES (n in [-2, LINES+1]), both
-                    -- candidates in parallel, chosen by sign bits
+                    -- |r| > tol (two compares in parallel)
                     r := resize(s2_r, FINE_W + 1);
+                    err := '0';
                     if r > TOL or r < -TOL then
-                        coarse_err <= '1';
-                    else
-                        coarse_err <= '0';
+                        err := '1';
                     end if;
-                    n_up   := s2_n + LINES_W(NR - 1 downto 0);
-                    n_down := s2_n - LINES_W(NR - 1 downto 0);
-                    if LINES = 1 then
-                        n_wrap := (others => '0');      -- n mod 1 = 0
+                    if absolute = '1' then
+                        coarse_err <= err or resync;
+                        pos_r <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s2_phase, POS_W);
                     else
-                        n_wrap := wrapped(s2_n, n_up, n_down);
+                        coarse_err <= err or track_bad;
+                        pos_r <= trk(POS_W - 1 downto 0);
                     end if;
-                    pos_r <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s2_phase, POS_W);
                 else
-                    -- pos = (pos_prev + delta) mod REV: the three sums in parallel, chosen by sign bits
-                    sum      := resize(pos_r, SW) + s2_d;
-                    sum_up   := resize(pos_r, SW) + s2_d_up;
-                    sum_down := resize(pos_r, SW) + s2_d_down;
-                    nxt      := wrapped(sum, sum_up, sum_down);
                     if s2_first = '1' then
                         pos_r <= resize(s2_phase, POS_W);
                     else
-                        pos_r <= nxt(POS_W - 1 downto 0);
+                        pos_r <= trk(POS_W - 1 downto 0);
                     end if;
                     coarse_err <= '0';
                 end if;

@@ -62,10 +62,11 @@ class CoreOutput:
 
 
 def run_core(t: CoreTables, cfg: CoreConfig, sin: np.ndarray, cos: np.ndarray,
-             coarse: np.ndarray | None = None, start_pos: int | None = None) -> CoreOutput:
-    """One stream of samples from reset; every output word as the RTL produces it (start_pos: see
-    `run_core_banks`)."""
-    return run_core_banks([t], cfg, sin, cos, coarse, np.zeros(len(sin), dtype=np.int64), start_pos)
+             coarse: np.ndarray | None = None, start_pos: int | None = None,
+             start_track: tuple[bool, bool] = (False, False)) -> CoreOutput:
+    """One stream of samples from reset; every output word as the RTL produces it (start_pos,
+    start_track: see `run_core_banks`)."""
+    return run_core_banks([t], cfg, sin, cos, coarse, np.zeros(len(sin), dtype=np.int64), start_pos, start_track)
 
 
 def core_latency(cfg: CoreConfig) -> int:
@@ -84,7 +85,7 @@ def core_latency(cfg: CoreConfig) -> int:
 
 def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreConfig, sin: np.ndarray,
                    cos: np.ndarray, coarse: np.ndarray | None, bank: np.ndarray,
-                   start_pos: int | None = None) -> CoreOutput:
+                   start_pos: int | None = None, start_track: tuple[bool, bool] = (False, False)) -> CoreOutput:
     """One stream from reset in which sample i is served by ``banks[bank[i]]`` (bank swaps in
     mid-stream, as fringe_core does: every sample carries its bank through the pipeline).
 
@@ -94,7 +95,8 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
     the bank, so each stateless stage is evaluated per bank and selected per sample.
 
     start_pos resumes a stream in the middle (`CoreStream`): the period counter's position at the
-    first sample (COARSE_W = 0; ignored otherwise).
+    first sample (with COARSE_W > 0: the first sample's output once a trusted sample had been seen, and
+    start_track the combination's track_lost and track_bad after it, `period_count.track_state`).
     """
     sin = np.asarray(sin, dtype=np.int64)
     cos = np.asarray(cos, dtype=np.int64)
@@ -162,9 +164,9 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
     else:
         clip_s, clip_c, sat, phase, mag = front(sin, cos, bank)
     pcp = period_count_params(cfg)
-    start = start_pos if cfg.coarse_w == 0 else None
-    per = [pc_mod.period_count(phase, coarse, t.coarse_ofs, pcp, start) for t in banks]
-    pos, overspeed, coarse_err = (pick([p[k] for p in per]) for k in range(3))
+    # the combination's track follows the stream, each sample's offset its bank
+    coarse_ofs = pick([np.full(n, t.coarse_ofs, dtype=np.int64) for t in banks])
+    pos, overspeed, coarse_err = pc_mod.period_count(phase, coarse, coarse_ofs, pcp, start_pos, *start_track)
     trimmed = pos
     if cfg.trim:    # the speed history follows the stream; the tables follow each sample's bank
         trimmed, _, trim_sat = trim_mod.trim(pos, mag, np.stack([t.trim.map for t in banks]),
@@ -203,6 +205,8 @@ class CoreStream:
         self.t, self.cfg = t, cfg
         self.keep = 1 + (cfg.trim_params().window if cfg.trim else 0)
         self.tail = None          # (sin, cos, coarse) of the last rows, the counter position of the first
+        self.trusted_seen = False  # COARSE_W > 0: a trusted sample up to the tail's first row (the track runs)
+        self.track = (False, False)  # and track_lost, track_bad after it
 
     def run(self, sin, cos, coarse=None) -> tuple[np.ndarray, np.ndarray]:
         """(pos, status) of the next piece (ADC codes)."""
@@ -210,10 +214,16 @@ class CoreStream:
         coarse = np.zeros(len(sin), np.int64) if coarse is None else np.asarray(coarse, np.int64)
         k, start = 0, None
         if self.tail is not None:
-            k, start = len(self.tail[0]), self.tail[3]
+            k = len(self.tail[0])
+            # before the first trusted sample the combination is stateless: a restart there is exact
+            start = self.tail[3] if self.cfg.coarse_w == 0 or self.trusted_seen else None
             sin, cos, coarse = (np.concatenate([a, b]) for a, b in zip(self.tail[:3], (sin, cos, coarse), strict=True))
-        o = run_core(self.t, self.cfg, sin, cos, coarse, start_pos=start)
+        o = run_core(self.t, self.cfg, sin, cos, coarse, start_pos=start, start_track=self.track)
         m = min(self.keep, len(sin))
+        if self.cfg.coarse_w and len(sin):
+            seen, lost, bad = pc_mod.track_state(o.phase, coarse, self.t.coarse_ofs, period_count_params(self.cfg),
+                                                 start, *self.track)
+            self.trusted_seen, self.track = bool(seen[-m]), (bool(lost[-m]), bool(bad[-m]))
         self.tail = (sin[-m:], cos[-m:], coarse[-m:], int(o.count_pos[-m]))
         return o.pos[k:], o.status[k:]
 

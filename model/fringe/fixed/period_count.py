@@ -10,10 +10,29 @@ per revolution and ``POS_W = clog2(REV) = FINE_W + clog2(LINES)`` (at most 48):
 - ``COARSE_W > 0`` (absolute): ``cpos = (coarse * LINES) << (FINE_W - COARSE_W)`` (the start of the
   code's span, ``REV / 2^COARSE_W`` fine counts per code), ``centre = cpos + coarse_ofs``,
   ``d = centre - phase``, ``n = (d + 2^(FINE_W-1)) >>> FINE_W`` (the period nearest to the centre),
-  ``r = d - n * 2^FINE_W``, ``coarse_err = |r| > COARSE_TOL`` with
-  ``COARSE_TOL = (LINES << (FINE_W - COARSE_W - 2)) + 2^(FINE_W-2)`` (the midpoint between half a
-  coarse code and half a period), then ``n`` wrapped into [0, LINES) and
-  ``pos = n * 2^FINE_W + phase``;
+  ``r = d - n * 2^FINE_W`` (the sample's distance from its code's centre), then ``n`` wrapped into
+  [0, LINES) and ``pos_abs = n * 2^FINE_W + phase``. A code spans ``span = LINES / 2^COARSE_W <= 1``
+  period; when it spans half a period or more, edge jitter that flips a code moves ``centre`` by as
+  much, and ``pos_abs`` of such a sample is a whole period off (at span = 1 on every jittered edge).
+  The fine phase says where in its code a sample lies: a sample in the TRUST band,
+  ``trusted = -TRUST <= r < TRUST`` with ``TRUST = 2^(FINE_W-2)`` (the top two bits of ``r`` agree),
+  is a quarter period or more from either edge of its code, so jitter under a quarter period cannot
+  have flipped it. Output: ``pos = pos_abs`` for a trusted sample and for every sample before the
+  first trusted one since reset; otherwise ``pos = pos_trk = (pos_prev + delta) mod REV`` (tracked, as
+  the incremental mode; ``pos_prev`` the previous output). ``pos_trk`` and ``pos_abs`` always share
+  their low FINE_W bits (the phase), so they differ by whole periods only.
+  ``coarse_err = |r| > COARSE_TOL`` with ``COARSE_TOL = (LINES << (FINE_W - COARSE_W - 2)) + 2^(FINE_W-2)``
+  (the midpoint between half a coarse code and half a period; it cannot fire at span = 1), or a
+  trusted sample after an earlier trusted one whose ``pos_abs`` differs from a valid ``pos_trk``:
+  the code is really wrong, never edge jitter. That sample's output is ``pos_abs`` (the position
+  resynchronises), and the jump is flagged, as are the samples tracked from it (``track_bad``, up to
+  the next absolute output): either side of the jump may be the wrong one, none is silent (a wrong
+  code repeated on the trusted samples after its resync agrees with the track it set: only its
+  first sample and the samples tracked from it are flagged). The track is lost (``track_lost``) by
+  an overspeed (this sample's or one since the last ``pos_abs`` output): then a disagreement is the
+  track's fault, already flagged as overspeed, and is not a coarse_err (it would blame a good code).
+  With span <= 1/2 and a calibrated offset ``|r|`` stays under a quarter period plus the jitter, and
+  where it does not, ``pos_trk = pos_abs``: the output is that of the absolute combination;
 - ``COARSE_W = 0`` (incremental): ``pos = (pos_prev + delta) mod REV`` with ``pos_prev`` the previous
   valid output; the first valid sample after reset gives ``pos = phase``; ``coarse_err = 0``.
 
@@ -23,12 +42,13 @@ then ``n`` lies in [-2, LINES+1] and one add or subtract of LINES wraps it (``pe
 the range and raises ``ValueError`` outside it).
 
 `period_count` takes a stream of valid samples that starts right after a reset (the RTL's state
-restarts there); it is vectorised (cumulative sums for the incremental counter).
+restarts there); it is vectorised (cumulative sums of delta from the last absolute sample).
 
 The RTL has ``LATENCY = 3`` enabled clocks, one carry chain per stage: (1) delta and the coarse
-centre; (2) the overspeed test, ``d + 2^(FINE_W-1)`` (period number and residual), or the counter's
-delta with its two wrapped alternatives; (3) ``|r| > COARSE_TOL``, the wrap of the period number and
-the position, or the counter (three sums in parallel, chosen by sign bits).
+centre; (2) the overspeed test, ``d + 2^(FINE_W-1)`` (period number and residual), and the track's
+delta with its two wrapped alternatives (the counter's in both modes); (3) ``|r| > COARSE_TOL``, the wrap of the period
+number and the tracked sum (three sums in parallel, chosen by sign bits), then the choice between
+them and their period-number compare (the state loop: ``pos``, trusted_seen, track_lost, track_bad).
 """
 
 from __future__ import annotations
@@ -46,7 +66,9 @@ __all__ = [
     "PositionWidths",
     "clog2",
     "latency",
+    "coarse_absolute",
     "period_count",
+    "track_state",
     "rev_and_pos_w",
 ]
 
@@ -127,6 +149,11 @@ class PeriodCountParams(PositionWidths):
         return (self.lines << (self.fine_w - self.coarse_w - 2)) + (1 << (self.fine_w - 2))
 
     @property
+    def trust(self) -> int:
+        """TRUST: a sample with -TRUST <= r < TRUST, a quarter period from its code's edges, sets the position."""
+        return 1 << (self.fine_w - 2)
+
+    @property
     def ofs_max(self) -> int:
         """The supported |coarse_ofs|: 2^FINE_W (one period)."""
         return 1 << self.fine_w
@@ -158,8 +185,29 @@ def _int_array(name: str, v, lo: int, hi: int) -> np.ndarray:
     return a
 
 
-def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos: int | None = None
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def coarse_absolute(ph: np.ndarray, co: np.ndarray, ofs, p: PeriodCountParams) -> tuple[np.ndarray, np.ndarray]:
+    """``(pos_abs, r)`` of checked int64 inputs: the absolute position from the code and the sample's
+    distance from its code's centre (stateless; `period_count` chooses between it and the track)."""
+    half = 1 << (p.fine_w - 1)
+    mask = (1 << p.fine_w) - 1
+    d = co * p.lines
+    d <<= p.fine_w - p.coarse_w      # cpos
+    d += ofs                         # centre
+    d -= ph
+    t = d + half
+    nper = t >> p.fine_w             # floor((d + 2^(FINE_W-1)) / 2^FINE_W)
+    r = (t & mask) - half            # d - n * 2^FINE_W
+    # |coarse_ofs| <= 2^FINE_W keeps n in [-2, LINES+1]: one add or subtract of LINES, as the RTL
+    if p.lines == 1:
+        nper[:] = 0
+    else:
+        nper += np.where(nper < 0, p.lines, np.where(nper >= p.lines, -p.lines, 0))
+    pos_abs = (nper << p.fine_w) | ph
+    return pos_abs, r
+
+
+def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos: int | None = None,
+                 start_lost: bool = False, start_bad: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Position and flags for a stream of valid samples that starts right after reset.
 
     Args:
@@ -169,8 +217,12 @@ def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos
             sample (the register value each sample saw); |coarse_ofs| <= 2^FINE_W. Ignored when
             COARSE_W = 0.
         params: the block parameters.
-        start_pos: COARSE_W = 0 only: the counter's position at the first sample, for a stream resumed
-            in the middle (its low FINE_W bits must equal the first phase); default: as after reset.
+        start_pos: the output at the first sample, for a stream resumed in the middle (its low FINE_W
+            bits must equal the first phase); default: as after reset. With COARSE_W > 0 it also says
+            that a trusted sample had been seen (resume without it when none had: the output until the
+            first trusted sample is pos_abs, as after reset).
+        start_lost, start_bad: with start_pos and COARSE_W > 0: track_lost and track_bad after the
+            first sample (`track_state`).
 
     Returns:
         ``(pos, overspeed, coarse_err)``: int64 positions in [0, REV) and two bool arrays.
@@ -178,7 +230,17 @@ def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos
     Raises:
         ValueError: an input outside its format or range, or mismatched lengths.
     """
-    p = params
+    return _run(phase, coarse, coarse_ofs, params, start_pos, start_lost, start_bad)[:3]
+
+
+def track_state(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos: int | None = None,
+                start_lost: bool = False, start_bad: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(trusted_seen, track_lost, track_bad)`` after each sample of `period_count` (the RTL's state
+    bits; all False with COARSE_W = 0), to resume a stream exactly."""
+    return _run(phase, coarse, coarse_ofs, params, start_pos, start_lost, start_bad)[3:]
+
+
+def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost, start_bad):
     ph = _int_array("phase", phase, 0, (1 << p.fine_w) - 1)
     if ph.ndim != 1:
         raise ValueError(f"{NAME}: phase must be one-dimensional (a stream), got shape {ph.shape}")
@@ -194,17 +256,18 @@ def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos
         delta[1:] &= mask
         delta[1:] -= half
     overspeed = np.abs(delta) >= (1 << (p.fine_w - 2))
+    no_state = np.zeros(n, dtype=bool)
+    if start_pos is not None and n and ((start_pos & mask) != ph[0] or not 0 <= start_pos < p.rev):
+        raise ValueError(f"{NAME}: start_pos {start_pos} does not hold the first phase {ph[0]}")
 
     if p.coarse_w == 0:
         if n == 0:
-            return ph.copy(), overspeed, np.zeros(0, dtype=bool)
+            return ph.copy(), overspeed, no_state, no_state, no_state, no_state
         # |running sum| < n * 2^(FINE_W-1): int64 holds 2^34 samples of the widest phase
         pos = np.cumsum(delta)
-        if start_pos is not None and (start_pos & mask) != ph[0]:
-            raise ValueError(f"{NAME}: start_pos {start_pos} does not hold the first phase {ph[0]}")
         pos += ph[0] if start_pos is None else start_pos
         pos %= p.rev
-        return pos, overspeed, np.zeros(n, dtype=bool)
+        return pos, overspeed, no_state, no_state, no_state.copy(), no_state.copy()
 
     if coarse is None:
         raise ValueError(f"{NAME}: coarse codes are required when COARSE_W = {p.coarse_w}")
@@ -214,18 +277,41 @@ def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos
     ofs = _int_array("coarse_ofs", coarse_ofs, -p.ofs_max, p.ofs_max)
     if ofs.ndim and ofs.shape != ph.shape:
         raise ValueError(f"{NAME}: coarse_ofs must be a scalar or one value per sample, got shape {ofs.shape}")
-    d = co * p.lines
-    d <<= p.fine_w - p.coarse_w      # cpos
-    d += ofs                         # centre
-    d -= ph
-    t = d + half
-    nper = t >> p.fine_w             # floor((d + 2^(FINE_W-1)) / 2^FINE_W)
-    r = (t & mask) - half            # d - n * 2^FINE_W
+    pos_abs, r = coarse_absolute(ph, co, ofs, p)
     coarse_err = np.abs(r) > p.coarse_tol
-    # |coarse_ofs| <= 2^FINE_W keeps n in [-2, LINES+1]: one add or subtract of LINES, as the RTL
-    if p.lines == 1:
-        nper[:] = 0
-    else:
-        nper += np.where(nper < 0, p.lines, np.where(nper >= p.lines, -p.lines, 0))
-    pos = (nper << p.fine_w) | ph
-    return pos, overspeed, coarse_err
+    if n == 0:
+        return pos_abs, overspeed, coarse_err, no_state, no_state, no_state
+    trusted = (r >= -p.trust) & (r < p.trust)
+    # seen: a trusted sample before this one since reset (a resumed stream had one)
+    seen = np.zeros(n, dtype=bool)
+    seen[1:] = np.logical_or.accumulate(trusted[:-1])
+    anchor_val = pos_abs.copy()
+    if start_pos is not None:
+        seen[1:] = True
+        anchor_val[0] = start_pos
+    anchor = trusted | ~seen                     # samples whose output is pos_abs (seen[0] is False)
+    anchor[0] = True
+    idx = np.arange(n)
+    last = np.maximum.accumulate(np.where(anchor, idx, 0))          # the last anchor up to each sample
+    cum = np.cumsum(delta)                       # |sum| < n * 2^(FINE_W-1)
+    pos = (anchor_val[last] + (cum - cum[last])) % p.rev
+    # each sample's track: from the last anchor before it; lost by an overspeed since that anchor
+    prev = np.empty(n, dtype=np.int64)
+    prev[0] = 0
+    prev[1:] = last[:-1]
+    pos_trk = (anchor_val[prev] + (cum - cum[prev])) % p.rev
+    cum_over = np.cumsum(overspeed)
+    lost = (cum_over - cum_over[prev]) > 0
+    if start_pos is not None and start_lost:
+        lost |= prev == 0
+    lost[0] = False
+    # a resync against a valid track; the samples tracked from it carry its flag (track_bad)
+    resync = trusted & seen & ~lost & (pos_abs != pos_trk)
+    if start_pos is not None:
+        resync[0] = start_bad
+    coarse_err |= resync[last]
+    seen_after = seen | trusted
+    lost_after = lost & ~anchor
+    if start_pos is not None:
+        seen_after[0], lost_after[0] = True, bool(start_lost)
+    return pos, overspeed, coarse_err, seen_after, lost_after, resync[last]
