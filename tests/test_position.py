@@ -49,3 +49,24 @@ def test_counting_flags_a_quarter_period_jump():
     pos, flag = count_periods(frac, 4)
     np.testing.assert_allclose(pos, np.mod(np.arange(40) * 0.2, 4), atol=1e-12)
     assert not flag.any()
+
+
+def test_the_track_restarts_at_gaps_in_the_rows():
+    """Rows taken out of a recording (the loop's interleaved halves, cross-validation folds) leave gaps the motion
+    crossed unseen: the coarse/fine track restarts at each (pipeline.run_starts), else a gap of a period and a
+    fraction is tracked as the fraction alone and the position is a period off until the next trusted sample."""
+    from fringe.pipeline import run_starts
+
+    lines, bits = 64, 6                                  # one code per period: tracking carries the edges
+    n = 40_000
+    t = np.arange(n) * 1e-4
+    true = 0.371234 * np.arange(n) % lines               # periods a sample (no code edge exactly on a sample)
+    frac = true % 1.0
+    coarse = np.floor((true + 0.1) * (1 << bits) / lines).astype(np.int64) % (1 << bits)
+    keep = (np.arange(n) // 7) % 2 == 0                  # blocks of 7 rows, every other one
+    offset = fit_coarse_offset(frac, coarse, lines, bits)
+    want = true[keep]
+    got, _ = coarse_fine_combine(frac[keep], coarse[keep], lines, bits, offset, run_starts(t[keep], keep.sum()))
+    np.testing.assert_allclose(np.mod(got - want + lines / 2, lines) - lines / 2, 0, atol=1e-9)
+    bridged, _ = coarse_fine_combine(frac[keep], coarse[keep], lines, bits, offset)
+    assert np.any(np.abs(np.mod(bridged - want + lines / 2, lines) - lines / 2) > 0.5)

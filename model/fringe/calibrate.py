@@ -270,7 +270,7 @@ def sync_coarse(cal: Calibration, meas: Measurement):
 
 def encoder_rev(cal: Calibration, meas: Measurement) -> np.ndarray:
     frac, _ = fine_phase(cal, meas.sin, meas.cos)
-    pos, _, _ = encoder_position(cal, frac, meas.coarse)
+    pos, _, _ = encoder_position(cal, frac, meas.coarse, meas.t_s)
     return pos / cal.encoder.lines_per_rev
 
 

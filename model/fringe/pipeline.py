@@ -53,12 +53,26 @@ def tracked_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
     return r["phase"] / scale, (np.concatenate(mags) if mags else np.zeros(0))
 
 
-def encoder_position(cal: Calibration, frac: np.ndarray, coarse: np.ndarray | None):
-    """Position in periods [0, lines) and the flags of the combination."""
+def run_starts(t: np.ndarray | None, n: int) -> np.ndarray | None:
+    """Samples that start a new run of consecutive samples: a step in time over 1.5 times the median (rows taken
+    out of a recording, as the closed loop's interleaved halves and the cross-validation folds are). The
+    combination's track must not bridge such a gap: the motion across it is unknown."""
+    if t is None or n < 3:
+        return None
+    dt = np.diff(np.asarray(t, float))
+    step = float(np.median(dt))
+    if not step > 0:
+        return None
+    return np.concatenate([[False], (dt > 1.5 * step) | (dt <= 0)])
+
+
+def encoder_position(cal: Calibration, frac: np.ndarray, coarse: np.ndarray | None, t: np.ndarray | None = None):
+    """Position in periods [0, lines) and the flags of the combination (t: the time stamps, whose gaps restart
+    the coarse/fine track)."""
     enc = cal.encoder
     if enc.coarse_bits and coarse is not None and cal.coarse_offset_periods is not None:
         pos, coarse_err = coarse_fine_combine(frac, coarse, enc.lines_per_rev, enc.coarse_bits,
-                                              cal.coarse_offset_periods)
+                                              cal.coarse_offset_periods, run_starts(t, len(frac)))
         return pos, coarse_err, overspeed(frac)
     pos, fast = count_periods(frac, enc.lines_per_rev)
     return pos, np.zeros(len(frac), bool), fast
@@ -81,10 +95,10 @@ def run_float(cal: Calibration, sin: np.ndarray, cos: np.ndarray, coarse: np.nda
               t: np.ndarray | None = None) -> Result:
     enc = cal.encoder
     frac, mag = fine_phase(cal, sin, cos)
-    pos, coarse_err, fast = encoder_position(cal, frac, coarse)
+    pos, coarse_err, fast = encoder_position(cal, frac, coarse, t)
     if cal.rev_norm is not None:     # the position in the revolution from a first pass selects the gains
         frac, mag = fine_phase(cal, sin, cos, 2 * np.pi * pos / enc.lines_per_rev)
-        pos, coarse_err, fast = encoder_position(cal, frac, coarse)
+        pos, coarse_err, fast = encoder_position(cal, frac, coarse, t)
     if cal.angle_terms:
         from .effects import make_context
         ctx = make_context(frac, pos, enc.lines_per_rev, sample_times(len(frac), t), mag)

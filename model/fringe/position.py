@@ -40,7 +40,7 @@ def fit_coarse_offset(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse_b
 
 
 def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse_bits: int,
-                        offset: float) -> tuple[np.ndarray, np.ndarray]:
+                        offset: float, starts: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Absolute position (periods, [0, lines)) and the coarse/fine disagreement flag.
 
     centre = code*span + offset estimates the position to within half a code; the absolute count
@@ -54,7 +54,8 @@ def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse
     and half a period (span < 1), or a trusted sample whose absolute count differs from the
     tracked one (a code that is really wrong; the position resynchronises there, and the samples
     tracked from it carry the flag) unless a quarter-period step (`overspeed`) since the last
-    absolute sample lost the track.
+    absolute sample lost the track. `starts` marks samples that begin a new run (a gap in the rows
+    before them): there the track restarts as after a reset (the hardware streams without gaps).
     """
     frac = np.asarray(frac, float)
     span = coarse_code_span(lines, coarse_bits)
@@ -70,9 +71,13 @@ def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse
     unwrapped = frac[0] + np.concatenate([[0.0], np.cumsum(wrap(np.diff(frac)))])
     count = np.round(unwrapped - frac)
     to_abs = n - count                           # whole periods from the count to the absolute position
-    seen = np.concatenate([[False], np.logical_or.accumulate(trusted[:-1])])
-    anchor = trusted | ~seen
     idx = np.arange(len(frac))
+    # whether a trusted sample came since the start of this sample's run (the recording's start, or a gap)
+    run_start = np.maximum.accumulate(np.where(starts, idx, 0)) if starts is not None else np.zeros(len(frac), int)
+    last_trusted = np.maximum.accumulate(np.where(trusted, idx, -1))
+    seen = np.concatenate([[-1], last_trusted[:-1]]) >= run_start
+    seen[run_start == idx] = False
+    anchor = trusted | ~seen
     last = np.maximum.accumulate(np.where(anchor, idx, 0))
     prev = np.concatenate([[0], last[:-1]])
     fast = np.cumsum(overspeed(frac))
