@@ -44,15 +44,15 @@ class Measurement:
         run = rows // runs
         starts = np.linspace(0, n - run, runs).astype(np.int64)
         index = (starts[:, None] + np.arange(run)[None, :]).ravel()
-        sub = self.subset(index)
-        if sub.t_s is None:
-            sub.t_s = index.astype(float)
-        return sub
+        return self.subset(index)
 
     def subset(self, mask_or_index) -> "Measurement":
+        """The rows picked. Without t_s they keep their row numbers as time, so the gaps between them stay
+        visible (the coarse/fine track, pipeline.run_starts, must not bridge them)."""
         pick = lambda a: None if a is None else a[mask_or_index]  # noqa: E731
+        t = self.t_s if self.t_s is not None else np.arange(len(self), dtype=float)
         return Measurement(self.path, self.sin[mask_or_index], self.cos[mask_or_index],
-                           pick(self.coarse), pick(self.ref_deg), pick(self.t_s), self.comments)
+                           pick(self.coarse), pick(self.ref_deg), t[mask_or_index], self.comments)
 
 
 def available_memory() -> int:
