@@ -790,7 +790,7 @@ def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> C
     term (speed^2 over a narrow speed range is nearly a constant plus a speed term) would trade weight with the
     core's terms, and the core, which runs without it, would be left with the other half of the trade."""
     terms = list(cal.angle_terms)
-    in_core = [getattr(t, "engine", "core") != "float" for t in terms]
+    in_core = [t.engine != "float" for t in terms]
     for _ in range(rounds):
         # the context as the core sees it: without the float engine's terms
         core_terms = [t for t, c in zip(cal.angle_terms, in_core, strict=True) if c]

@@ -75,8 +75,7 @@ def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse
     # whether a trusted sample came since the start of this sample's run (the recording's start, or a gap)
     run_start = np.maximum.accumulate(np.where(starts, idx, 0)) if starts is not None else np.zeros(len(frac), int)
     last_trusted = np.maximum.accumulate(np.where(trusted, idx, -1))
-    seen = np.concatenate([[-1], last_trusted[:-1]]) >= run_start
-    seen[run_start == idx] = False
+    seen = np.concatenate([[-1], last_trusted[:-1]]) >= run_start    # False at a run's first sample
     anchor = trusted | ~seen
     last = np.maximum.accumulate(np.where(anchor, idx, 0))
     prev = np.concatenate([[0], last[:-1]])
