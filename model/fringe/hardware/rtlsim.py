@@ -20,8 +20,6 @@ Helpers shared with the testbenches: ``top_parameters``, ``write_init_files``, `
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import hashlib
 import json
 import os
@@ -172,17 +170,6 @@ def _runner():
     return cocotb_runner
 
 
-@contextlib.contextmanager
-def _locked(path: Path):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
-
-
 def _engine_builder():
     if not (ENGINE_DIR / "build.py").is_file():
         raise RtlSimulationError(f"the fast Verilator engine needs the fringe source tree ({ENGINE_DIR})")
@@ -253,7 +240,7 @@ def run_rtl(cal: Calibration | None, cfg: CoreConfig, sin, cos, coarse=None, sim
     # parameters, so the build is cached; the lock serialises runs that share them.
     key = hashlib.sha256(json.dumps(cfg.to_dict(), sort_keys=True).encode()).hexdigest()[:12]
     work = cr.SIM_BUILD / "rtlsim" / sim / f"{cfg.test_id}-{key}"
-    with _locked(work / ".lock"):
+    with cr.locked(work / ".lock"):
         write_init_files(t, cfg, work / "init")
         params = top_parameters(cfg, work / "init", sim)
         if sim == "verilator" and harness == "cpp":
