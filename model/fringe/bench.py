@@ -86,24 +86,32 @@ def speed(samples: int = 1_000_000) -> dict:
                         "correct_model_ge_1M_per_s": samples / t_model >= 1e6}}
 
 
-def rm44(folder: str) -> dict | str:
+def _per_rm44_file(folder: str, figures_of) -> dict | str:
+    """``{file name: figures_of(train, val)}`` over the RM44 recordings, each split into its even (train) and
+    odd (val) samples, or why there are none."""
     files = sorted(glob.glob(os.path.join(folder, "rm44_hall_vs_tonic", "*.csv")))
     if not files:
         return "skipped: ../shared/data/rm44_hall_vs_tonic not found"
-    rows = {}
-    for path in files:
-        train, val = halves(read_rm44(path))
+    return {os.path.basename(path): figures_of(*halves(read_rm44(path))) for path in files}
+
+
+def rm44(folder: str) -> dict | str:
+    def one(train, val) -> dict:
         cal = calibrate(train, RM44_ENCODER)
         raw = figures(uncorrected(cal, val), val)[0]
         ell = figures(ellipse_only(cal, train), val)[0]
         fixed, res = figures(cal, val)
         err = error_arcsec(res.angle_deg, val.ref_deg)
-        rows[os.path.basename(path)] = {
+        return {
             "raw_rms_arcsec": round(raw.rms_arcsec, 1), "raw_pp_arcsec": round(raw.pp_arcsec, 1),
             "ellipse_rms_arcsec": round(ell.rms_arcsec, 1),
             "corrected_rms_arcsec": round(fixed.rms_arcsec, 1), "corrected_pp_arcsec": round(fixed.pp_arcsec, 1),
             "noise_estimate_arcsec": round(float(np.std(np.diff(err)) / np.sqrt(2)), 1),
         }
+
+    rows = _per_rm44_file(folder, one)
+    if isinstance(rows, str):
+        return rows
     return {"setup": "calibrated on the even samples of each file, validated on the odd ones", "files": rows}
 
 
@@ -150,20 +158,19 @@ def loop_scenarios(samples: int = 100_000) -> dict:
 def loop_rm44(folder: str) -> dict | str:
     from .loop import run_loop
 
-    files = sorted(glob.glob(os.path.join(folder, "rm44_hall_vs_tonic", "*.csv")))
-    if not files:
-        return "skipped: ../shared/data/rm44_hall_vs_tonic not found"
-    rows = {}
-    for path in files:
-        train, val = halves(read_rm44(path))
+    def one(train, val) -> dict:
         _, state, rep = run_loop(train, RM44_ENCODER, val)
-        rows[os.path.basename(path)] = {
+        return {
             "rms_before_arcsec": rep["before"]["rms_arcsec"], "rms_after_arcsec": rep["after"]["rms_arcsec"],
             "rms_after_model_arcsec": _model_rms(state, val),
             "noise_floor_arcsec": rep["noise_floor_arcsec"],
             "added": [e["name"] for e in rep["effects_added"]],
             "left": [f"{u['domain']}: {u['rms_arcsec']}" for u in rep["unexplained"]
                      if u["rms_arcsec"] is not None and u["domain"] != "noise"]}
+
+    rows = _per_rm44_file(folder, one)
+    if isinstance(rows, str):
+        return rows
     return {"setup": "fringe loop, fitted on the even samples, validated on the odd ones", "files": rows}
 
 
