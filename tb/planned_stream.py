@@ -55,6 +55,18 @@ def accepted_segments(cycles: Sequence[Cycle]) -> list[list[int]]:
     return [s for s in segs if s]
 
 
+def draw_controls(rng, cyc: int, resets, p_ce: float, user_w: int, bus: Callable[..., dict[str, int]],
+                  writes: list) -> tuple[int, int, dict[str, int], int]:
+    """The controls of a plan's cycle ``cyc``, in the order the block plans draw them from ``rng``:
+    (rst: ``cyc`` in ``resets``, ce with probability ``p_ce``, the write bus ``bus(w)`` for the next of
+    ``writes`` (taken from the list) or ``bus()``'s idle junk, the sideband u(user_w))."""
+    rst = int(cyc in resets)
+    ce = int(rng.random() < p_ce)
+    b = bus(writes.pop(0)) if writes else bus()
+    user = int(rng.integers(0, 1 << user_w))
+    return rst, ce, b, user
+
+
 @dataclass
 class DriveStats:
     cycles: int = 0

@@ -100,7 +100,7 @@ def encoder(p: DriftParams, rng, n: int, t0: int, speed: float, scale: float = 1
 
 def build_plan(p: DriftParams, user_w: int, seed: int):
     """The cycles of the run with the expected normaliser words and states; plus the observer feed."""
-    from planned_stream import Cycle, accepted_segments
+    from planned_stream import Cycle, accepted_segments, draw_controls
 
     rng = np.random.default_rng(seed)
     B = p.b
@@ -134,10 +134,7 @@ def build_plan(p: DriftParams, user_w: int, seed: int):
         writes = list(writes or [])
         i = cyc = 0
         while i < n or writes:
-            rst = int(cyc in resets)
-            ce = int(rng.random() < p_ce)
-            b = bus(writes.pop(0)) if writes else bus()
-            user = int(rng.integers(0, 1 << user_w))
+            rst, ce, b, user = draw_controls(rng, cyc, resets, p_ce, user_w, bus, writes)
             if i < n and rng.random() < p_valid:
                 c = Cycle(rst, ce, 1, {"raw_sin": int(rs[i]) & ((1 << p.adc_w) - 1),
                                        "raw_cos": int(rc[i]) & ((1 << p.adc_w) - 1), "in_user": user, **b}, note=note)

@@ -104,7 +104,7 @@ def positions(p: LongPeriodParams, rng: np.random.Generator, n: int, hot=()) -> 
 
 def build_plan(p: LongPeriodParams, user_w: int, seed: int):
     """The cycles of the whole run with their expected outputs, and the table contents over time."""
-    from planned_stream import Cycle
+    from planned_stream import Cycle, draw_controls
 
     rng = np.random.default_rng(seed)
     n = p.entries
@@ -138,10 +138,7 @@ def build_plan(p: LongPeriodParams, user_w: int, seed: int):
         writes = list(writes or [])
         i = cyc = 0
         while i < n_samples or writes:
-            rst = int(cyc in resets)
-            ce = int(rng.random() < p_ce)
-            bus = write_bus(*writes.pop(0)) if writes else write_bus()
-            user = int(rng.integers(0, 1 << user_w))
+            rst, ce, bus, user = draw_controls(rng, cyc, resets, p_ce, user_w, lambda w=(): write_bus(*w), writes)
             if i < n_samples and rng.random() < p_valid:
                 c = Cycle(rst, ce, 1, {"pos": int(pos[i]), "zero": int(zero[i]), "dir": int(d[i]),
                                        "bank": int(bank[i]), "in_user": user, **bus}, note=note)

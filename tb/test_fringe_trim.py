@@ -139,7 +139,7 @@ def motion(p: TrimParams, rng: np.random.Generator, n: int) -> np.ndarray:
 
 def build_plan(p: TrimParams, user_w: int, seed: int):
     """The cycles of the whole run with their expected outputs."""
-    from planned_stream import Cycle, accepted_segments
+    from planned_stream import Cycle, accepted_segments, draw_controls
 
     rng = np.random.default_rng(seed)
     word_mask = (1 << p.word_w) - 1
@@ -163,10 +163,7 @@ def build_plan(p: TrimParams, user_w: int, seed: int):
         writes = list(writes or [])
         i = cyc = 0
         while i < n_samples or writes:
-            rst = int(cyc in resets)
-            ce = int(rng.random() < p_ce)
-            bus = write_bus(writes.pop(0)) if writes else write_bus()
-            user = int(rng.integers(0, 1 << user_w))
+            rst, ce, bus, user = draw_controls(rng, cyc, resets, p_ce, user_w, write_bus, writes)
             if i < n_samples and rng.random() < p_valid:
                 c = Cycle(rst, ce, 1, {"pos": int(pos[i]), "mag": int(mag[i]), "bank": int(bank[i]),
                                        "in_user": user, **bus}, note=note)
