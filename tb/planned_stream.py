@@ -67,6 +67,12 @@ def draw_controls(rng, cyc: int, resets, p_ce: float, user_w: int, bus: Callable
     return rst, ce, b, user
 
 
+def idle_cycles(cycles: list[Cycle], k: int, bus: Callable[[], dict[str, int]], note: str) -> None:
+    """Append ``k`` idle clocks with ce = 1 (the write bus ``bus()``'s idle junk): every sample taken so
+    far moves on (has read its tables, or has come out)."""
+    cycles += [Cycle(0, 1, 0, {"in_user": 0, **bus()}, note=note) for _ in range(k)]
+
+
 @dataclass
 class DriveStats:
     cycles: int = 0
