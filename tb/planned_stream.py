@@ -67,6 +67,15 @@ def draw_controls(rng, cyc: int, resets, p_ce: float, user_w: int, bus: Callable
     return rst, ce, b, user
 
 
+def accepted_positions(cycles: Sequence[Cycle], rev: int, tag: str) -> list[Cycle]:
+    """The accepted cycles of a position block's plan (port ``pos``), checked to carry their expected
+    outputs and to reach both ends of the revolution, 0 and REV - 1."""
+    acc = [c for c in cycles if c.accepted]
+    assert all(c.expect is not None for c in acc), f"{tag}: an accepted cycle without its expected output"
+    assert {0, rev - 1} <= {c.drive["pos"] for c in acc}, tag
+    return acc
+
+
 def idle_cycles(cycles: list[Cycle], k: int, bus: Callable[[], dict[str, int]], note: str) -> None:
     """Append ``k`` idle clocks with ce = 1 (the write bus ``bus()``'s idle junk): every sample taken so
     far moves on (has read its tables, or has come out)."""
