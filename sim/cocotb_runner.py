@@ -262,8 +262,9 @@ def _patched_environ(values: Mapping[str, str]) -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def _locked(path: Path) -> Iterator[None]:
-    """An exclusive lock file, so parallel pytest workers do not build the same directory."""
+def locked(path: Path) -> Iterator[None]:
+    """An exclusive lock file, so parallel pytest workers (and fringe.hardware.rtlsim's runs) do not build
+    or use the same directory at once."""
     path.parent.mkdir(parents=True, exist_ok=True)
     with open(path, "w") as fh:
         fcntl.flock(fh, fcntl.LOCK_EX)
@@ -349,7 +350,7 @@ def run_block(
     digest = _sources_digest(srcs + (include_files() if includes else []),
                              {"args": build_args, "params": params, "waves": waves})
     stamp = build_dir / ".fringe_build_stamp"
-    with _locked(build_dir.with_suffix(".lock")):
+    with locked(build_dir.with_suffix(".lock")):
         up_to_date = (
             stamp.is_file()
             and stamp.read_text() == digest

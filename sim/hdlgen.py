@@ -3,9 +3,13 @@
 - constants: the register map (``model/fringe/fixed/regmap.py``), the status bits (``fringe.result``)
   and the block latencies (the ``LATENCY`` constants of the bit-exact block models), into
   ``rtl/vhdl/fringe_pkg.vhd`` and ``rtl/verilog/fringe_pkg.vh``;
-- parameters/generics and the maps that pass them on: fringe_core, fringe_top (both HDLs) and
-  ``sim/synth_wrap.v``, from ``CoreConfig`` (``fixed/config.py``: HDL_PARAMETER_DOCS, the defaults of
-  CoreConfig()).
+- parameters/generics and the maps that pass them on, from ``CoreConfig`` (``fixed/config.py``:
+  HDL_PARAMETER_DOCS, the defaults of CoreConfig()): in Verilog the include files
+  ``rtl/verilog/fringe_core_params.vh`` (the list fringe_core, fringe_top and ``sim/synth_wrap.v`` include
+  inside their ``#( ... )``) and ``rtl/verilog/fringe_core_map.vh`` (every parameter passed on under its own
+  name); in VHDL the generics of fringe_core and fringe_top and fringe_top's map;
+- documentation tables: the status bits (``docs/architecture.md`` and ``README.md``, the meanings of
+  STATUS_MEANINGS) and the registers (``docs/architecture.md``).
 
 A region lies between the lines ``-- BEGIN generated <region> ...`` and ``-- END generated <region>``
 (``//`` in Verilog); the body is indented as the BEGIN line.
@@ -32,7 +36,7 @@ from fringe.fixed.config import HDL_PARAMETER_DOCS, HDL_WIDE_PARAMETERS, INPUT_L
 
 REPO = Path(__file__).resolve().parent.parent
 COMMAND = "python sim/hdlgen.py"
-STATUS_NAMES = ("CLIP_SIN", "CLIP_COS", "AMP_LOW", "AMP_HIGH", "OVERSPEED", "COARSE_ERR", "SATURATED", "BANK")
+STATUS_NAMES = tuple(result.STATUS_NAMES)
 
 
 @dataclass(frozen=True)
@@ -195,12 +199,14 @@ def register_table() -> list[str]:
 REGIONS: dict[str, tuple[str, dict[str, Callable[[], list[str]]]]] = {
     "rtl/vhdl/fringe_pkg.vhd": ("--", {"constants": vhdl_constants}),
     "rtl/verilog/fringe_pkg.vh": ("//", {"constants": verilog_constants}),
-    "rtl/verilog/fringe_core.v": ("//", {"parameters": verilog_parameters}),
-    "rtl/verilog/fringe_top.v": ("//", {"parameters": verilog_parameters, "core map": verilog_map}),
+    # one Verilog text, included by fringe_core, fringe_top and sim/synth_wrap.v inside #( ... )
+    "rtl/verilog/fringe_core_params.vh": ("//", {"parameters": verilog_parameters}),
+    "rtl/verilog/fringe_core_map.vh": ("//", {"core map": verilog_map}),
+    # VHDL has no include: the generics are written into both entities
     "rtl/vhdl/fringe_core.vhd": ("--", {"generics": vhdl_generics}),
     "rtl/vhdl/fringe_top.vhd": ("--", {"generics": vhdl_generics, "core map": vhdl_map}),
-    "sim/synth_wrap.v": ("//", {"parameters": verilog_parameters, "top map": verilog_map}),
     "docs/architecture.md": ("<!--", {"status": status_table, "registers": register_table}),
+    "README.md": ("<!--", {"status": status_table}),
 }
 
 

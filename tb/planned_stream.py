@@ -55,6 +55,33 @@ def accepted_segments(cycles: Sequence[Cycle]) -> list[list[int]]:
     return [s for s in segs if s]
 
 
+def draw_controls(rng, cyc: int, resets, p_ce: float, user_w: int, bus: Callable[..., dict[str, int]],
+                  writes: list) -> tuple[int, int, dict[str, int], int]:
+    """The controls of a plan's cycle ``cyc``, in the order the block plans draw them from ``rng``:
+    (rst: ``cyc`` in ``resets``, ce with probability ``p_ce``, the write bus ``bus(w)`` for the next of
+    ``writes`` (taken from the list) or ``bus()``'s idle junk, the sideband u(user_w))."""
+    rst = int(cyc in resets)
+    ce = int(rng.random() < p_ce)
+    b = bus(writes.pop(0)) if writes else bus()
+    user = int(rng.integers(0, 1 << user_w))
+    return rst, ce, b, user
+
+
+def accepted_positions(cycles: Sequence[Cycle], rev: int, tag: str) -> list[Cycle]:
+    """The accepted cycles of a position block's plan (port ``pos``), checked to carry their expected
+    outputs and to reach both ends of the revolution, 0 and REV - 1."""
+    acc = [c for c in cycles if c.accepted]
+    assert all(c.expect is not None for c in acc), f"{tag}: an accepted cycle without its expected output"
+    assert {0, rev - 1} <= {c.drive["pos"] for c in acc}, tag
+    return acc
+
+
+def idle_cycles(cycles: list[Cycle], k: int, bus: Callable[[], dict[str, int]], note: str) -> None:
+    """Append ``k`` idle clocks with ce = 1 (the write bus ``bus()``'s idle junk): every sample taken so
+    far moves on (has read its tables, or has come out)."""
+    cycles += [Cycle(0, 1, 0, {"in_user": 0, **bus()}, note=note) for _ in range(k)]
+
+
 @dataclass
 class DriveStats:
     cycles: int = 0

@@ -23,15 +23,15 @@ Replay a failure: ``FRINGE_SEED=<seed in the message> pytest tb/test_fringe_canc
 
 from __future__ import annotations
 
-import json
-import os
 import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 from elab_check import refusal_tests
+from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
+from lib.launch import block_config, block_env, signed
 
 from fringe.fixed.canceller import ADAPT_LATENCY, LATENCY, CancelParams, cancel, freq_word, sine_table
 
@@ -138,10 +138,6 @@ def build_plan(p: CancelParams, user_w: int, seed: int):
 
 # ============================================================================ cocotb side
 
-try:
-    import cocotb
-except ImportError:  # pragma: no cover
-    cocotb = None
 
 
 def params_of(raw: dict) -> CancelParams:
@@ -150,13 +146,8 @@ def params_of(raw: dict) -> CancelParams:
 
 
 def _config():
-    raw = json.loads(os.environ["FRINGE_CANCEL_PARAMS"])
-    return params_of(raw), int(raw["USER_W"]), int(os.environ.get("FRINGE_SEED", DEFAULT_SEED))
-
-
-def _s(v: int, w: int) -> int:
-    v &= (1 << w) - 1
-    return v - (1 << w) if v >> (w - 1) else v
+    raw, user_w, seed = block_config("FRINGE_CANCEL_PARAMS", DEFAULT_SEED)
+    return params_of(raw), user_w, seed
 
 
 if cocotb is not None:
@@ -164,7 +155,7 @@ if cocotb is not None:
     from planned_stream import hdl_constant, play_plan, start_clock
 
     def _read(dut, p: CancelParams):
-        return (_s(int(dut.c_out.value), p.wave_w), _s(int(dut.s_out.value), p.wave_w), int(dut.sat.value),
+        return (signed(int(dut.c_out.value), p.wave_w), signed(int(dut.s_out.value), p.wave_w), int(dut.sat.value),
                 int(dut.track_sat.value), int(dut.out_user.value))
 
     @cocotb.test()
@@ -272,7 +263,6 @@ def test_fringe_canceller(sim, ps):
 
     p, user_w = ps
     hdl = {**p.hdl_parameters(), "USER_W": user_w}
-    env = {"FRINGE_CANCEL_PARAMS": json.dumps(hdl),
-           "FRINGE_SEED": os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))}
+    env = block_env("FRINGE_CANCEL_PARAMS", hdl, DEFAULT_SEED)
     hdl["LUT_INIT"] = _lut_file(p)
     run_block(TOPLEVEL, "test_fringe_canceller", hdl, sim=sim, timeout_s=600, extra_env=env)

@@ -26,8 +26,6 @@ Replay a failure: ``FRINGE_SEED=<seed in the message> pytest tb/test_fringe_drif
 
 from __future__ import annotations
 
-import json
-import os
 import tempfile
 from collections import deque
 from pathlib import Path
@@ -37,7 +35,7 @@ import pytest
 from elab_check import refusal_tests
 from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
-from lib.launch import block_env
+from lib.launch import block_config, block_env, signed
 
 from fringe.fixed.drift import (
     NORM_LATENCY,
@@ -102,7 +100,7 @@ def encoder(p: DriftParams, rng, n: int, t0: int, speed: float, scale: float = 1
 
 def build_plan(p: DriftParams, user_w: int, seed: int):
     """The cycles of the run with the expected normaliser words and states; plus the observer feed."""
-    from planned_stream import Cycle, accepted_segments
+    from planned_stream import Cycle, accepted_segments, draw_controls
 
     rng = np.random.default_rng(seed)
     B = p.b
@@ -136,10 +134,7 @@ def build_plan(p: DriftParams, user_w: int, seed: int):
         writes = list(writes or [])
         i = cyc = 0
         while i < n or writes:
-            rst = int(cyc in resets)
-            ce = int(rng.random() < p_ce)
-            b = bus(writes.pop(0)) if writes else bus()
-            user = int(rng.integers(0, 1 << user_w))
+            rst, ce, b, user = draw_controls(rng, cyc, resets, p_ce, user_w, bus, writes)
             if i < n and rng.random() < p_valid:
                 c = Cycle(rst, ce, 1, {"raw_sin": int(rs[i]) & ((1 << p.adc_w) - 1),
                                        "raw_cos": int(rc[i]) & ((1 << p.adc_w) - 1), "in_user": user, **b}, note=note)
@@ -199,13 +194,8 @@ def params_of(raw: dict) -> DriftParams:
 
 
 def _config():
-    raw = json.loads(os.environ["FRINGE_DRIFT_PARAMS"])
-    return params_of(raw), int(raw["USER_W"]), int(os.environ.get("FRINGE_SEED", DEFAULT_SEED))
-
-
-def _s(v: int, w: int) -> int:
-    v &= (1 << w) - 1
-    return v - (1 << w) if v >> (w - 1) else v
+    raw, user_w, seed = block_config("FRINGE_DRIFT_PARAMS", DEFAULT_SEED)
+    return params_of(raw), user_w, seed
 
 
 if cocotb is not None:
@@ -222,12 +212,12 @@ if cocotb is not None:
         return n
 
     def _norm(dut, p):
-        return (_s(int(dut.y_sin.value), p.adc_w), _s(int(dut.y_cos.value), p.adc_w), int(dut.norm_sat.value),
+        return (signed(int(dut.y_sin.value), p.adc_w), signed(int(dut.y_cos.value), p.adc_w), int(dut.norm_sat.value),
                 int(dut.norm_user.value))
 
     def _state(dut, p):
-        return (_s(int(dut.off_sin.value), p.ofs_w), _s(int(dut.off_cos.value), p.ofs_w), int(dut.ginv_sin.value),
-                int(dut.ginv_cos.value), int(dut.track_sat.value))
+        return (signed(int(dut.off_sin.value), p.ofs_w), signed(int(dut.off_cos.value), p.ofs_w),
+                int(dut.ginv_sin.value), int(dut.ginv_cos.value), int(dut.track_sat.value))
 
     def _idle_obs(dut, p, rng):
         dut.obs_valid.value = 0

@@ -25,8 +25,6 @@ Replay a failure: ``FRINGE_SEED=<seed in the message> pytest tb/test_fringe_long
 
 from __future__ import annotations
 
-import json
-import os
 import tempfile
 from pathlib import Path
 
@@ -35,7 +33,7 @@ import pytest
 from elab_check import refusal_tests
 from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
-from lib.launch import block_env
+from lib.launch import block_config, block_env
 
 from fringe.fixed.long_period import (
     LATENCY,
@@ -104,7 +102,7 @@ def positions(p: LongPeriodParams, rng: np.random.Generator, n: int, hot=()) -> 
 
 def build_plan(p: LongPeriodParams, user_w: int, seed: int):
     """The cycles of the whole run with their expected outputs, and the table contents over time."""
-    from planned_stream import Cycle
+    from planned_stream import Cycle, draw_controls, idle_cycles
 
     rng = np.random.default_rng(seed)
     n = p.entries
@@ -138,10 +136,7 @@ def build_plan(p: LongPeriodParams, user_w: int, seed: int):
         writes = list(writes or [])
         i = cyc = 0
         while i < n_samples or writes:
-            rst = int(cyc in resets)
-            ce = int(rng.random() < p_ce)
-            bus = write_bus(*writes.pop(0)) if writes else write_bus()
-            user = int(rng.integers(0, 1 << user_w))
+            rst, ce, bus, user = draw_controls(rng, cyc, resets, p_ce, user_w, lambda w=(): write_bus(*w), writes)
             if i < n_samples and rng.random() < p_valid:
                 c = Cycle(rst, ce, 1, {"pos": int(pos[i]), "zero": int(zero[i]), "dir": int(d[i]),
                                        "bank": int(bank[i]), "in_user": user, **bus}, note=note)
@@ -156,9 +151,7 @@ def build_plan(p: LongPeriodParams, user_w: int, seed: int):
             cyc += 1
 
     def settle(k=2):
-        """ce = 1 idle clocks: every sample taken so far has read the table."""
-        for _ in range(k):
-            cycles.append(Cycle(0, 1, 0, {"in_user": 0, **write_bus()}, note="settle"))
+        idle_cycles(cycles, k, write_bus, "settle")
 
     cycles.append(Cycle(1, 1, 0, {"pos": 0, "zero": 0, "dir": 0, "bank": 0, "in_user": 0, **write_bus()},
                         note="power-up reset"))
@@ -185,8 +178,7 @@ def build_plan(p: LongPeriodParams, user_w: int, seed: int):
     words[0] = [int(v) for v in new0]
     section(400, 1.0, 0.9, note="new bank 0 and bank 1")
     flush_expect()
-    for _ in range(LATENCY + 2):
-        cycles.append(Cycle(0, 1, 0, {"in_user": 0, **write_bus()}, note="drain"))
+    idle_cycles(cycles, LATENCY + 2, write_bus, "drain")
     return cycles
 
 
@@ -199,8 +191,8 @@ def params_of(raw: dict) -> LongPeriodParams:
 
 
 def _config() -> tuple[LongPeriodParams, int, int]:
-    raw = json.loads(os.environ["FRINGE_LP_PARAMS"])
-    return params_of(raw), int(raw["USER_W"]), int(os.environ.get("FRINGE_SEED", DEFAULT_SEED))
+    raw, user_w, seed = block_config("FRINGE_LP_PARAMS", DEFAULT_SEED)
+    return params_of(raw), user_w, seed
 
 
 if cocotb is not None:
@@ -257,12 +249,11 @@ def _id(ps) -> str:
 
 def test_plan_is_effective():
     """The plans exercise what the module docstring promises (checked without a simulator)."""
+    from planned_stream import accepted_positions
+
     for p, user_w in PARAM_SETS:
         cycles = build_plan(p, user_w, DEFAULT_SEED)
-        acc = [c for c in cycles if c.accepted]
-        assert all(c.expect is not None for c in acc)
-        pos = {c.drive["pos"] for c in acc}
-        assert {0, p.rev - 1} <= pos, _id((p, user_w))
+        acc = accepted_positions(cycles, p.rev, _id((p, user_w)))
         assert {c.drive["bank"] for c in acc} == {0, 1} and {c.drive["dir"] for c in acc} == {0, 1}
         writes = [c for c in cycles if c.drive.get("wr_en")]
         assert len(writes) == 2 * p.entries and any(not c.ce for c in writes)

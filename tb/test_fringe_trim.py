@@ -30,8 +30,6 @@ Replay a failure: ``FRINGE_SEED=<seed in the message> pytest tb/test_fringe_trim
 
 from __future__ import annotations
 
-import json
-import os
 import tempfile
 from pathlib import Path
 
@@ -40,7 +38,7 @@ import pytest
 from elab_check import refusal_tests
 from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
-from lib.launch import block_env
+from lib.launch import block_config, block_env
 
 from fringe.fixed.trim import (
     LATENCY,
@@ -139,7 +137,7 @@ def motion(p: TrimParams, rng: np.random.Generator, n: int) -> np.ndarray:
 
 def build_plan(p: TrimParams, user_w: int, seed: int):
     """The cycles of the whole run with their expected outputs."""
-    from planned_stream import Cycle, accepted_segments
+    from planned_stream import Cycle, accepted_segments, draw_controls, idle_cycles
 
     rng = np.random.default_rng(seed)
     word_mask = (1 << p.word_w) - 1
@@ -163,10 +161,7 @@ def build_plan(p: TrimParams, user_w: int, seed: int):
         writes = list(writes or [])
         i = cyc = 0
         while i < n_samples or writes:
-            rst = int(cyc in resets)
-            ce = int(rng.random() < p_ce)
-            bus = write_bus(writes.pop(0)) if writes else write_bus()
-            user = int(rng.integers(0, 1 << user_w))
+            rst, ce, bus, user = draw_controls(rng, cyc, resets, p_ce, user_w, write_bus, writes)
             if i < n_samples and rng.random() < p_valid:
                 c = Cycle(rst, ce, 1, {"pos": int(pos[i]), "mag": int(mag[i]), "bank": int(bank[i]),
                                        "in_user": user, **bus}, note=note)
@@ -182,9 +177,7 @@ def build_plan(p: TrimParams, user_w: int, seed: int):
             cyc += 1
 
     def settle(k=3):
-        """ce = 1 idle clocks: every sample taken so far has read its tables."""
-        for _ in range(k):
-            cycles.append(Cycle(0, 1, 0, {"in_user": 0, **write_bus()}, note="settle"))
+        idle_cycles(cycles, k, write_bus, "settle")
 
     def rewrite(bank: int, new: dict[str, np.ndarray], n_map: int) -> list[tuple[int, int, int]]:
         """Writes of all gain words and n_map map words of ``bank``, with ignored writes mixed in."""
@@ -227,8 +220,7 @@ def build_plan(p: TrimParams, user_w: int, seed: int):
     settle()
     apply(ws)
     section(600, 1.0, 0.9, resets={333}, note="new bank 0 and bank 1")
-    for _ in range(LATENCY + 2):
-        cycles.append(Cycle(0, 1, 0, {"in_user": 0, **write_bus()}, note="drain"))
+    idle_cycles(cycles, LATENCY + 2, write_bus, "drain")
 
     # expected words: speeds per reset segment, outputs per table version
     idx, sp = [], []
@@ -259,8 +251,8 @@ def params_of(raw: dict) -> TrimParams:
 
 
 def _config() -> tuple[TrimParams, int, int]:
-    raw = json.loads(os.environ["FRINGE_TRIM_PARAMS"])
-    return params_of(raw), int(raw["USER_W"]), int(os.environ.get("FRINGE_SEED", DEFAULT_SEED))
+    raw, user_w, seed = block_config("FRINGE_TRIM_PARAMS", DEFAULT_SEED)
+    return params_of(raw), user_w, seed
 
 
 if cocotb is not None:
@@ -323,14 +315,11 @@ def _id(ps) -> str:
 
 def test_plan_is_effective():
     """The plans exercise what the module docstring promises (checked without a simulator)."""
-    from planned_stream import accepted_segments
+    from planned_stream import accepted_positions, accepted_segments
 
     for p, user_w in PARAM_SETS:
         cycles = build_plan(p, user_w, DEFAULT_SEED)
-        acc = [c for c in cycles if c.accepted]
-        assert all(c.expect is not None for c in acc)
-        pos = {c.drive["pos"] for c in acc}
-        assert {0, p.rev - 1} <= pos, _id((p, user_w))
+        acc = accepted_positions(cycles, p.rev, _id((p, user_w)))
         assert {c.drive["bank"] for c in acc} == {0, 1}
         exp = np.array([c.expect for c in acc])
         assert set(exp[:, 1].tolist()) == {0, 1}, _id((p, user_w))                         # dir

@@ -164,8 +164,10 @@ def hdl_refusals(c: dict) -> list[str]:
         in_range("fringe_drift", "TABLE_FRAC", d["TABLE_FRAC"], 0, 12)
         in_range("fringe_drift", "KG_W", d["KG_W"], 8, 24)
         in_range("fringe_drift", "KG_SHIFT", d["KG_SHIFT"], 1, 60)
-        pipe = (k["CORE_INPUT_LATENCY"] + k["WAVE_LUT_LATENCY"] + k["QUADRATURE_LATENCY"] + g["CORDIC_STAGES"]
-                + k["CORDIC_LATENCY_BASE"])
+        # fringe_core's PIPE_D: the input registers, the waveform tables, the quadrature, the canceller
+        # (CANCEL = 1) and the CORDIC
+        pipe = (k["CORE_INPUT_LATENCY"] + k["WAVE_LUT_LATENCY"] + k["QUADRATURE_LATENCY"]
+                + g.get("CANCEL", 0) * k["CANCEL_LATENCY"] + g["CORDIC_STAGES"] + k["CORDIC_LATENCY_BASE"])
         norm, obs = k["DRIFT_NORM_LATENCY"], k["DRIFT_OBS_LATENCY"]
         if d["BLOCK_LOG2"] >= 1:
             late = (1 << (d["BLOCK_LOG2"] - 1)) + 1
@@ -225,6 +227,22 @@ def test_default_config_is_legal_and_replace_rechecks():
     with pytest.raises(ValueError, match="exceeds D \\+ 1"):
         dataclasses.replace(cfg, drift=1, drift_block_log2=5)
     dataclasses.replace(cfg, trim=0, map_phi_w=99)      # fringe_trim is not built: its limits do not apply
+
+
+@pytest.mark.parametrize("cancel", [0, 1])
+def test_drift_update_deadline_counts_the_canceller(cancel):
+    """With DRIFT = 1 the tracker's update deadline holds the canceller's latency when CANCEL = 1: the
+    transcription and the model draw the line at the same CORDIC_STAGES (29 | 30 with the canceller)."""
+    base = {name: getattr(CoreConfig(), name) for name in RANGES}
+    verdicts = []
+    for stages in range(26, 33):
+        c = {**base, "drift": 1, "drift_block_log2": 7, "cordic_stages": stages, "cancel": cancel}
+        hdl, model = hdl_refusals(c), model_refusal(c)
+        assert (model is None) == (not hdl), f"{c}: HDL {hdl or 'accepts'}, model {model or 'accepts'}"
+        if model is not None:
+            assert model in hdl, f"{c}: the model says {model!r}, the HDL {hdl}"
+        verdicts.append(model is None)
+    assert verdicts == [True] * (4 if cancel else 7) + [False] * (3 if cancel else 0)
 
 
 def verilator() -> tuple[list[str], dict] | None:

@@ -58,7 +58,7 @@ def test_probes_name_wires_of_the_flattened_design(task):
     for f in [*formal.cocotb_runner.block_sources("fringe_top", "verilator"), formal.HERE / task.wrapper]:
         shutil.copy2(f, work / Path(f).name)
         names.append(Path(f).name)
-    for f in formal.cocotb_runner.include_files():
+    for f in [*formal.cocotb_runner.include_files(), *formal.wrapper_includes()]:
         shutil.copy2(f, work / f.name)
     lines = formal.script_lines(task, names, task.config)
     upto = max(i for i, ln in enumerate(lines) if ln.startswith("connect "))

@@ -86,24 +86,32 @@ def speed(samples: int = 1_000_000) -> dict:
                         "correct_model_ge_1M_per_s": samples / t_model >= 1e6}}
 
 
-def rm44(folder: str) -> dict | str:
+def _per_rm44_file(folder: str, figures_of) -> dict | str:
+    """``{file name: figures_of(train, val)}`` over the RM44 recordings, each split into its even (train) and
+    odd (val) samples, or why there are none."""
     files = sorted(glob.glob(os.path.join(folder, "rm44_hall_vs_tonic", "*.csv")))
     if not files:
         return "skipped: ../shared/data/rm44_hall_vs_tonic not found"
-    rows = {}
-    for path in files:
-        train, val = halves(read_rm44(path))
+    return {os.path.basename(path): figures_of(*halves(read_rm44(path))) for path in files}
+
+
+def rm44(folder: str) -> dict | str:
+    def one(train, val) -> dict:
         cal = calibrate(train, RM44_ENCODER)
         raw = figures(uncorrected(cal, val), val)[0]
         ell = figures(ellipse_only(cal, train), val)[0]
         fixed, res = figures(cal, val)
         err = error_arcsec(res.angle_deg, val.ref_deg)
-        rows[os.path.basename(path)] = {
+        return {
             "raw_rms_arcsec": round(raw.rms_arcsec, 1), "raw_pp_arcsec": round(raw.pp_arcsec, 1),
             "ellipse_rms_arcsec": round(ell.rms_arcsec, 1),
             "corrected_rms_arcsec": round(fixed.rms_arcsec, 1), "corrected_pp_arcsec": round(fixed.pp_arcsec, 1),
             "noise_estimate_arcsec": round(float(np.std(np.diff(err)) / np.sqrt(2)), 1),
         }
+
+    rows = _per_rm44_file(folder, one)
+    if isinstance(rows, str):
+        return rows
     return {"setup": "calibrated on the even samples of each file, validated on the odd ones", "files": rows}
 
 
@@ -150,20 +158,19 @@ def loop_scenarios(samples: int = 100_000) -> dict:
 def loop_rm44(folder: str) -> dict | str:
     from .loop import run_loop
 
-    files = sorted(glob.glob(os.path.join(folder, "rm44_hall_vs_tonic", "*.csv")))
-    if not files:
-        return "skipped: ../shared/data/rm44_hall_vs_tonic not found"
-    rows = {}
-    for path in files:
-        train, val = halves(read_rm44(path))
+    def one(train, val) -> dict:
         _, state, rep = run_loop(train, RM44_ENCODER, val)
-        rows[os.path.basename(path)] = {
+        return {
             "rms_before_arcsec": rep["before"]["rms_arcsec"], "rms_after_arcsec": rep["after"]["rms_arcsec"],
             "rms_after_model_arcsec": _model_rms(state, val),
             "noise_floor_arcsec": rep["noise_floor_arcsec"],
             "added": [e["name"] for e in rep["effects_added"]],
             "left": [f"{u['domain']}: {u['rms_arcsec']}" for u in rep["unexplained"]
                      if u["rms_arcsec"] is not None and u["domain"] != "noise"]}
+
+    rows = _per_rm44_file(folder, one)
+    if isinstance(rows, str):
+        return rows
     return {"setup": "fringe loop, fitted on the even samples, validated on the odd ones", "files": rows}
 
 
@@ -190,15 +197,27 @@ def formal(out_dir: str) -> dict | str:
     return _written_by(os.path.join(out_dir, "formal.json"), "formal")
 
 
+def _table(header: list[str], rows) -> list[str]:
+    """A Markdown table: the header line, the rule, a line per row of cells."""
+    return (["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+            + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows])
+
+
+def _files_table(part: dict | str, header: list[str], row) -> list[str]:
+    """A section's setup and its table of files (``row(name, figures)``: the cells), or why it was not run."""
+    if isinstance(part, str):
+        return [part]
+    return [part["setup"], "", *_table(header, (row(name, f) for name, f in part["files"].items()))]
+
+
 def markdown(results: dict) -> str:
     lines = [f"# fringe bench ({results['meta']['date']}, {results['meta']['machine']})", ""]
     acc = results["seed_preset"]
-    lines += ["## Seed-encoder preset (arcsec)", "", acc["setup"], "",
-              "| method | RMS | p-p | interp p-p | long-period p-p |", "|---|---|---|---|---|"]
-    for k in ("uncorrected", "ellipse_only", "seed_method", "fringe_float", "fringe_model"):
-        f = acc[k]
-        lines.append(f"| {k} | {f['rms_arcsec']:.3f} | {f['pp_arcsec']:.2f} | {f['interp_pp_arcsec']:.3f} | "
-                     f"{f['lp_pp_arcsec']:.3f} |")
+    lines += ["## Seed-encoder preset (arcsec)", "", acc["setup"], ""]
+    lines += _table(["method", "RMS", "p-p", "interp p-p", "long-period p-p"],
+                    ([k, f"{acc[k]['rms_arcsec']:.3f}", f"{acc[k]['pp_arcsec']:.2f}",
+                      f"{acc[k]['interp_pp_arcsec']:.3f}", f"{acc[k]['lp_pp_arcsec']:.3f}"]
+                     for k in ("uncorrected", "ellipse_only", "seed_method", "fringe_float", "fringe_model")))
     lines += ["", f"Noise floor (RMS): float {acc['noise_floor_rms_arcsec']}\", bit-exact core "
               f"{acc['noise_floor_model_rms_arcsec']}\"; core {acc['core_config']}; model error budget "
               f"{acc['model_error_budget_arcsec']}; targets: {acc['targets']}", ""]
@@ -207,46 +226,36 @@ def markdown(results: dict) -> str:
               f"correct --engine float: {sp['correct_float_samples_per_s']:,} samples/s; --engine model: "
               f"{sp['correct_model_samples_per_s']:,} samples/s; targets: {sp['targets']}", ""]
     lines += ["## RM44 real data (arcsec)", ""]
-    r = results["rm44"]
-    if isinstance(r, str):
-        lines.append(r)
-    else:
-        lines += [r["setup"], "", "| file | raw RMS | raw p-p | ellipse RMS | corrected RMS | corrected p-p | noise |",
-                  "|---|---|---|---|---|---|---|"]
-        for name, f in r["files"].items():
-            lines.append(f"| {name} | {f['raw_rms_arcsec']} | {f['raw_pp_arcsec']} | {f['ellipse_rms_arcsec']} | "
-                         f"{f['corrected_rms_arcsec']} | {f['corrected_pp_arcsec']} | {f['noise_estimate_arcsec']} |")
+    lines += _files_table(results["rm44"], ["file", "raw RMS", "raw p-p", "ellipse RMS", "corrected RMS",
+                                            "corrected p-p", "noise"],
+                          lambda name, f: [name] + [f[k] for k in ("raw_rms_arcsec", "raw_pp_arcsec",
+                                                                   "ellipse_rms_arcsec", "corrected_rms_arcsec",
+                                                                   "corrected_pp_arcsec", "noise_estimate_arcsec")])
     lines += ["", "## Closed loop on simulated effects (arcsec)", ""]
     lc = results["loop_scenarios"]
-    lines += [lc["setup"], "", "| case | expected | found | RMS before | after (float) | after (bit-exact core) "
-              "| floor | named right | <= 1.25 floor |", "|---|---|---|---|---|---|---|---|---|"]
-    for name, r in lc["cases"].items():
-        lines.append(f"| {name} | {', '.join(r['expected']) or '-'} | {', '.join(r['found']) or '-'} | "
-                     f"{r['rms_before_arcsec']} | {r['rms_after_arcsec']} | {r['rms_after_model_arcsec']} | "
-                     f"{r['floor_arcsec']} | {r['named_right']} | {r['within_25pct_of_floor']} |")
+    lines += [lc["setup"], ""]
+    lines += _table(["case", "expected", "found", "RMS before", "after (float)", "after (bit-exact core)", "floor",
+                     "named right", "<= 1.25 floor"],
+                    ([name, ", ".join(r["expected"]) or "-", ", ".join(r["found"]) or "-", r["rms_before_arcsec"],
+                      r["rms_after_arcsec"], r["rms_after_model_arcsec"], r["floor_arcsec"], r["named_right"],
+                      r["within_25pct_of_floor"]] for name, r in lc["cases"].items()))
     lines += ["", "## Closed loop on the RM44 recordings (arcsec)", ""]
-    lr = results["loop_rm44"]
-    if isinstance(lr, str):
-        lines.append(lr)
-    else:
-        lines += [lr["setup"], "", "| file | before | after (float) | after (bit-exact core) | noise | added | left |",
-                  "|---|---|---|---|---|---|---|"]
-        for name, r in lr["files"].items():
-            lines.append(f"| {name} | {r['rms_before_arcsec']} | {r['rms_after_arcsec']} | "
-                         f"{r['rms_after_model_arcsec']} | {r['noise_floor_arcsec']} | "
-                         f"{', '.join(r['added']) or '-'} | {'; '.join(r['left']) or '-'} |")
+    lines += _files_table(results["loop_rm44"], ["file", "before", "after (float)", "after (bit-exact core)", "noise",
+                                                 "added", "left"],
+                          lambda name, r: [name, r["rms_before_arcsec"], r["rms_after_arcsec"],
+                                           r["rms_after_model_arcsec"], r["noise_floor_arcsec"],
+                                           ", ".join(r["added"]) or "-", "; ".join(r["left"]) or "-"])
     lines += ["", "## Seed 000 Fig. 4: DE vs DE+SA", "", "```", json.dumps(results["de_vs_desa"], indent=1), "```", ""]
     lines += ["## Synthesis (make synth: Yosys + nextpnr)", ""]
     sy = results["synthesis"]
     if isinstance(sy, str):
         lines.append(sy)
     else:
-        lines += ["| config | device | LUT | FF | DSP | BRAM | Fmax MHz | target | meets | latency (cycles) |",
-                  "|---|---|---|---|---|---|---|---|---|---|"]
-        for r in sy["runs"]:
-            cells = [r["config"], r["device"]] + [r.get(k) for k in ("luts", "flip_flops", "dsp", "bram", "fmax_mhz",
-                                                                        "target_mhz", "meets_target", "latency_cycles")]
-            lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+        lines += _table(["config", "device", "LUT", "FF", "DSP", "BRAM", "Fmax MHz", "target", "meets",
+                         "latency (cycles)"],
+                        ([r["config"], r["device"]] + [r.get(k) for k in ("luts", "flip_flops", "dsp", "bram",
+                                                                           "fmax_mhz", "target_mhz", "meets_target",
+                                                                           "latency_cycles")] for r in sy["runs"]))
     lines.append("")
     for name, render in OTHER_SECTIONS.items():     # sections with their own renderer, else JSON
         if name not in results:

@@ -45,24 +45,12 @@ module fringe_canceller #(
 
     // ---- parameter checks ---------------------------------------------------------------------------
     generate
-        if (WAVE_W < 8 || WAVE_W > 31) begin : g_bad_wave_w
-            $error("fringe_canceller: WAVE_W = %0d out of range 8..31 (instance %m)", WAVE_W);
-        end
-        if (LUT_W < 4 || LUT_W > 12) begin : g_bad_lut_w
-            $error("fringe_canceller: LUT_W = %0d out of range 4..12 (instance %m)", LUT_W);
-        end
-        if (C_W < 8 || C_W > 18) begin : g_bad_c_w
-            $error("fringe_canceller: C_W = %0d out of range 8..18 (instance %m)", C_W);
-        end
-        if (BLOCK_LOG2 < 4 || BLOCK_LOG2 > 12) begin : g_bad_block_log2
-            $error("fringe_canceller: BLOCK_LOG2 = %0d out of range 4..12 (instance %m)", BLOCK_LOG2);
-        end
-        if (MU_LOG2 < 1 || MU_LOG2 > 12) begin : g_bad_mu_log2
-            $error("fringe_canceller: MU_LOG2 = %0d out of range 1..12 (instance %m)", MU_LOG2);
-        end
-        if (A_FRAC < 0 || A_FRAC > 12) begin : g_bad_a_frac
-            $error("fringe_canceller: A_FRAC = %0d out of range 0..12 (instance %m)", A_FRAC);
-        end
+        `FRINGE_CHECK_RANGE(g_bad_wave_w, "fringe_canceller", "WAVE_W", WAVE_W, 8, 31)
+        `FRINGE_CHECK_RANGE(g_bad_lut_w, "fringe_canceller", "LUT_W", LUT_W, 4, 12)
+        `FRINGE_CHECK_RANGE(g_bad_c_w, "fringe_canceller", "C_W", C_W, 8, 18)
+        `FRINGE_CHECK_RANGE(g_bad_block_log2, "fringe_canceller", "BLOCK_LOG2", BLOCK_LOG2, 4, 12)
+        `FRINGE_CHECK_RANGE(g_bad_mu_log2, "fringe_canceller", "MU_LOG2", MU_LOG2, 1, 12)
+        `FRINGE_CHECK_RANGE(g_bad_a_frac, "fringe_canceller", "A_FRAC", A_FRAC, 0, 12)
         if (A_W < 8 || A_W > A_W_MAX) begin : g_bad_a_w
             $error("fringe_canceller: A_W = %0d out of range 8..min(32, WAVE_W + A_FRAC) = %0d (instance %m)",
                    A_W, A_W_MAX);
@@ -70,9 +58,7 @@ module fringe_canceller #(
         if (SH0 < 0) begin : g_bad_sh0
             $error("fringe_canceller: BLOCK_LOG2 + C_W - 2 - A_FRAC = %0d must be >= 0 (instance %m)", SH0);
         end
-        if (USER_W < 1) begin : g_bad_user_w
-            $error("fringe_canceller: USER_W = %0d must be >= 1 (instance %m)", USER_W);
-        end
+        `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_canceller", "USER_W", USER_W, 1)
         // the update of block j must be in place before block j + 2 begins (and before block j + 1
         // ends: one update in flight at a time); B >= 16 holds it
         if (ADAPT_LATENCY > (1 << BLOCK_LOG2)) begin : g_late
@@ -153,16 +139,7 @@ module fringe_canceller #(
     reg  signed [C_W-1:0] rom [0:(1 << LUT_W)-1];
 
     generate
-        if (LUT_INIT != "") begin : g_init_file
-            initial $readmemh(LUT_INIT, rom);
-        end else begin : g_init_zero
-            integer i;
-            initial begin
-                for (i = 0; i < (1 << LUT_W); i = i + 1) begin
-                    rom[i] = {C_W{1'b0}};
-                end
-            end
-        end
+        `FRINGE_MEM_INIT(LUT_INIT, rom, 1 << LUT_W, C_W)
     endgenerate
 
     wire [LUT_W-1:0]      idx_s = nco[31 -: LUT_W];
@@ -183,10 +160,8 @@ module fringe_canceller #(
                                   - {{(EW-PW){prod3[4*PW-1]}}, prod3[3*PW +: PW]};
     wire signed [DW-1:0]  dc    = sum_c[NSH +: DW];  // |c - n_c| < 2^(W+1): the bits above are sign copies
     wire signed [DW-1:0]  ds    = sum_s[NSH +: DW];
-    wire                  dc_over = dc[DW-1] ? ~&dc[DW-1:W-1] : |dc[DW-1:W-1];
-    wire                  ds_over = ds[DW-1] ? ~&ds[DW-1:W-1] : |ds[DW-1:W-1];
-    wire signed [W-1:0]   y_max = {1'b0, {(W-1){1'b1}}};
-    wire signed [W-1:0]   y_min = {1'b1, {(W-1){1'b0}}};
+    wire                  dc_over = `FRINGE_OUTSIDE(dc, DW, W);
+    wire                  ds_over = `FRINGE_OUTSIDE(ds, DW, W);
 
     always @(posedge clk) begin
         if (ce) begin
@@ -206,8 +181,8 @@ module fringe_canceller #(
             s3  <= s2;
             ts3 <= ts2;
             // 4: c - n, saturated
-            c_out     <= dc_over ? (dc[DW-1] ? y_min : y_max) : dc[W-1:0];
-            s_out     <= ds_over ? (ds[DW-1] ? y_min : y_max) : ds[W-1:0];
+            c_out     <= `FRINGE_SATURATE(dc, DW, W);
+            s_out     <= `FRINGE_SATURATE(ds, DW, W);
             sat       <= dc_over | ds_over;
             track_sat <= ts3;
         end
@@ -228,7 +203,6 @@ module fringe_canceller #(
     reg  signed [T_W-1:0] t7;
     reg  signed [W-1:0]   e8;
     wire signed [TE_W-1:0] te7 = t7[T_W-1:W-2];
-    wire             te_over = te7[TE_W-1] ? ~&te7[TE_W-1:W-1] : |te7[TE_W-1:W-1];
     wire [2*U_W-1:0] u10 = {pe_s[2*W-2:W-2], pe_c[2*W-2:W-2]};   // fits s(W+1): |e c_out| < 2^(2W-2)
     wire [4*UC_W-1:0] term12;
 
@@ -259,7 +233,7 @@ module fringe_canceller #(
             // 7: (c^2 + s^2) >> (W-2) - R = (c^2 + s^2 - R 2^(W-2)) >>> (W-2)
             t7 <= $signed({1'b0, sq_c}) + $signed({1'b0, sq_s}) - ({{(T_W-1){1'b0}}, 1'b1} <<< (2 * W - 4));
             // 8: e clipped to s(W)
-            e8 <= te_over ? (te7[TE_W-1] ? y_min : y_max) : te7[W-1:0];
+            e8 <= `FRINGE_SATURATE(te7, TE_W, W);
         end
     end
 
@@ -313,14 +287,9 @@ module fringe_canceller #(
             // (S + 2^(SH-1)) >>> SH = (S >>> SH) + S[SH-1]
             wire signed [S_W-1:0]  v14 = snap >>> sh_m1;
             wire signed [XR_W-1:0] r14 = {{(XR_W-S_W+1){v14[S_W-1]}}, v14[S_W-1:1]};
-            wire                   r_over = r14[XR_W-1] ? ~&r14[XR_W-1:R_W-1] : |r14[XR_W-1:R_W-1];
             wire signed [N_W-1:0]  nx = {{(N_W-A_W){lat_r[A_W-1]}}, lat_r} + {{(N_W-R_W){stp14[R_W-1]}}, stp14}
                                         + {{(N_W-1){1'b0}}, rb14};
-            wire                   n_over = nx[N_W-1] ? ~&nx[N_W-1:A_W-1] : |nx[N_W-1:A_W-1];
-            wire signed [A_W-1:0]  a_max = {1'b0, {(A_W-1){1'b1}}};
-            wire signed [A_W-1:0]  a_min = {1'b1, {(A_W-1){1'b0}}};
-            wire signed [R_W-1:0]  r_max = {1'b0, {(R_W-1){1'b1}}};
-            wire signed [R_W-1:0]  r_min = {1'b1, {(R_W-1){1'b0}}};
+            wire                   n_over = `FRINGE_OUTSIDE(nx, N_W, A_W);
 
             fringe_split_mul #(.A_W(U_W), .A_SIGNED(1), .B_W(C_W), .B_SIGNED(1), .LATENCY(2)) u_term (
                 .clk(clk), .ce(ce), .a(u10[(gk/2)*U_W +: U_W]), .b(lut10[(gk%2)*C_W +: C_W]),
@@ -332,7 +301,7 @@ module fringe_canceller #(
                     a2 <= act_r;                                                   // 2
                     p3 <= a2 * $signed(lut2[(gk%2)*C_W +: C_W]);                 // 3
                     // 14: the step clipped to s(A_W+2): beyond it X + step saturates either way
-                    stp14 <= r_over ? (r14[XR_W-1] ? r_min : r_max) : r14[R_W-1:0];
+                    stp14 <= `FRINGE_SATURATE(r14, XR_W, R_W);
                     rb14  <= v14[0];
                     if (a12_valid && a12_last) begin                               // 13
                         snap <= acc_n;
@@ -360,7 +329,7 @@ module fringe_canceller #(
                     end
                     if (upd_wr) begin                                              // 15
                         prv_r <= lat_r;
-                        lat_r <= n_over ? (nx[N_W-1] ? a_min : a_max) : nx[A_W-1:0];
+                        lat_r <= `FRINGE_SATURATE(nx, N_W, A_W);
                     end
                 end
             end

@@ -173,10 +173,8 @@ module fringe_drift #(
     wire signed [QW-1:0]    q_s = n3_s[PW-1:SHN] + {{(QW-1){1'b0}}, n3_s[SHN-1]};
     wire signed [QW-1:0]    q_c = n3_c[PW-1:SHN] + {{(QW-1){1'b0}}, n3_c[SHN-1]};
     // in range of s(ADC_W) <=> bits QW-1 .. ADC_W-1 all equal the sign
-    wire                    qs_over = q_s[QW-1] ? ~&q_s[QW-1:ADC_W-1] : |q_s[QW-1:ADC_W-1];
-    wire                    qc_over = q_c[QW-1] ? ~&q_c[QW-1:ADC_W-1] : |q_c[QW-1:ADC_W-1];
-    wire signed [ADC_W-1:0] y_max = {1'b0, {(ADC_W-1){1'b1}}};
-    wire signed [ADC_W-1:0] y_min = {1'b1, {(ADC_W-1){1'b0}}};
+    wire                    qs_over = `FRINGE_OUTSIDE(q_s, QW, ADC_W);
+    wire                    qc_over = `FRINGE_OUTSIDE(q_c, QW, ADC_W);
 
     always @(posedge clk) begin
         if (ce) begin
@@ -192,8 +190,8 @@ module fringe_drift #(
             n3_s <= n2_s * $signed({1'b0, n2_gs});
             n3_c <= n2_c * $signed({1'b0, n2_gc});
             // 4: rounded (P[SHN-1] as a carry), >>> SHN, saturate
-            y_sin    <= qs_over ? (q_s[QW-1] ? y_min : y_max) : q_s[ADC_W-1:0];
-            y_cos    <= qc_over ? (q_c[QW-1] ? y_min : y_max) : q_c[ADC_W-1:0];
+            y_sin    <= `FRINGE_SATURATE(q_s, QW, ADC_W);
+            y_cos    <= `FRINGE_SATURATE(q_c, QW, ADC_W);
             norm_sat <= qs_over | qc_over;
         end
     end
@@ -416,10 +414,8 @@ module fringe_drift #(
     wire [GS_W-1:0]        rbn_s = {{(GS_W-1){1'b0}}, ~px_s[KG_SHIFT-1]};
     wire [GS_W-1:0]        rbn_c = {{(GS_W-1){1'b0}}, ~px_c[KG_SHIFT-1]};
     // OFF + step in range of s(OW) <=> bits OS_W-1 .. OW-1 all equal the sign
-    wire os_over = u1_os[OS_W-1] ? ~&u1_os[OS_W-1:OW-1] : |u1_os[OS_W-1:OW-1];
-    wire oc_over = u1_oc[OS_W-1] ? ~&u1_oc[OS_W-1:OW-1] : |u1_oc[OS_W-1:OW-1];
-    wire signed [OW-1:0] o_max = {1'b0, {(OW-1){1'b1}}};
-    wire signed [OW-1:0] o_min = {1'b1, {(OW-1){1'b0}}};
+    wire os_over = `FRINGE_OUTSIDE(u1_os, OS_W, OW);
+    wire oc_over = `FRINGE_OUTSIDE(u1_oc, OS_W, OW);
     // GINV - step: below 0 -> 0, above 2^GINV_W - 1 -> 2^GINV_W - 1
     wire gs_neg  = u5_gs[GS_W-1];
     wire gc_neg  = u5_gc[GS_W-1];
@@ -443,8 +439,8 @@ module fringe_drift #(
             u1_os <= {{(OS_W-OW){off_sin[OW-1]}}, off_sin} + {stp_s[XW-1], stp_s};
             u1_oc <= {{(OS_W-OW){off_cos[OW-1]}}, off_cos} + {stp_c[XW-1], stp_c};
             // 11
-            u2_os  <= os_over ? (u1_os[OS_W-1] ? o_min : o_max) : u1_os[OW-1:0];
-            u2_oc  <= oc_over ? (u1_oc[OS_W-1] ? o_min : o_max) : u1_oc[OW-1:0];
+            u2_os  <= `FRINGE_SATURATE(u1_os, OS_W, OW);
+            u2_oc  <= `FRINGE_SATURATE(u1_oc, OS_W, OW);
             u2_sat <= os_over | oc_over;
             // 14: GINV - step
             u5_gs  <= {{(GS_W-GINV_W){1'b0}}, ginv_sin} + dgn_s + rbn_s;

@@ -2,8 +2,10 @@
 //
 // Included inside a module body (`include "fringe_pkg.vh"): the exact reciprocal-mapping check
 // of fringe_long_period and fringe_trim, and the constants generated from the Python single
-// source (register map, address spaces, status bits, block latencies). Widths use $clog2
-// (integer arithmetic). The $readmemh images are read by $readmemh itself.
+// source (register map, address spaces, status bits, block latencies); the macros of the parameter
+// checks, of saturation (FRINGE_OUTSIDE, FRINGE_SATURATE) and of a memory's initial contents
+// (FRINGE_MEM_INIT). Widths use $clog2 (integer arithmetic). The $readmemh images are read by
+// $readmemh itself.
 
 // A module uses a few of the shared constants; the others are not an error.
 /* verilator lint_off UNUSEDPARAM */
@@ -91,6 +93,33 @@ localparam integer CANCEL_ADAPT_LATENCY    = 15;  // fringe_canceller: a block's
     end \
     if ((FW) + $clog2(LN) > (PMAX)) begin : g_bad_pos_w \
         $error("%s: POS_W = FINE_W + clog2(LINES) = %0d exceeds %0d (instance %m)", UNIT, (FW) + $clog2(LN), PMAX); \
+    end
+`endif
+
+// Saturation (the VHDL's outside and saturate), X the name of a signed XW-bit value (a name: it is
+// indexed): `FRINGE_OUTSIDE(X, XW, W) is 1 when X is outside s(W) (bits XW-1 .. W-1 not all equal to
+// the sign); `FRINGE_SATURATE(X, XW, W) is X clipped to s(W), W bits.
+`ifndef FRINGE_OUTSIDE
+`define FRINGE_OUTSIDE(X, XW, W) (X[(XW)-1] ? ~&X[(XW)-1:(W)-1] : |X[(XW)-1:(W)-1])
+`define FRINGE_SATURATE(X, XW, W) \
+    (`FRINGE_OUTSIDE(X, XW, W) ? {X[(XW)-1], {((W)-1){~X[(XW)-1]}}} : X[(W)-1:0])
+`endif
+
+// A memory's initial contents inside a generate region: the $readmemh image FILE (a string parameter)
+// or, when FILE is "", DEPTH words of W zero bits (the VHDL's read_hex_image). Two separate initial
+// blocks: Yosys 0.23 loses the $readmemh image when a zeroing loop precedes it in the same block.
+// Generate blocks g_init_file, g_init_zero.
+`ifndef FRINGE_MEM_INIT
+`define FRINGE_MEM_INIT(FILE, MEM, DEPTH, W) \
+    if (FILE != "") begin : g_init_file \
+        initial $readmemh(FILE, MEM); \
+    end else begin : g_init_zero \
+        integer i; \
+        initial begin \
+            for (i = 0; i < (DEPTH); i = i + 1) begin \
+                MEM[i] = {(W){1'b0}}; \
+            end \
+        end \
     end
 `endif
 

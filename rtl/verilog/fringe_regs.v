@@ -45,16 +45,7 @@ module fringe_regs #(
     initial bank_r = 1'b0;   // power-up value (configuration: no reset)
 
     generate
-        if (REGS_INIT != "") begin : g_regs_file
-            initial $readmemh(REGS_INIT, regs);
-        end else begin : g_regs_zero
-            integer i;
-            initial begin
-                for (i = 0; i < 64; i = i + 1) begin
-                    regs[i] = {REG_W{1'b0}};
-                end
-            end
-        end
+        `FRINGE_MEM_INIT(REGS_INIT, regs, 2 * N_REGS, REG_W)
     endgenerate
 
     wire [3:0]  cfg_sel  = cfg_wr_addr[19:16];

@@ -36,19 +36,8 @@ module fringe_table_ram #(
     (* no_rw_check *)
     reg [DATA_W-1:0] mem [0:DEPTH-1];
 
-    // Two separate initial blocks: Yosys 0.23 loses the $readmemh image when a zeroing loop
-    // precedes it in the same block.
     generate
-        if (INIT_FILE != "") begin : g_init_file
-            initial $readmemh(INIT_FILE, mem);
-        end else begin : g_init_zero
-            integer i;
-            initial begin
-                for (i = 0; i < DEPTH; i = i + 1) begin
-                    mem[i] = {DATA_W{1'b0}};
-                end
-            end
-        end
+        `FRINGE_MEM_INIT(INIT_FILE, mem, DEPTH, DATA_W)
     endgenerate
 
     always @(posedge clk) begin

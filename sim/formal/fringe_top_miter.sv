@@ -17,11 +17,8 @@
 `default_nettype none
 
 module fringe_top_miter #(
-    parameter integer ADC_W = 4, parameter integer LINES = 4, parameter integer COARSE_W = 2,
-    parameter integer WAVE_ADDR_W = 2, parameter integer WAVE_W = 8, parameter integer COEF_W = 8,
-    parameter integer FINE_W = 8, parameter integer CORDIC_STAGES = 4, parameter integer CORDIC_GUARD = 1,
-    parameter integer LP_ADDR_W = 2, parameter integer LP_W = 8, parameter integer LP_FRAC = 2,
-    parameter integer LP_IF = 2, parameter [63:0] LP_RECIP = 64'd1, parameter integer LP_SHIFT = 8,
+    `include "fringe_formal_params.vh"   // the core parameters of the proofs' configuration
+    parameter integer COMPACT = 0,   // run.py passes every parameter of its configuration
     parameter integer MODE = 0, parameter integer CHECK_BANK = 0
 ) (
     input wire clk,
@@ -43,29 +40,23 @@ module fringe_top_miter #(
     wire           a_s_tready, a_m_tvalid, a_bank, b_s_tready, b_m_tvalid, b_bank;
     wire [M_W-1:0] a_m_tdata, b_m_tdata;
 
-    fringe_top #(
-        .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
-        .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
-        .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
-        .LP_SHIFT(LP_SHIFT)
-    ) a (
-        .clk(clk), .rst(rst),
-        .s_axis_tdata(a_tdata), .s_axis_tvalid(a_tvalid), .s_axis_tready(a_s_tready),
-        .m_axis_tdata(a_m_tdata), .m_axis_tvalid(a_m_tvalid), .m_axis_tready(a_tready),
-        .cfg_wr_en(cfg_wr_en), .cfg_wr_addr(cfg_wr_addr), .cfg_wr_data(a_wr_data), .active_bank(a_bank)
+    // copy X of fringe_top: its own samples, write data and backpressure (X_tdata, X_wr_data, X_tready ...)
+`define FRINGE_MITER_COPY(X) \
+    fringe_top #( \
+        .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W), \
+        .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD), \
+        .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP), \
+        .LP_SHIFT(LP_SHIFT), .COMPACT(COMPACT) \
+    ) X ( \
+        .clk(clk), .rst(rst), \
+        .s_axis_tdata(X``_tdata), .s_axis_tvalid(X``_tvalid), .s_axis_tready(X``_s_tready), \
+        .m_axis_tdata(X``_m_tdata), .m_axis_tvalid(X``_m_tvalid), .m_axis_tready(X``_tready), \
+        .cfg_wr_en(cfg_wr_en), .cfg_wr_addr(cfg_wr_addr), .cfg_wr_data(X``_wr_data), .active_bank(X``_bank) \
     );
 
-    fringe_top #(
-        .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
-        .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
-        .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
-        .LP_SHIFT(LP_SHIFT)
-    ) b (
-        .clk(clk), .rst(rst),
-        .s_axis_tdata(b_tdata), .s_axis_tvalid(b_tvalid), .s_axis_tready(b_s_tready),
-        .m_axis_tdata(b_m_tdata), .m_axis_tvalid(b_m_tvalid), .m_axis_tready(b_tready),
-        .cfg_wr_en(cfg_wr_en), .cfg_wr_addr(cfg_wr_addr), .cfg_wr_data(b_wr_data), .active_bank(b_bank)
-    );
+    `FRINGE_MITER_COPY(a)
+    `FRINGE_MITER_COPY(b)
+`undef FRINGE_MITER_COPY
 
     reg f_init = 1'b1;          // the first cycle: a reset
     always @(posedge clk) f_init <= 1'b0;

@@ -21,11 +21,7 @@
 `default_nettype none
 
 module fringe_top_stream #(
-    parameter integer ADC_W = 4, parameter integer LINES = 4, parameter integer COARSE_W = 2,
-    parameter integer WAVE_ADDR_W = 2, parameter integer WAVE_W = 8, parameter integer COEF_W = 8,
-    parameter integer FINE_W = 8, parameter integer CORDIC_STAGES = 4, parameter integer CORDIC_GUARD = 1,
-    parameter integer LP_ADDR_W = 2, parameter integer LP_W = 8, parameter integer LP_FRAC = 2,
-    parameter integer LP_IF = 2, parameter [63:0] LP_RECIP = 64'd1, parameter integer LP_SHIFT = 8,
+    `include "fringe_formal_params.vh"   // the core parameters of the proofs' configuration
     // fringe_trim (TRIM = 1): the defaults of fringe_top, run.py sets them for the TRIM tasks
     parameter integer TRIM = 0, parameter integer SPEED_LOG2 = 5, parameter integer MAP_PSI_W = 6,
     parameter integer MAP_PHI_W = 5, parameter integer TRIM_W = 18, parameter integer TRIM_FRAC = 4,

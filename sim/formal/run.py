@@ -234,6 +234,11 @@ def script_lines(task: Task, names: list[str], cfg: CoreConfig) -> list[str]:
     ]
 
 
+def wrapper_includes() -> list[Path]:
+    """The include files of the wrappers in this folder (fringe_formal_params.vh)."""
+    return sorted(HERE.glob("*.vh"))
+
+
 def sby_text(task: Task, sources: list[str], includes: list[str], cfg: CoreConfig, engine: str, mode: str) -> str:
     """sby reads every file from its src folder, where [files] copies the sources and includes."""
     depth = INDUCTION_DEPTH if mode == "prove" else core_latency(cfg) + task.extra_depth
@@ -252,7 +257,8 @@ def run_task(task: Task, rtl_dir: Path, out_dir: Path, sby: list[str], cfg: Core
     mode = mode or task.mode
     out_dir.mkdir(parents=True, exist_ok=True)
     order = [Path(f).name for f in cocotb_runner.block_sources("fringe_top", "verilator")]
-    includes = [str(rtl_dir / Path(f).name) for f in cocotb_runner.include_files()]   # fringe_pkg.vh
+    includes = ([str(rtl_dir / Path(f).name) for f in cocotb_runner.include_files()]   # fringe_pkg.vh ...
+                + [str(f) for f in wrapper_includes()])
     sources = [str(rtl_dir / n) for n in order] + [str(HERE / task.wrapper)]
     sby_file = out_dir / f"{task.name}.sby"
     sby_file.write_text(sby_text(task, sources, includes, cfg, solver(), mode))

@@ -1,5 +1,6 @@
 """What a block test's pytest side hands its cocotb side through run_block's extra_env: the HDL
-parameters as JSON and the seed (``FRINGE_SEED`` from the environment replays a run)."""
+parameters as JSON and the seed (``FRINGE_SEED`` from the environment replays a run); ``block_config``
+reads them back on the cocotb side; ``signed`` reads a signed output word."""
 
 from __future__ import annotations
 
@@ -18,3 +19,15 @@ def run_seeded(toplevel: str, params: dict, sim: str, var: str, default_seed: in
 
     run_block(toplevel, f"test_{toplevel}", params, sim=sim, timeout_s=timeout_s,
               extra_env=block_env(var, params, default_seed))
+
+
+def block_config(var: str, default_seed: int) -> tuple[dict, int, int]:
+    """The cocotb side of ``block_env``: (the HDL parameters, their USER_W, the seed)."""
+    raw = json.loads(os.environ[var])
+    return raw, int(raw["USER_W"]), int(os.environ.get("FRINGE_SEED", default_seed))
+
+
+def signed(v: int, w: int) -> int:
+    """The low ``w`` bits of ``v`` as a two's complement s(w)."""
+    v &= (1 << w) - 1
+    return v - (1 << w) if v >> (w - 1) else v

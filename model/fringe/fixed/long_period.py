@@ -83,6 +83,27 @@ def smallest_mapping(rev: int, addr_w: int, min_shift: int, max_shift: int) -> t
     return None
 
 
+def check_mapping(unit: str, prefix: str, addr_name: str, helper: str, rev: int, addr_w: int, recip: int,
+                  shift: int, shift_range: tuple[int, int], shift_range_text: str) -> None:
+    """The checks of an index mapping ``(PREFIX_RECIP, PREFIX_SHIFT)`` onto ``2^addr_w`` entries per REV
+    (fringe_long_period's LP_*, fringe_trim's SECT_*; the HDL's check_mapping, same messages): the shift
+    in ``shift_range`` (named ``shift_range_text`` in the message), then the `mapping_ok` bound."""
+    if not shift_range[0] <= shift <= shift_range[1]:
+        raise ValueError(f"{unit}: {prefix}_SHIFT = {shift} out of range {shift_range_text}")
+    if not mapping_ok(rev, addr_w, recip, shift):
+        raise ValueError(f"{unit}: {prefix}_RECIP = {recip}, {prefix}_SHIFT = {shift} do not map every position to "
+                         f"floor(pos * 2^{addr_name} / REV); take them from {helper}()")
+
+
+def required_mapping(unit: str, kind: str, prefix: str, rev: int, addr_w: int, min_shift: int,
+                     max_shift: int) -> tuple[int, int]:
+    """`smallest_mapping`, or ValueError naming the ``kind`` of mapping that does not exist."""
+    found = smallest_mapping(rev, addr_w, min_shift, max_shift)
+    if found:
+        return found
+    raise ValueError(f"{unit}: no {kind} mapping with {prefix}_SHIFT <= {max_shift} for REV = {rev}")
+
+
 def check_index_mapping(lines: int, fine_w: int, lp_addr_w: int, lp_if: int, recip: int, shift: int) -> None:
     """Raise ValueError unless ``(pos * recip) >> shift == floor(pos * 2^LP_ADDR_W / REV)`` is proven.
 
@@ -93,12 +114,8 @@ def check_index_mapping(lines: int, fine_w: int, lp_addr_w: int, lp_if: int, rec
     cannot reach the next integer (Granlund and Montgomery, 1994). The same bound is checked by
     the HDL at elaboration (same message).
     """
-    rev = rev_and_pos_w(lines, fine_w)[0]
-    if not lp_if <= shift <= LP_SHIFT_MAX:
-        raise ValueError(f"{NAME}: LP_SHIFT = {shift} out of range LP_IF = {lp_if} .. {LP_SHIFT_MAX}")
-    if not mapping_ok(rev, lp_addr_w, recip, shift):
-        raise ValueError(f"{NAME}: LP_RECIP = {recip}, LP_SHIFT = {shift} do not map every position to "
-                         "floor(pos * 2^LP_ADDR_W / REV); take them from index_mapping()")
+    check_mapping(NAME, "LP", "LP_ADDR_W", "index_mapping", rev_and_pos_w(lines, fine_w)[0], lp_addr_w, recip, shift,
+                  (lp_if, LP_SHIFT_MAX), f"LP_IF = {lp_if} .. {LP_SHIFT_MAX}")
 
 
 @lru_cache(maxsize=256)
@@ -110,11 +127,7 @@ def index_mapping(lines: int, fine_w: int, lp_addr_w: int, lp_if: int) -> tuple[
     is about REV or less (below 2^31, the VHDL limit, for REV up to about 2^30). A power-of-two REV
     gives ``e = 0`` at the first shift where the reciprocal is an integer: a power of two.
     """
-    rev = rev_and_pos_w(lines, fine_w)[0]
-    found = smallest_mapping(rev, lp_addr_w, lp_if, LP_SHIFT_MAX)
-    if found:
-        return found
-    raise ValueError(f"{NAME}: no index mapping with LP_SHIFT <= {LP_SHIFT_MAX} for REV = {rev}")
+    return required_mapping(NAME, "index", "LP", rev_and_pos_w(lines, fine_w)[0], lp_addr_w, lp_if, LP_SHIFT_MAX)
 
 
 @dataclass(frozen=True)

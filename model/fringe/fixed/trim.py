@@ -35,7 +35,7 @@ from functools import lru_cache
 import numpy as np
 
 from .limits import check_int, check_integers, check_range
-from .long_period import mapping_ok, smallest_mapping
+from .long_period import check_mapping, required_mapping
 from .period_count import PositionWidths, check_lines_fine_w
 from .table_ram import interpolate, periodic_slopes, split_words
 
@@ -80,12 +80,8 @@ def check_sector_mapping(lines: int, fine_w: int, map_psi_w: int, recip: int, sh
     """
     if map_psi_w == 0:
         return
-    rev = int(lines) << int(fine_w)
-    if not 0 <= shift <= SECT_SHIFT_MAX:
-        raise ValueError(f"{NAME}: SECT_SHIFT = {shift} out of range 0..{SECT_SHIFT_MAX}")
-    if not mapping_ok(rev, map_psi_w, recip, shift):
-        raise ValueError(f"{NAME}: SECT_RECIP = {recip}, SECT_SHIFT = {shift} do not map every position to "
-                         "floor(pos * 2^MAP_PSI_W / REV); take them from sector_mapping()")
+    check_mapping(NAME, "SECT", "MAP_PSI_W", "sector_mapping", int(lines) << int(fine_w), map_psi_w, recip, shift,
+                  (0, SECT_SHIFT_MAX), f"0..{SECT_SHIFT_MAX}")
 
 
 @lru_cache(maxsize=256)
@@ -96,11 +92,7 @@ def sector_mapping(lines: int, fine_w: int, map_psi_w: int) -> tuple[int, int]:
     SECT_RECIP (a shift)."""
     if map_psi_w == 0:
         return 0, 0
-    rev = int(lines) << int(fine_w)
-    found = smallest_mapping(rev, map_psi_w, 0, SECT_SHIFT_MAX)
-    if found:
-        return found
-    raise ValueError(f"{NAME}: no sector mapping with SECT_SHIFT <= {SECT_SHIFT_MAX} for REV = {rev}")
+    return required_mapping(NAME, "sector", "SECT", int(lines) << int(fine_w), map_psi_w, 0, SECT_SHIFT_MAX)
 
 
 # ---------------------------------------------------------------------------- parameters

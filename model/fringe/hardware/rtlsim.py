@@ -20,9 +20,8 @@ Helpers shared with the testbenches: ``top_parameters``, ``write_init_files``, `
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import hashlib
+import importlib
 import json
 import os
 import sys
@@ -162,35 +161,24 @@ class RtlSimulationError(RuntimeError):
     """The RTL simulation could not run (tools or sources missing) or failed."""
 
 
+def _source_tree_module(folder: Path, name: str, missing: str):
+    """The module ``folder/<name>.py`` of the fringe source tree (``folder`` put on sys.path), or
+    RtlSimulationError(``missing``) where the file is not there."""
+    if not (folder / f"{name}.py").is_file():
+        raise RtlSimulationError(missing)
+    if str(folder) not in sys.path:
+        sys.path.insert(0, str(folder))
+    return importlib.import_module(name)
+
+
 def _runner():
-    if not (SIM_DIR / "cocotb_runner.py").is_file():
-        raise RtlSimulationError(f"the RTL engines need the fringe source tree (sim/, rtl/ under {REPO})")
-    if str(SIM_DIR) not in sys.path:
-        sys.path.insert(0, str(SIM_DIR))
-    import cocotb_runner
-
-    return cocotb_runner
-
-
-@contextlib.contextmanager
-def _locked(path: Path):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
+    return _source_tree_module(SIM_DIR, "cocotb_runner",
+                               f"the RTL engines need the fringe source tree (sim/, rtl/ under {REPO})")
 
 
 def _engine_builder():
-    if not (ENGINE_DIR / "build.py").is_file():
-        raise RtlSimulationError(f"the fast Verilator engine needs the fringe source tree ({ENGINE_DIR})")
-    if str(ENGINE_DIR) not in sys.path:
-        sys.path.insert(0, str(ENGINE_DIR))
-    import build as engine_build
-
-    return engine_build
+    return _source_tree_module(ENGINE_DIR, "build",
+                               f"the fast Verilator engine needs the fringe source tree ({ENGINE_DIR})")
 
 
 def _run_cpp(cfg: CoreConfig, params: dict, work: Path, sin_c, cos_c, coarse_c, timeout_s: float):
@@ -253,7 +241,7 @@ def run_rtl(cal: Calibration | None, cfg: CoreConfig, sin, cos, coarse=None, sim
     # parameters, so the build is cached; the lock serialises runs that share them.
     key = hashlib.sha256(json.dumps(cfg.to_dict(), sort_keys=True).encode()).hexdigest()[:12]
     work = cr.SIM_BUILD / "rtlsim" / sim / f"{cfg.test_id}-{key}"
-    with _locked(work / ".lock"):
+    with cr.locked(work / ".lock"):
         write_init_files(t, cfg, work / "init")
         params = top_parameters(cfg, work / "init", sim)
         if sim == "verilator" and harness == "cpp":
