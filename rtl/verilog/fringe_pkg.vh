@@ -125,7 +125,6 @@ localparam integer CANCEL_ADAPT_LATENCY    = 15;  // fringe_canceller: a block's
 
 // LATENCY of fringe_core and fringe_top (trim, drift, cancel: the TRIM, DRIFT and CANCEL parameters, 0 or
 // 1): the input registers and the blocks in the chain, from the generated block latencies above
-// (fringe_canceller's LATENCY, 4, written out: not among the generated constants yet)
 function integer fringe_core_latency;
     input integer cordic_stages;
     input integer trim;

@@ -58,7 +58,6 @@ package fringe_pkg is
 
     -- LATENCY of fringe_core and fringe_top (trim, drift, cancel: the TRIM, DRIFT and CANCEL generics, 0 or
     -- 1): the input registers and the blocks in the chain, from the generated block latencies below
-    -- (fringe_canceller's LATENCY, 4, written out: not among the generated constants yet)
     function core_latency(cordic_stages, trim, drift, cancel : natural) return natural;
 
     -- BEGIN generated constants (written by python sim/hdlgen.py; do not edit)
