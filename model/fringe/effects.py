@@ -109,8 +109,10 @@ def _speed_cols(ctx):
 
 def _skew_cols(ctx):
     # cos channel late by tau: c = cos(phi + delta), delta = 2 pi lines v tau, and
-    # atan2(sin phi, c) - phi = delta sin^2 phi = (delta / 2)(1 - cos 2 phi): one term, not two
-    return [ctx.speed * (1 - np.cos(2 * ctx.phi))]
+    # atan2(sin phi, c) - phi = delta sin^2 phi = (delta / 2)(1 - cos 2 phi). At a mean speed the conic takes
+    # out the skew's mean phase delta0 (a quadrature phase error); a change D of delta around it then gives
+    # (D / 2)(1 - cos 2 phi + tan(delta0) sin 2 phi): the second column carries the part that grows with delta0
+    return [ctx.speed * (1 - np.cos(2 * ctx.phi)), ctx.speed * np.sin(2 * ctx.phi)]
 
 
 def _hyst_cols(ctx):
@@ -145,7 +147,8 @@ LIBRARY = {
         lambda ctx: _rev_modulated((1, 2), ctx), ("periods",)),
     "sampling_skew": Effect(
         "sampling_skew", "the two channels are sampled at different instants",
-        "speed x (1 - cos 2 phi): a second-order fine-phase error and half as much lag, both in proportion to speed",
+        "speed x (1 - cos 2 phi) and, beside a large mean skew, speed x sin 2 phi: a second-order fine-phase "
+        "error and half as much lag, both in proportion to speed",
         "hardware", "speed-dependent phase correction (quadrature stage, filtered speed)", _skew_cols, ("speed",)),
     "hysteresis": Effect(
         "hysteresis", "direction-dependent error (backlash, magnetic hysteresis, readhead tilt)",
@@ -198,7 +201,10 @@ class FittedEffect:
 
     @classmethod
     def from_dict(cls, d: dict) -> FittedEffect:
-        return cls(d["name"], np.asarray(d["weights"], float), float(d.get("tone_hz", 0.0)), d.get("engine", "core"))
+        w = np.asarray(d["weights"], float)
+        if d["name"] == "sampling_skew" and len(w) == 1:     # written before the skew had its sin 2 phi column
+            w = np.append(w, 0.0)
+        return cls(d["name"], w, float(d.get("tone_hz", 0.0)), d.get("engine", "core"))
 
     def predict(self, ctx: Context) -> np.ndarray:
         """The term's error (arcsec) per sample, evaluated in blocks of rows (bounded memory)."""

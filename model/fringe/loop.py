@@ -576,15 +576,20 @@ FACTOR_EFFECT = {"magnitude": "amplitude", "magnitude2": "amplitude", "direction
                  "speed": "sampling_skew"}
 
 
+def generic_effect(name: str) -> str | None:
+    """The library effect whose wider form a shape of the general dictionary is (by its factor), if any."""
+    from .effects import parse_generic
+
+    return FACTOR_EFFECT.get(parse_generic(name)[0])
+
+
 def named_shape(best: Test, tests: list[Test], rms: float) -> Test:
     """A shape of the general dictionary is the wider form of the library effect of its factor when that effect
     is itself present (its fixed shape significant, and it matters): the name goes with it (as `widen` does the
     other way round)."""
     if not best.name.startswith("generic:") or best.label:
         return best
-    from .effects import parse_generic
-
-    effect = FACTOR_EFFECT.get(parse_generic(best.name)[0])
+    effect = generic_effect(best.name)
     if any(t.name == effect and t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * rms for t in tests):
         best.label = effect
     return best
@@ -907,15 +912,24 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
     for _ in range(MAX_EFFECTS):
         tests, skipped = candidates(ev_fit, sigma, excluded)
         good = [t for t in tests if t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * ev_fit.rms]
-        # the library's names first: the general dictionary corrects what none of them explains
-        # the library's names first, where one explains at least NAMED_SHARE of what the best shape of the general
-        # dictionary explains (a named effect beside a far larger unnamed structure would be fitted on top of
-        # it); a line on a steady revolution harmonic is as well a position error: it competes with the shapes
         # what the core carries first: a correction only the float engine runs is left for when nothing else is
         good = [t for t in good if describe(t.name)["correction"] != "float engine"] or good
+        # the library's names first, where one explains at least NAMED_SHARE of what the best shape of the general
+        # dictionary explains (a named effect beside a far larger unnamed structure would be fitted on top of
+        # it); a line on a steady revolution harmonic is as well a position error: it competes with the shapes.
+        # A shape of the general dictionary in the factor of a library effect that is itself present is that
+        # effect in its wider form (named_shape): it competes as the name (a large skew beside the magnitude
+        # changes it causes is a speed effect, though its one-term shape explains less than the magnitude's), if
+        # it explains more than the plain fine-phase shapes (a factor with a mean, as the speed of a steady
+        # motion, also carries a static fine-phase error). Not the magnitude's shapes: a skew changes the
+        # corrected magnitude in proportion to speed, so they stand in for a speed effect as well (the amplitude
+        # gets its wider form through `widen` when its own shape wins)
         top = max((t.explained_rms for t in good if t.name.startswith("generic:")), default=0.0)
-        named = [t for t in good if not t.name.startswith("generic:") and not t.ambiguous
-                 and t.explained_rms ** 2 >= NAMED_SHARE * top ** 2]
+        plain = max((t.explained_rms for t in good if t.name.startswith("generic:1:")), default=0.0)
+        present = {t.name for t in good if not t.name.startswith("generic:") and not t.ambiguous}
+        named = [t for t in good if not t.ambiguous and t.explained_rms ** 2 >= NAMED_SHARE * top ** 2
+                 and (not t.name.startswith("generic:")
+                      or (generic_effect(t.name) in present - {"amplitude"} and t.explained_rms > plain))]
         good = named or good
         report["iterations"].append({"residual_rms_arcsec": round(ev_fit.rms, 4), "tests": [
             {"effect": t.name, "explained_rms_arcsec": round(t.explained_rms, 4), "p_value": t.p_value,
@@ -948,7 +962,10 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
                  "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
         if remedy in (PHASE_DOMAIN, NORMALISER):   # gain invariance alone explains the magnitude's shapes
-            entry.update(name="amplitude", **{k: v for k, v in describe("amplitude").items() if k != "where"})
+            # behind the drift tracker the gains that change are the ones it follows, late: the straight waveform
+            # stage makes its remaining gain error move no angle (the drift's correction, not another cause)
+            cause = "drift" if remedy == PHASE_DOMAIN and state.cal.adaptive else "amplitude"
+            entry.update(name=cause, **{k: v for k, v in describe(cause).items() if k != "where"})
         if remedy:
             entry.update(where=NORMALISER_WHERE if remedy == NORMALISER else PHASE_DOMAIN_WHERE, remedy=remedy,
                          correction="adaptive" if remedy == NORMALISER else "hardware")
