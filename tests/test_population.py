@@ -80,3 +80,12 @@ def test_trim_format_follows_the_fitted_values():
         tables = build_trim_tables(cal, core)
         grids = grids_for(cal, core)
         assert np.max(np.abs(tables.map / 2.0 ** core.trim_frac - grids.map)) <= 0.5 / 2 ** core.trim_frac + 1e-9
+
+
+# names that the population got wrong before: a large skew beside the magnitude changes it causes (9144: amplitude
+# and sampling_skew, was amplitude and ref_lag), the drift tracker's phase-domain remedy (9124: drift and tone, was
+# also amplitude)
+@pytest.mark.parametrize("seed", [9124, 9144])
+def test_population_names(seed):
+    c = population_case(seed)
+    assert c["abort"] is None and c["named_right"], c
