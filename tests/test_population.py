@@ -75,7 +75,8 @@ def test_trim_format_follows_the_fitted_values():
         cal = dataclasses.replace(cal, angle_terms=[
             FittedEffect("hysteresis", rng.normal(0, size, 9)),
             FittedEffect("amplitude", rng.normal(0, size, 3)),
-            FittedEffect("sampling_skew", rng.normal(0, size * 1e-3, 2))], adaptive=bool(rng.integers(2)))
+            FittedEffect("sampling_skew", np.concatenate([rng.normal(0, size * 1e-3, 2), rng.normal(0, size, 2)]))],
+            adaptive=bool(rng.integers(2)))
         core = core_config(cal)
         tables = build_trim_tables(cal, core)
         grids = grids_for(cal, core)

@@ -111,8 +111,15 @@ def _skew_cols(ctx):
     # cos channel late by tau: c = cos(phi + delta), delta = 2 pi lines v tau, and
     # atan2(sin phi, c) - phi = delta sin^2 phi = (delta / 2)(1 - cos 2 phi). At a mean speed the conic takes
     # out the skew's mean phase delta0 (a quadrature phase error); a change D of delta around it then gives
-    # (D / 2)(1 - cos 2 phi + tan(delta0) sin 2 phi): the second column carries the part that grows with delta0
-    return [ctx.speed * (1 - np.cos(2 * ctx.phi)), ctx.speed * np.sin(2 * ctx.phi)]
+    # (D / 2)(1 - cos 2 phi + tan(delta0) sin 2 phi): the second column carries the part that grows with delta0.
+    # D follows the speed's change from its mean, so the shape is the speed columns less their static part: the
+    # static order-2 columns let the fit take that part out (without them a skew at a large mean speed looks
+    # like a lag, speed x 1, which is its only part that no static column holds)
+    c2, s2 = np.cos(2 * ctx.phi), np.sin(2 * ctx.phi)
+    return [ctx.speed * (1 - c2), ctx.speed * s2, c2, s2]
+
+
+SKEW_COLUMNS = 4
 
 
 def _hyst_cols(ctx):
@@ -147,8 +154,8 @@ LIBRARY = {
         lambda ctx: _rev_modulated((1, 2), ctx), ("periods",)),
     "sampling_skew": Effect(
         "sampling_skew", "the two channels are sampled at different instants",
-        "speed x (1 - cos 2 phi) and, beside a large mean skew, speed x sin 2 phi: a second-order fine-phase "
-        "error and half as much lag, both in proportion to speed",
+        "speed x (1 - cos 2 phi) and, beside a large mean skew, speed x sin 2 phi, each less its part at the mean "
+        "speed: a second-order fine-phase error and half as much lag, both in proportion to speed",
         "hardware", "speed-dependent phase correction (quadrature stage, filtered speed)", _skew_cols, ("speed",)),
     "hysteresis": Effect(
         "hysteresis", "direction-dependent error (backlash, magnetic hysteresis, readhead tilt)",
@@ -202,8 +209,8 @@ class FittedEffect:
     @classmethod
     def from_dict(cls, d: dict) -> FittedEffect:
         w = np.asarray(d["weights"], float)
-        if d["name"] == "sampling_skew" and len(w) == 1:     # written before the skew had its sin 2 phi column
-            w = np.append(w, 0.0)
+        if d["name"] == "sampling_skew" and len(w) < SKEW_COLUMNS:     # written before the skew had all its columns
+            w = np.append(w, np.zeros(SKEW_COLUMNS - len(w)))
         return cls(d["name"], w, float(d.get("tone_hz", 0.0)), d.get("engine", "core"))
 
     def predict(self, ctx: Context) -> np.ndarray:

@@ -34,6 +34,7 @@ from .effects import (
     generic_name,
     interference_columns,
     make_context,
+    parse_generic,
     tone_columns,
 )
 from .encoder import ARCSEC_PER_REV, Encoder
@@ -578,9 +579,20 @@ FACTOR_EFFECT = {"magnitude": "amplitude", "magnitude2": "amplitude", "direction
 
 def generic_effect(name: str) -> str | None:
     """The library effect whose wider form a shape of the general dictionary is (by its factor), if any."""
-    from .effects import parse_generic
-
     return FACTOR_EFFECT.get(parse_generic(name)[0])
+
+
+FAMILY_SHARE = 0.5      # of the variance a general shape explains, a library effect of its factor explaining this
+                        # much is the better first step (the rest shows in the next iteration)
+
+
+def family_holds(shape: Test, good: list[Test]) -> bool:
+    """Whether a library effect whose shape lies in the same factor as a general-dictionary shape explains most of
+    what the shape explains: then the name goes in by itself (a reference lag is speed x order 0, inside every
+    speed shape), and the shape may not stand in for another effect of that factor."""
+    need = GENERIC_NEEDS.get(parse_generic(shape.name)[0])
+    return any(need in LIBRARY[t.name].needs and t.explained_rms ** 2 >= FAMILY_SHARE * shape.explained_rms ** 2
+               for t in good if t.name in LIBRARY and not t.ambiguous)
 
 
 def named_shape(best: Test, tests: list[Test], rms: float) -> Test:
@@ -601,7 +613,6 @@ TONE_EFFECT = dict(cause="a tone in time: vibration between encoder and referenc
 
 def describe(name: str) -> dict:
     if name.startswith("generic:"):
-        from .effects import parse_generic
         factor, k, m = parse_generic(name)
         carried = GENERIC_FACTORS[factor]
         what = f"fine-phase orders 0..{k} times {factor}" + (f" (revolution orders 1..{m})" if m else "")
@@ -929,7 +940,8 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         present = {t.name for t in good if not t.name.startswith("generic:") and not t.ambiguous}
         named = [t for t in good if not t.ambiguous and t.explained_rms ** 2 >= NAMED_SHARE * top ** 2
                  and (not t.name.startswith("generic:")
-                      or (generic_effect(t.name) in present - {"amplitude"} and t.explained_rms > plain))]
+                      or (generic_effect(t.name) in present - {"amplitude"} and t.explained_rms > plain
+                          and not family_holds(t, good)))]
         good = named or good
         report["iterations"].append({"residual_rms_arcsec": round(ev_fit.rms, 4), "tests": [
             {"effect": t.name, "explained_rms_arcsec": round(t.explained_rms, 4), "p_value": t.p_value,

@@ -126,6 +126,7 @@ def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_
             # speed (rev/s) = speed counts / rev / (2^SPEED_LOG2 * sample interval)
             per_count = 1.0 / (rev * (1 << speed_log2) * sample_interval_s)
             gs += (w[0] * (1 - np.cos(2 * phi)) + w[1] * np.sin(2 * phi)) * counts * per_count   # effects._skew_cols
+            grid += ((w[2] * np.cos(2 * phi) + w[3] * np.sin(2 * phi)) * counts)[None, None, :]   # its static part
         elif term.name == "amplitude":
             h = w[0] + w[1] * np.cos(2 * phi) + w[2] * np.sin(2 * phi)    # effects._amplitude_cols
             ga += h * counts / mag_scale
