@@ -59,6 +59,27 @@ def noise_sigma(r: np.ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2))
 
 
+PHASE_NEIGHBOUR_RUNS = (16, 64, 256)    # samples per run of the replicate-state estimate
+
+
+def phase_neighbour_sigma(r: np.ndarray, phi: np.ndarray) -> float:
+    """Noise RMS from replicate states: within a short run of samples the speed, the magnitude, the position in
+    the revolution and the time hardly change, so two samples next to each other in fine phase carry nearly the
+    same error of any shape, and their difference is noise. Successive differences are the same estimate when
+    the phase moves little between samples; at a fast electrical rate they see the fine-phase error change from
+    one sample to the next, which this does not. The least inflated of a few run lengths (a longer run brings
+    the phases closer, and the states further apart)."""
+    best = np.inf
+    for run in PHASE_NEIGHBOUR_RUNS:
+        n = len(r) // run * run
+        if n < 4 * run:
+            continue
+        order = np.argsort(np.mod(phi[:n], 2 * np.pi).reshape(-1, run), axis=1)
+        d = np.diff(np.take_along_axis(r[:n].reshape(-1, run), order, axis=1), axis=1).ravel()
+        best = min(best, float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2)))
+    return best if np.isfinite(best) else noise_sigma(r)
+
+
 def uniform_run(t: np.ndarray) -> slice:
     """The longest run of rows whose time steps equal the median step (to 0.1 %): the whole recording when its
     time axis is uniform; one of its runs when it is a set of evenly spaced runs of a longer one."""
@@ -108,20 +129,26 @@ def radial_floor(ev: Evaluation) -> float:
     return spectral_level(m - shape[k], sample_rate(ctx.t)) * dof / float(np.mean(m)) * per_rad
 
 
+FLOOR_ESTIMATES = ("spectral level of the residual away from lines", "successive differences of the residual",
+                   "neighbours in fine phase within short runs")
+
+
 def noise_floor(ev: Evaluation) -> tuple[float, dict]:
-    """The floor the tests use (the residual's spectral level away from lines) and every estimate."""
+    """The floor the tests use (the least inflated of the residual's estimates) and every estimate."""
     est = {"spectral level of the residual away from lines": spectral_level(ev.r, sample_rate(ev.ctx.t)),
            "radial scatter of the corrected Lissajous figure": radial_floor(ev),
-           "successive differences of the residual": noise_sigma(ev.r)}
-    # structure inflates both: broadband (smeared by a changing speed) the spectral level, high-frequency (a tone,
-    # interference) the differences; the lower of the two is the least inflated
-    sigma = min(est["spectral level of the residual away from lines"], est["successive differences of the residual"])
-    ratios = {k: v / est["spectral level of the residual away from lines"] for k, v in est.items()}
+           "successive differences of the residual": noise_sigma(ev.r),
+           "neighbours in fine phase within short runs": phase_neighbour_sigma(ev.r, ev.ctx.phi)}
+    # structure inflates each, none deflates white noise: broadband (smeared by a changing speed) the spectral
+    # level, high-frequency (a tone, interference, a fast electrical rate) the differences, a fast change of state
+    # the replicate states; the lowest is the least inflated
+    sigma = min(est[k] for k in FLOOR_ESTIMATES)
+    ratios = {k: v / sigma for k, v in est.items()}
     # the radial scatter is a lower bound when the waveform inverse amplifies the noise along the circle
     # (harmonic-rich waveforms): it agrees if not above the floor by more than 40 % nor below half of it
-    agree = 0.7 <= ratios["successive differences of the residual"] <= 1.4 and \
+    agree = all(ratios[k] <= 1.4 for k in FLOOR_ESTIMATES) and \
         0.5 <= ratios["radial scatter of the corrected Lissajous figure"] <= 1.4
-    return sigma, {"used": "the lower of the spectral level away from lines and the successive differences",
+    return sigma, {"used": "the lowest of the " + ", the ".join(FLOOR_ESTIMATES),
                    "estimates_arcsec": {k: round(v, 4) for k, v in est.items()},
                    "agree": agree,
                    "note": "the estimates agree" if agree else
