@@ -622,6 +622,17 @@ def family_holds(shape: Test, good: list[Test]) -> bool:
                for t in good if t.name in LIBRARY and not t.ambiguous)
 
 
+def speed_holds(shape: Test, good: list[Test]) -> bool:
+    """Whether a magnitude shape of the general dictionary may be a speed effect seen through the magnitude (a
+    channel skew changes the corrected magnitude in proportion to speed): a speed shape, named or not, explains
+    half of what it does."""
+    if generic_effect(shape.name) != "amplitude":
+        return False
+    return any(t.explained_rms ** 2 >= FAMILY_SHARE * shape.explained_rms ** 2 for t in good
+               if (t.name in LIBRARY and "speed" in LIBRARY[t.name].needs)
+               or (t.name.startswith("generic:") and GENERIC_NEEDS.get(parse_generic(t.name)[0]) == "speed"))
+
+
 def named_shape(best: Test, tests: list[Test], rms: float) -> Test:
     """A shape of the general dictionary is the wider form of the library effect of its factor when that effect
     is itself present (its fixed shape significant, and it matters): the name goes with it (as `widen` does the
@@ -959,16 +970,16 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         # effect in its wider form (named_shape): it competes as the name (a large skew beside the magnitude
         # changes it causes is a speed effect, though its one-term shape explains less than the magnitude's), if
         # it explains more than the plain fine-phase shapes (a factor with a mean, as the speed of a steady
-        # motion, also carries a static fine-phase error). Not the magnitude's shapes: a skew changes the
-        # corrected magnitude in proportion to speed, so they stand in for a speed effect as well (the amplitude
-        # gets its wider form through `widen` when its own shape wins)
+        # motion, also carries a static fine-phase error). The magnitude's shapes only where no speed shape
+        # explains half as much: a skew changes the corrected magnitude in proportion to speed, so they stand in
+        # for a speed effect as well
         top = max((t.explained_rms for t in good if t.name.startswith("generic:")), default=0.0)
         plain = max((t.explained_rms for t in good if t.name.startswith("generic:1:")), default=0.0)
         present = {t.name for t in good if not t.name.startswith("generic:") and not t.ambiguous}
         named = [t for t in good if not t.ambiguous and t.explained_rms ** 2 >= NAMED_SHARE * top ** 2
                  and (not t.name.startswith("generic:")
-                      or (generic_effect(t.name) in present - {"amplitude"} and t.explained_rms > plain
-                          and not family_holds(t, good)))]
+                      or (generic_effect(t.name) in present and t.explained_rms > plain
+                          and not family_holds(t, good) and not speed_holds(t, good)))]
         good = named or good
         report["iterations"].append({"residual_rms_arcsec": round(ev_fit.rms, 4), "tests": [
             {"effect": t.name, "explained_rms_arcsec": round(t.explained_rms, 4), "p_value": t.p_value,
