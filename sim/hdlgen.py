@@ -9,7 +9,8 @@
   inside their ``#( ... )``) and ``rtl/verilog/fringe_core_map.vh`` (every parameter passed on under its own
   name); in VHDL the generics of fringe_core and fringe_top and fringe_top's map;
 - documentation tables: the status bits (``docs/architecture.md`` and ``README.md``, the meanings of
-  STATUS_MEANINGS) and the registers (``docs/architecture.md``).
+  STATUS_MEANINGS), the registers (``docs/architecture.md``) and the core parameters
+  (``docs/blocks/fringe_core.md``).
 
 A region lies between the lines ``-- BEGIN generated <region> ...`` and ``-- END generated <region>``
 (``//`` in Verilog); the body is indented as the BEGIN line.
@@ -195,6 +196,17 @@ def register_table() -> list[str]:
     return rows
 
 
+def parameter_table() -> list[str]:
+    """fringe_core's (and fringe_top's) parameters for ``docs/blocks/fringe_core.md``, with the group notes."""
+    rows = ["| name | default | meaning |", "|---|---|---|"]
+    for name, v, doc in parameters():
+        if name in GROUPS:
+            rows.append(f"| | | *{GROUPS[name]}* |")
+        default = f'`"{v}"`' if isinstance(v, str) else f"{v}"
+        rows.append(f"| {name} | {default} | {doc.replace('|', '/')} |")
+    return rows
+
+
 #: file -> (comment leader, {region: body lines})
 REGIONS: dict[str, tuple[str, dict[str, Callable[[], list[str]]]]] = {
     "rtl/vhdl/fringe_pkg.vhd": ("--", {"constants": vhdl_constants}),
@@ -206,6 +218,7 @@ REGIONS: dict[str, tuple[str, dict[str, Callable[[], list[str]]]]] = {
     "rtl/vhdl/fringe_core.vhd": ("--", {"generics": vhdl_generics}),
     "rtl/vhdl/fringe_top.vhd": ("--", {"generics": vhdl_generics, "core map": vhdl_map}),
     "docs/architecture.md": ("<!--", {"status": status_table, "registers": register_table}),
+    "docs/blocks/fringe_core.md": ("<!--", {"parameters": parameter_table}),
     "README.md": ("<!--", {"status": status_table}),
 }
 

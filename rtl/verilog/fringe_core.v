@@ -1,49 +1,20 @@
 // fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock
-// (COMPACT = 1: one sample per CLOCKS_PER_SAMPLE = CORDIC_STAGES + 1 clock enables, in_ready = 0 in
-// between; the CORDIC iterates one micro-rotation stage, the quadrature's products share one
-// multiplier; same words, same LATENCY).
+// (COMPACT = 1: one per CLOCKS_PER_SAMPLE = CORDIC_STAGES + 1 clock enables, in_ready = 0 in between;
+// the CORDIC iterates, the quadrature's products share one multiplier; the same words and LATENCY):
 //
-//   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1: the online offset/gain tracker, docs/blocks/fringe_drift.md]
-//   -> branch select (registered) -> fringe_wave_lut x2 -> fringe_quadrature
-//   [-> fringe_canceller, CANCEL = 1: the interference canceller, docs/blocks/fringe_canceller.md]
-//   -> fringe_cordic -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W))
-//   [-> fringe_trim, TRIM = 1: the closed loop's corrections, docs/blocks/fringe_trim.md]
+//   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1] -> branch select (registered)
+//   -> fringe_wave_lut x2 -> fringe_quadrature [-> fringe_canceller, CANCEL = 1] -> fringe_cordic
+//   -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W)) [-> fringe_trim, TRIM = 1]
 //   -> fringe_long_period -> pos u(POS_W), status (8 bits)
-// Formats, register map and status word: docs/architecture.md. Bit-exact model:
-// model/fringe/fixed/core.py (run_core; run_core_banks for a bank swap in mid-stream).
 //
-// Register file: 2 banks x 32 words of 32 bits (model/fringe/fixed/regmap.py), initialised from
-// REGS_INIT (bank 0 words 0..31, then bank 1). Every sample takes the active bank when it is
-// accepted and carries the bank bit (and its early flags: clip, sat, magnitude) in the blocks'
-// user sideband, so each stage reads the tables and registers of the sample's own bank:
-//   branch thresholds at the input stage, K_SS..OFS_C at the quadrature input, CANCEL_FREQ at the
-//   canceller input (CANCEL = 1), AMP_LOW/AMP_HIGH
-//   at the CORDIC output, COARSE_OFS at the period-count input, ZERO/DIR at the long-period input.
-// Configuration write port (independent of ce): cfg_wr_addr[19:16] selects 0 registers and
-// control, 1 sine table, 2 cosine table, 3 long-period table, and with TRIM = 1: 4 trim map,
-// 5 trim speed table, 6 trim magnitude table, with DRIFT = 1: 7 drift sine forward table, 8 drift
-// cosine forward table (others ignored); cfg_wr_addr[15:0] is the word within
-// one bank (words beyond the table or register file are ignored); cfg_wr_data is right-aligned.
-// Writes always go to the inactive bank (the one inactive when the write is issued); they are
-// decoded in two registered steps and land two clocks after the edge that takes them. Register
-// word 0x80 is CTRL: writing bit 0 = 1 swaps the banks two clocks after that edge (with the writes
-// presented with it); samples accepted up to that clock take the old bank, every later sample the
-// new one. A write presented before the CTRL write lands before the swap, in the bank it was
-// issued for, so every sample of the new bank sees it. Software rule: after a swap, wait until the
-// samples accepted before it have come out (LATENCY clock enables) before writing the now inactive bank.
-// rst (synchronous, active high) clears the sample pipeline (valid bits, the period counter);
-// the register file, the tables and the active bank are configuration and keep their values
-// (power-up: bank 0, the init files).
+// Every sample takes the active register and table bank when it is accepted and carries it along;
+// the configuration write port (independent of ce) writes the inactive bank, CTRL swaps the banks.
+// rst (synchronous, active high) clears the sample pipeline only; ce = 0 freezes it.
 //
 // LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1, + 4 with CANCEL = 1) clock
-// enables from in_valid to out_valid:
-//   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
-//   [+ 4 fringe_canceller] + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count [+ 12 fringe_trim] + 8 fringe_long_period
-//   [+ 4 in front: fringe_drift's normaliser, DRIFT = 1; the sample takes its bank when accepted].
-// The registers a block takes with the sample (quadrature coefficients, CANCEL_FREQ, magnitude thresholds,
-// COARSE_OFS, ZERO/DIR) are read one clock enable ahead, with the sample's bank from a copy of
-// the bank pipeline (taps at the blocks' latencies), so no register-file mux feeds block logic.
-// ce = 0 freezes the pipeline (the tables keep their write port).
+// enables from in_valid to out_valid (fringe_core_latency, fringe_pkg).
+// Parameters, ports, banks and pipeline: docs/blocks/fringe_core.md (formats, registers, status word:
+// docs/architecture.md). Bit-exact model: model/fringe/fixed/core.py (run_core, run_core_banks).
 
 `default_nettype none
 

@@ -1,22 +1,13 @@
 // fringe_top: fringe_core with AXI4-Stream sample input and position output.
 //
-// docs/architecture.md, "Top level":
-//   s_axis_tdata = {coarse lane, cos lane, sin lane}: sin in [ADC_W-1:0], cos from bit ADC_LANE,
-//                  coarse from bit 2*ADC_LANE (no coarse lane when COARSE_W = 0), each field
-//                  right-aligned in a lane of whole bytes, ADC_LANE = 8*ceil(ADC_W/8); the padding
-//                  bits of a lane are ignored.
-//   m_axis_tdata = {status (8 bits), position lane (8*ceil(POS_W/8) bits)}, the position
-//                  right-aligned and zero-padded.
-//   Backpressure: the whole pipeline advances on ce = !m_axis_tvalid || m_axis_tready and
-//   s_axis_tready = ce && the core's in_ready: one sample per clock (COMPACT = 1: per CLOCKS_PER_SAMPLE
-//   = CORDIC_STAGES + 1 clock enables), nothing lost or duplicated. m_axis_tvalid is the
-//   core's registered out_valid, so m_axis_tdata is stable while the sink stalls.
-//   Configuration write port and active_bank: see rtl/verilog/fringe_core.v.
-// rst (synchronous, active high) empties the pipeline: m_axis_tvalid is 0 after it, samples in
-// flight and a sample taken in the same clock are dropped.
+// s_axis_tdata = {coarse lane, cos lane, sin lane}, m_axis_tdata = {status, position lane}, lanes of
+// whole bytes; the whole pipeline advances on ce = !m_axis_tvalid || m_axis_tready and
+// s_axis_tready = ce && the core's in_ready: nothing lost or duplicated. rst (synchronous, active
+// high) empties the pipeline.
 //
-// LATENCY = fringe_core LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1) clocks from the s_axis handshake to
-// m_axis_tvalid when the sink does not stall (every stall adds its cycles).
+// LATENCY = fringe_core's: CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1, + 4 with
+// CANCEL = 1) clocks from the s_axis handshake to m_axis_tvalid when the sink does not stall.
+// Parameters, ports and pipeline: docs/blocks/fringe_top.md. Bit-exact model: model/fringe/fixed/core.py.
 
 `default_nettype none
 
