@@ -35,10 +35,10 @@
 // the register file, the tables and the active bank are configuration and keep their values
 // (power-up: bank 0, the init files).
 //
-// LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1, + 4 with CANCEL = 1) clock
+// LATENCY = CORDIC_STAGES + 24 (+ 13 with TRIM = 1, + 4 with DRIFT = 1, + 4 with CANCEL = 1) clock
 // enables from in_valid to out_valid:
 //   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
-//   [+ 4 fringe_canceller] + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count [+ 12 fringe_trim] + 8 fringe_long_period
+//   [+ 4 fringe_canceller] + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count [+ 13 fringe_trim] + 8 fringe_long_period
 //   [+ 4 in front: fringe_drift's normaliser, DRIFT = 1; the sample takes its bank when accepted].
 // The registers a block takes with the sample (quadrature coefficients, CANCEL_FREQ, magnitude thresholds,
 // COARSE_OFS, ZERO/DIR) are read one clock enable ahead, with the sample's bank from a copy of

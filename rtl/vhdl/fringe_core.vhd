@@ -36,7 +36,7 @@
 -- the register file, the tables and the active bank are configuration and keep their values
 -- (power-up: bank 0, the init files).
 --
--- LATENCY = CORDIC_STAGES + 24 (+ 12 with TRIM = 1, + 4 with DRIFT = 1, + 4 with CANCEL = 1) clock
+-- LATENCY = CORDIC_STAGES + 24 (+ 13 with TRIM = 1, + 4 with DRIFT = 1, + 4 with CANCEL = 1) clock
 -- enables from in_valid to out_valid:
 --   2 input registers (bank thresholds, branch select) + 4 fringe_wave_lut + 5 fringe_quadrature
 --   [+ 4 fringe_canceller] + CORDIC_STAGES+2 fringe_cordic + 3 fringe_period_count + 8 fringe_long_period.
