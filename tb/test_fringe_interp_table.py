@@ -1,10 +1,11 @@
 """fringe_interp_table (Verilog and VHDL): every result equals the model, word for word.
 
 Random generics (ADDR_W, W, FB, OUT_W, ROUND_SHIFT) drawn from a fixed seed, with and without an
-INIT_FILE, the third with PIECE_W > 0 (the table in RAM pieces, registered, then selected); random traffic: ce random, a read of the active bank every clock (random address and
-fraction, full-range words, so OUT_W = W wraps), writes with random gaps to the inactive bank,
-bank flips; after every clock enable the result is compared with ``interp_table_model``
-(LATENCY = 4 clock enables, 5 with PIECE_W > 0), and it must hold while ce = 0.
+INIT_FILE, the third with PIECE_W > 0 (the table in RAM pieces, registered, then selected); random
+traffic: ce random, a read of the active bank every clock (random address and fraction, full-range
+words, so OUT_W = W wraps), writes with random gaps to the inactive bank, bank flips; after every
+clock enable the result is compared with ``interp_table_model`` (LATENCY = 4 clock enables, 5 with
+PIECE_W > 0), and it must hold while ce = 0.
 Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_interp_table.py``.
 """
 
