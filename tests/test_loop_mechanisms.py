@@ -242,3 +242,29 @@ def test_a_float_only_term_leaves_the_core_terms_as_they_were():
     for a, b in zip(alone.angle_terms, (both.angle_terms[0], both.angle_terms[2]), strict=True):
         np.testing.assert_allclose(b.weights, a.weights, rtol=1e-9, atol=1e-12)
     assert np.any(both.angle_terms[1].weights != 0)
+
+
+def test_the_noise_floor_is_not_inflated_by_a_fast_electrical_rate():
+    """Random encoders near the overspeed limit (0.1 to 0.25 periods a sample, a speed that sweeps): a fine-phase
+    error several times the noise, whose size changes slowly, on white noise of known RMS. The successive
+    differences see the error change from sample to sample and the spectrum sees it smeared by the sweep; the
+    floor the loop uses must stay within 10 % of the noise (the MAD's own scatter on 16 k samples is ~1 %; a
+    residual order-k error between neighbours in phase is under k * 2 pi / 256 of its size)."""
+    from fringe.effects import Context
+
+    seed = 11
+    print("seed", seed)
+    rng = np.random.default_rng(seed)
+    n = 16_384
+    t = np.arange(n) / 10_000.0
+    for _ in range(6):
+        rate = rng.uniform(0.1, 0.25) * (1 + 0.3 * np.sin(2 * np.pi * t / t[-1] * rng.uniform(1, 4)))
+        phi = 2 * np.pi * np.cumsum(rate)
+        sigma = rng.uniform(0.5, 3.0)
+        k = int(rng.integers(1, 4))
+        r = sigma * rng.uniform(3, 8) * np.sin(k * phi + 1.0) * (1 + 0.5 * np.sin(2 * np.pi * t / t[-1]))
+        r = r + rng.normal(0, sigma, n)
+        ones = np.ones(n)
+        ctx = Context(phi, np.zeros(n), t, ones, 0 * ones, ones, ones, 1000)
+        used, info = loop.noise_floor(loop.Evaluation(r, ctx, {}, float(np.std(r))))
+        assert abs(used / sigma - 1) <= 0.1, (sigma, info)
