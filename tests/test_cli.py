@@ -147,3 +147,30 @@ def test_correct_refuses_data_for_another_encoder(workdir, tmp_path, capsys):
     assert main(["correct", data, "--cal", str(tmp_path / "cal"), "--out", str(tmp_path / "o.csv")]) == 2
     assert "outside the 12-bit ADC range" in capsys.readouterr().err
     assert not (tmp_path / "o.csv").exists()
+
+
+def test_correct_runs_a_calibration_with_the_canceller_in_one_piece(workdir, capsys):
+    """A calibration whose core carries fringe_canceller (as `fringe loop` writes for interference): the
+    canceller's state spans the whole stream, so `correct` runs the recording in one piece, with the rows of the
+    bit-exact model over the whole recording (streamed in pieces, the model refused it: nothing was written)."""
+    import dataclasses
+
+    from fringe.calibrate import calibrate
+    from fringe.calstore import save_calibration
+    from fringe.dataio import read_measurement
+    from fringe.encoder import load_encoder
+    from fringe.engines import run_engine
+    from fringe.hardware.corefiles import core_files
+
+    d = workdir
+    enc = load_encoder(str(d / "enc.json"))
+    meas = read_measurement(str(d / "a.csv"), enc)
+    cal = calibrate(meas, enc)
+    cal = dataclasses.replace(cal, canceller={"tone_hz": 1234.5, "sample_rate_hz": 10_000.0, "cancel_block_log2": 4,
+                                              "cancel_mu_log2": 6})
+    save_calibration(cal, str(d / "cal_cancel"), core_files(cal, "test"))
+    assert main(["correct", str(d / "b.csv"), "--cal", str(d / "cal_cancel"), "--out", str(d / "out_cancel.csv")]) == 0
+    out = np.genfromtxt(d / "out_cancel.csv", delimiter=",", names=True, skip_header=1)
+    whole = run_engine("model", cal, read_measurement(str(d / "b.csv"), enc), str(d / "cal_cancel"))
+    assert np.array_equal(out["status"], whole.status)
+    assert np.allclose(out["angle_deg"], whole.angle_deg, atol=1e-9)

@@ -9,17 +9,18 @@ from .result import Result
 
 
 def streamable(name: str, cal: Calibration, cal_dir: str):
-    """For the bit-exact model without fringe_drift: a function from one piece of the recording to its
-    (angle_deg, status), bit-exact with one run over the whole recording (`fixed.core.CoreStream`);
-    else None (the engine runs on the whole recording at once)."""
+    """For the bit-exact model without fringe_drift and fringe_canceller: a function from one piece of the
+    recording to its (angle_deg, status), bit-exact with one run over the whole recording
+    (`fixed.core.CoreStream`); else None (the engine runs on the whole recording at once)."""
     from .hardware.closed_loop import unsupported
 
     if name != "model" or unsupported(cal):
         return None
+    from .fixed.core import CoreStream, streams, to_adc_codes
+
     cfg = core_config(cal, cal_dir)
-    if cfg.drift:
+    if not streams(cfg):
         return None
-    from .fixed.core import CoreStream, to_adc_codes
     from .hardware.tables import build_tables
 
     try:

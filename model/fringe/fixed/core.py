@@ -193,14 +193,20 @@ def to_adc_codes(values: np.ndarray, adc_w: int, what: str) -> np.ndarray:
     return codes
 
 
+def streams(cfg: CoreConfig) -> bool:
+    """Whether `CoreStream` can run this configuration in pieces: fringe_drift's tracker and fringe_canceller's
+    adaptation carry state over the whole stream."""
+    return not (cfg.drift or cfg.cancel)
+
+
 class CoreStream:
     """`run_core` over a stream given in pieces, with the same output words as one run over the whole
     stream and memory bounded by the largest piece: each piece runs after the last rows of the one
     before (enough for the overspeed flag and fringe_trim's speed window), the period counter resumed
-    where they stood. fringe_drift's tracker carries state over the whole stream: DRIFT = 1 is not streamed."""
+    where they stood. Not for DRIFT = 1 or CANCEL = 1 (`streams`)."""
 
     def __init__(self, t: CoreTables, cfg: CoreConfig):
-        if cfg.drift or cfg.cancel:
+        if not streams(cfg):
             raise ValueError("fringe_drift's and fringe_canceller's state spans the whole stream: run it in one piece")
         self.t, self.cfg = t, cfg
         self.keep = 1 + (cfg.trim_params().window if cfg.trim else 0)
