@@ -1,9 +1,12 @@
-"""fringe_delay RTL (Verilog and VHDL): every word comes out after exactly DEPTH clock enables.
+"""fringe_delay RTL (Verilog and VHDL): out_valid and out_data equal the model after every clock.
 
-The model is the definition: the word that went in with in_valid comes out with out_valid after
-DEPTH clock enables; rst clears the valid stages only; ce = 0 freezes everything; DEPTH = 0 is a
-wire. Parameter sets are drawn at random (WIDTH 1..64, DEPTH 2..40) from a fixed seed, plus
-DEPTH 0 and 1 (the cases the hand-copied shift registers got wrong).
+The reference is the bit-exact model ``fringe.fixed.delay``: the word that went in with in_valid comes
+out with out_valid after DEPTH clock enables; rst clears the valid stages only; ce = 0 freezes
+everything; DEPTH = 0 is a wire. The stimulus is drawn first (full speed, then random gaps and
+stalls with a reset in mid-stream, then a flush), the model computes both outputs after every
+clock, and the simulation compares them (out_data wherever the model's data stages are loaded).
+Parameter sets are drawn at random (WIDTH 1..64, DEPTH 2..40) from a fixed seed, plus DEPTH 0 and 1
+(the cases the hand-copied shift registers got wrong).
 Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_delay.py``.
 """
 
@@ -17,65 +20,87 @@ import pytest
 from lib.cocotb_optional import cocotb
 from lib.launch import run_seeded
 
+from fringe.fixed.delay import DelayParams, delay
+
 TOPLEVEL = "fringe_delay"
 DEFAULT_SEED = 20261201
 
 if cocotb is not None:
-    from cocotb.triggers import FallingEdge, ReadOnly, Timer
+    from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge, Timer
 
 
-def _config() -> tuple[int, int, int]:
+def _config() -> tuple[DelayParams, int]:
     raw = json.loads(os.environ["FRINGE_DELAY_PARAMS"])
-    return int(raw["WIDTH"]), int(raw["DEPTH"]), int(os.environ.get("FRINGE_SEED", DEFAULT_SEED))
+    return DelayParams(width=int(raw["WIDTH"]), depth=int(raw["DEPTH"])), \
+        int(os.environ.get("FRINGE_SEED", DEFAULT_SEED))
+
+
+def stimulus(rng: np.random.Generator, width: int, depth: int) -> dict[str, list[int]]:
+    """rst, ce, in_valid and in_data per clock: a reset, 400 clocks at full speed, 1200 with gaps
+    (in_valid 0.6) and stalls (ce 0.7) and a reset over clocks 600 and 601 of them, then a flush
+    (in_valid 0, ce 0.5) long enough for the words in flight to come out."""
+    n_flush = 8 * depth + 20
+    rst = [1] + [0] * 400 + [int(i in (600, 601)) for i in range(1200)] + [0] * n_flush
+    ce = [1] * 401 + [int(rng.random() < 0.7) for _ in range(1200)] + \
+        [int(rng.random() < 0.5) for _ in range(n_flush)]
+    valid = [0] + [1] * 400 + [int(rng.random() < 0.6) for _ in range(1200)] + [0] * n_flush
+    return {"rst": rst, "ce": ce, "in_valid": valid, "in_data": [word(rng, width) for _ in rst]}
+
+
+def word(rng: np.random.Generator, width: int) -> int:
+    """A random u(WIDTH) word."""
+    return int(rng.integers(0, 1 << width, dtype=np.uint64)) if width < 64 else \
+        int(rng.integers(0, 1 << 62)) << 2 | int(rng.integers(0, 4))
 
 
 if cocotb is not None:
-    from pipeline_check import StreamChecker, start_clock
+    from pipeline_check import start_clock
 
     @cocotb.test()
     async def delay_stream(dut):
         """Random words at full speed, with gaps and stalls, and a reset in mid-stream."""
-        width, depth, seed = _config()
+        prm, seed = _config()
         rng = np.random.default_rng(seed)
-        tag = f"seed {seed}, WIDTH {width}, DEPTH {depth}"
+        tag = f"seed {seed}, WIDTH {prm.width}, DEPTH {prm.depth}"
         dut._log.info("%s (replay with FRINGE_SEED=%d)", tag, seed)
 
-        def word() -> int:
-            return int(rng.integers(0, 1 << width, dtype=np.uint64)) if width < 64 else \
-                int(rng.integers(0, 1 << 62)) << 2 | int(rng.integers(0, 4))
-
-        if depth == 0:   # a wire: the output follows the input at once, whatever clk, rst, ce do
+        if prm.depth == 0:   # a wire: the output follows the input at once, whatever clk, rst, ce do
+            st = {k: [int(v) for v in rng.integers(0, 2, 300)] for k in ("in_valid", "rst", "ce")}
+            st["in_data"] = [word(rng, prm.width) for _ in range(300)]
+            want_v, want_d = delay(st["in_valid"], st["in_data"], st["ce"], st["rst"], prm)
             for i in range(300):
-                v, w = int(rng.integers(0, 2)), word()
-                dut.in_valid.value, dut.in_data.value = v, w
-                dut.rst.value, dut.ce.value = int(rng.integers(0, 2)), int(rng.integers(0, 2))
+                for name in ("in_valid", "in_data", "rst", "ce"):
+                    getattr(dut, name).value = st[name][i]
                 await Timer(1, unit="ns")
-                if (int(dut.out_valid.value), int(dut.out_data.value)) != (v, w):
-                    raise AssertionError(f"[{tag}] step {i}: out = ({int(dut.out_valid.value)}, "
-                                         f"{int(dut.out_data.value):#x}), in = ({v}, {w:#x})")
+                got = (int(dut.out_valid.value), int(dut.out_data.value))
+                if got != (int(want_v[i]), want_d[i]):
+                    raise AssertionError(f"[{tag}] step {i}: out = ({got[0]}, {got[1]:#x}), model = "
+                                         f"({int(want_v[i])}, {want_d[i]:#x})")
             return
 
+        st = stimulus(rng, prm.width, prm.depth)
+        want_v, want_d = delay(st["in_valid"], st["in_data"], st["ce"], st["rst"], prm)
         await start_clock(dut)
-        chk = StreamChecker(dut, depth, lambda: (int(dut.out_data.value),), tag)
-
-        def make_sample(_cyc: int) -> tuple:
-            w = word()
-            dut.in_data.value = w
-            return (w,)
-
-        def make_idle(_cyc: int) -> None:
-            dut.in_data.value = word()
-
-        dut.rst.value, dut.ce.value, dut.in_valid.value = 1, 1, 0
-        await FallingEdge(dut.clk)
-        await chk.run(400, make_sample, make_idle, rng)                       # full speed
-        await chk.run(1200, make_sample, make_idle, rng, p_valid=0.6, p_ce=0.7,
-                      reset_cycles={600, 601})                                 # gaps, stalls, reset
-        await chk.flush(make_idle, rng, p_ce=0.5)
-        await ReadOnly()
-        if chk.n_out < 800:   # 400 at full speed + about 500 of 1200 with gaps and stalls
-            raise AssertionError(f"[{tag}] only {chk.n_out} words checked")
-        dut._log.info("%s: %d words checked", tag, chk.n_out)
+        n_words = 0
+        for cyc in range(len(st["ce"])):
+            for name in ("rst", "ce", "in_valid", "in_data"):
+                getattr(dut, name).value = st[name][cyc]
+            await RisingEdge(dut.clk)
+            await ReadOnly()
+            got_v = int(dut.out_valid.value)
+            if got_v != int(want_v[cyc]):
+                raise AssertionError(f"[{tag}] clock {cyc} (rst {st['rst'][cyc]}, ce {st['ce'][cyc]}): "
+                                     f"out_valid = {got_v}, model {int(want_v[cyc])}")
+            if want_d[cyc] is not None:   # (before the stages are loaded the RTL's data is undefined)
+                got_d = int(dut.out_data.value)
+                if got_d != want_d[cyc]:
+                    raise AssertionError(f"[{tag}] clock {cyc} (ce {st['ce'][cyc]}, out_valid {got_v}): "
+                                         f"out_data = {got_d:#x}, model {want_d[cyc]:#x}")
+            n_words += bool(want_v[cyc]) and bool(st["ce"][cyc])
+            await FallingEdge(dut.clk)
+        if n_words < 800:   # 400 at full speed + about 500 of 1200 with gaps and stalls
+            raise AssertionError(f"[{tag}] only {n_words} words checked")
+        dut._log.info("%s: %d words checked (and both outputs after every clock)", tag, n_words)
 
 
 # ============================================================================ pytest side
@@ -93,3 +118,14 @@ PARAM_SETS = param_sets()
 @pytest.mark.parametrize("params", PARAM_SETS, ids=[f"W{p['WIDTH']}-D{p['DEPTH']}" for p in PARAM_SETS])
 def test_fringe_delay(sim, params):
     run_seeded(TOPLEVEL, params, sim, "FRINGE_DELAY_PARAMS", DEFAULT_SEED, 120)
+
+
+@pytest.mark.parametrize("params", [{"WIDTH": 0, "DEPTH": 1}, {"WIDTH": 8, "DEPTH": -1}],
+                         ids=lambda p: f"W{p['WIDTH']}-D{p['DEPTH']}")
+def test_illegal_parameters_stop_elaboration(sim, params):
+    """The model refuses the parameters, and the HDL stops elaboration with the model's message."""
+    from elab_check import assert_refused
+
+    with pytest.raises(ValueError) as refused:
+        DelayParams(width=params["WIDTH"], depth=params["DEPTH"])
+    assert_refused(TOPLEVEL, sim, params, str(refused.value))

@@ -4,7 +4,7 @@ Random generics (ADDR_W, W, FB, OUT_W, ROUND_SHIFT) drawn from a fixed seed, wit
 INIT_FILE, the third with PIECE_W > 0 (the table in RAM pieces, registered, then selected); random
 traffic: ce random, a read of the active bank every clock (random address and fraction, full-range
 words, so OUT_W = W wraps), writes with random gaps to the inactive bank, bank flips; after every
-clock enable the result is compared with ``interp_table_model`` (LATENCY = 4 clock enables, 5 with
+clock enable the result is compared with ``fringe.fixed.interp_table`` (LATENCY = 4 clock enables, 5 with
 PIECE_W > 0), and it must hold while ce = 0.
 Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_interp_table.py``.
 """
@@ -18,8 +18,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from interp_table_model import interp_result, latency
 from lib.cocotb_optional import cocotb
+
+from fringe.fixed.interp_table import interp_result, latency
 
 TOPLEVEL = "fringe_interp_table"
 SEED = int(os.environ.get("FRINGE_SEED", 20261202))

@@ -3,7 +3,7 @@
 // LATENCY = 4 clock enables from rd_addr/frac to result (5 with PIECE_W > 0); ce = 0 freezes every
 // register; no reset (data only: the caller's fringe_delay carries valid).
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_interp_table.md.
-// Model: tb/interp_table_model.py (fringe.fixed.table_ram.interpolate with the offset and width).
+// Model: model/fringe/fixed/interp_table.py (fringe.fixed.table_ram.interpolate with the offset and width).
 
 `default_nettype none
 

@@ -1,5 +1,6 @@
-"""Bit-exact model of fringe_interp_table (the testbench's reference; the blocks that use the
-primitive have their own models in model/fringe/fixed, built on the same ``interpolate``).
+"""Bit-exact model of ``fringe_interp_table`` (document: docs/blocks/fringe_interp_table.md; test:
+tb/test_fringe_interp_table.py). The blocks that use the primitive have their own models in this
+package, built on the same ``interpolate``.
 
 result = value + ((slope * frac + 2^(FB-1)) >>> FB) + 2^(ROUND_SHIFT-1) (the last term only when
 ROUND_SHIFT > 0), as s(OUT_W): modulo 2^OUT_W, read back signed.
@@ -7,7 +8,9 @@ ROUND_SHIFT > 0), as s(OUT_W): modulo 2^OUT_W, read back signed.
 
 from __future__ import annotations
 
-from fringe.fixed.table_ram import interpolate
+from .table_ram import interpolate
+
+__all__ = ["LATENCY", "field", "interp_result", "latency"]
 
 LATENCY = 4   # clock enables from rd_addr/frac to result (PIECE_W = 0)
 
