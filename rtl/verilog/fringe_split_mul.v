@@ -25,7 +25,7 @@ module fringe_split_mul #(
 );
 
     // ---- chunks: x = sum_i C_i * 2^(L i); C_i = {0, L bits} below the top, the top chunk signed ----
-    localparam integer L   = LO_W;
+    localparam integer L   = (LO_W < 1) ? 1 : LO_W;   // an illegal LO_W stops at the check below, not at a division
     localparam integer P_W = A_W + B_W;                    // holds the product exactly
     localparam integer AS_W  = A_W + ((A_SIGNED != 0) ? 0 : 1);   // a as a signed operand
     localparam integer BS_W  = B_W + ((B_SIGNED != 0) ? 0 : 1);

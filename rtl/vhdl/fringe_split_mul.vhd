@@ -44,7 +44,7 @@ architecture rtl of fringe_split_mul is
     constant GENERICS_CHECKED : boolean := generics_ok;
 
     -- ---- chunks: x = sum_i C_i * 2^(L i); C_i = {0, L bits} below the top, the top chunk signed
-    constant L   : integer := LO_W;
+    constant L   : integer := maximum(1, LO_W);   -- an illegal LO_W stops at the check below, not at a division
     constant P_W : integer := A_W + B_W;                 -- holds the product exactly
 
     function signed_w(w, is_signed : integer) return integer is
