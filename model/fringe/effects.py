@@ -98,6 +98,7 @@ class Effect:
     where: str                 # which stage carries it
     columns: object            # ctx -> list of regressors
     needs: tuple = ()          # context conditions: "speed", "direction", "time"
+    static: int = 0            # trailing columns that are its static part: they fit, but are no evidence of it
 
     def design(self, ctx: Context) -> np.ndarray:
         return np.column_stack(self.columns(ctx))
@@ -156,7 +157,8 @@ LIBRARY = {
         "sampling_skew", "the two channels are sampled at different instants",
         "speed x (1 - cos 2 phi) and, beside a large mean skew, speed x sin 2 phi, each less its part at the mean "
         "speed: a second-order fine-phase error and half as much lag, both in proportion to speed",
-        "hardware", "speed-dependent phase correction (quadrature stage, filtered speed)", _skew_cols, ("speed",)),
+        "hardware", "speed-dependent phase correction (quadrature stage, filtered speed)", _skew_cols, ("speed",),
+        static=2),
     "hysteresis": Effect(
         "hysteresis", "direction-dependent error (backlash, magnetic hysteresis, readhead tilt)",
         "an error that changes sign with the direction of motion, possibly varying over the revolution",
