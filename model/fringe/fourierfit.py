@@ -118,22 +118,24 @@ def cv_folds(n: int, k: int = 5, blocks_per_fold: int = 64, min_run: int = 1) ->
     return labels[np.arange(n) // run]
 
 
-def paired_gain_t(sse: np.ndarray, ref: int, blocks: int) -> np.ndarray:
+def paired_gain_t(sse: np.ndarray, ref: int, blocks: int) -> tuple[np.ndarray, int]:
     """t statistic of each candidate's held-out gain over candidate `ref`, from paired batch means.
 
     `sse`: (candidates, cells) held-out squared errors, cells in the order of the recording (angle
     bins or samples). The cells are summed into `blocks` contiguous batches; the paired differences
     ref - candidate of the batch sums give the mean gain and its standard error. Batches, not single
     samples: noise correlated over neighbouring samples (interference) would otherwise shrink the
-    standard error. Positive: the candidate predicts the held-out data better than `ref`.
+    standard error. Positive: the candidate predicts the held-out data better than `ref`. Fewer
+    cells than `blocks`: one batch a cell. Returns the t statistics and the number of batches.
     """
+    blocks = min(blocks, sse.shape[1])
     edges = np.linspace(0, sse.shape[1], blocks + 1).round().astype(int)
     batch = np.add.reduceat(sse, edges[:-1], axis=1)
     diff = batch[ref][None, :] - batch
     sd = diff.std(axis=1, ddof=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         t = np.where(sd > 0, diff.mean(axis=1) / (sd / np.sqrt(blocks)), 0.0)
-    return t
+    return t, blocks
 
 
 def significant_choice(total: np.ndarray, t: np.ndarray, ref: int, alpha: float, blocks: int) -> int:
@@ -203,7 +205,8 @@ def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bi
     sizes = [0] + orders
     if default is not None:
         ref = max(j for j, s in enumerate(sizes) if s <= max(0, int(default)))
-        return sizes[significant_choice(press, paired_gain_t(sse, ref, blocks), ref, alpha, blocks)], rms
+        t, batches = paired_gain_t(sse, ref, blocks)
+        return sizes[significant_choice(press, t, ref, alpha, batches)], rms
     if tolerance <= 0:
         return sizes[int(np.argmin(press))], rms
     held = np.sqrt(np.maximum(press, 0.0))
