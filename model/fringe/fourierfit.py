@@ -95,35 +95,82 @@ def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
     return FourierSeries(_to_paper_order(w, used)), max(used, default=0), float(np.sqrt(rss[best] / n_samples))
 
 
-def cv_folds(n: int, k: int = 5, blocks_per_fold: int = 64) -> np.ndarray:
+def cv_folds(n: int, k: int = 5, blocks_per_fold: int = 64, min_run: int = 1) -> np.ndarray:
     """Fold label per sample: runs of consecutive samples, each group of k runs dealt to the k folds
     in a random order (fixed seed).
 
-    Runs are as short as possible while each fold still gets `blocks_per_fold` of them, so every
-    fold spreads over the whole recording (every k consecutive runs hold every fold), while noise
-    correlated over a few samples stays within one fold. The order is shuffled within each group:
-    a fixed round-robin can be commensurate with a steady motion and leave a sector of the
-    revolution out of a fold.
+    Runs are as short as possible while each fold still gets `blocks_per_fold` of them (and at least
+    `min_run` long), so every fold spreads over the whole recording (every k consecutive runs hold
+    every fold), while noise correlated over a few samples stays within one fold. The order is
+    shuffled within each group: a fixed round-robin can be commensurate with a steady motion and
+    leave a sector of the revolution out of a fold.
+
+    `min_run`: a held-out run is a hole in the training data, and a hole of one sample breaks the
+    orthogonality of noise near the sampling's Nyquist frequency (interference whose sign alternates
+    from sample to sample) to the low harmonics: that noise leaks into every candidate's fit and
+    makes rich models look worse on held-out folds than on any regularly sampled validation. Over
+    a run of r samples it mostly cancels, and there are r times fewer holes.
     """
-    run = max(1, n // (k * blocks_per_fold))
+    run = max(1, int(min_run), n // (k * blocks_per_fold))
     groups = -(-n // (run * k))
     rng = np.random.default_rng(n)
     labels = np.argsort(rng.random((groups, k)), axis=1).ravel()
     return labels[np.arange(n) // run]
 
 
+def paired_gain_t(sse: np.ndarray, ref: int, blocks: int) -> tuple[np.ndarray, int]:
+    """t statistic of each candidate's held-out gain over candidate `ref`, from paired batch means.
+
+    `sse`: (candidates, cells) held-out squared errors, cells in the order of the recording (angle
+    bins or samples). The cells are summed into `blocks` contiguous batches; the paired differences
+    ref - candidate of the batch sums give the mean gain and its standard error. Batches, not single
+    samples: noise correlated over neighbouring samples (interference) would otherwise shrink the
+    standard error. Positive: the candidate predicts the held-out data better than `ref`. Fewer
+    cells than `blocks`: one batch a cell. Returns the t statistics and the number of batches.
+    """
+    blocks = min(blocks, sse.shape[1])
+    edges = np.linspace(0, sse.shape[1], blocks + 1).round().astype(int)
+    batch = np.add.reduceat(sse, edges[:-1], axis=1)
+    diff = batch[ref][None, :] - batch
+    sd = diff.std(axis=1, ddof=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(sd > 0, diff.mean(axis=1) / (sd / np.sqrt(blocks)), 0.0)
+    return t, blocks
+
+
+def significant_choice(total: np.ndarray, t: np.ndarray, ref: int, alpha: float, blocks: int) -> int:
+    """Index of the candidate to keep: `ref` unless some other candidate's held-out gain over it is
+    significant (one-sided t test at family-wise level `alpha`, Bonferroni over the other candidates);
+    then the significant one with the least held-out error `total`."""
+    from scipy.stats import t as t_dist
+
+    others = len(total) - 1
+    if others < 1 or blocks < 2:
+        return ref
+    crit = float(t_dist.ppf(1 - alpha / others, blocks - 1))
+    sig = np.flatnonzero(t > crit)
+    return ref if len(sig) == 0 else int(sig[np.argmin(total[sig])])
+
+
 def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bins: int = 4096,
-                 skip_multiples_of: int = 0, tolerance: float = 0.0) -> tuple[int, np.ndarray]:
-    """Number of harmonics (0..n_max) with the least held-out squared error, summed over the folds; with a
-    tolerance, the largest number whose held-out RMS is within (1 + tolerance) of the least.
+                 skip_multiples_of: int = 0, tolerance: float = 0.0, default: int | None = None,
+                 alpha: float = 0.05, blocks: int = 32) -> tuple[int, np.ndarray]:
+    """Number of harmonics (0..n_max) from the held-out squared error summed over the folds.
+
+    Without a `default`: the least held-out error; with a tolerance, the largest number whose held-out
+    RMS is within (1 + tolerance) of the least. With a `default` (a number of harmonics; the largest
+    allowed one not above it): that number, unless another's held-out gain over it is significant
+    (`significant_choice`: paired t test over `blocks` batches of contiguous angle bins, family-wise
+    level `alpha`), then the significant one with the least held-out error. Held-out curves are
+    flat and noisy near their minimum: a bare argmin there follows the noise of the folds.
 
     Each fold is predicted by the series fitted on the other folds, for every candidate size at
     once: per fold and angle bin, counts and sums in one pass; the training fold's normal
     equations share one Cholesky factor among the prefix models (as in `fit_select`), and the
-    held-out error of each is y.y - 2 w.b + w.G w from the held-out fold's own moments. Angles are
-    taken at the bin centres (2*pi/bins apart: 32 or more a period of the highest harmonic, 64).
-    Returns the chosen n and the held-out RMS of each candidate size (index = number of
-    harmonics, NaN where skipped).
+    held-out error of each, per bin, is y.y - 2 p sum(y) + count p^2 with p the prediction at the
+    bin. Angles are taken at the bin centres (2*pi/bins apart: 32 or more a period of the highest
+    harmonic, 64). Returns the chosen n and the held-out RMS of each candidate size (index =
+    number of harmonics, NaN where skipped).
     """
     x, y, folds = np.ravel(np.asarray(x, float)), np.ravel(np.asarray(y, float)), np.ravel(folds)
     labels, fold_of = np.unique(folds, return_inverse=True)
@@ -137,7 +184,7 @@ def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bi
     orders = _orders(cap, skip_multiples_of)
     m = _design_interleaved(2 * np.pi * (np.arange(bins) + 0.5) / bins, orders)
     ks = np.arange(1, 2 * len(orders) + 2, 2)
-    press = np.zeros(len(ks))
+    sse = np.zeros((len(ks), bins))                       # held-out squared error per candidate and bin
     g_fold = [m.T @ (m * c[:, None]) for c in count]      # each fold's normal equations
     b_fold = sy @ m
     g_all, b_all = sum(g_fold), b_fold.sum(0)
@@ -147,13 +194,19 @@ def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bi
         except LinAlgError:
             raise ValueError("the angles do not determine the Fourier series (too little coverage)") from None
         u = solve_triangular(lower, b_all - b_fold[f], lower=True)
-        g_te, b_te, yy_te = g_fold[f], b_fold[f], float(syy[f].sum())
+        w = np.zeros((m.shape[1], len(ks)))               # candidate j's weights in column j
         for j, k in enumerate(ks):
-            w = solve_triangular(lower[:k, :k].T, u[:k], lower=False)
-            press[j] += yy_te - 2 * float(w @ b_te[:k]) + float(w @ g_te[:k, :k] @ w)
+            w[:k, j] = solve_triangular(lower[:k, :k].T, u[:k], lower=False)
+        p = m @ w                                         # predictions at the bin centres
+        sse += (syy[f][:, None] - 2 * p * sy[f][:, None] + count[f][:, None] * p * p).T
+    press = sse.sum(axis=1)
     rms = np.full(cap + 1, np.nan)
     rms[[0] + orders] = np.sqrt(np.maximum(press, 0.0) / len(y))
     sizes = [0] + orders
+    if default is not None:
+        ref = max(j for j, s in enumerate(sizes) if s <= max(0, int(default)))
+        t, batches = paired_gain_t(sse, ref, blocks)
+        return sizes[significant_choice(press, t, ref, alpha, batches)], rms
     if tolerance <= 0:
         return sizes[int(np.argmin(press))], rms
     held = np.sqrt(np.maximum(press, 0.0))
