@@ -83,7 +83,7 @@ def test_loop_on_rm44(shared_data):
     base, state, report = run_loop(train, RM44_ENCODER, val)
     assert report["after"]["rms_arcsec"] <= report["before"]["rms_arcsec"]
     # the speed domain is tested exactly when the speed spreads by SPEED_SPREAD of its mean or more
-    from fringe.loop import SPEED_SPREAD, evaluate, settled_speed
-    v = settled_speed(evaluate(state, train).ctx)
+    from fringe.loop import SPEED_SPREAD, evaluate, motion_speed
+    v = motion_speed(evaluate(state, train).ctx)
     untested = any(u["domain"] == "speed" and "not tested" in u["description"] for u in report["unexplained"])
     assert untested == bool(np.std(v) < SPEED_SPREAD * np.mean(np.abs(v))), (np.std(v), np.mean(np.abs(v)))

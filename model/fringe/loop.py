@@ -310,10 +310,20 @@ def absolute(cal: Calibration | None) -> bool:
 SPEED_SPREAD = 0.01
 
 
+def motion_speed(ctx: Context) -> np.ndarray:
+    """The settled speed averaged over one electrical period: the motion's speed, not the estimator's ripple (a
+    short window's speed carries the fine-phase error's change at the electrical rate, which a steady motion
+    would pass off as a speed that changes)."""
+    v = settled_speed(ctx)
+    step = np.mean(np.abs(np.diff(np.unwrap(ctx.phi)))) if len(ctx.phi) > 1 else 0.0
+    per_period = int(round(2 * np.pi / step)) if step > 0 else 1
+    return ndimage.uniform_filter1d(v, max(1, min(per_period, len(v) // 4)))
+
+
 def testable(name: str, ctx: Context, cal: Calibration | None = None) -> str | None:
     """Why a domain cannot be tested on this recording (None if it can)."""
     needs = LIBRARY[name].needs if name in LIBRARY else ("time",)
-    v = settled_speed(ctx)
+    v = motion_speed(ctx)
     if "speed" in needs and np.std(v) < SPEED_SPREAD * max(np.mean(np.abs(v)), 1e-12):
         return "the speed hardly changes in this recording, so speed effects cannot be told from a constant"
     if "direction" in needs and (np.all(ctx.direction > 0) or np.all(ctx.direction < 0)):
