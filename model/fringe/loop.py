@@ -55,7 +55,11 @@ DECISION_RUNS = 8        # taken as evenly spaced runs of consecutive rows
 def noise_sigma(r: np.ndarray) -> float:
     """Noise RMS from successive differences, robust to outliers (MAD). High-frequency structure (a tone,
     interference) inflates it: it is reported as a cross-check, not used for the tests."""
-    d = np.diff(r)
+    return difference_sigma(np.diff(r))
+
+
+def difference_sigma(d: np.ndarray) -> float:
+    """Noise RMS from differences of two noisy samples, robust to outliers (MAD)."""
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2))
 
 
@@ -76,7 +80,7 @@ def phase_neighbour_sigma(r: np.ndarray, phi: np.ndarray) -> float:
             continue
         order = np.argsort(np.mod(phi[:n], 2 * np.pi).reshape(-1, run), axis=1)
         d = np.diff(np.take_along_axis(r[:n].reshape(-1, run), order, axis=1), axis=1).ravel()
-        best = min(best, float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2)))
+        best = min(best, difference_sigma(d))
     return best if np.isfinite(best) else noise_sigma(r)
 
 
