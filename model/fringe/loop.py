@@ -1041,11 +1041,12 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                              f"p = {best.p_value:.1e} against the {sigma:.3f}\" noise floor)"
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
                  "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
-        if remedy in (PHASE_DOMAIN, NORMALISER):   # gain invariance alone explains the magnitude's shapes
-            # behind the drift tracker the gains that change are the ones it follows, late: the straight waveform
-            # stage makes its remaining gain error move no angle (the drift's correction, not another cause)
-            cause = "drift" if remedy == PHASE_DOMAIN and state.cal.adaptive else "amplitude"
+        cause = magnitude_cause(state, remedy)
+        if cause and (remedy in (PHASE_DOMAIN, NORMALISER) or cause != "amplitude"):
             entry.update(name=cause, **{k: v for k, v in describe(cause).items() if k != "where"})
+            if cause != "amplitude":
+                entry["evidence"] += (f"; the magnitude changes that the {cause} correction leaves, made harmless "
+                                      "by a gain-invariant waveform stage")
         if remedy:
             entry.update(where=NORMALISER_WHERE if remedy == NORMALISER else PHASE_DOMAIN_WHERE, remedy=remedy,
                          correction="adaptive" if remedy == NORMALISER else "hardware")
@@ -1080,6 +1081,24 @@ NORMALISER = "amplitude normaliser"
 NORMALISER_WHERE = "fringe_drift ahead of the tables: the channels' offsets and gains tracked online from the signals"
 PHASE_DOMAIN_WHERE = ("the waveform stage made straight (a common gain change then moves no angle), and the "
                       "phase error of the channels' shape in fringe_trim's fine-phase map after the arctan")
+
+
+def magnitude_cause(state: LoopState, remedy: str) -> str:
+    """The effect a gain-invariant remedy of magnitude-dependent error corrects ("" for a plain magnitude term).
+
+    An effect already corrected online changes the signals' magnitude by what its correction leaves: the drift
+    tracker follows the gains late, the canceller converges from reset and leaves the tone's ripple on the
+    Lissajous radius. The per-channel waveform inverse turns such magnitude changes into angle error, and the
+    straight waveform stage of the phase-domain structure does not: then the remedy is that effect's correction
+    (its report names it), not a second cause. Otherwise the magnitude changes by themselves: amplitude."""
+    if not remedy:
+        return ""
+    if remedy.startswith(PHASE_DOMAIN):
+        if state.cal.adaptive:
+            return "drift"
+        if state.cal.canceller:
+            return "interference"
+    return "amplitude"
 
 
 def engine_rms(state: LoopState, meas: Measurement) -> float | None:
