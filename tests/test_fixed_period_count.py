@@ -551,7 +551,7 @@ def test_a_stream_in_pieces_gives_the_words_of_one_run(p):
         np.testing.assert_array_equal(_in_pieces(p, phase, coarse, ofs, cuts), whole)
         # restarting before trust (the old CoreStream) at a sample whose code is a period off loses the anchor
         pos_abs, _ = coarse_absolute(phase, coarse, ofs, p)
-        off = np.flatnonzero((pos_abs[:first] != whole[0, :first]))
+        off = np.flatnonzero(pos_abs[:first] != whole[0, :first])
         if off.size:
             c = int(off[-1])
             again = np.stack(period_count(phase[c:], coarse[c:], ofs, p))

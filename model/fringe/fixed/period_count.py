@@ -1,7 +1,7 @@
 """Bit-exact model of ``fringe_period_count``: coarse/fine combination, or period counting.
 
 Mirrors ``rtl/verilog/fringe_period_count.v`` and ``rtl/vhdl/fringe_period_count.vhd`` (contract in
-``docs/architecture.md``, section fringe_period_count). With ``REV = LINES * 2^FINE_W`` fine counts
+``docs/blocks/fringe_period_count.md``). With ``REV = LINES * 2^FINE_W`` fine counts
 per revolution and ``POS_W = clog2(REV) = FINE_W + clog2(LINES)`` (at most 48):
 
 - ``delta = phase - phase_prev`` taken modulo ``2^FINE_W`` as a signed FINE_W-bit number, where
@@ -26,7 +26,8 @@ per revolution and ``POS_W = clog2(REV) = FINE_W + clog2(LINES)`` (at most 48):
   the code), or nearer its code's centre than the start-up anchor, ``m < anchor_m``; ``anchor_m`` is
   the ``m`` of the last absolute sample. So the start-up track follows the best code seen so far and a
   sample at a jittered edge after a better one cannot put the output a period off (taking every
-  code there made the output flicker by a period at span >= 1/2). ``pos_trk`` and ``pos_abs`` always
+  code there made the output flicker by a period at span >= 1/2; a start nearer an edge than the
+  jitter stays undecidable until a sample lies farther from its edge than that). ``pos_trk`` and ``pos_abs`` always
   share their low FINE_W bits (the phase), so they differ by whole periods only. A jump to a better
   anchor at start-up, or at the first trusted sample, is not flagged: a start-up anchor near an edge is
   a code edge jitter can flip, not a wrong code, and coarse_err keeps its meaning (below).
@@ -51,7 +52,8 @@ then ``n`` lies in [-2, LINES+1] and one add or subtract of LINES wraps it (``pe
 the range and raises ``ValueError`` outside it).
 
 `period_count` takes a stream of valid samples that starts right after a reset (the RTL's state
-restarts there); it is vectorised (cumulative sums of delta from the last absolute sample).
+restarts there), or resumes one from `track_state`; it is vectorised (cumulative sums of delta from
+the last absolute sample; start-up anchors are running minima of m, restarted at overspeeds).
 
 The RTL has ``LATENCY = 3`` enabled clocks, one carry chain per stage: (1) delta and the coarse
 centre; (2) the overspeed test, ``d + 2^(FINE_W-1)`` (period number and residual, and ``m``), and the track's
