@@ -53,8 +53,9 @@ def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse
     absolute one is taken at trusted samples and carried forward. Before the first trusted sample
     of a run (start-up) the offset is taken at the run's first sample, at a quarter-period step
     (`overspeed`) and at each sample nearer its code's centre than every one since (the best code so
-    far; taking every code made the position flicker by a period at a jittered edge). Flagged: a residual beyond the midpoint between half a code
-    and half a period (span < 1), or a trusted sample whose absolute count differs from the
+    far; taking every code made the position flicker by a period at a jittered edge). Flagged: a
+    residual beyond the midpoint between half a code and half a period (span < 1), or a trusted
+    sample whose absolute count differs from the
     tracked one (a code that is really wrong; the position resynchronises there, and the samples
     tracked from it carry the flag) unless a quarter-period step (`overspeed`) since the last
     absolute sample lost the track. `starts` marks samples that begin a new run (a gap in the rows
