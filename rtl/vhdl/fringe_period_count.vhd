@@ -209,7 +209,8 @@ begin
 
     -- ---- stage 3: position and flags ----------------------------------------------------------
     trusted  <= '1' when s2_r(FINE_W - 1) = s2_r(FINE_W - 2) else '0';
-    closer   <= '1' when s2_m < anchor_m else '0';
+    -- counting mode never writes anchor_m: no compare against its power-up 'U' (short-circuit and)
+    closer   <= '1' when COARSE_W > 0 and s2_m < anchor_m else '0';
     start_up <= s2_first or s2_over or closer;
     absolute <= trusted or (not trusted_seen and start_up);
     lost     <= track_lost or s2_over;
