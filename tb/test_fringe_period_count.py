@@ -137,6 +137,22 @@ def sections(p: PeriodCountParams, rng: np.random.Generator) -> list[dict]:
         r = np.tile(rs, 8)
         ph = np.mod(codes * p.coarse_span + ofs0 - r, period)
         add(ph, ofs0, "residual at +-COARSE_TOL, +-1", coarse=codes, p_ce=0.8, p_valid=0.8)
+        # 4b. start-up at a jittered code edge, each after a reset (the first offered sample is lost to
+        # it): a slow motion from beyond and from inside the jitter towards the edge and across it into
+        # the next code's trusted band (start-up anchors, tracked start-up samples), one with overspeeds
+        jitter = period >> 6
+        for gap, jumps in ((3 * jitter, 0), (jitter // 2, 0), (0, 0), (2 * jitter, 2)):
+            sign = 1 if rng.random() < 0.5 else -1
+            edge = int(rng.integers(1, 1 << p.coarse_w)) * p.coarse_span - (half_code - ofs0)
+            n4 = 40 + (gap + period // 4) * 2000 // period             # into the trusted band
+            x = edge - sign * gap + sign * np.round(np.arange(n4) * period / 2000).astype(np.int64)
+            x += rng.integers(-2, 3, n4)
+            for j in rng.choice(np.arange(5, n4 // 3), jumps, replace=False):
+                x[j:] += p.coarse_span // 4 + period // 4 + 1            # an overspeed before trust
+            x = np.r_[x[0], x]
+            jit = rng.integers(-jitter, jitter + 1, x.size)
+            add(x, ofs0, f"start-up {gap} counts from an edge", coarse=_codes(p, x + jit, ofs0), p_ce=0.85,
+                resets={0})
         # 5. the supported offset limits and beyond-half-period offsets: n from -2 to LINES+1
         for ofs in (period, -period, period - 1, -period + 1, half_code + half, half_code - half):
             x = int(rng.integers(0, p.rev)) + np.cumsum(_signed_steps(p, rng, 150, 0.1))
@@ -320,7 +336,7 @@ def test_plan_is_effective():
             if p.lines > 1:
                 # tracked samples whose code's position is a period off (not taken), and trusted
                 # samples that disagree with the track (flagged though |r| is small)
-                got = differs = mismatch = 0
+                got = differs = mismatch = startup_trk = startup_anchor = 0
                 for seg in segs:
                     acc = [cycles[i] for i in seg]
                     ph = np.array([c.drive["phase"] for c in acc])
@@ -332,7 +348,18 @@ def test_plan_is_effective():
                     got += len(acc)
                     differs += int(np.sum(e[:, 0] != pos_abs))
                     mismatch += int(np.sum(e[:, 2].astype(bool) & (np.abs(r) <= p.coarse_tol)))
+                    # before the first trusted sample: tracked samples whose code is a period off, and
+                    # later start-up anchors that move the position (the code's, not the track's)
+                    tr = (r >= -p.trust) & (r < p.trust)
+                    first = max(1, int(np.argmax(tr)) if tr.any() else len(acc))
+                    half = 1 << (p.fine_w - 1)
+                    step = (ph[1:first] - ph[:first - 1] + half) % (2 * half) - half
+                    pre, trk = e[1:first, 0], (e[:first - 1, 0] + step) % p.rev
+                    startup_trk += int(np.sum(pre != pos_abs[1:first]))
+                    startup_anchor += int(np.sum(pre != trk))
                 assert 0 < differs < got / 4 and 0 < mismatch < got / 10, (_id((p, user_w)), differs, mismatch)
+                if p.coarse_span == 1 << p.fine_w:
+                    assert startup_trk > 20 and startup_anchor >= 2, (_id((p, user_w)), startup_trk, startup_anchor)
             codes = {c.drive["coarse"] for c in cycles if c.accepted}
             assert {0, (1 << p.coarse_w) - 1} <= codes
         assert any(c.rst and not c.ce for c in cycles) and any(c.rst and c.valid for c in cycles)

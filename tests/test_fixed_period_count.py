@@ -16,6 +16,7 @@ from fringe.fixed.period_count import (
     coarse_absolute,
     period_count,
     rev_and_pos_w,
+    track_state,
 )
 from fringe.position import coarse_fine_combine, count_periods
 
@@ -49,6 +50,7 @@ class Contract:
         self.seen = False                 # a trusted sample since reset
         self.lost = False                 # an overspeed since the last absolute output
         self.bad = False                  # the last absolute output resynchronised a valid track
+        self.anchor_m = 0                 # m of the last absolute output (read before the first trusted one)
 
     def step(self, phase: int, coarse: int, ofs: int) -> tuple[int, bool, bool]:
         p = self.p
@@ -65,11 +67,13 @@ class Contract:
             err = abs(r) > p.coarse_tol
             pos_abs = (n % p.lines) * m + phase
             trusted = -m // 4 <= r < m // 4
+            dist = r if r >= 0 else -r - 1                         # m: the distance from the code's centre
             pos_trk = None if self.pos is None else (self.pos + delta) % p.rev
             lost = self.lost or over
-            if trusted or not self.seen:
+            start_up = not self.seen and (self.prev is None or over or dist < self.anchor_m)
+            if trusted or start_up:
                 self.bad = trusted and self.seen and not lost and pos_abs != pos_trk
-                pos, self.lost = pos_abs, False
+                pos, self.lost, self.anchor_m = pos_abs, False, dist
             else:
                 pos, self.lost = pos_trk, lost
             err = err or self.bad
@@ -159,7 +163,7 @@ def test_coarse_combination_equals_float_reference(p):
     phase, coarse, ofs = stream(p, rng, 50_000)
     m = 1 << p.fine_w
     pos, _, err = period_count(phase, coarse, ofs, p)
-    fpos, fflag = coarse_fine_combine(phase / m, coarse, p.lines, p.coarse_w, ofs / m)
+    fpos, fflag = coarse_fine_combine(phase / m, coarse, p.lines, p.coarse_w, ofs / m, quantum=1 / m)
     d = ((coarse * p.lines) << (p.fine_w - p.coarse_w)) + ofs - phase
     tie = (d % m) == m // 2
     assert not np.all(tie)
@@ -386,7 +390,7 @@ def test_edge_jitter_under_a_quarter_period_never_slips(p):
         slips_abs += int(np.sum(pos_abs != true))
         # the float twin: the same positions and flags (no exact half-period ties here)
         m = 1 << p.fine_w
-        fpos, fflag = coarse_fine_combine(phase / m, coarse, p.lines, p.coarse_w, ofs / m)
+        fpos, fflag = coarse_fine_combine(phase / m, coarse, p.lines, p.coarse_w, ofs / m, quantum=1 / m)
         np.testing.assert_array_equal(np.round(fpos * m).astype(np.int64), pos)
         np.testing.assert_array_equal(fflag, err)
     if p.coarse_span * 4 >= 3 << p.fine_w:
@@ -413,3 +417,144 @@ def test_a_really_wrong_code_is_never_silent(p):
         assert np.all(err[first:][wrong[first:]])
         flagged_wrong += int(np.sum(err[bad] & trusted[bad]))
     assert flagged_wrong > 20
+
+
+# ---------------------------------------------------------------------------- start-up near a code edge
+
+
+START = [PeriodCountParams(16, 64, 6),     # span 1 period, the validation recording's configuration
+         PeriodCountParams(12, 64, 6),
+         PeriodCountParams(14, 256, 8)]    # span 1 period, more lines (at span < 1 a flip moves r, not n)
+
+
+def slow_start(p: PeriodCountParams, rng: np.random.Generator, n: int, gap: int, jitter: int, speed: float,
+               noise: int = 3):
+    """A slow motion from reset that starts ``gap`` fine counts inside a code, moves towards its edge and on
+    across it (a quarter period past it, into the trusted band of the next code), and the code a reader
+    whose edge moves by a uniform jitter in [-jitter, jitter] counts per sample gives (the true code
+    index of the jittered position). Returns (true, phase, coarse, ofs)."""
+    period, span = 1 << p.fine_w, p.coarse_span
+    sign = 1 if rng.random() < 0.5 else -1                   # towards the upper or the lower edge
+    edge = int(rng.integers(1, 1 << p.coarse_w)) * span      # calibrated offset: edges at k * span
+    x0 = edge - sign * gap
+    true = x0 + sign * np.round(np.arange(n) * speed).astype(np.int64) + rng.integers(-noise, noise + 1, n)
+    true = np.mod(true, p.rev)
+    jit = rng.integers(-jitter, jitter + 1, n)
+    coarse = (np.mod(true + jit, p.rev) // span) % (1 << p.coarse_w)
+    return true, true & (period - 1), coarse, span // 2
+
+
+def old_rule_startup(p: PeriodCountParams, phase, coarse, ofs) -> tuple[list[int], int]:
+    """The rule before the start-up anchor, written out: every sample before the first trusted one since
+    reset outputs the code's position. Returns those outputs and the first trusted index."""
+    period = 1 << p.fine_w
+    out = []
+    for ph, co in zip(phase.tolist(), coarse.tolist(), strict=True):
+        d = ((co * p.lines) << (p.fine_w - p.coarse_w)) + ofs - ph
+        n = (d + period // 2) // period
+        r = d - n * period
+        if -period // 4 <= r < period // 4:
+            return out, len(out)
+        out.append((n % p.lines) * period + ph)
+    return out, len(out)
+
+
+@pytest.mark.parametrize("p", START, ids=_pid)
+def test_a_slow_start_at_a_jittered_edge_is_never_a_period_off(p):
+    """The validation recording's failure: a slow start a few hundred counts (scaled to FINE_W) from a code
+    edge whose jitter flips the code. Taking every code before the first trusted sample put samples a
+    period off; anchoring on the sample nearest its code's centre does not, as long as the first sample
+    lies beyond the jitter (a sample nearer the edge has a larger m and is tracked)."""
+    rng = np.random.default_rng(100 + p.fine_w)
+    period = 1 << p.fine_w
+    scale = period / 65536
+    old_off = 0
+    for _ in range(20):
+        gap = int(rng.integers(200, 400) * scale) + 6
+        jitter = gap - 5                                     # a sample at the start is never flipped
+        speed = rng.uniform(2, 12) * scale
+        n = int((gap + period // 4 + 200 * scale) / speed) + 50
+        true, phase, coarse, ofs = slow_start(p, rng, n, gap, jitter, speed, noise=max(1, int(3 * scale)))
+        pos, over, err = period_count(phase, coarse, ofs, p)
+        old, first = old_rule_startup(p, phase, coarse, ofs)
+        assert 100 < first < n and not over.any()
+        np.testing.assert_array_equal(pos, true)             # no sample a period off, before and after trust
+        assert not err.any()                                 # edge jitter is not a wrong code
+        old_off += int(np.sum(np.array(old) != true[:first]))
+    assert old_off > 100                                     # the old rule fails on these very streams
+
+
+@pytest.mark.parametrize("p", START, ids=_pid)
+def test_a_start_inside_the_jitter_flickers_less_than_taking_every_code(p):
+    """Starting within the jitter of an edge, the first code may be a period off and nothing can tell
+    until a sample beyond the jitter: from there every output is right. Until then a new anchor is
+    taken only on a sample nearer its code's centre than every one before, so the output jumps between
+    right and a period off far less often than with every code taken (about as many samples are off)."""
+    rng = np.random.default_rng(200 + p.fine_w)
+    period = 1 << p.fine_w
+    scale = period / 65536
+    new_jumps = old_jumps = 0
+    for _ in range(20):
+        jitter = int(300 * scale) + 4
+        gap = int(rng.integers(0, jitter))
+        speed = rng.uniform(2, 12) * scale
+        n = int((gap + period // 4 + 200 * scale) / speed) + 50
+        true, phase, coarse, ofs = slow_start(p, rng, n, gap, jitter, speed, noise=max(1, int(3 * scale)))
+        pos, _, _ = period_count(phase, coarse, ofs, p)
+        old, first = old_rule_startup(p, phase, coarse, ofs)
+        np.testing.assert_array_equal(pos[first:], true[first:])
+        _, r = coarse_absolute(phase, coarse, ofs, p)
+        beyond = int(np.argmax(np.abs(np.abs(r) - period // 2) > jitter + 1))   # first sample past the jitter
+        np.testing.assert_array_equal(pos[beyond:], true[beyond:])
+        new_jumps += int(np.sum(np.diff((pos[:first] != true[:first]).astype(int)) != 0))
+        old_jumps += int(np.sum(np.diff((np.array(old) != true[:first]).astype(int)) != 0))
+    assert old_jumps > 200 and new_jumps < old_jumps / 4
+
+
+def _in_pieces(p, phase, coarse, ofs, cuts):
+    """period_count over pieces, each resumed from the last sample of the one before (as CoreStream)."""
+    out, start, state, k = [], None, (False, False, None), 0
+    for a, b in zip([0, *cuts], [*cuts, len(phase)], strict=True):
+        lo = a - k
+        sl = slice(lo, b)
+        pos, over, err = period_count(phase[sl], coarse[sl], ofs, p, start, *state)
+        seen, lost, bad, am = track_state(phase[sl], coarse[sl], ofs, p, start, *state)
+        out.append(np.stack([pos, over, err])[:, k:])
+        start, state, k = int(pos[-1]), (bool(lost[-1]), bool(bad[-1]), None if seen[-1] else int(am[-1])), 1
+    return np.concatenate(out, axis=1)
+
+
+@pytest.mark.parametrize("p", START + [PeriodCountParams(12, 100, 8)], ids=_pid)
+def test_a_stream_in_pieces_gives_the_words_of_one_run(p):
+    """Resumed with track_state (anchor_m included), pieces cut before, at and after the first trusted
+    sample give every word of the whole run; without anchor_m (a restart before trust) they would not."""
+    rng = np.random.default_rng(300 + p.fine_w)
+    period = 1 << p.fine_w
+    scale = period / 65536
+    restarted_differs = False
+    for i in range(12):
+        jitter = int(300 * scale) + 4
+        gap = int(rng.integers(0, 2 * jitter))
+        speed = rng.uniform(2, 12) * scale
+        n = int((gap + period // 4 + 200 * scale) / speed) + 50
+        true, phase, coarse, ofs = slow_start(p, rng, n, gap, jitter, speed, noise=max(1, int(3 * scale)))
+        if i % 3 == 2:                                       # overspeed restarts before trust
+            jumps = rng.choice(n // 2, 3, replace=False)
+            phase = phase.copy()
+            for j in jumps:
+                phase[j:] = (phase[j:] + period // 4 + 3) & (period - 1)
+        whole = np.stack(period_count(phase, coarse, ofs, p))
+        _, first = old_rule_startup(p, phase, coarse, ofs)
+        cuts = np.unique(np.r_[np.sort(rng.choice(np.arange(1, n), 8, replace=False)), first, first + 1,
+                               rng.integers(1, max(2, first), 3)])
+        cuts = cuts[(cuts > 0) & (cuts < n)]
+        np.testing.assert_array_equal(_in_pieces(p, phase, coarse, ofs, cuts), whole)
+        # restarting before trust (the old CoreStream) at a sample whose code is a period off loses the anchor
+        pos_abs, _ = coarse_absolute(phase, coarse, ofs, p)
+        off = np.flatnonzero(pos_abs[:first] != whole[0, :first])
+        if off.size:
+            c = int(off[-1])
+            again = np.stack(period_count(phase[c:], coarse[c:], ofs, p))
+            restarted_differs |= bool(np.any(again != whole[:, c:]))
+            np.testing.assert_array_equal(_in_pieces(p, phase, coarse, ofs, [c, c + 1]), whole)
+    assert restarted_differs == (p.coarse_span == 1 << p.fine_w)     # at span 1/4 no code is a period off

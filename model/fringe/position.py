@@ -40,7 +40,8 @@ def fit_coarse_offset(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse_b
 
 
 def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse_bits: int,
-                        offset: float, starts: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                        offset: float, starts: np.ndarray | None = None,
+                        quantum: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Absolute position (periods, [0, lines)) and the coarse/fine disagreement flag.
 
     centre = code*span + offset estimates the position to within half a code; the absolute count
@@ -49,13 +50,19 @@ def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse
     edge jitter and then n is a period off, so n is trusted only within a quarter period of the
     centre (-1/4 <= resid < 1/4); elsewhere the count follows the fine-phase steps (as
     `count_periods`) from the last trusted sample: the offset from the incremental count to the
-    absolute one is taken at trusted samples and carried forward (every sample is absolute
-    before the first trusted one). Flagged: a residual beyond the midpoint between half a code
-    and half a period (span < 1), or a trusted sample whose absolute count differs from the
+    absolute one is taken at trusted samples and carried forward. Before the first trusted sample
+    of a run (start-up) the offset is taken at the run's first sample, at a quarter-period step
+    (`overspeed`) and at each sample nearer its code's centre than every one since (the best code so
+    far; taking every code made the position flicker by a period at a jittered edge). Flagged: a
+    residual beyond the midpoint between half a code and half a period (span < 1), or a trusted
+    sample whose absolute count differs from the
     tracked one (a code that is really wrong; the position resynchronises there, and the samples
     tracked from it carry the flag) unless a quarter-period step (`overspeed`) since the last
     absolute sample lost the track. `starts` marks samples that begin a new run (a gap in the rows
     before them): there the track restarts as after a reset (the hardware streams without gaps).
+    `quantum`: the phase step when frac is quantised (2^-FINE_W): the start-up distance is then the
+    hardware's m (r for r >= 0, -r-1 below, r = resid / quantum), which orders one-count ties as it
+    does; None: |resid|.
     """
     frac = np.asarray(frac, float)
     span = coarse_code_span(lines, coarse_bits)
@@ -76,10 +83,22 @@ def coarse_fine_combine(frac: np.ndarray, coarse: np.ndarray, lines: int, coarse
     run_start = np.maximum.accumulate(np.where(starts, idx, 0)) if starts is not None else np.zeros(len(frac), int)
     last_trusted = np.maximum.accumulate(np.where(trusted, idx, -1))
     seen = np.concatenate([[-1], last_trusted[:-1]]) >= run_start    # False at a run's first sample
-    anchor = trusted | ~seen
+    # start-up: a new minimum of the distance from the code's centre since the last restart (a run's
+    # first sample, an overspeed); each restart's key sits below every earlier one
+    fast_step = overspeed(frac)
+    restart = fast_step | (idx == 0)
+    if starts is not None:
+        restart = restart | starts
+    if quantum is None:
+        dist = np.abs(resid)
+    else:
+        dist = (np.abs(np.round(resid / quantum) + 0.5) - 0.5) * quantum
+    key = dist - np.cumsum(restart)             # dist <= 1/2
+    record = np.concatenate([[True], key[1:] < np.minimum.accumulate(key)[:-1]])
+    anchor = trusted | (~seen & record)
     last = np.maximum.accumulate(np.where(anchor, idx, 0))
     prev = np.concatenate([[0], last[:-1]])
-    fast = np.cumsum(overspeed(frac))
+    fast = np.cumsum(fast_step)
     lost = fast - fast[prev] > 0
     resync = trusted & seen & ~lost & ((to_abs - to_abs[prev]) % lines != 0)
     flag = flag | resync[last]                   # the samples tracked from a resync carry its flag

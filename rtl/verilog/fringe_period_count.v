@@ -3,9 +3,12 @@
 //
 // With a coarse code, r (the sample's distance from its code's centre) says whether edge jitter can
 // have flipped the code: a sample in the TRUST band, -2^(FINE_W-2) <= r < 2^(FINE_W-2) (the top two
-// bits of r agree), sets pos from the code; any other sample, once a trusted one was seen since reset,
-// is tracked, (pos_prev + delta) mod REV as the counter (a code of half a period or more flipped at its
-// edge is a whole period off). coarse_err: |r| > COARSE_TOL, or a trusted sample whose period number
+// bits of r agree), sets pos from the code; any other sample is tracked, (pos_prev + delta) mod REV as
+// the counter (a code of half a period or more flipped at its edge is a whole period off), except
+// before the first trusted sample since reset: there the first sample, an overspeed and a sample
+// nearer its code's centre than the start-up anchor (m < anchor_m, m = r XOR sign) set pos from the
+// code, so a start at a jittered edge follows the best code so far instead of every flip (not
+// flagged: edge jitter is not a wrong code). coarse_err: |r| > COARSE_TOL, or a trusted sample whose period number
 // differs from a track not lost by an overspeed since the last absolute output (a really wrong code:
 // pos resynchronises to the code), and every sample tracked from such a resync (track_bad).
 //
@@ -177,11 +180,13 @@ module fringe_period_count #(
             wire [W-1:0] dh   = s1_centre - ph_h;
             reg  [NR-1:0]     s2_n;          // floor((d + half) / 2^FINE_W), in [-2, LINES+1]
             reg  [FINE_W-1:0] s2_r;          // s(FINE_W), in [-2^(FINE_W-1), 2^(FINE_W-1))
+            reg  [FINE_W-2:0] s2_m;          // r XOR sign: r for r >= 0, -r-1 below (no carry)
 
             always @(posedge clk) begin
                 if (ce) begin
                     s2_n <= dh[W-1:FINE_W];
                     s2_r <= {~dh[FINE_W-1], dh[FINE_W-2:0]};
+                    s2_m <= dh[FINE_W-2:0] ^ {(FINE_W-1){~dh[FINE_W-1]}};
                 end
             end
 
@@ -193,7 +198,12 @@ module fringe_period_count #(
             reg  trusted_seen;                                  // state: a trusted sample since reset
             reg  track_lost;                                    // state: an overspeed since the last absolute output
             reg  track_bad;                                     // state: the last absolute output was a resync
-            wire absolute = trusted | ~trusted_seen;            // this sample's pos is the code's
+            // anchor_m: m of the last absolute output, read only before the first trusted sample and
+            // after the first sample since reset, which writes it: data, not reset (as pos)
+            reg  [FINE_W-2:0] anchor_m;
+            wire closer   = s2_m < anchor_m;                    // in parallel with the track's sums
+            wire start_up = s2_first | s2_over | closer;        // the start-up anchor moves here
+            wire absolute = trusted | (~trusted_seen & start_up);   // this sample's pos is the code's
             wire lost     = track_lost | s2_over;
             wire differs;                                       // the code's period number is not the track's
             wire resync   = trusted & trusted_seen & ~lost & differs;
@@ -213,6 +223,9 @@ module fringe_period_count #(
             always @(posedge clk) begin
                 if (done) begin
                     coarse_err <= err | (absolute ? resync : track_bad);
+                end
+                if (done & absolute) begin
+                    anchor_m <= s2_m;
                 end
             end
 
@@ -246,9 +259,8 @@ module fringe_period_count #(
                 wire unused_n = &{1'b0, s2_n};
             end
 
-            // the top bits of cpos are zero (cpos < REV); the counter's first-sample flag is unused
-            // (trusted_seen is 0 there: the sample is absolute)
-            wire unused_c = &{1'b0, cpos[W-1:POS_W], s2_first, trk[SW-1:POS_W], trk[FINE_W-1:0]};
+            // the top bits of cpos are zero (cpos < REV)
+            wire unused_c = &{1'b0, cpos[W-1:POS_W], trk[SW-1:POS_W], trk[FINE_W-1:0]};
         end else begin : g_count
             // ---- incremental: pos = (pos_prev + delta) mod REV ----------------------------------
             always @(posedge clk) begin

@@ -5,9 +5,12 @@
 --
 -- With a coarse code, r (the sample's distance from its code's centre) says whether edge jitter can
 -- have flipped the code: a sample in the TRUST band, -2^(FINE_W-2) <= r < 2^(FINE_W-2) (the top two
--- bits of r agree), sets pos from the code; any other sample, once a trusted one was seen since reset,
--- is tracked, (pos_prev + delta) mod REV as the counter (a code of half a period or more flipped at its
--- edge is a whole period off). coarse_err: |r| > COARSE_TOL, or a trusted sample whose period number
+-- bits of r agree), sets pos from the code; any other sample is tracked, (pos_prev + delta) mod REV as
+-- the counter (a code of half a period or more flipped at its edge is a whole period off), except
+-- before the first trusted sample since reset: there the first sample, an overspeed and a sample
+-- nearer its code's centre than the start-up anchor (m < anchor_m, m = r XOR sign) set pos from the
+-- code, so a start at a jittered edge follows the best code so far instead of every flip (not
+-- flagged: edge jitter is not a wrong code). coarse_err: |r| > COARSE_TOL, or a trusted sample whose period number
 -- differs from a track not lost by an overspeed since the last absolute output (a really wrong code:
 -- pos resynchronises to the code), and every sample tracked from such a resync (track_bad).
 -- LATENCY = 3 clock enables, one sample per clock; ce = 0 freezes
@@ -109,11 +112,17 @@ architecture rtl of fringe_period_count is
     signal s2_over    : std_logic;
     signal s2_n       : unsigned(NR - 1 downto 0);      -- floor((d + half) / 2^FINE_W), in [-2, LINES+1]
     signal s2_r       : signed(FINE_W - 1 downto 0);    -- residual, in [-2^(FINE_W-1), 2^(FINE_W-1))
+    signal s2_m       : unsigned(FINE_W - 2 downto 0);  -- r xor sign: r for r >= 0, -r-1 below (no carry)
     signal s2_d, s2_d_up, s2_d_down : unsigned(SW - 1 downto 0);  -- counter: delta, delta + REV, delta - REV
     signal pos_r      : unsigned(POS_W - 1 downto 0);   -- the output; pos_prev of the track
     signal trusted_seen : std_logic;                    -- state: a trusted sample since reset
     signal track_lost   : std_logic;                    -- state: an overspeed since the last absolute output
     signal track_bad    : std_logic;                    -- state: the last absolute output was a resync
+    -- m of the last absolute output, read only before the first trusted sample and after the first
+    -- sample since reset, which writes it: data, not reset (as pos_r)
+    signal anchor_m     : unsigned(FINE_W - 2 downto 0);
+    signal closer       : std_logic;                    -- m < anchor_m, in parallel with the track's sums
+    signal start_up     : std_logic;                    -- the start-up anchor moves here
     signal resync       : std_logic;                    -- a trusted code disagrees with a valid track
     signal differs      : std_logic;                    -- the code's period number is not the track's
     signal trk          : unsigned(SW - 1 downto 0);    -- the tracked position, < REV
@@ -188,6 +197,7 @@ begin
                 dh   := s1_centre - ph_h;
                 s2_n <= dh(W - 1 downto FINE_W);
                 s2_r <= signed(not dh(FINE_W - 1) & dh(FINE_W - 2 downto 0));
+                s2_m <= dh(FINE_W - 2 downto 0) xor (FINE_W - 2 downto 0 => not dh(FINE_W - 1));
                 -- counter: delta + REV and delta - REV, so stage 3 adds once
                 dx := unsigned(resize(signed(s1_delta), SW));
                 s2_d      <= dx;
@@ -199,7 +209,10 @@ begin
 
     -- ---- stage 3: position and flags ----------------------------------------------------------
     trusted  <= '1' when s2_r(FINE_W - 1) = s2_r(FINE_W - 2) else '0';
-    absolute <= trusted or not trusted_seen;
+    -- counting mode never writes anchor_m: no compare against its power-up 'U' (short-circuit and)
+    closer   <= '1' when COARSE_W > 0 and s2_m < anchor_m else '0';
+    start_up <= s2_first or s2_over or closer;
+    absolute <= trusted or (not trusted_seen and start_up);
     lost     <= track_lost or s2_over;
 
     p_track : process (clk)
@@ -258,6 +271,7 @@ begin
                         err := '1';
                     end if;
                     if absolute = '1' then
+                        anchor_m <= s2_m;
                         coarse_err <= err or resync;
                         pos_r <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s2_phase, POS_W);
                     else

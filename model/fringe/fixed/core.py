@@ -63,7 +63,7 @@ class CoreOutput:
 
 def run_core(t: CoreTables, cfg: CoreConfig, sin: np.ndarray, cos: np.ndarray,
              coarse: np.ndarray | None = None, start_pos: int | None = None,
-             start_track: tuple[bool, bool] = (False, False)) -> CoreOutput:
+             start_track: tuple = (False, False, None)) -> CoreOutput:
     """One stream of samples from reset; every output word as the RTL produces it (start_pos,
     start_track: see `run_core_banks`)."""
     return run_core_banks([t], cfg, sin, cos, coarse, np.zeros(len(sin), dtype=np.int64), start_pos, start_track)
@@ -85,7 +85,7 @@ def core_latency(cfg: CoreConfig) -> int:
 
 def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreConfig, sin: np.ndarray,
                    cos: np.ndarray, coarse: np.ndarray | None, bank: np.ndarray,
-                   start_pos: int | None = None, start_track: tuple[bool, bool] = (False, False)) -> CoreOutput:
+                   start_pos: int | None = None, start_track: tuple = (False, False, None)) -> CoreOutput:
     """One stream from reset in which sample i is served by ``banks[bank[i]]`` (bank swaps in
     mid-stream, as fringe_core does: every sample carries its bank through the pipeline).
 
@@ -95,8 +95,8 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
     the bank, so each stateless stage is evaluated per bank and selected per sample.
 
     start_pos resumes a stream in the middle (`CoreStream`): the period counter's position at the
-    first sample (with COARSE_W > 0: the first sample's output once a trusted sample had been seen, and
-    start_track the combination's track_lost and track_bad after it, `period_count.track_state`).
+    first sample (with COARSE_W > 0 its output, and start_track the combination's track_lost, track_bad
+    and, while no trusted sample had been seen, anchor_m after it (else None), `period_count.track_state`).
     """
     sin = np.asarray(sin, dtype=np.int64)
     cos = np.asarray(cos, dtype=np.int64)
@@ -211,8 +211,9 @@ class CoreStream:
         self.t, self.cfg = t, cfg
         self.keep = 1 + (cfg.trim_params().window if cfg.trim else 0)
         self.tail = None          # (sin, cos, coarse) of the last rows, the counter position of the first
-        self.trusted_seen = False  # COARSE_W > 0: a trusted sample up to the tail's first row (the track runs)
-        self.track = (False, False)  # and track_lost, track_bad after it
+        # COARSE_W > 0: track_lost, track_bad and (None once a trusted sample was seen) anchor_m after the
+        # tail's first row: before the first trusted sample the start-up anchor is state too
+        self.track = (False, False, None)
 
     def run(self, sin, cos, coarse=None) -> tuple[np.ndarray, np.ndarray]:
         """(pos, status) of the next piece (ADC codes)."""
@@ -221,15 +222,14 @@ class CoreStream:
         k, start = 0, None
         if self.tail is not None:
             k = len(self.tail[0])
-            # before the first trusted sample the combination is stateless: a restart there is exact
-            start = self.tail[3] if self.cfg.coarse_w == 0 or self.trusted_seen else None
+            start = self.tail[3]
             sin, cos, coarse = (np.concatenate([a, b]) for a, b in zip(self.tail[:3], (sin, cos, coarse), strict=True))
         o = run_core(self.t, self.cfg, sin, cos, coarse, start_pos=start, start_track=self.track)
         m = min(self.keep, len(sin))
         if self.cfg.coarse_w and len(sin):
-            seen, lost, bad = pc_mod.track_state(o.phase, coarse, self.t.coarse_ofs, period_count_params(self.cfg),
-                                                 start, *self.track)
-            self.trusted_seen, self.track = bool(seen[-m]), (bool(lost[-m]), bool(bad[-m]))
+            seen, lost, bad, am = pc_mod.track_state(o.phase, coarse, self.t.coarse_ofs,
+                                                     period_count_params(self.cfg), start, *self.track)
+            self.track = (bool(lost[-m]), bool(bad[-m]), None if seen[-m] else int(am[-m]))
         self.tail = (sin[-m:], cos[-m:], coarse[-m:], int(o.count_pos[-m]))
         return o.pos[k:], o.status[k:]
 

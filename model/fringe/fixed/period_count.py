@@ -1,7 +1,7 @@
 """Bit-exact model of ``fringe_period_count``: coarse/fine combination, or period counting.
 
 Mirrors ``rtl/verilog/fringe_period_count.v`` and ``rtl/vhdl/fringe_period_count.vhd`` (contract in
-``docs/architecture.md``, section fringe_period_count). With ``REV = LINES * 2^FINE_W`` fine counts
+``docs/blocks/fringe_period_count.md``). With ``REV = LINES * 2^FINE_W`` fine counts
 per revolution and ``POS_W = clog2(REV) = FINE_W + clog2(LINES)`` (at most 48):
 
 - ``delta = phase - phase_prev`` taken modulo ``2^FINE_W`` as a signed FINE_W-bit number, where
@@ -17,10 +17,20 @@ per revolution and ``POS_W = clog2(REV) = FINE_W + clog2(LINES)`` (at most 48):
   The fine phase says where in its code a sample lies: a sample in the TRUST band,
   ``trusted = -TRUST <= r < TRUST`` with ``TRUST = 2^(FINE_W-2)`` (the top two bits of ``r`` agree),
   is a quarter period or more from either edge of its code, so jitter under a quarter period cannot
-  have flipped it. Output: ``pos = pos_abs`` for a trusted sample and for every sample before the
-  first trusted one since reset; otherwise ``pos = pos_trk = (pos_prev + delta) mod REV`` (tracked, as
-  the incremental mode; ``pos_prev`` the previous output). ``pos_trk`` and ``pos_abs`` always share
-  their low FINE_W bits (the phase), so they differ by whole periods only.
+  have flipped it. ``m = r XOR (r >>> (FINE_W-1))`` (``r`` for ``r >= 0``, ``-r-1`` for ``r < 0``, FINE_W-1
+  bits, no carry) is the sample's carry-free distance from its code's centre; ``trusted`` is ``m < TRUST``.
+  Output: ``pos = pos_abs`` (absolute) for a trusted sample; otherwise ``pos = pos_trk =
+  (pos_prev + delta) mod REV`` (tracked, as the incremental mode; ``pos_prev`` the previous output),
+  except before the first trusted sample since reset (start-up), where a sample is also absolute if it
+  is the first valid sample since reset, an overspeed (its delta is ambiguous: the track restarts from
+  the code), or nearer its code's centre than the start-up anchor, ``m < anchor_m``; ``anchor_m`` is
+  the ``m`` of the last absolute sample. So the start-up track follows the best code seen so far and a
+  sample at a jittered edge after a better one cannot put the output a period off (taking every
+  code there made the output flicker by a period at span >= 1/2; a start nearer an edge than the
+  jitter stays undecidable until a sample lies farther from its edge than that). ``pos_trk`` and ``pos_abs`` always
+  share their low FINE_W bits (the phase), so they differ by whole periods only. A jump to a better
+  anchor at start-up, or at the first trusted sample, is not flagged: a start-up anchor near an edge is
+  a code edge jitter can flip, not a wrong code, and coarse_err keeps its meaning (below).
   ``coarse_err = |r| > COARSE_TOL`` with ``COARSE_TOL = (LINES << (FINE_W - COARSE_W - 2)) + 2^(FINE_W-2)``
   (the midpoint between half a coarse code and half a period; it cannot fire at span = 1), or a
   trusted sample after an earlier trusted one whose ``pos_abs`` differs from a valid ``pos_trk``:
@@ -42,13 +52,16 @@ then ``n`` lies in [-2, LINES+1] and one add or subtract of LINES wraps it (``pe
 the range and raises ``ValueError`` outside it).
 
 `period_count` takes a stream of valid samples that starts right after a reset (the RTL's state
-restarts there); it is vectorised (cumulative sums of delta from the last absolute sample).
+restarts there), or resumes one from `track_state`; it is vectorised (cumulative sums of delta from
+the last absolute sample; start-up anchors are running minima of m, restarted at overspeeds).
 
 The RTL has ``LATENCY = 3`` enabled clocks, one carry chain per stage: (1) delta and the coarse
-centre; (2) the overspeed test, ``d + 2^(FINE_W-1)`` (period number and residual), and the track's
+centre; (2) the overspeed test, ``d + 2^(FINE_W-1)`` (period number and residual, and ``m``), and the track's
 delta with its two wrapped alternatives (the counter's in both modes); (3) ``|r| > COARSE_TOL``, the wrap of the period
-number and the tracked sum (three sums in parallel, chosen by sign bits), then the choice between
-them and their period-number compare (the state loop: ``pos``, trusted_seen, track_lost, track_bad).
+number and the tracked sum (three sums in parallel, chosen by sign bits) and ``m < anchor_m`` (``m``
+registered in stage 2 from r's bits: a compare of FINE_W-1 bits against a register, shorter than
+the sums beside it), then the choice between them and their period-number compare (the state loop:
+``pos``, anchor_m, trusted_seen, track_lost, track_bad).
 """
 
 from __future__ import annotations
@@ -66,6 +79,7 @@ __all__ = [
     "PositionWidths",
     "clog2",
     "latency",
+    "centre_distance",
     "coarse_absolute",
     "period_count",
     "track_state",
@@ -207,7 +221,8 @@ def coarse_absolute(ph: np.ndarray, co: np.ndarray, ofs, p: PeriodCountParams) -
 
 
 def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos: int | None = None,
-                 start_lost: bool = False, start_bad: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 start_lost: bool = False, start_bad: bool = False,
+                 start_anchor: int | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Position and flags for a stream of valid samples that starts right after reset.
 
     Args:
@@ -218,11 +233,12 @@ def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos
             COARSE_W = 0.
         params: the block parameters.
         start_pos: the output at the first sample, for a stream resumed in the middle (its low FINE_W
-            bits must equal the first phase); default: as after reset. With COARSE_W > 0 it also says
-            that a trusted sample had been seen (resume without it when none had: the output until the
-            first trusted sample is pos_abs, as after reset).
+            bits must equal the first phase); default: as after reset. With COARSE_W > 0 and no
+            start_anchor it also says that a trusted sample had been seen.
         start_lost, start_bad: with start_pos and COARSE_W > 0: track_lost and track_bad after the
             first sample (`track_state`).
+        start_anchor: with start_pos and COARSE_W > 0: no trusted sample had been seen up to the first
+            sample, and this is anchor_m after it (`track_state`); None: a trusted sample had been seen.
 
     Returns:
         ``(pos, overspeed, coarse_err)``: int64 positions in [0, REV) and two bool arrays.
@@ -230,17 +246,25 @@ def period_count(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos
     Raises:
         ValueError: an input outside its format or range, or mismatched lengths.
     """
-    return _run(phase, coarse, coarse_ofs, params, start_pos, start_lost, start_bad)[:3]
+    return _run(phase, coarse, coarse_ofs, params, start_pos, start_lost, start_bad, start_anchor)[:3]
 
 
 def track_state(phase, coarse, coarse_ofs, params: PeriodCountParams, start_pos: int | None = None,
-                start_lost: bool = False, start_bad: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(trusted_seen, track_lost, track_bad)`` after each sample of `period_count` (the RTL's state
-    bits; all False with COARSE_W = 0), to resume a stream exactly."""
-    return _run(phase, coarse, coarse_ofs, params, start_pos, start_lost, start_bad)[3:]
+                start_lost: bool = False, start_bad: bool = False, start_anchor: int | None = None
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(trusted_seen, track_lost, track_bad, anchor_m)`` after each sample of `period_count` (the RTL's
+    state; all False / 0 with COARSE_W = 0), to resume a stream exactly: pass track_lost, track_bad and,
+    while trusted_seen is False, anchor_m (the only time it is read) as start_lost, start_bad, start_anchor."""
+    return _run(phase, coarse, coarse_ofs, params, start_pos, start_lost, start_bad, start_anchor)[3:]
 
 
-def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost, start_bad):
+def centre_distance(r: np.ndarray, fine_w: int) -> np.ndarray:
+    """``m = r XOR (r >>> (FINE_W-1))``: r for r >= 0, -r-1 for r < 0, in [0, 2^(FINE_W-1)): a sample's
+    distance from its code's centre without a carry (the RTL's XOR of r's low bits with its sign)."""
+    return r ^ (r >> (fine_w - 1))
+
+
+def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost, start_bad, start_anchor=None):
     ph = _int_array("phase", phase, 0, (1 << p.fine_w) - 1)
     if ph.ndim != 1:
         raise ValueError(f"{NAME}: phase must be one-dimensional (a stream), got shape {ph.shape}")
@@ -262,12 +286,12 @@ def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost,
 
     if p.coarse_w == 0:
         if n == 0:
-            return ph.copy(), overspeed, no_state, no_state, no_state, no_state
+            return ph.copy(), overspeed, no_state, no_state, no_state, no_state, np.zeros(0, np.int64)
         # |running sum| < n * 2^(FINE_W-1): int64 holds 2^34 samples of the widest phase
         pos = np.cumsum(delta)
         pos += ph[0] if start_pos is None else start_pos
         pos %= p.rev
-        return pos, overspeed, no_state, no_state, no_state.copy(), no_state.copy()
+        return pos, overspeed, no_state, no_state, no_state.copy(), no_state.copy(), np.zeros(n, np.int64)
 
     if coarse is None:
         raise ValueError(f"{NAME}: coarse codes are required when COARSE_W = {p.coarse_w}")
@@ -277,19 +301,38 @@ def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost,
     ofs = _int_array("coarse_ofs", coarse_ofs, -p.ofs_max, p.ofs_max)
     if ofs.ndim and ofs.shape != ph.shape:
         raise ValueError(f"{NAME}: coarse_ofs must be a scalar or one value per sample, got shape {ofs.shape}")
+    resumed = start_pos is not None
+    early = resumed and start_anchor is not None      # resumed before the first trusted sample
+    mtop = 1 << (p.fine_w - 1)                        # m < mtop
+    if early and not 0 <= start_anchor < mtop:
+        raise ValueError(f"{NAME}: start_anchor = {start_anchor} outside 0..{mtop - 1}")
     pos_abs, r = coarse_absolute(ph, co, ofs, p)
     coarse_err = np.abs(r) > p.coarse_tol
     if n == 0:
-        return pos_abs, overspeed, coarse_err, no_state, no_state, no_state
+        return pos_abs, overspeed, coarse_err, no_state, no_state, no_state, np.zeros(0, np.int64)
     trusted = (r >= -p.trust) & (r < p.trust)
-    # seen: a trusted sample before this one since reset (a resumed stream had one)
+    m = centre_distance(r, p.fine_w)
+    # sets: trusted for the state after each sample (a resumed first sample: as the state says)
+    sets = trusted.copy()
+    if resumed:
+        sets[0] = not early
+    # seen: a trusted sample before this one since reset
     seen = np.zeros(n, dtype=bool)
-    seen[1:] = np.logical_or.accumulate(trusted[:-1])
+    seen[1:] = np.logical_or.accumulate(sets[:-1])
+    # start-up anchors: a new minimum of m since the last restart (the first sample, an overspeed);
+    # key = m - restarts * 2^(FINE_W-1) puts every restart below all earlier keys
+    restart = overspeed.copy()
+    restart[0] = not resumed
+    mval = m.copy()
+    if early:
+        mval[0] = start_anchor
+    key = mval - np.cumsum(restart) * mtop
+    record = np.ones(n, dtype=bool)
+    record[1:] = key[1:] < np.minimum.accumulate(key)[:-1]
     anchor_val = pos_abs.copy()
-    if start_pos is not None:
-        seen[1:] = True
+    if resumed:
         anchor_val[0] = start_pos
-    anchor = trusted | ~seen                     # samples whose output is pos_abs (seen[0] is False)
+    anchor = trusted | (~seen & record)              # samples whose output is pos_abs
     anchor[0] = True
     idx = np.arange(n)
     last = np.maximum.accumulate(np.where(anchor, idx, 0))          # the last anchor up to each sample
@@ -302,16 +345,16 @@ def _run(phase, coarse, coarse_ofs, p: PeriodCountParams, start_pos, start_lost,
     pos_trk = (anchor_val[prev] + (cum - cum[prev])) % p.rev
     cum_over = np.cumsum(overspeed)
     lost = (cum_over - cum_over[prev]) > 0
-    if start_pos is not None and start_lost:
+    if resumed and start_lost:
         lost |= prev == 0
     lost[0] = False
     # a resync against a valid track; the samples tracked from it carry its flag (track_bad)
     resync = trusted & seen & ~lost & (pos_abs != pos_trk)
-    if start_pos is not None:
+    if resumed:
         resync[0] = start_bad
     coarse_err |= resync[last]
-    seen_after = seen | trusted
+    seen_after = seen | sets
     lost_after = lost & ~anchor
-    if start_pos is not None:
-        seen_after[0], lost_after[0] = True, bool(start_lost)
-    return pos, overspeed, coarse_err, seen_after, lost_after, resync[last]
+    if resumed:
+        lost_after[0] = bool(start_lost)
+    return pos, overspeed, coarse_err, seen_after, lost_after, resync[last], mval[last]
