@@ -204,7 +204,7 @@ if cocotb is not None:
 
     @cocotb.test()
     async def long_period_latency(dut):
-        """One sample: out_valid exactly LATENCY = 7 clocks later, for one clock, with the model's word."""
+        """One sample: out_valid exactly LATENCY (the model's constant) clocks later, for one clock, with its word."""
         p, user_w, seed = _config()
         assert len(dut.pos) == p.pos_w and len(dut.zero) == p.pos_w and len(dut.pos_out) == p.pos_w
         assert len(dut.wr_data) == 2 * p.lp_w and len(dut.wr_addr) == p.lp_addr_w + 1

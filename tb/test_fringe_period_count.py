@@ -267,7 +267,7 @@ if cocotb is not None:
 
     @cocotb.test()
     async def period_count_latency(dut):
-        """One sample: out_valid exactly LATENCY = 3 clocks later, for one clock, with the model's word."""
+        """One sample: out_valid exactly LATENCY (the model's constant) clocks later, for one clock, with its word."""
         p, user_w, seed = _config()
         assert len(dut.phase) == p.fine_w and len(dut.pos) == p.pos_w and len(dut.coarse_ofs) == p.pos_w + 1
         assert len(dut.coarse) == max(p.coarse_w, 1) and len(dut.in_user) == user_w
