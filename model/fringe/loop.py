@@ -433,6 +433,42 @@ def revolution_order(f: float, rate: float, fs: float, lines: int, tol: float) -
     return int(n[hits[0]]) if len(hits) else 0
 
 
+UPDATE_ORDERS = 4       # multiples of an online block's update rate, and the electrical harmonics, whose mixing
+RIPPLE_HARMONICS = 8    # is that block's own ripple (9 x 4 x 2 lines: a few % of the band leave the tone search)
+
+
+def update_ripple(f: float, cal: Calibration | None, fs: float, electrical: float, tol: float) -> str:
+    """Whether a line at f (Hz) is an online block's ripple at a steady speed: the drift tracker and the canceller
+    change their state once per block of 2^BLOCK_LOG2 samples, and the step mixes with the fine phase's harmonics
+    into lines at |k fe +- j fs / 2^BLOCK_LOG2| (folded by the sampling); the tracker's lag leaves the orders of
+    what it tracks. A "tone" there would be an artefact of the set-up corrected away from the score, while the
+    core itself makes it. Returns the explanation, or ""."""
+    if cal is None:
+        return ""
+    blocks = {"the drift tracker's": cal.tracker.get("drift_block_log2") if cal.adaptive else None,
+              "the canceller's": cal.canceller.get("cancel_block_log2") if cal.canceller else None}
+    k = np.arange(0, RIPPLE_HARMONICS + 1)[:, None]
+    for who, log2 in blocks.items():
+        if log2 is None:
+            continue
+        rate = fs / (1 << int(log2))
+        j = np.arange(1, UPDATE_ORDERS + 1)[None, :]
+        for sign in (1.0, -1.0):
+            line = np.abs((k * electrical + sign * j * rate + fs / 2) % fs - fs / 2)
+            hit = np.argwhere(np.abs(line - f) <= tol)
+            if len(hit):
+                kk, jj = int(k[hit[0][0], 0]), int(j[0, hit[0][1]])
+                return (f"{kk} x the electrical frequency {'+' if sign > 0 else '-'} {jj} x {who} update rate "
+                        f"({rate:.4g} Hz)")
+    if cal.adaptive:
+        # what the tracker follows late, offsets and gains, are fine-phase orders 1 and 2: at a steady speed, lines
+        # at the electrical frequency and its double (9227: 340.66 Hz at 341.2 Hz electrical)
+        for kk in (1, 2):
+            if abs(abs((kk * electrical + fs / 2) % fs - fs / 2) - f) <= tol:
+                return f"{kk} x the electrical frequency, the order of the offsets and gains the drift tracker follows"
+    return ""
+
+
 def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float, float, bool]], list[str]]:
     """Lines in time: (name, Hz, p-value of the strongest of the searched lines, whether it lies on a steady
     revolution harmonic) and notes on what stays ambiguous. A line in the angle residual with none in the
@@ -473,7 +509,10 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
             notes.append(f"the line at {f:.3f} Hz is harmonic {order} of the steady revolution rate "
                          f"({abs(rate):.4g} rev/s): in the angle alone a vibration and a position error at that order "
                          "look the same within one recording; it is corrected as a tone in time (ambiguous)")
-        if not sideband:
+        ripple = update_ripple(f, ev.cal, fs, electrical, 1.5 * bin_hz) if electrical else None
+        if ripple:
+            notes.append(f"the line at {f:.3f} Hz is {ripple}: the core makes it, so it is not a tone of the set-up")
+        elif not sideband:
             out.append(("tone", f, line_p_value(angle), harmonic))
     if chan is None:
         notes.append("channel-domain test not run (the calibration tracks drift): a line in the angle cannot be "
@@ -496,9 +535,33 @@ def strided(ev: Evaluation) -> Evaluation:
     return Evaluation(r, ev.ctx.rows(sl), ev.figures, float(np.sqrt(np.mean(r * r))), None, ev.cal)
 
 
+MAGNITUDE_RIPPLE_ORDERS = 4    # fine-phase orders of the magnitude taken out of the amplitude effect's evidence
+
+
+def magnitude_evidence(ev: Evaluation) -> Evaluation:
+    """`ev` with the magnitude's part that follows the fine phase and the speed taken out (orders 1..4, fixed and in
+    proportion to the speed's change, and the speed's change itself): what is left is the amplitude's change over
+    time and the revolution, the evidence of an amplitude effect. A channel skew moves the magnitude at order 2 in
+    proportion to the speed, and behind the conic (which takes the mean skew) its mean as well, by tan(delta0)
+    times the change; offsets move it at order 1. With that in it a magnitude shape stands in for a skew (9247: a
+    magnitude term named amplitude beside a skew, validation error 7x the floor). The corrections are still fitted
+    on the magnitude the core measures."""
+    ctx = ev.ctx
+    dv = ctx.speed - np.mean(ctx.speed)
+    cols = [np.ones_like(ctx.phi), dv]
+    for k in range(1, MAGNITUDE_RIPPLE_ORDERS + 1):
+        for f in (np.cos(k * ctx.phi), np.sin(k * ctx.phi)):
+            cols += [f, f * dv]
+    x = np.column_stack(cols)
+    w = np.linalg.lstsq(x, ctx.magnitude, rcond=None)[0]
+    slow = ctx.magnitude - x[:, 1:] @ w[1:]
+    return dataclasses.replace(ev, ctx=dataclasses.replace(ctx, magnitude=slow))
+
+
 def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
     tests, skipped = [], {}
     ev = strided(ev_full)
+    ev_mag = magnitude_evidence(ev)
     for name in LIBRARY:
         if name in exclude:
             continue
@@ -506,7 +569,7 @@ def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Te
         if why:
             skipped[name] = why
             continue
-        tests.append(test_library_effect(ev, LIBRARY[name], sigma))
+        tests.append(test_library_effect(ev_mag if name == "amplitude" else ev, LIBRARY[name], sigma))
     known_hz = [float(e.split("@")[1]) for e in exclude if "@" in e]
     lines, notes = tone_candidates(ev_full, known_hz)
     for name, f, p_line, harmonic in lines:
@@ -517,7 +580,7 @@ def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Te
     if notes:
         skipped["tones"] = "; ".join(notes)
     if ev.rms > GENERIC_ABOVE_FLOOR * sigma:      # near the floor nothing is left for a shape without a name
-        tests += generic_candidates(ev, sigma, exclude)
+        tests += generic_candidates(ev, sigma, exclude, ev_mag)
     return tests, skipped
 
 
@@ -584,25 +647,26 @@ def generic_cv(ev: Evaluation, factor: str) -> tuple[float, float, str]:
     return best
 
 
-def generic_candidates(ev: Evaluation, sigma: float, exclude: set) -> list[Test]:
+def generic_candidates(ev: Evaluation, sigma: float, exclude: set, ev_mag: Evaluation | None = None) -> list[Test]:
     """The general dictionary: for each factor, fine-phase orders 0..K (and revolution orders 1..M) chosen by
     two-fold cross-validation on interleaved blocks of the fit data (fitted on one half, scored on the other,
     and the other way round); the best order of each factor is offered as a "generic" term when it lowers
-    the held-out error by at least MIN_GAIN."""
-    ctx, r = ev.ctx, ev.r
-    if len(r) < 2000:
+    the held-out error by at least MIN_GAIN. The magnitude's factors are judged on `ev_mag` (the magnitude
+    without its fine-phase ripple, `magnitude_evidence`) when given."""
+    if len(ev.r) < 2000:
         return []
     out = []
     for factor in GENERIC_FACTORS:
         need = GENERIC_NEEDS.get(factor)
-        if need and testable(GENERIC_PROBE[need], ctx, ev.cal):
+        if need and testable(GENERIC_PROBE[need], ev.ctx, ev.cal):
             continue
         if any(e.startswith(f"generic:{factor}:") for e in exclude):
             continue
-        held, base, name = generic_cv(ev, factor)
+        on = ev_mag if ev_mag is not None and FACTOR_EFFECT.get(factor) == "amplitude" else ev
+        held, base, name = generic_cv(on, factor)
         if held > (1 - MIN_GAIN) ** 2 * base:
             continue
-        out.append(test_terms(r, lambda sl, nm=name: generic_design(nm, ctx.rows(sl)), sigma, name))
+        out.append(test_terms(on.r, lambda sl, nm=name, c=on.ctx: generic_design(nm, c.rows(sl)), sigma, name))
     return out
 
 
@@ -663,14 +727,19 @@ def speed_holds(shape: Test, good: list[Test]) -> bool:
                or (t.name.startswith("generic:") and GENERIC_NEEDS.get(parse_generic(t.name)[0]) == "speed"))
 
 
-def named_shape(best: Test, tests: list[Test], rms: float) -> Test:
+def named_shape(best: Test, tests: list[Test], rms: float, good: list[Test], cal: Calibration) -> Test:
     """A shape of the general dictionary is the wider form of the library effect of its factor when that effect
     is itself present (its fixed shape significant, and it matters): the name goes with it (as `widen` does the
-    other way round)."""
+    other way round). A magnitude shape is amplitude by its evidence alone (it was judged on the magnitude
+    without its fine-phase and speed ripple, `magnitude_evidence`), unless a speed shape explains half as much or
+    an online correction (drift tracker, canceller) is there to change the magnitude: the library's fixed shape
+    (orders 0 and 2) misses an amplitude-dependent waveform error at odd orders (9144)."""
     if not best.name.startswith("generic:") or best.label:
         return best
     effect = generic_effect(best.name)
     if any(t.name == effect and t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * rms for t in tests):
+        best.label = effect
+    elif effect == "amplitude" and not speed_holds(best, good) and not (cal.adaptive or cal.canceller):
         best.label = effect
     return best
 
@@ -1020,7 +1089,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         n = len(ev_fit.r)
         best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
         best = widen(best, strided(ev_fit), sigma)
-        best = named_shape(best, tests, ev_fit.rms)
+        best = named_shape(best, tests, ev_fit.rms, good, state.cal)
         # a line is excluded by its frequency (a recording may hold several), every other term by its name
         excluded.update({f"{best.name}@{best.tone_hz!r}"} if best.tone_hz else {best.name, best.label} - {""})
         remedy = ""
