@@ -57,11 +57,10 @@ module fringe_interp_table #(
     // The multiplier takes fc = frac - 2^(FB-1) = frac ^ 2^(FB-1), an s(FB) with a live sign bit (a
     // zero-extended {0, frac} has a constant one: Yosys's ice40_dsp then leaves that operand's register
     // outside the SB_MAC16, whose multiply delay nextpnr-ice40 does not time).
-    // PIECE_W > 0: the words lie in NP RAMs of 2^PW words (each a fringe_table_ram of the full size
-    // whose upper address bits are the constant piece number, so synthesis keeps only the block RAMs of
-    // its own words and every piece is initialised from the one INIT_FILE); stage 2 registers each
-    // piece's word, stage 3 selects the sample's (a deep table's read multiplexer then lies between
-    // registers, not behind a block RAM's clock-to-out).
+    // PIECE_W > 0: the words lie in NP RAMs of 2^PW words, piece k holding words k * 2^PW .. of the one
+    // INIT_FILE and no others (FRINGE_MEM_INIT_SLICE); stage 2 registers each piece's word, stage 3
+    // selects the sample's (a deep table's read multiplexer then lies between registers, not behind a
+    // block RAM's clock-to-out).
     localparam integer A_W = ADDR_W + 1;                                  // {bank, address}
     localparam integer PW  = (PIECE_W > 0 && PIECE_W < A_W) ? PIECE_W : A_W;
     localparam integer NP  = 1 << (A_W - PW);
@@ -107,17 +106,34 @@ module fringe_interp_table #(
             reg  [A_W-PW:0]   sel1, sel2;
 
             for (gp = 0; gp < NP; gp = gp + 1) begin : g_piece
-                localparam [A_W:0] K = gp;                           // piece number, above PW bits
-                wire [A_W:0]   wa = (K << PW) | {{(A_W+1-PW){1'b0}}, wr_addr[PW-1:0]};
-                wire [A_W:0]   ra = (K << PW) | {{(A_W+1-PW){1'b0}}, rd_addr[PW-1:0]};
+                localparam [A_W:0]  K     = gp;                      // piece number, above PW bits
+                localparam integer  FIRST = gp << PW;                // its first word in INIT_FILE
+                wire [A_W:0] wa = (K << PW) | {{(A_W+1-PW){1'b0}}, wr_addr[PW-1:0]};
+                wire [A_W:0] ra = (K << PW) | {{(A_W+1-PW){1'b0}}, rd_addr[PW-1:0]};
+                reg  [2*W-1:0] q;
 
-                fringe_table_ram #(
-                    .ADDR_W(ADDR_W), .DATA_W(2 * W), .INIT_FILE(INIT_FILE)
-                ) u_table (
-                    .clk(clk),
-                    .wr_en(wr_en && wr_hi == K), .wr_addr(wa[A_W-1:0]), .wr_data(wr_data),
-                    .rd_en(ce), .rd_addr(ra[A_W-1:0]), .rd_data(piece_q[gp*2*W +: 2*W])
-                );
+                // Only the piece's own 2^PW words, indexed by their image address (as fringe_table_ram,
+                // no_rw_check: the caller never reads the bank it writes).
+                (* no_rw_check *)
+                reg [2*W-1:0] mem [FIRST:FIRST+(1<<PW)-1];
+
+                `FRINGE_MEM_INIT_SLICE(INIT_FILE, mem, FIRST, 1 << PW, 2 * W)
+
+                // The index is the image address {K, low bits}: wider than 2^PW words need, by design.
+                /* verilator lint_off WIDTHTRUNC */
+                always @(posedge clk) begin
+                    if (wr_en && wr_hi == K) begin
+                        mem[wa[A_W-1:0]] <= wr_data;
+                    end
+                end
+
+                always @(posedge clk) begin
+                    if (ce) begin
+                        q <= mem[ra[A_W-1:0]];
+                    end
+                end
+                /* verilator lint_on WIDTHTRUNC */
+                assign piece_q[gp*2*W +: 2*W] = q;
                 wire unused_k = &{1'b0, wa[A_W], ra[A_W]};
             end
             wire unused_hi = &{1'b0, rd_hi};

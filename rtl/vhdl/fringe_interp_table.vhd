@@ -95,9 +95,8 @@ begin
 
     -- 1: table read (the RAM's read register); 2: the RAM's output register (a block RAM's clock-to-out
     -- then feeds no logic); fc = frac - 2^(FB-1) = frac xor 2^(FB-1), s(FB) with a live sign bit (see the
-    -- Verilog). PIECE_W > 0: NP RAMs of 2^PW words (each of the full size, its upper address bits the
-    -- constant piece number: synthesis keeps the block RAMs of its own words, all initialised from the one
-    -- INIT_FILE); stage 2 registers each piece's word, stage 3 selects the sample's.
+    -- Verilog). PIECE_W > 0: NP RAMs of 2^PW words, piece k holding words k * 2^PW .. of the one INIT_FILE
+    -- and no others; stage 2 registers each piece's word, stage 3 selects the sample's.
     p_fc : process (clk)
     begin
         if rising_edge(clk) then
@@ -141,16 +140,22 @@ begin
         end function piece_of;
     begin
         g_piece : for k in 0 to NP - 1 generate
-            signal wa, ra : std_logic_vector(ADDR_W downto 0);
-            signal we     : std_logic;
+            -- Only the piece's own 2^PW words: words k * 2^PW .. of the one INIT_FILE (read_memh's first).
+            subtype piece_t is word_array(0 to 2 ** PW - 1)(2 * W - 1 downto 0);
+            signal mem : piece_t := read_memh(INIT_FILE, 2 ** PW, 2 * W, "fringe_interp_table: INIT_FILE",
+                                              k * 2 ** PW);
         begin
-            wa <= std_logic_vector(to_unsigned(k * 2 ** PW, A_W) or resize(unsigned(wr_addr(PW - 1 downto 0)), A_W));
-            ra <= std_logic_vector(to_unsigned(k * 2 ** PW, A_W) or resize(unsigned(rd_addr(PW - 1 downto 0)), A_W));
-            we <= wr_en when piece_of(wr_addr) = k else '0';
-            u_table : entity work.fringe_table_ram
-                generic map (ADDR_W => ADDR_W, DATA_W => 2 * W, INIT_FILE => INIT_FILE)
-                port map (clk => clk, wr_en => we, wr_addr => wa, wr_data => wr_data,
-                          rd_en => ce, rd_addr => ra, rd_data => piece_q(k));
+            p_ram : process (clk)
+            begin
+                if rising_edge(clk) then
+                    if wr_en = '1' and piece_of(wr_addr) = k then
+                        mem(to_integer(unsigned(wr_addr(PW - 1 downto 0)))) <= wr_data;
+                    end if;
+                    if ce = '1' then
+                        piece_q(k) <= mem(to_integer(unsigned(rd_addr(PW - 1 downto 0))));
+                    end if;
+                end if;
+            end process p_ram;
         end generate g_piece;
 
         p_sel : process (clk)
