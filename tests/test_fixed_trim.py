@@ -60,7 +60,7 @@ def test_derived_constants():
     p = P1
     assert (p.rev, p.pos_w, p.fb, p.window, p.sectors, p.bins) == (1 << 24, 24, 10, 32, 16, 64)
     assert (p.map_words, p.gain_words, p.word_w, p.wr_addr_w, p.corr_max) == (2048, 64, 36, 12, 1 << 15)
-    assert (p.recip, p.shift, p.latency, LATENCY) == (1, 20, 12, 12)
+    assert (p.recip, p.shift, p.latency, LATENCY) == (1, 20, 13, 13)
     assert p.hdl_parameters()["SECT_RECIP"] == 1 and p.hdl_parameters()["SECT_SHIFT"] == 20
     assert (P3.recip, P3.shift) == (0, 0)                       # no sectors: unused
     q = TrimParams(256, 16, 12, 5, 4, 6, 18, 4, 20, 2, 21)      # explicit, checked

@@ -1,7 +1,7 @@
 // fringe_interp_table: two-bank table of {slope, value} words, linearly interpolated.
 //
-// LATENCY = 4 clock enables from rd_addr/frac to result; ce = 0 freezes every register; no reset
-// (data only: the caller's fringe_delay carries valid).
+// LATENCY = 4 clock enables from rd_addr/frac to result (5 with PIECE_W > 0); ce = 0 freezes every
+// register; no reset (data only: the caller's fringe_delay carries valid).
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_interp_table.md.
 // Model: model/fringe/fixed/interp_table.py (fringe.fixed.table_ram.interpolate with the offset and width).
 
@@ -13,7 +13,9 @@ module fringe_interp_table #(
     parameter integer FB          = 4,   // fraction bits, 1..30
     parameter integer OUT_W       = 19,  // result width, W..W+40 (W: the result wraps modulo 2^W)
     parameter integer ROUND_SHIFT = 0,   // adds 2^(ROUND_SHIFT-1) to the result (0: nothing), 0..40
-    parameter         INIT_FILE   = ""   // $readmemh image, 2*2^ADDR_W words; "" = zeros
+    parameter         INIT_FILE   = "",  // $readmemh image, 2*2^ADDR_W words; "" = zeros
+    parameter integer PIECE_W     = 0    // 0: one RAM; 1..25: RAMs of 2^PIECE_W words, each registered, then a
+                                         // registered select (one clock enable more); 0..25
 ) (
     input  wire                    clk,
     input  wire                    ce,       // clock enable: the pipeline advances when 1
@@ -31,7 +33,7 @@ module fringe_interp_table #(
 
     // The testbench reads LATENCY (tb/test_fringe_interp_table.py); the pipeline below spells it out.
     /* verilator lint_off UNUSEDPARAM */
-    localparam integer LATENCY = 4;
+    localparam integer LATENCY = (PIECE_W > 0) ? 5 : 4;
     /* verilator lint_on UNUSEDPARAM */
     localparam integer S_W     = OUT_W + FB;                                  // {result, fraction}
     localparam [FB:0]    RND_X = {1'b1, {FB{1'b0}}} >> 1;
@@ -47,38 +49,113 @@ module fringe_interp_table #(
                    OUT_W, W, W + 40);
         end
         `FRINGE_CHECK_RANGE(g_bad_round_shift, "fringe_interp_table", "ROUND_SHIFT", ROUND_SHIFT, 0, 40)
+        `FRINGE_CHECK_RANGE(g_bad_piece_w, "fringe_interp_table", "PIECE_W", PIECE_W, 0, 25)
     endgenerate
 
-    // ---- 1: table read (the RAM's read register) -------------------------------------------------
-    wire [2*W-1:0] word_q;
-
-    fringe_table_ram #(
-        .ADDR_W(ADDR_W), .DATA_W(2 * W), .INIT_FILE(INIT_FILE)
-    ) u_table (
-        .clk(clk),
-        .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),
-        .rd_en(ce), .rd_addr(rd_addr), .rd_data(word_q)
-    );
-
+    // ---- 1: table read (the RAM's read register) ---------------------------------------------------
     // ---- 2: the RAM's output register (a block RAM's clock-to-out then feeds no logic) -----------
     // The multiplier takes fc = frac - 2^(FB-1) = frac ^ 2^(FB-1), an s(FB) with a live sign bit (a
     // zero-extended {0, frac} has a constant one: Yosys's ice40_dsp then leaves that operand's register
     // outside the SB_MAC16, whose multiply delay nextpnr-ice40 does not time).
+    // PIECE_W > 0: the words lie in NP RAMs of 2^PW words, piece k holding words k * 2^PW .. of the one
+    // INIT_FILE and no others (FRINGE_MEM_INIT_SLICE); stage 2 registers each piece's word, stage 3
+    // selects the sample's (a deep table's read multiplexer then lies between registers, not behind a
+    // block RAM's clock-to-out).
+    localparam integer A_W = ADDR_W + 1;                                  // {bank, address}
+    localparam integer PW  = (PIECE_W > 0 && PIECE_W < A_W) ? PIECE_W : A_W;
+    localparam integer NP  = 1 << (A_W - PW);
     reg  [FB-1:0]  fc1, fc2;
-    reg  [2*W-1:0] word2;
+    wire [FB-1:0]  fcm;                                                   // fc beside wordm
+    wire [2*W-1:0] wordm;                                                 // the word into stage M
 
     always @(posedge clk) begin
         if (ce) begin
-            fc1   <= frac ^ RND;
-            fc2   <= fc1;
-            word2 <= word_q;
+            fc1 <= frac ^ RND;
+            fc2 <= fc1;
         end
     end
 
-    // ---- 3: slope * fc (bare); base = {value, 2^(FB-1)} + slope * 2^(FB-1) + offset * 2^FB ---------
-    // slope * frac = slope * fc + slope * 2^(FB-1) exactly; everything modulo 2^S_W.
-    wire signed [W-1:0]  slope2 = word2[2*W-1:W];
-    wire signed [W-1:0]  value2 = word2[W-1:0];
+    genvar gp;
+    generate
+        if (PIECE_W == 0) begin : g_one
+            wire [2*W-1:0] word_q;
+            reg  [2*W-1:0] word2;
+
+            fringe_table_ram #(
+                .ADDR_W(ADDR_W), .DATA_W(2 * W), .INIT_FILE(INIT_FILE)
+            ) u_table (
+                .clk(clk),
+                .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),
+                .rd_en(ce), .rd_addr(rd_addr), .rd_data(word_q)
+            );
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    word2 <= word_q;
+                end
+            end
+            assign wordm = word2;
+            assign fcm   = fc2;
+        end else begin : g_pieces
+            wire [NP*2*W-1:0] piece_q;
+            reg  [NP*2*W-1:0] piece2;
+            reg  [FB-1:0]     fc3;
+            reg  [2*W-1:0]    word3;
+            wire [A_W:0]      wr_hi = {1'b0, wr_addr} >> PW;        // the piece numbers (one bit wider:
+            wire [A_W:0]      rd_hi = {1'b0, rd_addr} >> PW;        // A_W = PW leaves piece 0 only)
+            reg  [A_W-PW:0]   sel1, sel2;
+
+            for (gp = 0; gp < NP; gp = gp + 1) begin : g_piece
+                localparam [A_W:0]  K     = gp;                      // piece number, above PW bits
+                localparam integer  FIRST = gp << PW;                // its first word in INIT_FILE
+                wire [A_W:0] wa = (K << PW) | {{(A_W+1-PW){1'b0}}, wr_addr[PW-1:0]};
+                wire [A_W:0] ra = (K << PW) | {{(A_W+1-PW){1'b0}}, rd_addr[PW-1:0]};
+                reg  [2*W-1:0] q;
+
+                // Only the piece's own 2^PW words, indexed by their image address (as fringe_table_ram,
+                // no_rw_check: the caller never reads the bank it writes).
+                (* no_rw_check *)
+                reg [2*W-1:0] mem [FIRST:FIRST+(1<<PW)-1];
+
+                `FRINGE_MEM_INIT_SLICE(INIT_FILE, mem, FIRST, 1 << PW, 2 * W)
+
+                // The index is the image address {K, low bits}: wider than 2^PW words need, by design.
+                /* verilator lint_off WIDTHTRUNC */
+                always @(posedge clk) begin
+                    if (wr_en && wr_hi == K) begin
+                        mem[wa[A_W-1:0]] <= wr_data;
+                    end
+                end
+
+                always @(posedge clk) begin
+                    if (ce) begin
+                        q <= mem[ra[A_W-1:0]];
+                    end
+                end
+                /* verilator lint_on WIDTHTRUNC */
+                assign piece_q[gp*2*W +: 2*W] = q;
+                wire unused_k = &{1'b0, wa[A_W], ra[A_W]};
+            end
+            wire unused_hi = &{1'b0, rd_hi};
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    sel1   <= rd_hi[A_W-PW:0];
+                    sel2   <= sel1;
+                    piece2 <= piece_q;
+                    fc3    <= fc2;
+                    word3  <= piece2[sel2 * (2 * W) +: 2 * W];
+                end
+            end
+            assign wordm = word3;
+            assign fcm   = fc3;
+        end
+    endgenerate
+
+    // ---- M (3; 4 with PIECE_W > 0): slope * fc (bare); base = {value, 2^(FB-1)} + slope * 2^(FB-1)
+    // + offset * 2^FB; slope * frac = slope * fc + slope * 2^(FB-1) exactly; everything modulo 2^S_W.
+    wire signed [W-1:0]  slope2 = wordm[2*W-1:W];
+    wire signed [W-1:0]  value2 = wordm[W-1:0];
     // sign extensions written S_W bits too wide and cut (OUT_W = W leaves no bit to extend)
     wire [S_W+W-1:0]     slope2_e = {{S_W{slope2[W-1]}}, slope2};
     wire [OUT_W+W-1:0]   value2_e = {{OUT_W{value2[W-1]}}, value2};
@@ -89,12 +166,12 @@ module fringe_interp_table #(
 
     always @(posedge clk) begin
         if (ce) begin
-            prod3 <= slope2 * $signed(fc2);
+            prod3 <= slope2 * $signed(fcm);
             base3 <= value2_x + slope2_x + OFFSET;
         end
     end
 
-    // ---- 4: result = (base + product) >>> FB, one add -------------------------------------------------
+    // ---- R (4; 5 with PIECE_W > 0): result = (base + product) >>> FB, one add -------------------------------------------------
     // = value + offset + ((slope * frac + 2^(FB-1)) >>> FB), modulo 2^OUT_W.
     wire [S_W+W+FB-1:0] prod3_e = {{S_W{prod3[W+FB-1]}}, prod3};
     wire [S_W-1:0]   sum3    = base3 + prod3_e[S_W-1:0];

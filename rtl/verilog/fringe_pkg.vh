@@ -60,7 +60,7 @@ localparam integer QUADRATURE_LATENCY      = 5;  // fringe_quadrature
 localparam integer CORDIC_LATENCY_BASE     = 2;  // fringe_cordic: STAGES + this
 localparam integer CORDIC_ITER_CLOCKS_BASE = 1;  // fringe_cordic ITERATIVE = 1: a sample every STAGES + this clock enables
 localparam integer PERIOD_COUNT_LATENCY    = 3;  // fringe_period_count
-localparam integer TRIM_LATENCY            = 12;  // fringe_trim
+localparam integer TRIM_LATENCY            = 13;  // fringe_trim
 localparam integer LONG_PERIOD_LATENCY     = 8;  // fringe_long_period
 localparam integer DRIFT_NORM_LATENCY      = 4;  // fringe_drift normaliser
 localparam integer DRIFT_OBS_LATENCY       = 15;  // fringe_drift observer
@@ -121,6 +121,78 @@ localparam integer CANCEL_ADAPT_LATENCY    = 15;  // fringe_canceller: a block's
             end \
         end \
     end
+`endif
+
+// A slice of an image: MEM, declared with the image's addresses [FIRST : FIRST+DEPTH-1], gets words
+// FIRST .. FIRST+DEPTH-1 of the $readmemh image FILE (missing words and FILE = "" give zeros; the VHDL's
+// read_memh with its `first`). A RAM piece thus holds its own words only. $readmemh cannot skip words
+// portably: Yosys drops the image's words that lie outside MEM, but Verilator stops at the first of
+// them and Icarus refuses a start address below MEM. So simulators read FILE with $fgetc as $readmemh
+// does (hex words separated by white space, "//" comments) and stop after the slice; Yosys (SYNTHESIS)
+// loads from word 0 and keeps MEM's words. Generate blocks g_init_file, g_init_zero / g_init_slice.
+`ifndef FRINGE_MEM_INIT_SLICE
+`ifdef SYNTHESIS
+`define FRINGE_MEM_INIT_SLICE(FILE, MEM, FIRST, DEPTH, W) \
+    if (FILE != "") begin : g_init_file \
+        initial $readmemh(FILE, MEM, 0, (FIRST) + (DEPTH) - 1); \
+    end else begin : g_init_zero \
+        integer i; \
+        initial begin \
+            for (i = 0; i < (DEPTH); i = i + 1) begin \
+                MEM[(FIRST) + i] = {(W){1'b0}}; \
+            end \
+        end \
+    end
+`else
+`define FRINGE_MEM_INIT_SLICE(FILE, MEM, FIRST, DEPTH, W) \
+    if (1) begin : g_init_slice \
+        integer fd, c, n, i; \
+        reg [(W)-1:0] word; \
+        /* verilator lint_off UNUSEDSIGNAL */ \
+        reg [(W)+3:0] acc; /* a word's digits above W bits are dropped, as $readmemh drops them */ \
+        /* verilator lint_on UNUSEDSIGNAL */ \
+        reg in_word, comment; \
+        initial begin \
+            for (i = 0; i < (DEPTH); i = i + 1) begin \
+                MEM[(FIRST) + i] = {(W){1'b0}}; \
+            end \
+            if (FILE != "") begin \
+                fd = $fopen(FILE, "r"); \
+                if (fd == 0) begin \
+                    $fatal(1, "cannot open INIT_FILE %0s (instance %m)", FILE); \
+                end \
+                n = 0; \
+                word = {(W){1'b0}}; \
+                in_word = 1'b0; \
+                comment = 1'b0; \
+                c = 0; \
+                while (c != -1 && n < (FIRST) + (DEPTH)) begin \
+                    c = $fgetc(fd); \
+                    if (comment) begin \
+                        comment = (c != 10); \
+                    end else if ((c >= "0" && c <= "9") || (c >= "a" && c <= "f") || (c >= "A" && c <= "F")) begin \
+                        acc = {word, c[3:0] + (c > "9" ? 4'd9 : 4'd0)}; /* "a" and "A" end in 1 */ \
+                        word = acc[(W)-1:0]; \
+                        in_word = 1'b1; \
+                    end else if (c == "_" && in_word) begin \
+                    end else if (c == -1 || c == " " || c == 9 || c == 10 || c == 13 || c == "/") begin \
+                        if (in_word && n >= (FIRST)) begin \
+                            MEM[n] = word; \
+                        end \
+                        n = n + (in_word ? 1 : 0); \
+                        word = {(W){1'b0}}; \
+                        in_word = 1'b0; \
+                        comment = (c == "/"); \
+                    end else begin \
+                        $fatal(1, "INIT_FILE %0s: character %0d after word %0d is not hex, white space or a comment (instance %m)", \
+                               FILE, c, n); \
+                    end \
+                end \
+                $fclose(fd); \
+            end \
+        end \
+    end
+`endif
 `endif
 
 // LATENCY of fringe_core and fringe_top (trim, drift, cancel: the TRIM, DRIFT and CANCEL parameters, 0 or

@@ -2,7 +2,7 @@
 // fine phase) and two fine-phase-dependent gains (speed, magnitude) give a correction
 // subtracted from the position.
 //
-// LATENCY = 12 clock enables, one sample per clock; ce = 0 freezes
+// LATENCY = 13 clock enables, one sample per clock; ce = 0 freezes
 // every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_trim.md.
 // Bit-exact model: model/fringe/fixed/trim.py.
@@ -108,6 +108,7 @@ module fringe_trim #(
     localparam [T_W-1:0] RECIP_T = RECIP_X[T_W-1:0];
     localparam [WW-1:0]  REV_W   = REV64[WW-1:0];
     localparam [SPEED_LOG2:0] N_HA = N[SPEED_LOG2:0];         // N as a history address (bit SPEED_LOG2)
+    localparam integer MAP_PIECE_W = 11;                       // map RAM pieces of 2048 words (u_map)
 
     // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
     fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
@@ -265,11 +266,14 @@ module fringe_trim #(
         end
     end
 
-    // ---- 5..8: map at {bank, dir, sector, bin}: m + 2^(TRIM_FRAC-1) = value + 2^(TRIM_FRAC-1)
-    // + ((slope * frac + 2^(FB-1)) >>> FB) --------------------------------------------------------------
+    // ---- 5..9: map at {bank, dir, sector, bin}: m + 2^(TRIM_FRAC-1) = value + 2^(TRIM_FRAC-1)
+    // + ((slope * frac + 2^(FB-1)) >>> FB). The map is deep (8192 words for the seed): it lies in RAM
+    // pieces of 2^MAP_PIECE_W words, each registered before the registered select (fringe_interp_table
+    // PIECE_W), so no read multiplexer follows a block RAM's clock-to-out. 2048 words of 2 TRIM_W bits
+    // are 2 TRIM_W / 9 ECP5 DP16KD in their 2048 x 9 mode, the one Yosys picks for the seed's map. ----
     wire [MAP_PHI_W-1:0] s4_bin  = s4_pos[FINE_W-1:FB];
     wire [MA_W:0]        map_rd_addr;
-    wire signed [MR_W-1:0] s8_m;
+    wire signed [MR_W-1:0] s9_m;
 
     generate
         if (MAP_PSI_W > 0) begin : g_addr_sector
@@ -281,44 +285,47 @@ module fringe_trim #(
     endgenerate
 
     fringe_interp_table #(
-        .ADDR_W(MA_W), .W(TW), .FB(FB), .OUT_W(MR_W), .ROUND_SHIFT(TRIM_FRAC), .INIT_FILE(MAP_INIT)
+        .ADDR_W(MA_W), .W(TW), .FB(FB), .OUT_W(MR_W), .ROUND_SHIFT(TRIM_FRAC), .INIT_FILE(MAP_INIT),
+        .PIECE_W(MAP_PIECE_W)
     ) u_map (
         .clk(clk), .ce(ce),
         .wr_en(wr_en && wr_sel == 2'd0), .wr_addr(wr_addr), .wr_data(wr_data),
-        .rd_addr(map_rd_addr), .frac(s4_pos[FB-1:0]), .result(s8_m)
+        .rd_addr(map_rd_addr), .frac(s4_pos[FB-1:0]), .result(s9_m)
     );
 
-    // 5, 6: speed and magnitude carried beside the tables; 5..10: direction and position
+    // 5, 6: speed and magnitude carried beside the tables; 5..11: direction and position
     wire signed [POS_W-1:0] s6_speed;
     wire [AMP_W-1:0]        s6_mag;
-    wire                    s10_dir;
-    wire [POS_W-1:0]        s10_pos;
-    wire                    s6_carry_valid, s10_carry_valid;
+    wire                    s11_dir;
+    wire [POS_W-1:0]        s11_pos;
+    wire                    s6_carry_valid, s11_carry_valid;
 
     fringe_delay #(.WIDTH(POS_W + AMP_W), .DEPTH(2)) u_gain_carry (
         .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({s4_speed, s4_mag}),
         .out_valid(s6_carry_valid), .out_data({s6_speed, s6_mag})
     );
 
-    fringe_delay #(.WIDTH(1 + POS_W), .DEPTH(6)) u_pos_carry (
+    fringe_delay #(.WIDTH(1 + POS_W), .DEPTH(7)) u_pos_carry (
         .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({s4_dir, s4_pos}),
-        .out_valid(s10_carry_valid), .out_data({s10_dir, s10_pos})
+        .out_valid(s11_carry_valid), .out_data({s11_dir, s11_pos})
     );
 
-    // ---- 7..9: speed x gs (3 stages: products, pairs, product) and mag x ga (2 stages) in 18x18
-    // partial products (fringe_split_mul); every stage one two-input carry chain for the seed widths
+    // ---- 7..10: speed x gs (4 stages: products, pairs, product, a register) and mag x ga (3 stages:
+    // products, product, a register) in 18x18 partial products (fringe_split_mul); every stage one
+    // two-input carry chain for the seed widths; each product ends a clock enable after it is formed
+    // (it crosses the chip to the sum)
     wire [POS_W+GW-1:0] p_sg;
     wire [AMP_W+GW-1:0] p_ma;
 
-    fringe_split_mul #(.A_W(POS_W), .A_SIGNED(1), .B_W(GW), .B_SIGNED(1), .LATENCY(3)) u_speed_gain (
+    fringe_split_mul #(.A_W(POS_W), .A_SIGNED(1), .B_W(GW), .B_SIGNED(1), .LATENCY(4)) u_speed_gain (
         .clk(clk), .ce(ce), .a(s6_speed), .b(s6_gs), .p(p_sg)
     );
 
-    fringe_split_mul #(.A_W(AMP_W), .A_SIGNED(0), .B_W(GW), .B_SIGNED(1), .LATENCY(2)) u_amp_gain (
+    fringe_split_mul #(.A_W(AMP_W), .A_SIGNED(0), .B_W(GW), .B_SIGNED(1), .LATENCY(3)) u_amp_gain (
         .clk(clk), .ce(ce), .a(s6_mag), .b(s6_ga), .p(p_ma)
     );
 
-    // ---- 9: mag x ga + (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields) --------------
+    // ---- 10: mag x ga + (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields) -------------
     // From here on the sum A = (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) + speed * gs + mag * ga
     // is formed, A >>> G_SHIFT = total + 2^(TRIM_FRAC-1) (m * 2^G_SHIFT has no bits below G_SHIFT):
     // A = total' * 2^G_SHIFT + r, 0 <= r < 2^G_SHIFT, fits s(TT_W + G_SHIFT); every adder works modulo
@@ -328,69 +335,69 @@ module fringe_trim #(
     localparam [E_W-1:0] ONE_E = {{(E_W-1){1'b0}}, 1'b1};
     wire [E_W-1:0] t_sg = {{(E_W-POS_W-GW){p_sg[POS_W+GW-1]}}, p_sg};
     wire [E_W-1:0] t_ma = {{(E_W-AMP_W-GW){p_ma[AMP_W+GW-1]}}, p_ma};
-    wire [E_W-1:0] t_m  = ({{(E_W-MR_W){s8_m[MR_W-1]}}, s8_m} << G_SHIFT) | (ONE_E << (G_SHIFT - 1));
-    reg  [A_W-1:0]         s9_am;
+    wire [E_W-1:0] t_m  = ({{(E_W-MR_W){s9_m[MR_W-1]}}, s9_m} << G_SHIFT) | (ONE_E << (G_SHIFT - 1));
+    reg  [A_W-1:0]         s10_am;
 
     always @(posedge clk) begin
         if (ce) begin
-            s9_am <= t_ma[A_W-1:0] + t_m[A_W-1:0];
+            s10_am <= t_ma[A_W-1:0] + t_m[A_W-1:0];
         end
     end
 
-    // ---- 10: A; A >>> G_SHIFT = total + 2^(TRIM_FRAC-1) ---------------------------------------------
-    reg  [A_W-1:0]         s10_a;
+    // ---- 11: A; A >>> G_SHIFT = total + 2^(TRIM_FRAC-1) ---------------------------------------------
+    reg  [A_W-1:0]         s11_a;
 
     always @(posedge clk) begin
         if (ce) begin
-            s10_a <= t_sg[A_W-1:0] + s9_am;
+            s11_a <= t_sg[A_W-1:0] + s10_am;
         end
     end
 
-    // ---- 11: corr = total >>> TRIM_FRAC, clipped to s(FINE_W); pos -+ REV for stage 12 -------------
-    wire signed [C_W-1:0]  corr  = s10_a[A_W-1:G_SHIFT+TRIM_FRAC];
+    // ---- 12: corr = total >>> TRIM_FRAC, clipped to s(FINE_W); pos -+ REV for stage 13 -------------
+    wire signed [C_W-1:0]  corr  = s11_a[A_W-1:G_SHIFT+TRIM_FRAC];
     wire signed [CX_W-1:0] corr_x = {{(CX_W-C_W){corr[C_W-1]}}, corr};
     wire                   neg   = corr_x[CX_W-1];
     // in range <=> bits CX_W-1 .. FINE_W-1 all equal the sign
     wire                   over  = neg ? ~&corr_x[CX_W-1:FINE_W-1] : |corr_x[CX_W-1:FINE_W-1];
     wire [FINE_W-1:0]      clip  = neg ? {1'b1, {(FINE_W-1){1'b0}}} : {1'b0, {(FINE_W-1){1'b1}}};
-    wire [WW-1:0]          pos_x = {2'b00, s10_pos};
-    reg  [FINE_W-1:0]      s11_corr;
-    reg                    s11_sat, s11_dir, s11_neg;
-    reg  [WW-1:0]          s11_pos, s11_alt;
+    wire [WW-1:0]          pos_x = {2'b00, s11_pos};
+    reg  [FINE_W-1:0]      s12_corr;
+    reg                    s12_sat, s12_dir, s12_neg;
+    reg  [WW-1:0]          s12_pos, s12_alt;
 
     always @(posedge clk) begin
         if (ce) begin
-            s11_corr <= over ? clip : corr_x[FINE_W-1:0];
-            s11_sat  <= over;
-            s11_neg  <= neg;
-            s11_dir  <= s10_dir;
-            s11_pos  <= pos_x;
+            s12_corr <= over ? clip : corr_x[FINE_W-1:0];
+            s12_sat  <= over;
+            s12_neg  <= neg;
+            s12_dir  <= s11_dir;
+            s12_pos  <= pos_x;
             // corr < 0: pos - corr may reach REV, alternative pos - REV - corr;
             // corr >= 0: pos - corr may fall below 0, alternative pos + REV - corr
-            s11_alt  <= neg ? pos_x - REV_W : pos_x + REV_W;
+            s12_alt  <= neg ? pos_x - REV_W : pos_x + REV_W;
         end
     end
 
-    // ---- 12: pos - corr, wrapped into [0, REV) ------------------------------------------------------
-    wire [WW-1:0] corr_w = {{(WW-FINE_W){s11_corr[FINE_W-1]}}, s11_corr};
-    wire [WW-1:0] a      = s11_pos - corr_w;
-    wire [WW-1:0] b      = s11_alt - corr_w;
-    wire          use_b  = s11_neg ? ~b[WW-1] : a[WW-1];
+    // ---- 13: pos - corr, wrapped into [0, REV) ------------------------------------------------------
+    wire [WW-1:0] corr_w = {{(WW-FINE_W){s12_corr[FINE_W-1]}}, s12_corr};
+    wire [WW-1:0] a      = s12_pos - corr_w;
+    wire [WW-1:0] b      = s12_alt - corr_w;
+    wire          use_b  = s12_neg ? ~b[WW-1] : a[WW-1];
     wire [WW-1:0] o      = use_b ? b : a;
 
     always @(posedge clk) begin
         if (ce) begin
             pos_out <= o[POS_W-1:0];
-            dir     <= s11_dir;
-            sat     <= s11_sat;
+            dir     <= s12_dir;
+            sat     <= s12_sat;
         end
     end
 
     // Bits that carry nothing: the products' rounded-off bits and sign extension, the terms beyond
     // A_W bits, the fraction bits of A, the sign bits of the wrapped speed and of positions in [0, REV),
     // the valid outputs of the delays that carry data only.
-    wire unused = &{1'b0, t_sg, t_ma, t_m, s6_carry_valid, s10_carry_valid,
-                    s10_a[G_SHIFT+TRIM_FRAC:0], d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x};
+    wire unused = &{1'b0, t_sg, t_ma, t_m, s6_carry_valid, s11_carry_valid,
+                    s11_a[G_SHIFT+TRIM_FRAC:0], d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x};
 
 endmodule
 

@@ -51,10 +51,12 @@ package fringe_pkg is
 
     -- Words of a $readmemh image, as fringe_table_ram and the register file hold them.
     type word_array is array (natural range <>) of std_logic_vector;
-    -- The first `depth` words of the image `fname` (one hex word of ceil(width/4) digits per line,
-    -- "//" comment lines and empty lines skipped; missing words are 0); all zeros when fname is "".
-    -- `what` names the file in the failure messages ("fringe_table_ram: INIT_FILE").
-    impure function read_memh(fname : string; depth, width : positive; what : string) return word_array;
+    -- Words first .. first + depth - 1 of the image `fname` (one hex word of ceil(width/4) digits per
+    -- line, "//" comment lines and empty lines skipped; missing words are 0); all zeros when fname is "".
+    -- `what` names the file in the failure messages ("fringe_table_ram: INIT_FILE"). A RAM piece reads
+    -- its own slice (first > 0), so it holds depth words, not the whole image.
+    impure function read_memh(fname : string; depth, width : positive; what : string;
+                              first : natural := 0) return word_array;
 
     -- LATENCY of fringe_core and fringe_top (trim, drift, cancel: the TRIM, DRIFT and CANCEL generics, 0 or
     -- 1): the input registers and the blocks in the chain, from the generated block latencies below
@@ -111,7 +113,7 @@ package fringe_pkg is
     constant CORDIC_LATENCY_BASE     : integer := 2;  -- fringe_cordic: STAGES + this
     constant CORDIC_ITER_CLOCKS_BASE : integer := 1;  -- fringe_cordic ITERATIVE = 1: a sample every STAGES + this clock enables
     constant PERIOD_COUNT_LATENCY    : integer := 3;  -- fringe_period_count
-    constant TRIM_LATENCY            : integer := 12;  -- fringe_trim
+    constant TRIM_LATENCY            : integer := 13;  -- fringe_trim
     constant LONG_PERIOD_LATENCY     : integer := 8;  -- fringe_long_period
     constant DRIFT_NORM_LATENCY      : integer := 4;  -- fringe_drift normaliser
     constant DRIFT_OBS_LATENCY       : integer := 15;  -- fringe_drift observer
@@ -262,7 +264,8 @@ package body fringe_pkg is
                + cancel * CANCEL_LATENCY;
     end function core_latency;
 
-    impure function read_memh(fname : string; depth, width : positive; what : string) return word_array is
+    impure function read_memh(fname : string; depth, width : positive; what : string;
+                              first : natural := 0) return word_array is
         constant HEX_W : positive := 4 * ((width + 3) / 4);   -- a word rounded up to hex digits
         subtype image_t is word_array(0 to depth - 1)(width - 1 downto 0);
         type image_ptr_t is access image_t;
@@ -282,7 +285,7 @@ package body fringe_pkg is
         file_open(stat, f, fname, read_mode);
         assert stat = open_ok
             report what & ": cannot open """ & fname & """" severity failure;
-        while not endfile(f) and n < depth loop
+        while not endfile(f) and n < first + depth loop
             readline(f, l);
             while l'length > 0 loop                           -- skip leading blanks
                 exit when l(l'left) /= ' ' and l(l'left) /= HT;
@@ -301,8 +304,10 @@ package body fringe_pkg is
                 report what & " """ & fname & """ word " & integer'image(n) & " is not a hex number of "
                        & integer'image(HEX_W / 4) & " digits"
                 severity failure;
-            m(n) := w(width - 1 downto 0);
-            n    := n + 1;
+            if n >= first then
+                m(n - first) := w(width - 1 downto 0);
+            end if;
+            n := n + 1;
         end loop;
         file_close(f);
         return m.all;

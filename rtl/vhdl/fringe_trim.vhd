@@ -3,7 +3,7 @@
 -- subtracted from the position.
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_trim.v (same generics, ports and behaviour).
--- LATENCY = 12 clock enables, one sample per clock; ce = 0 freezes
+-- LATENCY = 13 clock enables, one sample per clock; ce = 0 freezes
 -- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_trim.md.
 -- Bit-exact model: model/fringe/fixed/trim.py.
@@ -98,6 +98,7 @@ architecture rtl of fringe_trim is
     constant SS_W    : integer := S_W - G_SHIFT;                    -- the sum >>> G_SHIFT
     constant VR_W    : integer := maximum(TW, TRIM_FRAC) + 2;       -- value + 2^(TRIM_FRAC-1)
     constant MR_W    : integer := VR_W + 1;                         -- + the interpolated step
+    constant MAP_PIECE_W : integer := 11;                           -- map RAM pieces of 2048 words (u_map)
     constant TT_W    : integer := maximum(MR_W, SS_W) + 1;          -- total (+ 2^(TRIM_FRAC-1))
     constant C_W     : integer := TT_W - TRIM_FRAC;                 -- corr before clipping
     constant CX_W    : integer := maximum(C_W, FINE_W) + 1;         -- corr, sign-extended
@@ -130,7 +131,7 @@ architecture rtl of fringe_trim is
     signal fill     : unsigned(SPEED_LOG2 downto 0);   -- accepted samples since reset, saturating at N
     signal accept   : std_logic;
 
-    signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s10_pos
+    signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s11_pos
                     : unsigned(POS_W - 1 downto 0);
     signal s1_mag, s2_mag, s3_mag, s4_mag, s6_mag : unsigned(AMP_W - 1 downto 0);
     signal s1_bank, s2_bank, s3_bank, s4_bank : std_logic;
@@ -138,18 +139,18 @@ architecture rtl of fringe_trim is
     signal s2_sector, s3_sector, s4_sector : unsigned(PSI_R - 1 downto 0);
     signal s3_d     : signed(POS_W downto 0);
     signal s4_speed, s6_speed : signed(POS_W - 1 downto 0);
-    signal s4_dir, s10_dir, s11_dir : std_logic;
+    signal s4_dir, s11_dir, s12_dir : std_logic;
     signal s6_carry  : std_logic_vector(POS_W + AMP_W - 1 downto 0);   -- {speed, mag} at stage 6
-    signal s10_carry : std_logic_vector(POS_W downto 0);               -- {dir, pos} at stage 10
-    signal s6_carry_valid, s10_carry_valid : std_logic;
+    signal s11_carry : std_logic_vector(POS_W downto 0);               -- {dir, pos} at stage 11
+    signal s6_carry_valid, s11_carry_valid : std_logic;
     signal s6_gs, s6_ga : std_logic_vector(GW - 1 downto 0);   -- from the gain tables
     signal p_sg     : std_logic_vector(POS_W + GW - 1 downto 0);   -- speed x gs
     signal p_ma     : std_logic_vector(AMP_W + GW - 1 downto 0);   -- mag x ga
-    signal s8_m     : std_logic_vector(MR_W - 1 downto 0);      -- from the map
-    signal s9_am, s10_a : unsigned(A_W - 1 downto 0);
-    signal s11_corr : signed(FINE_W - 1 downto 0);
-    signal s11_sat, s11_neg : std_logic;
-    signal s11_pos, s11_alt : signed(WW - 1 downto 0);
+    signal s9_m     : std_logic_vector(MR_W - 1 downto 0);      -- from the map
+    signal s10_am, s11_a : unsigned(A_W - 1 downto 0);
+    signal s12_corr : signed(FINE_W - 1 downto 0);
+    signal s12_sat, s12_neg : std_logic;
+    signal s12_pos, s12_alt : signed(WW - 1 downto 0);
 
     signal gain_rd_addr : std_logic_vector(MAP_PHI_W downto 0);
     signal map_rd_addr  : std_logic_vector(MA_W downto 0);
@@ -207,8 +208,9 @@ begin
         map_rd_addr <= s4_bank & s4_dir & std_logic_vector(s4_pos(FINE_W - 1 downto FB));
     end generate g_addr_sector;
 
-    -- gs, ga (stages 3..6) and m + 2^(TRIM_FRAC-1) (stages 5..8) = value (+ 2^(TRIM_FRAC-1))
-    -- + ((slope * frac + 2^(FB-1)) >>> FB)
+    -- gs, ga (stages 3..6) and m + 2^(TRIM_FRAC-1) (stages 5..9) = value (+ 2^(TRIM_FRAC-1))
+    -- + ((slope * frac + 2^(FB-1)) >>> FB). The map lies in RAM pieces of 2^MAP_PIECE_W words, each
+    -- registered before the registered select (see the Verilog).
     u_speed : entity work.fringe_interp_table
         generic map (ADDR_W => MAP_PHI_W, W => TW, FB => FB, OUT_W => GW, ROUND_SHIFT => 0,
                      INIT_FILE => SPEED_INIT)
@@ -223,11 +225,11 @@ begin
 
     u_map : entity work.fringe_interp_table
         generic map (ADDR_W => MA_W, W => TW, FB => FB, OUT_W => MR_W, ROUND_SHIFT => TRIM_FRAC,
-                     INIT_FILE => MAP_INIT)
+                     INIT_FILE => MAP_INIT, PIECE_W => MAP_PIECE_W)
         port map (clk => clk, ce => ce, wr_en => wr_en_map, wr_addr => wr_addr, wr_data => wr_data,
-                  rd_addr => map_rd_addr, frac => map_frac, result => s8_m);
+                  rd_addr => map_rd_addr, frac => map_frac, result => s9_m);
 
-    -- ---- 5, 6: speed and magnitude carried beside the tables; 5..10: direction and position -------------
+    -- ---- 5, 6: speed and magnitude carried beside the tables; 5..11: direction and position -------------
     u_gain_carry : entity work.fringe_delay
         generic map (WIDTH => POS_W + AMP_W, DEPTH => 2)
         port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
@@ -237,19 +239,19 @@ begin
     s6_mag   <= unsigned(s6_carry(AMP_W - 1 downto 0));
 
     u_pos_carry : entity work.fringe_delay
-        generic map (WIDTH => 1 + POS_W, DEPTH => 6)
+        generic map (WIDTH => 1 + POS_W, DEPTH => 7)
         port map (clk => clk, rst => rst, ce => ce, in_valid => '0', in_data => s4_dir & std_logic_vector(s4_pos),
-                  out_valid => s10_carry_valid, out_data => s10_carry);
-    s10_dir <= s10_carry(POS_W);
-    s10_pos <= unsigned(s10_carry(POS_W - 1 downto 0));
+                  out_valid => s11_carry_valid, out_data => s11_carry);
+    s11_dir <= s11_carry(POS_W);
+    s11_pos <= unsigned(s11_carry(POS_W - 1 downto 0));
 
-    -- ---- 7..9: the gain products in 18x18 partial products (speed x gs 3 stages, mag x ga 2) ----------
+    -- ---- 7..10: the gain products in 18x18 partial products (speed x gs 4 stages, mag x ga 3) ---------
     u_speed_gain : entity work.fringe_split_mul
-        generic map (A_W => POS_W, A_SIGNED => 1, B_W => GW, B_SIGNED => 1, LATENCY => 3)
+        generic map (A_W => POS_W, A_SIGNED => 1, B_W => GW, B_SIGNED => 1, LATENCY => 4)
         port map (clk => clk, ce => ce, a => std_logic_vector(s6_speed), b => s6_gs, p => p_sg);
 
     u_amp_gain : entity work.fringe_split_mul
-        generic map (A_W => AMP_W, A_SIGNED => 0, B_W => GW, B_SIGNED => 1, LATENCY => 2)
+        generic map (A_W => AMP_W, A_SIGNED => 0, B_W => GW, B_SIGNED => 1, LATENCY => 3)
         port map (clk => clk, ce => ce, a => std_logic_vector(s6_mag), b => s6_ga, p => p_ma);
 
     -- ---- the data pipeline --------------------------------------------------------------------------
@@ -316,20 +318,20 @@ begin
                 s4_bank   <= s3_bank;
                 s4_sector <= s3_sector;
 
-                -- 5, 6: speed and magnitude carried beside the tables (u_gain_carry); 5..10: direction
-                -- and position (u_pos_carry); 7..9: speed x gs (u_speed_gain, 3 stages), mag x ga
-                -- (u_amp_gain, 2 stages)
+                -- 5, 6: speed and magnitude carried beside the tables (u_gain_carry); 5..11: direction
+                -- and position (u_pos_carry); 7..10: speed x gs (u_speed_gain, 4 stages), mag x ga
+                -- (u_amp_gain, 3 stages)
 
-                -- 9: mag x ga + (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields)
-                tm    := term(signed(s8_m), G_SHIFT);
+                -- 10: mag x ga + (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields)
+                tm    := term(signed(s9_m), G_SHIFT);
                 tm(G_SHIFT - 1) := '1';
-                s9_am <= term(signed(p_ma), 0) + tm;
+                s10_am <= term(signed(p_ma), 0) + tm;
 
-                -- 10: A; A >>> G_SHIFT = total + 2^(TRIM_FRAC-1)
-                s10_a <= term(signed(p_sg), 0) + s9_am;
+                -- 11: A; A >>> G_SHIFT = total + 2^(TRIM_FRAC-1)
+                s11_a <= term(signed(p_sg), 0) + s10_am;
 
-                -- 11: corr = total >>> TRIM_FRAC clipped to s(FINE_W); pos -+ REV for stage 12
-                corr_x := resize(signed(s10_a(A_W - 1 downto G_SHIFT + TRIM_FRAC)), CX_W);
+                -- 12: corr = total >>> TRIM_FRAC clipped to s(FINE_W); pos -+ REV for stage 13
+                corr_x := resize(signed(s11_a(A_W - 1 downto G_SHIFT + TRIM_FRAC)), CX_W);
                 -- in range <=> bits CX_W-1 .. FINE_W-1 all equal the sign
                 if corr_x(CX_W - 1) = '1' then
                     over := not (corr_x(CX_W - 1 downto FINE_W - 1) = (CX_W - FINE_W downto 0 => '1'));
@@ -337,30 +339,30 @@ begin
                     over := corr_x(CX_W - 1 downto FINE_W - 1) /= (CX_W - FINE_W downto 0 => '0');
                 end if;
                 if not over then
-                    s11_corr <= corr_x(FINE_W - 1 downto 0);
+                    s12_corr <= corr_x(FINE_W - 1 downto 0);
                 elsif corr_x(CX_W - 1) = '1' then
-                    s11_corr <= CLIP_LO;
+                    s12_corr <= CLIP_LO;
                 else
-                    s11_corr <= CLIP_HI;
+                    s12_corr <= CLIP_HI;
                 end if;
-                s11_sat <= '1' when over else '0';
-                s11_neg <= corr_x(CX_W - 1);
-                s11_dir <= s10_dir;
-                pos_x   := signed(resize(s10_pos, WW));
-                s11_pos <= pos_x;
+                s12_sat <= '1' when over else '0';
+                s12_neg <= corr_x(CX_W - 1);
+                s12_dir <= s11_dir;
+                pos_x   := signed(resize(s11_pos, WW));
+                s12_pos <= pos_x;
                 -- corr < 0: pos - corr may reach REV, alternative pos - REV - corr;
                 -- corr >= 0: pos - corr may fall below 0, alternative pos + REV - corr
                 if corr_x(CX_W - 1) = '1' then
-                    s11_alt <= pos_x - REV_W;
+                    s12_alt <= pos_x - REV_W;
                 else
-                    s11_alt <= pos_x + REV_W;
+                    s12_alt <= pos_x + REV_W;
                 end if;
 
-                -- 12: pos - corr, wrapped into [0, REV)
-                corr_w := resize(s11_corr, WW);
-                a := s11_pos - corr_w;
-                b := s11_alt - corr_w;
-                if s11_neg = '1' then
+                -- 13: pos - corr, wrapped into [0, REV)
+                corr_w := resize(s12_corr, WW);
+                a := s12_pos - corr_w;
+                b := s12_alt - corr_w;
+                if s12_neg = '1' then
                     use_b := b(WW - 1) = '0';
                 else
                     use_b := a(WW - 1) = '1';
@@ -370,8 +372,8 @@ begin
                 else
                     pos_out <= std_logic_vector(a(POS_W - 1 downto 0));
                 end if;
-                dir <= s11_dir;
-                sat <= s11_sat;
+                dir <= s12_dir;
+                sat <= s12_sat;
             end if;
         end if;
     end process p_data;

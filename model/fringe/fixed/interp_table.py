@@ -10,10 +10,15 @@ from __future__ import annotations
 
 from .table_ram import interpolate
 
-__all__ = ["LATENCY", "field", "interp_result"]
+__all__ = ["LATENCY", "field", "interp_result", "latency"]
 
-#: Clock enables from rd_addr/frac to result in the RTL.
-LATENCY = 4
+LATENCY = 4   # clock enables from rd_addr/frac to result (PIECE_W = 0)
+
+
+def latency(piece_w: int = 0) -> int:
+    """LATENCY of the HDL: 4 clock enables, 5 with PIECE_W > 0 (each RAM piece registered, then the
+    registered select)."""
+    return LATENCY + (1 if piece_w > 0 else 0)
 
 
 def field(word: int, lsb: int, w: int) -> int:

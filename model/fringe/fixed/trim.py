@@ -23,7 +23,7 @@ overflow): `trim_words` computes with raw words, `trim` with values (slopes deri
 Everything is vectorised numpy int64: the widest product is s(POS_W) x s(TRIM_W + 1) or
 u(AMP_W) x s(TRIM_W + 1), below 2^57, and their sum with the rounding constant below 2^59.
 
-The RTL has ``LATENCY = 12`` enabled clocks (stage list in ``docs/blocks/fringe_trim.md`` and the HDL headers).
+The RTL has ``LATENCY = 13`` enabled clocks (stage list in ``docs/blocks/fringe_trim.md`` and the HDL headers).
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ __all__ = [
 ]
 
 #: Enabled clocks from ``in_valid`` to ``out_valid`` in the RTL.
-LATENCY = 12
+LATENCY = 13
 #: Largest SECT_SHIFT the HDL accepts (its elaboration check computes with 256-bit constants).
 SECT_SHIFT_MAX = 127
 NAME = "fringe_trim"
@@ -198,7 +198,7 @@ class TrimParams(PositionWidths):
 
     @property
     def latency(self) -> int:
-        """LATENCY: enabled clocks from in_valid to out_valid, 12."""
+        """LATENCY: enabled clocks from in_valid to out_valid, 13."""
         return LATENCY
 
     def hdl_parameters(self) -> dict[str, int]:
