@@ -264,7 +264,7 @@ if cocotb is not None:
 
     @cocotb.test()
     async def trim_latency(dut):
-        """One sample: out_valid exactly LATENCY = 13 clocks later, for one clock, with the model's word."""
+        """One sample: out_valid exactly LATENCY (the model's constant) clocks later, for one clock, with its word."""
         p, user_w, seed = _config()
         assert len(dut.pos) == p.pos_w and len(dut.pos_out) == p.pos_w and len(dut.mag) == p.amp_w
         assert len(dut.wr_data) == p.word_w and len(dut.wr_addr) == p.wr_addr_w and len(dut.wr_sel) == 2
