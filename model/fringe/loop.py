@@ -505,11 +505,11 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
             min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
         order = revolution_order(f, abs(rate), fs, ev.ctx.lines, 1.5 * bin_hz) if rate else 0
         harmonic = order >= 1
-        if harmonic:     # at a steady speed a revolution harmonic covers every few bins: say so, do not drop it
+        ripple = update_ripple(f, ev.cal, fs, electrical, 1.5 * bin_hz) if electrical else ""
+        if harmonic and not ripple:     # a steady revolution harmonic covers every few bins: say so, keep it
             notes.append(f"the line at {f:.3f} Hz is harmonic {order} of the steady revolution rate "
                          f"({abs(rate):.4g} rev/s): in the angle alone a vibration and a position error at that order "
                          "look the same within one recording; it is corrected as a tone in time (ambiguous)")
-        ripple = update_ripple(f, ev.cal, fs, electrical, 1.5 * bin_hz) if electrical else None
         if ripple:
             notes.append(f"the line at {f:.3f} Hz is {ripple}: the core makes it, so it is not a tone of the set-up")
         elif not sideband:
@@ -535,33 +535,9 @@ def strided(ev: Evaluation) -> Evaluation:
     return Evaluation(r, ev.ctx.rows(sl), ev.figures, float(np.sqrt(np.mean(r * r))), None, ev.cal)
 
 
-MAGNITUDE_RIPPLE_ORDERS = 4    # fine-phase orders of the magnitude taken out of the amplitude effect's evidence
-
-
-def magnitude_evidence(ev: Evaluation) -> Evaluation:
-    """`ev` with the magnitude's part that follows the fine phase and the speed taken out (orders 1..4, fixed and in
-    proportion to the speed's change, and the speed's change itself): what is left is the amplitude's change over
-    time and the revolution, the evidence of an amplitude effect. A channel skew moves the magnitude at order 2 in
-    proportion to the speed, and behind the conic (which takes the mean skew) its mean as well, by tan(delta0)
-    times the change; offsets move it at order 1. With that in it a magnitude shape stands in for a skew (9247: a
-    magnitude term named amplitude beside a skew, validation error 7x the floor). The corrections are still fitted
-    on the magnitude the core measures."""
-    ctx = ev.ctx
-    dv = ctx.speed - np.mean(ctx.speed)
-    cols = [np.ones_like(ctx.phi), dv]
-    for k in range(1, MAGNITUDE_RIPPLE_ORDERS + 1):
-        for f in (np.cos(k * ctx.phi), np.sin(k * ctx.phi)):
-            cols += [f, f * dv]
-    x = np.column_stack(cols)
-    w = np.linalg.lstsq(x, ctx.magnitude, rcond=None)[0]
-    slow = ctx.magnitude - x[:, 1:] @ w[1:]
-    return dataclasses.replace(ev, ctx=dataclasses.replace(ctx, magnitude=slow))
-
-
 def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
     tests, skipped = [], {}
     ev = strided(ev_full)
-    ev_mag = magnitude_evidence(ev)
     for name in LIBRARY:
         if name in exclude:
             continue
@@ -569,7 +545,7 @@ def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Te
         if why:
             skipped[name] = why
             continue
-        tests.append(test_library_effect(ev_mag if name == "amplitude" else ev, LIBRARY[name], sigma))
+        tests.append(test_library_effect(ev, LIBRARY[name], sigma))
     known_hz = [float(e.split("@")[1]) for e in exclude if "@" in e]
     lines, notes = tone_candidates(ev_full, known_hz)
     for name, f, p_line, harmonic in lines:
@@ -580,7 +556,7 @@ def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Te
     if notes:
         skipped["tones"] = "; ".join(notes)
     if ev.rms > GENERIC_ABOVE_FLOOR * sigma:      # near the floor nothing is left for a shape without a name
-        tests += generic_candidates(ev, sigma, exclude, ev_mag)
+        tests += generic_candidates(ev, sigma, exclude)
     return tests, skipped
 
 
@@ -647,26 +623,25 @@ def generic_cv(ev: Evaluation, factor: str) -> tuple[float, float, str]:
     return best
 
 
-def generic_candidates(ev: Evaluation, sigma: float, exclude: set, ev_mag: Evaluation | None = None) -> list[Test]:
+def generic_candidates(ev: Evaluation, sigma: float, exclude: set) -> list[Test]:
     """The general dictionary: for each factor, fine-phase orders 0..K (and revolution orders 1..M) chosen by
     two-fold cross-validation on interleaved blocks of the fit data (fitted on one half, scored on the other,
     and the other way round); the best order of each factor is offered as a "generic" term when it lowers
-    the held-out error by at least MIN_GAIN. The magnitude's factors are judged on `ev_mag` (the magnitude
-    without its fine-phase ripple, `magnitude_evidence`) when given."""
-    if len(ev.r) < 2000:
+    the held-out error by at least MIN_GAIN."""
+    ctx, r = ev.ctx, ev.r
+    if len(r) < 2000:
         return []
     out = []
     for factor in GENERIC_FACTORS:
         need = GENERIC_NEEDS.get(factor)
-        if need and testable(GENERIC_PROBE[need], ev.ctx, ev.cal):
+        if need and testable(GENERIC_PROBE[need], ctx, ev.cal):
             continue
         if any(e.startswith(f"generic:{factor}:") for e in exclude):
             continue
-        on = ev_mag if ev_mag is not None and FACTOR_EFFECT.get(factor) == "amplitude" else ev
-        held, base, name = generic_cv(on, factor)
+        held, base, name = generic_cv(ev, factor)
         if held > (1 - MIN_GAIN) ** 2 * base:
             continue
-        out.append(test_terms(on.r, lambda sl, nm=name, c=on.ctx: generic_design(nm, c.rows(sl)), sigma, name))
+        out.append(test_terms(r, lambda sl, nm=name: generic_design(nm, ctx.rows(sl)), sigma, name))
     return out
 
 
@@ -727,19 +702,14 @@ def speed_holds(shape: Test, good: list[Test]) -> bool:
                or (t.name.startswith("generic:") and GENERIC_NEEDS.get(parse_generic(t.name)[0]) == "speed"))
 
 
-def named_shape(best: Test, tests: list[Test], rms: float, good: list[Test], cal: Calibration) -> Test:
+def named_shape(best: Test, tests: list[Test], rms: float) -> Test:
     """A shape of the general dictionary is the wider form of the library effect of its factor when that effect
     is itself present (its fixed shape significant, and it matters): the name goes with it (as `widen` does the
-    other way round). A magnitude shape is amplitude by its evidence alone (it was judged on the magnitude
-    without its fine-phase and speed ripple, `magnitude_evidence`), unless a speed shape explains half as much or
-    an online correction (drift tracker, canceller) is there to change the magnitude: the library's fixed shape
-    (orders 0 and 2) misses an amplitude-dependent waveform error at odd orders (9144)."""
+    other way round)."""
     if not best.name.startswith("generic:") or best.label:
         return best
     effect = generic_effect(best.name)
     if any(t.name == effect and t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * rms for t in tests):
-        best.label = effect
-    elif effect == "amplitude" and not speed_holds(best, good) and not (cal.adaptive or cal.canceller):
         best.label = effect
     return best
 
@@ -1089,7 +1059,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         n = len(ev_fit.r)
         best = min(good, key=lambda t: n * np.log(t.rms_after ** 2) + t.dof * np.log(n))
         best = widen(best, strided(ev_fit), sigma)
-        best = named_shape(best, tests, ev_fit.rms, good, state.cal)
+        best = named_shape(best, tests, ev_fit.rms)
         # a line is excluded by its frequency (a recording may hold several), every other term by its name
         excluded.update({f"{best.name}@{best.tone_hz!r}"} if best.tone_hz else {best.name, best.label} - {""})
         remedy = ""
