@@ -268,3 +268,24 @@ def test_the_noise_floor_is_not_inflated_by_a_fast_electrical_rate():
         ctx = Context(phi, np.zeros(n), t, ones, 0 * ones, ones, ones, 1000)
         used, info = loop.noise_floor(loop.Evaluation(r, ctx, {}, float(np.std(r))))
         assert abs(used / sigma - 1) <= 0.1, (sigma, info)
+
+
+def test_a_line_the_online_blocks_make_is_not_a_tone():
+    """At a steady speed the drift tracker's block updates mix with the fine phase's harmonics, and its lag leaves
+    the orders it tracks: such lines are the core's own (update_ripple names them); a line elsewhere is not."""
+    from types import SimpleNamespace
+
+    fs, fe, tol = 10_000.0, 54.31, 0.9
+    cal = SimpleNamespace(adaptive=True, tracker={"drift_block_log2": 8}, canceller={})
+    rate = fs / 256
+    assert "drift tracker" in loop.update_ripple(7 * fe - rate, cal, fs, fe, tol)
+    assert "drift tracker" in loop.update_ripple(fe, cal, fs, fe, tol)
+    assert loop.update_ripple(7 * fe - rate + 3 * tol, cal, fs, fe, tol) == ""
+    assert loop.update_ripple(1234.5, cal, fs, fe, tol) == ""
+    # folded by the sampling: 2 x fe + 4 x rate past Nyquist comes back below it
+    high = 0.45 * fs
+    cal_c = SimpleNamespace(adaptive=False, tracker={}, canceller={"cancel_block_log2": 4})
+    f = abs((2 * high + 4 * fs / 16 + fs / 2) % fs - fs / 2)
+    assert "canceller" in loop.update_ripple(f, cal_c, fs, high, tol)
+    # nothing online: nothing is ripple, not even the electrical frequency
+    assert loop.update_ripple(fe, SimpleNamespace(adaptive=False, tracker={}, canceller={}), fs, fe, tol) == ""
