@@ -120,7 +120,7 @@ module fringe_interp_table #(
                 `FRINGE_MEM_INIT_SLICE(INIT_FILE, mem, FIRST, 1 << PW, 2 * W)
 
                 // The index is the image address {K, low bits}: wider than 2^PW words need, by design.
-                /* verilator lint_off WIDTHTRUNC */
+                /* verilator lint_off WIDTH */
                 always @(posedge clk) begin
                     if (wr_en && wr_hi == K) begin
                         mem[wa[A_W-1:0]] <= wr_data;
@@ -132,7 +132,7 @@ module fringe_interp_table #(
                         q <= mem[ra[A_W-1:0]];
                     end
                 end
-                /* verilator lint_on WIDTHTRUNC */
+                /* verilator lint_on WIDTH */
                 assign piece_q[gp*2*W +: 2*W] = q;
                 wire unused_k = &{1'b0, wa[A_W], ra[A_W]};
             end
