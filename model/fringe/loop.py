@@ -423,49 +423,49 @@ def channel_errors(ev: Evaluation) -> np.ndarray | None:
     return best[1]
 
 
+def folded(f, fs: float):
+    """Frequencies as the sampling at fs sees them, folded into 0..fs/2."""
+    return np.abs((f + fs / 2) % fs - fs / 2)
+
+
 def revolution_order(f: float, rate: float, fs: float, lines: int, tol: float) -> int:
     """The lowest revolution order n whose frequency n x rate, folded into 0..fs/2 by the sampling, lies within
     `tol` of f (0: none). Orders up to WAVE_HARMONICS times the lines: a position error at a high fine-phase order
     (sidebands of the electrical frequency's harmonics) is sampled as well as a low one."""
     n = np.arange(1, WAVE_HARMONICS * max(lines, 1) + 3)
-    folded = np.abs((n * rate + fs / 2) % fs - fs / 2)
-    hits = np.flatnonzero(np.abs(folded - f) <= tol)
+    hits = np.flatnonzero(np.abs(folded(n * rate, fs) - f) <= tol)
     return int(n[hits[0]]) if len(hits) else 0
 
 
 UPDATE_ORDERS = 4       # multiples of an online block's update rate, and the electrical harmonics, whose mixing
-RIPPLE_HARMONICS = 8    # is that block's own ripple (9 x 4 x 2 lines: a few % of the band leave the tone search)
+RIPPLE_HARMONICS = 8    # is that block's own ripple (9 x 8 lines: a few % of the band leave the tone search)
 
 
 def update_ripple(f: float, cal: Calibration | None, fs: float, electrical: float, tol: float) -> str:
     """Whether a line at f (Hz) is an online block's ripple at a steady speed: the drift tracker and the canceller
     change their state once per block of 2^BLOCK_LOG2 samples, and the step mixes with the fine phase's harmonics
-    into lines at |k fe +- j fs / 2^BLOCK_LOG2| (folded by the sampling); the tracker's lag leaves the orders of
-    what it tracks. A "tone" there would be an artefact of the set-up corrected away from the score, while the
-    core itself makes it. Returns the explanation, or ""."""
+    into lines at |k fe + j fs / 2^BLOCK_LOG2| (folded by the sampling); the tracker's lag leaves the orders of
+    what it tracks, offsets and gains (k = 1, 2 with j = 0; 9227: 340.66 Hz at 341.2 Hz electrical). A "tone"
+    there would be an artefact of the set-up corrected away from the score, while the core itself makes it.
+    Returns the explanation, or ""."""
     if cal is None:
         return ""
-    blocks = {"the drift tracker's": cal.tracker.get("drift_block_log2") if cal.adaptive else None,
-              "the canceller's": cal.canceller.get("cancel_block_log2") if cal.canceller else None}
     k = np.arange(0, RIPPLE_HARMONICS + 1)[:, None]
-    for who, log2 in blocks.items():
+    j = np.arange(-UPDATE_ORDERS, UPDATE_ORDERS + 1)[None, :]
+    blocks = (("the drift tracker's", cal.tracker.get("drift_block_log2") if cal.adaptive else None, True),
+              ("the canceller's", cal.canceller.get("cancel_block_log2") if cal.canceller else None, False))
+    for who, log2, lag in blocks:
         if log2 is None:
             continue
         rate = fs / (1 << int(log2))
-        j = np.arange(1, UPDATE_ORDERS + 1)[None, :]
-        for sign in (1.0, -1.0):
-            line = np.abs((k * electrical + sign * j * rate + fs / 2) % fs - fs / 2)
-            hit = np.argwhere(np.abs(line - f) <= tol)
-            if len(hit):
-                kk, jj = int(k[hit[0][0], 0]), int(j[0, hit[0][1]])
-                return (f"{kk} x the electrical frequency {'+' if sign > 0 else '-'} {jj} x {who} update rate "
-                        f"({rate:.4g} Hz)")
-    if cal.adaptive:
-        # what the tracker follows late, offsets and gains, are fine-phase orders 1 and 2: at a steady speed, lines
-        # at the electrical frequency and its double (9227: 340.66 Hz at 341.2 Hz electrical)
-        for kk in (1, 2):
-            if abs(abs((kk * electrical + fs / 2) % fs - fs / 2) - f) <= tol:
+        own = (j != 0) | (lag & (k >= 1) & (k <= 2))
+        hit = np.argwhere(own & (np.abs(folded(k * electrical + j * rate, fs) - f) <= tol))
+        if len(hit):
+            kk, jj = int(k[hit[0][0], 0]), int(j[0, hit[0][1]])
+            if jj == 0:
                 return f"{kk} x the electrical frequency, the order of the offsets and gains the drift tracker follows"
+            return (f"{kk} x the electrical frequency {'+' if jj > 0 else '-'} {abs(jj)} x {who} update rate "
+                    f"({rate:.4g} Hz)")
     return ""
 
 
@@ -1081,7 +1081,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
                  "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
         cause = magnitude_cause(state, remedy)
-        if cause and (remedy in (PHASE_DOMAIN, NORMALISER) or cause != "amplitude"):
+        if cause:
             entry.update(name=cause, **{k: v for k, v in describe(cause).items() if k != "where"})
             if cause != "amplitude":
                 entry["evidence"] += (f"; the magnitude changes that the {cause} correction leaves, made harmless "
@@ -1123,21 +1123,19 @@ PHASE_DOMAIN_WHERE = ("the waveform stage made straight (a common gain change th
 
 
 def magnitude_cause(state: LoopState, remedy: str) -> str:
-    """The effect a gain-invariant remedy of magnitude-dependent error corrects ("" for a plain magnitude term).
+    """The name a gain-invariant remedy of magnitude-dependent error is reported under ("" to keep the term's own).
 
     An effect already corrected online changes the signals' magnitude by what its correction leaves: the drift
     tracker follows the gains late, the canceller converges from reset and leaves the tone's ripple on the
     Lissajous radius. The per-channel waveform inverse turns such magnitude changes into angle error, and the
-    straight waveform stage of the phase-domain structure does not: then the remedy is that effect's correction
-    (its report names it), not a second cause. Otherwise the magnitude changes by themselves: amplitude."""
-    if not remedy:
-        return ""
+    straight waveform stage of the phase-domain structure does not: then the remedy is that effect's correction,
+    not a second cause. Gain invariance alone (the phase domain or the normaliser) is amplitude."""
     if remedy.startswith(PHASE_DOMAIN):
         if state.cal.adaptive:
             return "drift"
         if state.cal.canceller:
             return "interference"
-    return "amplitude"
+    return "amplitude" if remedy in (PHASE_DOMAIN, NORMALISER) else ""
 
 
 def engine_rms(state: LoopState, meas: Measurement) -> float | None:
