@@ -51,14 +51,19 @@ class Context:
 
 
 def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int) -> np.ndarray:
-    """Causal speed (rev/s): the position change over the last 2^log2_window samples, 0 until the
-    window is full. Exactly what fringe_trim computes in fine counts (model/fringe/fixed/trim.py), with the
-    window the generator gives it (fixed.trim.speed_window_log2)."""
-    n = 1 << log2_window
-    v = np.zeros(len(rev_unwrapped))
-    if len(v) > n:
-        dt = t[n:] - t[:-n]
-        v[n:] = (rev_unwrapped[n:] - rev_unwrapped[:-n]) / np.where(dt > 0, dt, 1.0)
+    """Causal speed (rev/s): the position change over the last 2^log2_window samples; before that many samples
+    came, over the longest power of two of samples there are (1, 2, 4, ...: a start-up has a speed from its
+    second sample on), 0 at the first. Exactly what fringe_trim computes in fine counts
+    (model/fringe/fixed/trim.py), with the window the generator gives it (fixed.trim.speed_window_log2)."""
+    n = len(rev_unwrapped)
+    v = np.zeros(n)
+    full = 1 << log2_window
+    idx = np.arange(n)
+    # the window of each sample: 2^floor(log2(index)) up to the full window (none for the first)
+    w = np.minimum(np.where(idx > 0, 1 << np.floor(np.log2(np.maximum(idx, 1))).astype(np.int64), 0), full)
+    k = idx[w > 0]
+    dt = t[k] - t[k - w[k]]
+    v[k] = (rev_unwrapped[k] - rev_unwrapped[k - w[k]]) / np.where(dt > 0, dt, 1.0)
     return v
 
 

@@ -171,6 +171,7 @@ class Evaluation:
     rms: float
     meas: Measurement | None = None     # the recording (its channels for the channel-domain tests)
     cal: Calibration | None = None
+    ref_speed: np.ndarray | None = None  # the reference's speed over one electrical period (reference_motion)
 
 
 @dataclass
@@ -208,7 +209,7 @@ def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
         r = r - x @ w
     r = r - r.mean()
     fig = error_figures(r, res.frac, res.position / state.cal.encoder.lines_per_rev).to_dict()
-    return Evaluation(r, ctx, fig, float(np.sqrt(np.mean(r * r))), meas, state.cal)
+    return Evaluation(r, ctx, fig, float(np.sqrt(np.mean(r * r))), meas, state.cal, reference_motion(meas, ctx))
 
 
 def _design(name: str, ctx: Context, tone_hz: float = 0.0) -> np.ndarray:
@@ -314,20 +315,38 @@ def absolute(cal: Calibration | None) -> bool:
 SPEED_SPREAD = 0.01
 
 
-def motion_speed(ctx: Context) -> np.ndarray:
-    """The settled speed averaged over one electrical period: the motion's speed, not the estimator's ripple (a
-    short window's speed carries the fine-phase error's change at the electrical rate, which a steady motion
-    would pass off as a speed that changes)."""
-    v = settled_speed(ctx)
+def _period_mean(v: np.ndarray, ctx: Context) -> np.ndarray:
+    """v averaged over one electrical period."""
     step = np.mean(np.abs(np.diff(np.unwrap(ctx.phi)))) if len(ctx.phi) > 1 else 0.0
     per_period = int(round(2 * np.pi / step)) if step > 0 else 1
     return ndimage.uniform_filter1d(v, max(1, min(per_period, len(v) // 4)))
 
 
-def testable(name: str, ctx: Context, cal: Calibration | None = None) -> str | None:
-    """Why a domain cannot be tested on this recording (None if it can)."""
+def motion_speed(ctx: Context) -> np.ndarray:
+    """The settled speed averaged over one electrical period: the motion's speed, not the estimator's ripple (a
+    short window's speed carries the fine-phase error's change at the electrical rate, which a steady motion
+    would pass off as a speed that changes)."""
+    return _period_mean(settled_speed(ctx), ctx)
+
+
+def reference_motion(meas: Measurement, ctx: Context) -> np.ndarray | None:
+    """The reference's speed (rev/s) averaged over one electrical period: the motion as the reference saw it. The
+    encoder's own speed also carries its angle error's changes, which on an encoder of few lines vary over the
+    revolution even at a steady motion (a speed that seems to change, and a speed effect that seems present)."""
+    if meas is None or meas.ref_deg is None or len(meas.ref_deg) < 3:
+        return None
+    rev = np.unwrap(np.deg2rad(meas.ref_deg)) / (2 * np.pi)
+    t = sample_times(len(rev), meas.t_s)
+    dt = np.gradient(t)
+    return _period_mean(np.gradient(rev) / np.where(dt > 0, dt, 1.0), ctx)
+
+
+def testable(name: str, ctx: Context, cal: Calibration | None = None, ref_speed: np.ndarray | None = None
+             ) -> str | None:
+    """Why a domain cannot be tested on this recording (None if it can). ref_speed: the reference's speed
+    (reference_motion), which decides whether the motion's speed changes where there is one."""
     needs = LIBRARY[name].needs if name in LIBRARY else ("time",)
-    v = motion_speed(ctx)
+    v = motion_speed(ctx) if ref_speed is None else ref_speed
     if "speed" in needs and np.std(v) < SPEED_SPREAD * max(np.mean(np.abs(v)), 1e-12):
         return "the speed hardly changes in this recording, so speed effects cannot be told from a constant"
     if "direction" in needs and (np.all(ctx.direction > 0) or np.all(ctx.direction < 0)):
@@ -532,7 +551,8 @@ def strided(ev: Evaluation) -> Evaluation:
         return ev
     sl = slice(None, None, step)
     r = ev.r[sl]
-    return Evaluation(r, ev.ctx.rows(sl), ev.figures, float(np.sqrt(np.mean(r * r))), None, ev.cal)
+    return Evaluation(r, ev.ctx.rows(sl), ev.figures, float(np.sqrt(np.mean(r * r))), None, ev.cal,
+                      None if ev.ref_speed is None else ev.ref_speed[sl])
 
 
 def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
@@ -541,7 +561,7 @@ def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Te
     for name in LIBRARY:
         if name in exclude:
             continue
-        why = testable(name, ev.ctx, ev.cal)
+        why = testable(name, ev.ctx, ev.cal, ev.ref_speed)
         if why:
             skipped[name] = why
             continue
@@ -634,7 +654,7 @@ def generic_candidates(ev: Evaluation, sigma: float, exclude: set) -> list[Test]
     out = []
     for factor in GENERIC_FACTORS:
         need = GENERIC_NEEDS.get(factor)
-        if need and testable(GENERIC_PROBE[need], ctx, ev.cal):
+        if need and testable(GENERIC_PROBE[need], ctx, ev.cal, ev.ref_speed):
             continue
         if any(e.startswith(f"generic:{factor}:") for e in exclude):
             continue
@@ -756,7 +776,11 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
         new.cal = fit_rev_offset_gain(new.cal, shift_reference(fit_data, state.ref_lag_s))
     elif kind in ("hardware", "float engine"):
         new.cal.angle_terms.append(fitted)
-        new.cal = refit_angle_terms(new.cal, shift_reference(fit_data, state.ref_lag_s))
+        meas = shift_reference(fit_data, state.ref_lag_s)
+        tones = [a for a in new.artefacts if a.name == "tone"]
+        # with tones found before, the declared model is calibrated again without them (as when they were
+        # found): calibrated on readings that hold them, its long-period table would take part of them back
+        new.cal = refit_around_tone(new.cal, tones, meas) if tones else refit_angle_terms(new.cal, meas)
     elif kind == "adaptive":
         new.cal = choose_tracker(dataclasses.replace(new.cal, adaptive=True), new, fit_data)
     elif kind == "canceller":
@@ -1239,11 +1263,13 @@ def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
         "fine phase": ((ctx.phi, range(1, 33)), None, 64),
         "revolution": ((ctx.psi, range(1, 65)), None, 128),
         "fine phase x revolution": (lambda sl: LIBRARY["rev_offset_gain"].design(ctx.rows(sl)),
-                                    testable("rev_offset_gain", ctx), 32),
+                                    testable("rev_offset_gain", ctx, None, ev.ref_speed), 32),
         "time (trend)": (lambda sl: np.column_stack(_legendre_time(ctx.rows(sl))), None, 3),
-        "speed": (lambda sl: np.column_stack([ctx.speed[sl], ctx.speed[sl] ** 2]), testable("ref_lag", ctx), 2),
-        "acceleration": (lambda sl: ctx.accel[sl, None], testable("acceleration", ctx), 1),
-        "direction": (lambda sl: ctx.direction[sl, None].astype(float), testable("hysteresis", ctx), 1),
+        "speed": (lambda sl: np.column_stack([ctx.speed[sl], ctx.speed[sl] ** 2]),
+                  testable("ref_lag", ctx, None, ev.ref_speed), 2),
+        "acceleration": (lambda sl: ctx.accel[sl, None], testable("acceleration", ctx, None, ev.ref_speed), 1),
+        "direction": (lambda sl: ctx.direction[sl, None].astype(float),
+                      testable("hysteresis", ctx, None, ev.ref_speed), 1),
         "amplitude": (lambda sl: LIBRARY["amplitude"].design(ctx.rows(sl)), None, 3),
     }
     out = []
