@@ -457,7 +457,8 @@ module fringe_trim #(
 
     // Bits that carry nothing: the products' rounded-off bits and sign extension, the terms beyond
     // A_W bits, the fraction bits of A, the sign bits of the wrapped speed and of positions in [0, REV),
-    // the valid outputs of the delays that carry data only.
+    // the saturation's compares but their signs and the scaled speed above POS_W bits (the compares
+    // read them), the valid outputs of the delays that carry data only.
     wire unused = &{1'b0, t_sg, t_ma, t_m, s6_carry_valid, s11_carry_valid,
                     s11_a[G_SHIFT+TRIM_FRAC:0], d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x,
                     sc_x[SX_W-1:POS_W], sc_hi[SX_W-2:0], sc_lo[SX_W-2:0]};
