@@ -14,7 +14,9 @@ it reads:
 
 1. both banks from the INIT files (smooth tables in bank 0, arbitrary words with extremes in
    bank 1), the bank chosen per sample: full speed, then random in_valid gaps, ce stalls and
-   resets in mid-stream (the history refills: speed 0 again);
+   resets in mid-stream (the history refills: speed 0 for the first sample, then the start-up
+   windows of 1, 2, 4, ... samples scaled to N), and resets while moving fast both ways (the
+   scaled start-up speed saturates at -REV/2 and REV/2 - 1);
 2. bank 1 of all three tables rewritten through the write port (one word per clock, whatever ce
    is, junk on the bus when wr_en = 0, and writes that must be ignored: wr_sel = 3, small-table
    words beyond their size) while samples read bank 0 and earlier samples are in flight; a bank
@@ -115,12 +117,12 @@ def corners(p: TrimParams, rng: np.random.Generator) -> np.ndarray:
     return np.mod(np.concatenate([e, e + 1, e - 1]), p.rev)
 
 
-def motion(p: TrimParams, rng: np.random.Generator, n: int) -> np.ndarray:
+def motion(p: TrimParams, rng: np.random.Generator, n: int, v0: float = 0.0) -> np.ndarray:
     """Encoder-like positions: speed regimes (still, slow, fast, beyond REV/2 per window), smooth
-    reversals, wrapping through 0/REV, and 4 % jumps to corners."""
+    reversals, wrapping through 0/REV, and 4 % jumps to corners; starting at v0 windows per sample."""
     fast = p.rev / p.window
     v = np.empty(n)
-    i, cur = 0, 0.0
+    i, cur = 0, v0 * fast
     while i < n:
         k = int(rng.integers(20, 120))
         target = rng.choice([0.0, 1e-5, 1e-3, 0.05, 0.3, 0.7]) * fast * rng.choice([-1, 1])
@@ -153,8 +155,8 @@ def build_plan(p: TrimParams, user_w: int, seed: int):
         sel, addr, data = w
         return {"wr_en": 1, "wr_sel": sel, "wr_addr": addr, "wr_data": int(data)}
 
-    def section(n_samples, p_ce, p_valid, banks=(0, 1), resets=(), writes=None, note=""):
-        pos = motion(p, rng, n_samples)
+    def section(n_samples, p_ce, p_valid, banks=(0, 1), resets=(), writes=None, note="", v0=0.0):
+        pos = motion(p, rng, n_samples, v0)
         mag = np.where(rng.random(n_samples) < 0.1, rng.choice([0, (1 << p.amp_w) - 1], n_samples),
                        rng.integers(0, 1 << p.amp_w, n_samples))
         bank = rng.choice(banks, n_samples)
@@ -205,6 +207,9 @@ def build_plan(p: TrimParams, user_w: int, seed: int):
     # 1. both init banks, per-sample bank: full speed, then gaps, stalls and resets
     section(700, 1.0, 1.0, note="init tables, full speed")
     section(900, 0.75, 0.7, resets={150, 151, 470}, note="init tables, gaps, stalls, resets")
+    # resets in fast motion: the start-up speed (2^k samples scaled to N) saturates both ways
+    section(120, 0.9, 0.9, resets={0}, v0=0.7, note="reset moving forwards fast")
+    section(120, 1.0, 1.0, resets={0}, v0=-0.7, note="reset moving backwards fast")
     settle()
     # 2. bank 1 <- arbitrary words while samples read bank 0; then bank 1 only, then both
     ws = rewrite(1, raw_tables(p, rng), 160)
@@ -325,10 +330,15 @@ def test_plan_is_effective():
         assert set(exp[:, 1].tolist()) == {0, 1}, _id((p, user_w))                         # dir
         segs = accepted_segments(cycles)
         assert len(segs) >= 5 and all(len(s) > p.window for s in segs[1:])
-        # the speed restarts at 0 after every reset; it wraps (|speed| near REV/2)
-        for s in segs:
-            sp = speeds(np.array([cycles[i].drive["pos"] for i in s]), p)
-            assert not sp[:p.window].any()
+        # the speed restarts at 0 after every reset, then comes from the start-up windows (saturating
+        # both ways when they are scaled up; N = 1 has none)
+        half = p.rev // 2
+        sp = [speeds(np.array([cycles[i].drive["pos"] for i in s]), p) for s in segs]
+        assert all(x[0] == 0 for x in sp)
+        start = np.concatenate([x[1:p.window] for x in sp])
+        if p.window > 1:
+            assert {-half, half - 1} <= set(start.tolist()), _id((p, user_w))
+            assert ((start > -half) & (start < half - 1) & (start != 0)).sum() >= 3, _id((p, user_w))
         writes = [c for c in cycles if c.drive.get("wr_en")]
         assert any(not c.ce for c in writes) and {c.drive["wr_sel"] for c in writes} == {0, 1, 2, 3}
         # the saturation goes both ways (not reachable with G_SHIFT 48 and TRIM_FRAC 16)

@@ -161,7 +161,7 @@ def test_speed_and_dir_on_synthetic_motion():
     rng = np.random.default_rng(3)
     pos = motion(p, rng, n)
     sp = speeds(pos, p)
-    assert np.all(sp[:p.window] == 0)
+    assert sp[0] == 0 and np.all(sp[1:p.window] != 0)         # moving from the start: a start-up speed
     # reference: unwrapped trajectory differences (|true speed| < REV/2 here)
     un = np.concatenate([[0], np.cumsum(_wrap_ref(np.diff(pos), p.rev))])
     want = un[p.window:] - un[:-p.window]
@@ -188,7 +188,9 @@ def test_generated_speed_window_never_wraps_below_overspeed(lines):
     for sign in (1, -1):
         un = sign * step * np.arange(4 * p.window + 8, dtype=np.int64)
         sp = speeds(un % p.rev, p)
-        np.testing.assert_array_equal(sp[p.window:], sign * step * p.window)
+        # the start-up windows, scaled to N samples, give the same speed from the second sample on
+        assert sp[0] == 0
+        np.testing.assert_array_equal(sp[1:], sign * step * p.window)
 
 
 def _wrap_ref(d, rev):
@@ -206,6 +208,45 @@ def test_speed_wrap_limits():
     assert sp.min() >= -rev // 2 and sp.max() < rev // 2
 
 
+P8 = TrimParams(lines=4, fine_w=8, amp_w=8, speed_log2=3, map_psi_w=0, map_phi_w=4, trim_w=12, trim_frac=0,
+                g_shift=8)   # N = 8, REV = 1024
+
+
+def test_start_up_speed_by_hand():
+    """Before N samples: the longest power-of-two window there is, scaled to N samples (N = 8)."""
+    p = P8
+    pos = np.array([1000, 10, 30, 70, 100, 101, 105, 120, 140, 150])
+    # n: window, change  -> x 8 / window
+    # 1: 1, 10 - 1000 + 1024 = 34 -> 272;  2: 2, 30 - 1000 + 1024 = 54 -> 216;  3: 2, 70 - 10 = 60 -> 240
+    # 4: 4, 100 - 1000 + 1024 = 124 -> 248;  5: 4, 91 -> 182;  6: 4, 75 -> 150;  7: 4, 50 -> 100
+    # 8: 8, 140 - 1000 + 1024 = 164;  9: 8, 140 (the full window, as before)
+    assert speeds(pos, p).tolist() == [0, 272, 216, 240, 248, 182, 150, 100, 164, 140]
+    # a constant speed: the same from n = 1 on as after N samples, both ways, through 0/REV
+    for v in (3, -5, 63):
+        sp = speeds((900 + v * np.arange(40)) % p.rev, p)
+        assert sp[0] == 0 and np.all(sp[1:] == 8 * v)
+    # a stream shorter than a window, and one sample
+    assert speeds(pos[:3], p).tolist() == [0, 272, 216] and speeds(pos[:1], p).tolist() == [0]
+
+
+def test_start_up_speed_saturates():
+    """The scaled start-up speed is clipped to [-REV/2, REV/2 - 1] (never wraps silently); the sign, and dir
+    with it, is the window's."""
+    p = P8
+    half = p.rev // 2
+    pos = np.array([0, 64, 128, 200, 256, 300, 400, 500, 600])      # 64 per sample: 512 per 8 samples
+    sp = speeds(pos, p)
+    # n = 5: (300 - 64) * 2 = 472 fits; n = 8: the full window wraps 600 to -424, as before
+    assert sp.tolist() == [0, half - 1, half - 1, half - 1, half - 1, 472, half - 1, half - 1, -424]
+    sp = speeds((-pos) % p.rev, p)
+    assert sp.tolist() == [0, -half, -half, -half, -half, -472, -half, -half, 424]
+    # the wrap first (d = REV/2 -> -REV/2), then the scaling: -REV/2 * 8 clipped to -REV/2
+    assert speeds(np.array([0, half, 0]), p).tolist() == [0, -half, 0]
+    # a small start-up speed is exact; dir = speed < 0 throughout
+    r = trim_detail(np.array([5, 4, 4, 1000, 1010]), 0, *[pack_words(t, p) for t in zeros_tables(p)], p)
+    assert r["speed"].tolist() == [0, -8, -4, -112, -38] and r["dir"].tolist() == [0, 1, 1, 1, 1]
+
+
 # ---------------------------------------------------------------------------- datapath against a reference
 
 
@@ -214,11 +255,12 @@ def reference(pos, mag, mw, sw, aw, bank, p: TrimParams):
     out = []
     hist: list[int] = []
     for q, mg, b in zip(pos.tolist(), mag.tolist(), bank.tolist(), strict=True):
-        if len(hist) >= p.window:
-            d = q - hist[-p.window]
+        d = 0
+        if hist:    # the longest power-of-two window there is, up to N, scaled to N samples and clipped
+            w = min(1 << (len(hist).bit_length() - 1), p.window)
+            d = q - hist[-w]
             d = d - p.rev if 2 * d >= p.rev else (d + p.rev if 2 * d < -p.rev else d)
-        else:
-            d = 0
+            d = min(max(d * (p.window // w), -(p.rev // 2)), p.rev // 2 - 1)
         hist.append(q)
         dr = int(d < 0)
         phase = q % (1 << p.fine_w)

@@ -108,6 +108,14 @@ module fringe_trim #(
     localparam [T_W-1:0] RECIP_T = RECIP_X[T_W-1:0];
     localparam [WW-1:0]  REV_W   = REV64[WW-1:0];
     localparam [SPEED_LOG2:0] N_HA = N[SPEED_LOG2:0];         // N as a history address (bit SPEED_LOG2)
+    localparam integer SC_W    = POS_W + SPEED_LOG2;           // the speed scaled from a start-up window
+    localparam integer SX_W    = SC_W + 1;                     // and -+ REV/2 beside it
+    localparam [63:0]  HALF64  = REV64 >> 1;
+    localparam [SX_W-1:0]  HALF_X  = HALF64[SX_W-1:0];
+    localparam [63:0]  SAT_HI64 = HALF64 - 64'd1;              // REV/2 - 1
+    localparam [63:0]  SAT_LO64 = 64'd0 - HALF64;              // -REV/2
+    localparam [POS_W-1:0] SAT_HI = SAT_HI64[POS_W-1:0];
+    localparam [POS_W-1:0] SAT_LO = SAT_LO64[POS_W-1:0];
     localparam integer MAP_PIECE_W = 11;                       // map RAM pieces of 2048 words (u_map)
 
     // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
@@ -116,10 +124,28 @@ module fringe_trim #(
         .out_valid(out_valid), .out_data(out_user)
     );
 
-    // ---- speed history: 2N words, written at wp, read at wp ^ N (N accepted samples earlier) ------
+    // ---- speed history: 2N words, written at wp, read at wp - win (win accepted samples earlier): -----
+    // win = N (wp ^ N) once N samples came since the reset, before that the longest power-of-two window
+    // there is, 2^floor(log2(fill)) (1, 2, 4, ...: a stream that starts in motion has a speed from its
+    // second sample on), 0 for the first sample (no window: speed 0)
     wire accept = ce & in_valid & ~rst;
     reg  [SPEED_LOG2:0] wp;            // write pointer: any start value works (no reset)
     reg  [SPEED_LOG2:0] fill;          // accepted samples since reset, saturating at N (bit SPEED_LOG2)
+    reg  [SPEED_LOG2:0] win;           // the window, one-hot (the top bit of fill), 0 when fill = 0
+    integer j;
+
+    always @* begin
+        win = {(SPEED_LOG2+1){1'b0}};
+        for (j = 0; j <= SPEED_LOG2; j = j + 1) begin
+            if (fill[j]) begin
+                win    = {(SPEED_LOG2+1){1'b0}};
+                win[j] = 1'b1;
+            end
+        end
+    end
+
+    // the first sample reads N back (its speed is 0): never the word being written
+    wire [SPEED_LOG2:0] back = (fill == {(SPEED_LOG2+1){1'b0}}) ? N_HA : win;
     (* no_rw_check *)
     reg  [POS_W-1:0]    hist [0:2*N-1];
     reg  [POS_W-1:0]    hist_q;        // the RAM's read register
@@ -140,7 +166,7 @@ module fringe_trim #(
 
     always @(posedge clk) begin
         if (ce) begin
-            hist_q <= hist[wp ^ N_HA];
+            hist_q <= hist[wp - back];
         end
     end
 
@@ -155,21 +181,23 @@ module fringe_trim #(
     // ---- 1: input registers ---------------------------------------------------------------------------
     reg  [POS_W-1:0] s1_pos;
     reg  [AMP_W-1:0] s1_mag;
-    reg              s1_bank, s1_full;
+    reg              s1_bank;
+    reg  [SPEED_LOG2:0] s1_win;
 
     always @(posedge clk) begin
         if (ce) begin
             s1_pos  <= pos;
             s1_mag  <= mag;
             s1_bank <= bank;
-            s1_full <= fill[SPEED_LOG2];
+            s1_win  <= win;
         end
     end
 
     // ---- 2: history output register; sector product -----------------------------------------------
     reg  [POS_W-1:0] s2_pos, s2_old;
     reg  [AMP_W-1:0] s2_mag;
-    reg              s2_bank, s2_full;
+    reg              s2_bank;
+    reg  [SPEED_LOG2:0] s2_win;
     reg  [PSI_R-1:0] s2_sector;
 
     generate
@@ -196,7 +224,7 @@ module fringe_trim #(
             s2_old  <= hist_q;
             s2_mag  <= s1_mag;
             s2_bank <= s1_bank;
-            s2_full <= s1_full;
+            s2_win  <= s1_win;
         end
     end
 
@@ -225,7 +253,8 @@ module fringe_trim #(
     reg  signed [POS_W:0] s3_d;        // pos - old, in (-REV, REV)
     reg  [POS_W-1:0]      s3_pos;
     reg  [AMP_W-1:0]      s3_mag;
-    reg                   s3_bank, s3_full;
+    reg                   s3_bank;
+    reg  [SPEED_LOG2:0]   s3_win;
     reg  [PSI_R-1:0]      s3_sector;
 
     always @(posedge clk) begin
@@ -234,12 +263,12 @@ module fringe_trim #(
             s3_pos    <= s2_pos;
             s3_mag    <= s2_mag;
             s3_bank   <= s2_bank;
-            s3_full   <= s2_full;
+            s3_win    <= s2_win;
             s3_sector <= s2_sector;
         end
     end
 
-    // ---- 4: speed wrapped into [-REV/2, REV/2) (0 until the history is full), dir -------------------
+    // ---- 4: speed wrapped into [-REV/2, REV/2) (0 for the first sample since reset), dir ------------
     // 2d >= REV <=> d - REV/2 >= 0;  2d < -REV <=> d + REV/2 < 0 (REV is even); the candidates in parallel.
     wire signed [WW-1:0] d_x    = {s3_d[POS_W], s3_d};
     wire signed [WW-1:0] d_hi   = d_x - $signed(REV_W >> 1);
@@ -247,8 +276,9 @@ module fringe_trim #(
     wire signed [WW-1:0] d_dn   = d_x - $signed(REV_W);
     wire signed [WW-1:0] d_up   = d_x + $signed(REV_W);
     wire signed [WW-1:0] d_wrap = !d_hi[WW-1] ? d_dn : (d_lo[WW-1] ? d_up : d_x);
-    wire signed [POS_W-1:0] speed4 = s3_full ? d_wrap[POS_W-1:0] : {POS_W{1'b0}};
+    wire signed [POS_W-1:0] speed4 = (|s3_win) ? d_wrap[POS_W-1:0] : {POS_W{1'b0}};
     reg  signed [POS_W-1:0] s4_speed;
+    reg  [SPEED_LOG2:0]   s4_win;
     reg                   s4_dir;
     reg  [POS_W-1:0]      s4_pos;
     reg  [AMP_W-1:0]      s4_mag;
@@ -258,7 +288,8 @@ module fringe_trim #(
     always @(posedge clk) begin
         if (ce) begin
             s4_speed  <= speed4;
-            s4_dir    <= speed4[POS_W-1];
+            s4_dir    <= speed4[POS_W-1];   // the scaling and saturation below keep the sign
+            s4_win    <= s3_win;
             s4_pos    <= s3_pos;
             s4_mag    <= s3_mag;
             s4_bank   <= s3_bank;
@@ -293,16 +324,47 @@ module fringe_trim #(
         .rd_addr(map_rd_addr), .frac(s4_pos[FB-1:0]), .result(s9_m)
     );
 
-    // 5, 6: speed and magnitude carried beside the tables; 5..11: direction and position
-    wire signed [POS_W-1:0] s6_speed;
+    // 5, 6: the speed scaled to N samples and saturated beside the tables (a stage each, so the wrap's
+    // carry chain gets nothing added); 5, 6: magnitude carried; 5..11: direction and position
+    // 5: speed * 2^(SPEED_LOG2 - k) for win = 2^k (N: unchanged), a one-hot select of shifts
+    wire signed [SC_W-1:0] speed_x = {{(SPEED_LOG2+1){s4_speed[POS_W-1]}}, s4_speed[POS_W-2:0]};
+    reg  signed [SC_W-1:0] scaled5;
+    reg  signed [SC_W-1:0] s5_scaled;
+
+    always @* begin
+        scaled5 = {SC_W{1'b0}};
+        for (j = 0; j <= SPEED_LOG2; j = j + 1) begin
+            scaled5 = scaled5 | ({SC_W{s4_win[j]}} & (speed_x <<< (SPEED_LOG2 - j)));
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s5_scaled <= scaled5;
+        end
+    end
+
+    // 6: saturated to [-REV/2, REV/2 - 1]: scaled - REV/2 >= 0 above, scaled + REV/2 < 0 below (the
+    // compares in parallel, SX_W bits: shorter than the sum's A_W >= POS_W + TRIM_W + 3)
+    wire signed [SX_W-1:0] sc_x  = {s5_scaled[SC_W-1], s5_scaled};
+    wire signed [SX_W-1:0] sc_hi = sc_x - $signed(HALF_X);
+    wire signed [SX_W-1:0] sc_lo = sc_x + $signed(HALF_X);
+    reg  signed [POS_W-1:0] s6_speed;
+
+    always @(posedge clk) begin
+        if (ce) begin
+            s6_speed <= !sc_hi[SX_W-1] ? SAT_HI : (sc_lo[SX_W-1] ? SAT_LO : sc_x[POS_W-1:0]);
+        end
+    end
+
     wire [AMP_W-1:0]        s6_mag;
     wire                    s11_dir;
     wire [POS_W-1:0]        s11_pos;
     wire                    s6_carry_valid, s11_carry_valid;
 
-    fringe_delay #(.WIDTH(POS_W + AMP_W), .DEPTH(2)) u_gain_carry (
-        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({s4_speed, s4_mag}),
-        .out_valid(s6_carry_valid), .out_data({s6_speed, s6_mag})
+    fringe_delay #(.WIDTH(AMP_W), .DEPTH(2)) u_gain_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data(s4_mag),
+        .out_valid(s6_carry_valid), .out_data(s6_mag)
     );
 
     fringe_delay #(.WIDTH(1 + POS_W), .DEPTH(7)) u_pos_carry (
@@ -395,9 +457,11 @@ module fringe_trim #(
 
     // Bits that carry nothing: the products' rounded-off bits and sign extension, the terms beyond
     // A_W bits, the fraction bits of A, the sign bits of the wrapped speed and of positions in [0, REV),
-    // the valid outputs of the delays that carry data only.
+    // the saturation's compares but their signs and the scaled speed above POS_W bits (the compares
+    // read them), the valid outputs of the delays that carry data only.
     wire unused = &{1'b0, t_sg, t_ma, t_m, s6_carry_valid, s11_carry_valid,
-                    s11_a[G_SHIFT+TRIM_FRAC:0], d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x};
+                    s11_a[G_SHIFT+TRIM_FRAC:0], d_wrap[WW-1:POS_W], o[WW-1:POS_W], corr_x,
+                    sc_x[SX_W-1:POS_W], sc_hi[SX_W-2:0], sc_lo[SX_W-2:0]};
 
 endmodule
 

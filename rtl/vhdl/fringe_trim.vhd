@@ -107,6 +107,11 @@ architecture rtl of fringe_trim is
     constant T_W     : integer := maximum(POS_W + RECIP_W, SECT_SHIFT + PSI_R);   -- sector product
     constant REV_W   : signed(WW - 1 downto 0) := signed(shift_left(to_unsigned(LINES, WW), FINE_W));
     constant HALF_W  : signed(WW - 1 downto 0) := signed(shift_left(to_unsigned(LINES, WW), FINE_W - 1));
+    constant SC_W    : integer := POS_W + SPEED_LOG2;               -- the speed scaled from a start-up window
+    constant SX_W    : integer := SC_W + 1;                         -- and -+ REV/2 beside it
+    constant HALF_X  : signed(SX_W - 1 downto 0) := signed(shift_left(to_unsigned(LINES, SX_W), FINE_W - 1));
+    constant SAT_HI  : signed(POS_W - 1 downto 0) := resize(HALF_X - 1, POS_W);   -- REV/2 - 1
+    constant SAT_LO  : signed(POS_W - 1 downto 0) := resize(-HALF_X, POS_W);      -- -REV/2
     constant CLIP_LO : signed(FINE_W - 1 downto 0) := shift_left(to_signed(-1, FINE_W), FINE_W - 1);  -- -2^(FINE_W-1)
     constant CLIP_HI : signed(FINE_W - 1 downto 0) := not CLIP_LO;                                    -- 2^(FINE_W-1) - 1
 
@@ -123,24 +128,39 @@ architecture rtl of fringe_trim is
         return unsigned(r(A_W - 1 downto 0));
     end function term;
 
+    -- The speed window, one-hot: 2^floor(log2(f)), the top bit of f (0 when f = 0).
+    function top_bit(f : unsigned) return unsigned is
+        variable r : unsigned(f'range) := (others => '0');
+    begin
+        for j in f'low to f'high loop
+            if f(j) = '1' then
+                r := (others => '0');
+                r(j) := '1';
+            end if;
+        end loop;
+        return r;
+    end function top_bit;
+
     -- speed history: 2N words (initialised so that GHDL computes on defined values before it fills)
     type hist_t is array (0 to 2 * N - 1) of unsigned(POS_W - 1 downto 0);
     signal hist     : hist_t := (others => (others => '0'));
     signal hist_q   : unsigned(POS_W - 1 downto 0);
     signal wp       : unsigned(SPEED_LOG2 downto 0) := (others => '0');   -- any start value works
     signal fill     : unsigned(SPEED_LOG2 downto 0);   -- accepted samples since reset, saturating at N
+    signal win      : unsigned(SPEED_LOG2 downto 0);   -- the window: N when full, else top_bit(fill)
     signal accept   : std_logic;
 
     signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s11_pos
                     : unsigned(POS_W - 1 downto 0);
     signal s1_mag, s2_mag, s3_mag, s4_mag, s6_mag : unsigned(AMP_W - 1 downto 0);
     signal s1_bank, s2_bank, s3_bank, s4_bank : std_logic;
-    signal s1_full, s2_full, s3_full : std_logic;
+    signal s1_win, s2_win, s3_win, s4_win : unsigned(SPEED_LOG2 downto 0);
+    signal s5_scaled : signed(SC_W - 1 downto 0);
     signal s2_sector, s3_sector, s4_sector : unsigned(PSI_R - 1 downto 0);
     signal s3_d     : signed(POS_W downto 0);
     signal s4_speed, s6_speed : signed(POS_W - 1 downto 0);
     signal s4_dir, s11_dir, s12_dir : std_logic;
-    signal s6_carry  : std_logic_vector(POS_W + AMP_W - 1 downto 0);   -- {speed, mag} at stage 6
+    signal s6_carry  : std_logic_vector(AMP_W - 1 downto 0);           -- mag at stage 6
     signal s11_carry : std_logic_vector(POS_W downto 0);               -- {dir, pos} at stage 11
     signal s6_carry_valid, s11_carry_valid : std_logic;
     signal s6_gs, s6_ga : std_logic_vector(GW - 1 downto 0);   -- from the gain tables
@@ -168,11 +188,14 @@ begin
         port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
                   out_valid => out_valid, out_data => out_user);
 
-    -- ---- speed history: written at wp, read at wp xor N (N accepted samples earlier) ----------------
+    -- ---- speed history: written at wp, read at wp - win (win accepted samples earlier): win = N (wp
+    -- xor N) once N samples came since the reset, before that the longest power-of-two window there
+    -- is (1, 2, 4, ...), 0 for the first sample (no window: speed 0) ----------------------------------
     accept <= ce and in_valid and not rst;
+    win    <= top_bit(fill);
 
     p_hist : process (clk)
-        variable rd : unsigned(SPEED_LOG2 downto 0);
+        variable back : unsigned(SPEED_LOG2 downto 0);
     begin
         if rising_edge(clk) then
             if accept = '1' then
@@ -180,9 +203,12 @@ begin
                 wp <= wp + 1;
             end if;
             if ce = '1' then
-                rd := wp;
-                rd(SPEED_LOG2) := not wp(SPEED_LOG2);
-                hist_q <= hist(to_integer(rd));
+                -- the first sample reads N back (its speed is 0): never the word being written
+                back := win;
+                if fill = 0 then
+                    back := to_unsigned(N, SPEED_LOG2 + 1);
+                end if;
+                hist_q <= hist(to_integer(wp - back));
             end if;
             if rst = '1' then
                 fill <= (others => '0');
@@ -229,14 +255,12 @@ begin
         port map (clk => clk, ce => ce, wr_en => wr_en_map, wr_addr => wr_addr, wr_data => wr_data,
                   rd_addr => map_rd_addr, frac => map_frac, result => s9_m);
 
-    -- ---- 5, 6: speed and magnitude carried beside the tables; 5..11: direction and position -------------
+    -- ---- 5, 6: magnitude carried beside the tables (the speed: p_data); 5..11: direction and position ----
     u_gain_carry : entity work.fringe_delay
-        generic map (WIDTH => POS_W + AMP_W, DEPTH => 2)
-        port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
-                  in_data => std_logic_vector(s4_speed) & std_logic_vector(s4_mag),
+        generic map (WIDTH => AMP_W, DEPTH => 2)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0', in_data => std_logic_vector(s4_mag),
                   out_valid => s6_carry_valid, out_data => s6_carry);
-    s6_speed <= signed(s6_carry(POS_W + AMP_W - 1 downto AMP_W));
-    s6_mag   <= unsigned(s6_carry(AMP_W - 1 downto 0));
+    s6_mag   <= unsigned(s6_carry);
 
     u_pos_carry : entity work.fringe_delay
         generic map (WIDTH => 1 + POS_W, DEPTH => 7)
@@ -259,6 +283,8 @@ begin
         variable t       : unsigned(T_W - 1 downto 0);
         variable d_x, d_hi, d_lo, d_wrap : signed(WW - 1 downto 0);
         variable speed4  : signed(POS_W - 1 downto 0);
+        variable speed_x, scaled5 : signed(SC_W - 1 downto 0);
+        variable sc_x, sc_hi, sc_lo : signed(SX_W - 1 downto 0);
         variable corr_x  : signed(CX_W - 1 downto 0);
         variable over    : boolean;
         variable pos_x, corr_w, a, b : signed(WW - 1 downto 0);
@@ -271,14 +297,14 @@ begin
                 s1_pos  <= unsigned(pos);
                 s1_mag  <= unsigned(mag);
                 s1_bank <= bank;
-                s1_full <= fill(SPEED_LOG2);
+                s1_win  <= win;
 
                 -- 2: history output register; sector product
                 s2_pos  <= s1_pos;
                 s2_old  <= hist_q;
                 s2_mag  <= s1_mag;
                 s2_bank <= s1_bank;
-                s2_full <= s1_full;
+                s2_win  <= s1_win;
                 if MAP_PSI_W > 0 then
                     t := resize(s1_pos * to_unsigned(SECT_RECIP, RECIP_W), T_W);
                     s2_sector <= t(SECT_SHIFT + PSI_R - 1 downto SECT_SHIFT);
@@ -291,10 +317,10 @@ begin
                 s3_pos    <= s2_pos;
                 s3_mag    <= s2_mag;
                 s3_bank   <= s2_bank;
-                s3_full   <= s2_full;
+                s3_win    <= s2_win;
                 s3_sector <= s2_sector;
 
-                -- 4: speed wrapped into [-REV/2, REV/2), 0 until the history is full; dir
+                -- 4: speed wrapped into [-REV/2, REV/2), 0 for the first sample since reset; dir
                 -- 2d >= REV <=> d - REV/2 >= 0;  2d < -REV <=> d + REV/2 < 0 (REV is even)
                 d_x  := resize(s3_d, WW);
                 d_hi := d_x - HALF_W;
@@ -306,21 +332,46 @@ begin
                 else
                     d_wrap := d_x;
                 end if;
-                if s3_full = '1' then
+                if s3_win /= 0 then
                     speed4 := d_wrap(POS_W - 1 downto 0);
                 else
                     speed4 := (others => '0');
                 end if;
                 s4_speed  <= speed4;
-                s4_dir    <= speed4(POS_W - 1);
+                s4_dir    <= speed4(POS_W - 1);    -- the scaling and saturation below keep the sign
+                s4_win    <= s3_win;
                 s4_pos    <= s3_pos;
                 s4_mag    <= s3_mag;
                 s4_bank   <= s3_bank;
                 s4_sector <= s3_sector;
 
-                -- 5, 6: speed and magnitude carried beside the tables (u_gain_carry); 5..11: direction
-                -- and position (u_pos_carry); 7..10: speed x gs (u_speed_gain, 4 stages), mag x ga
-                -- (u_amp_gain, 3 stages)
+                -- 5, 6: the speed scaled to N samples and saturated beside the tables (a stage each,
+                -- so the wrap's carry chain gets nothing added); magnitude carried (u_gain_carry)
+                -- 5: speed * 2^(SPEED_LOG2 - k) for win = 2^k (N: unchanged), a one-hot select of shifts
+                speed_x := resize(s4_speed, SC_W);
+                scaled5 := (others => '0');
+                for j in 0 to SPEED_LOG2 loop
+                    if s4_win(j) = '1' then
+                        scaled5 := scaled5 or shift_left(speed_x, SPEED_LOG2 - j);
+                    end if;
+                end loop;
+                s5_scaled <= scaled5;
+
+                -- 6: saturated to [-REV/2, REV/2 - 1]: scaled - REV/2 >= 0 above, scaled + REV/2 < 0
+                -- below (the compares in parallel, SX_W bits: shorter than the sum's A_W)
+                sc_x  := resize(s5_scaled, SX_W);
+                sc_hi := sc_x - HALF_X;
+                sc_lo := sc_x + HALF_X;
+                if sc_hi(SX_W - 1) = '0' then
+                    s6_speed <= SAT_HI;
+                elsif sc_lo(SX_W - 1) = '1' then
+                    s6_speed <= SAT_LO;
+                else
+                    s6_speed <= sc_x(POS_W - 1 downto 0);
+                end if;
+
+                -- 5..11: direction and position (u_pos_carry); 7..10: speed x gs (u_speed_gain,
+                -- 4 stages), mag x ga (u_amp_gain, 3 stages)
 
                 -- 10: mag x ga + (m + 2^(TRIM_FRAC-1)) * 2^G_SHIFT + 2^(G_SHIFT-1) (bit fields)
                 tm    := term(signed(s9_m), G_SHIFT);

@@ -209,6 +209,7 @@ class CoreStream:
         if not streams(cfg):
             raise ValueError("fringe_drift's and fringe_canceller's state spans the whole stream: run it in one piece")
         self.t, self.cfg = t, cfg
+        # the tail holds every row while there are fewer (fringe_trim's start-up windows count from the reset)
         self.keep = 1 + (cfg.trim_params().window if cfg.trim else 0)
         self.tail = None          # (sin, cos, coarse) of the last rows, the counter position of the first
         # COARSE_W > 0: track_lost, track_bad and (None once a trusted sample was seen) anchor_m after the

@@ -6,7 +6,10 @@ With ``REV = LINES * 2^FINE_W`` fine counts per revolution, ``POS_W = FINE_W + c
 
     phase  = pos mod 2^FINE_W;  bin = phase >> FB;  frac = phase mod 2^FB
     sector = (pos * SECT_RECIP) >> SECT_SHIFT        (= floor(pos * 2^MAP_PSI_W / REV); 0 when MAP_PSI_W = 0)
-    speed  = wrap(pos[n] - pos[n - N]) once N samples came since reset, else 0;   dir = speed < 0
+    speed  = wrap(pos[n] - pos[n - N])   for n >= N   (n: samples accepted since the reset before this one)
+           = sat(wrap(pos[n] - pos[n - 2^k]) * 2^(SPEED_LOG2 - k))   for 1 <= n < N, k = floor(log2(n)):
+             the longest power-of-two window there is, scaled to N samples; sat: clipped to [-REV/2, REV/2 - 1]
+           = 0   for n = 0;   dir = speed < 0
              wrap: d in (-REV, REV); 2d >= REV: d - REV; 2d < -REV: d + REV  -> speed in [-REV/2, REV/2)
     m      = value + ((slope * frac + 2^(FB-1)) >>> FB)   map word at {bank, dir, sector, bin}
     gs, ga = the same interpolation of the speed table and of the amp table at {bank, bin}
@@ -356,14 +359,22 @@ def speed_window_log2(lines: int, longest: int = LONGEST_SPEED_LOG2) -> int:
 
 
 def speeds(pos, params: TrimParams) -> np.ndarray:
-    """The speed of every sample of a stream that starts after a reset: ``wrap(pos[n] - pos[n-N])``
-    for n >= N = 2^SPEED_LOG2, else 0; int64 in [-REV/2, REV/2) (dir = speed < 0)."""
+    """The speed of every sample of a stream that starts after a reset, int64 in [-REV/2, REV/2) (dir = speed < 0).
+
+    Sample n >= N = 2^SPEED_LOG2: ``wrap(pos[n] - pos[n-N])``. Before the window is full (1 <= n < N) the
+    longest power-of-two window there is, 2^k samples with ``k = floor(log2(n))``, scaled to N samples and
+    saturated: ``clip(wrap(pos[n] - pos[n-2^k]) * 2^(SPEED_LOG2-k), -REV/2, REV/2 - 1)`` (a recording that
+    starts in motion gets its speed-dependent trim from the second sample on). The first sample: 0."""
     p = params
     a = _as_pos(pos, p)
     sp = np.zeros(a.size, dtype=np.int64)
-    n = p.window
-    if a.size > n:
-        sp[n:] = _wrap(a[n:] - a[:-n], p.rev)
+    half = p.rev >> 1
+    for k in range(p.speed_log2 + 1):
+        w = 1 << k                       # samples n in [w, 2w) take the window w; from N on, N
+        end = a.size if k == p.speed_log2 else min(2 * w, a.size)
+        if end > w:
+            d = _wrap(a[w:end] - a[:end - w], p.rev) << (p.speed_log2 - k)
+            sp[w:end] = np.clip(d, -half, half - 1)
     return sp
 
 
