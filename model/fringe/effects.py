@@ -71,8 +71,12 @@ def make_context(frac: np.ndarray, position_periods: np.ndarray, lines: int, t: 
                  magnitude: np.ndarray) -> Context:
     rev = position_periods / lines
     unwrapped = rev[0] + np.concatenate([[0.0], np.cumsum(wrap(np.diff(rev)))])
-    v = speed_estimate(unwrapped, t, speed_window_log2(lines))
+    log2_window = speed_window_log2(lines)
+    v = speed_estimate(unwrapped, t, log2_window)
     acc = np.gradient(v, t) if len(t) > 2 else np.zeros_like(v)
+    # no acceleration from the start-up's growing windows: their speeds jump from 0 at the first sample and
+    # step between window lengths (a spike that would fit whatever error the first samples carry)
+    acc[:(1 << log2_window) + 1] = 0.0
     d = np.where(v >= 0, 1, -1)     # standstill counts as forward (fringe_trim: dir = speed < 0)
     return Context(2 * np.pi * frac, 2 * np.pi * (rev % 1.0), t, v, acc, d, magnitude, lines)
 
