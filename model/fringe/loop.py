@@ -298,7 +298,7 @@ def test_fourier(r: np.ndarray, angle: np.ndarray, orders, sigma: float, name: s
 
 
 def settled_speed(ctx: Context) -> np.ndarray:
-    """The speed estimate once its window is full (it reads 0 before, as in the hardware)."""
+    """The speed estimate once its window is full (before, it comes from shorter windows, as in the hardware)."""
     n = 1 << speed_window_log2(ctx.lines)
     return ctx.speed[n:] if len(ctx.speed) > 2 * n else ctx.speed
 
