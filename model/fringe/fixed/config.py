@@ -93,6 +93,25 @@ HDL_PARAMETER_DOCS = {
 #: the 64-bit (Verilog) multipliers of the index mappings
 HDL_WIDE_PARAMETERS = ("LP_RECIP", "TRIM_SECT_RECIP")
 
+#: CoreConfig fields renamed since configurations were first saved (CAL_DIR/core.json): old name -> new name.
+#: fringe_trim's fields took their block's prefix, as the drift and canceller ones have (issue 10).
+RENAMED_FIELDS = {"speed_log2": "trim_speed_log2", "map_psi_w": "trim_map_psi_w", "map_phi_w": "trim_map_phi_w",
+                  "g_shift": "trim_g_shift"}
+
+
+def current_field_names(saved: dict) -> dict:
+    """A saved configuration (the "config" of a core.json, any version) under today's field names
+    (RENAMED_FIELDS); the values are unchanged. ValueError when it names one field under both names."""
+    if not isinstance(saved, dict):
+        raise ValueError(f"the configuration is a {type(saved).__name__}, not an object")
+    out = dict(saved)
+    for old, new in RENAMED_FIELDS.items():
+        if old in out:
+            if new in out:
+                raise ValueError(f"'{old}' and '{new}' name one field ({new}); keep '{new}'")
+            out[new] = out.pop(old)
+    return out
+
 
 @dataclass(frozen=True)
 class CoreConfig(PositionWidths):
