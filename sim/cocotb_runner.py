@@ -205,8 +205,9 @@ def include_files() -> list[Path]:
 
 # --------------------------------------------------------------------------- parameters
 
-#: 64-bit Verilog parameters (the index-mapping multipliers): Verilator takes them sized
-WIDE_PARAMETERS = ("LP_RECIP", "SECT_RECIP")
+#: 64-bit Verilog parameters (the index-mapping multipliers: the core's, and fringe_trim's own SECT_RECIP):
+#: Verilator takes them sized
+WIDE_PARAMETERS = ("LP_RECIP", "TRIM_SECT_RECIP", "SECT_RECIP")
 _SIZED = re.compile(r"^\d+'[dhb]", re.I)
 
 

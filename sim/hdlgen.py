@@ -125,21 +125,25 @@ def _declarations(decl, leader: str, sep: str, last: str) -> list[str]:
     return out
 
 
+#: the name column of the declarations: the longest name
+NAME_W = max(len(name) for name in HDL_PARAMETER_DOCS)
+
+
 def verilog_parameters() -> list[str]:
     def decl(name: str, v: int | str) -> str:
         if isinstance(v, str):
-            return f'parameter         {name:<16} = "{v}"'
+            return f'parameter         {name:<{NAME_W}} = "{v}"'
         if name in HDL_WIDE_PARAMETERS:
-            return f"parameter [63:0]  {name:<16} = 64'd{v}"
-        return f"parameter integer {name:<16} = {v}"
+            return f"parameter [63:0]  {name:<{NAME_W}} = 64'd{v}"
+        return f"parameter integer {name:<{NAME_W}} = {v}"
     return _declarations(decl, "//", ",", "")
 
 
 def vhdl_generics() -> list[str]:
     def decl(name: str, v: int | str) -> str:
         if isinstance(v, str):
-            return f'{name:<16} : string  := "{v}"'
-        return f"{name:<16} : {'natural' if name in HDL_WIDE_PARAMETERS else 'integer'} := {v}"
+            return f'{name:<{NAME_W}} : string  := "{v}"'
+        return f"{name:<{NAME_W}} : {'natural' if name in HDL_WIDE_PARAMETERS else 'integer'} := {v}"
     return _declarations(decl, "--", ";", "")
 
 

@@ -313,7 +313,7 @@ def log_tail(log: Path, n: int = 15) -> str:
 def param_value(k: str, v) -> str:
     if isinstance(v, Path):
         return f'"{v}"'
-    return f"64'd{v}" if k in ("LP_RECIP", "SECT_RECIP") else str(v)
+    return f"64'd{v}" if k in ("LP_RECIP", "TRIM_SECT_RECIP") else str(v)
 
 
 def yosys(work: Path, top: str, params: dict, device: Device, sources: list[Path]) -> dict:

@@ -33,9 +33,9 @@ RANGES = {
     "wave_addr_w": ((2, 15), (1, 17)), "wave_w": ((8, 30), (6, 34)), "coef_w": ((8, 27), (6, 29)),
     "fine_w": ((8, 30), (6, 32)), "cordic_stages": ((4, 32), (2, 34)), "cordic_guard": ((0, 8), (-1, 9)),
     "lp_addr_w": ((2, 16), (1, 18)), "lp_w": ((8, 32), (6, 34)), "lp_frac": ((0, 16), (-1, 18)),
-    "lp_if": ((1, 16), (0, 18)), "trim": ((0, 1), (0, 2)), "speed_log2": ((0, 8), (-1, 9)),
-    "map_psi_w": ((0, 8), (-1, 9)), "map_phi_w": ((2, 10), (1, 12)), "trim_w": ((8, 24), (6, 26)),
-    "trim_frac": ((0, 16), (-1, 18)), "g_shift": ((1, 48), (0, 50)), "drift": ((0, 1), (0, 2)),
+    "lp_if": ((1, 16), (0, 18)), "trim": ((0, 1), (0, 2)), "trim_speed_log2": ((0, 8), (-1, 9)),
+    "trim_map_psi_w": ((0, 8), (-1, 9)), "trim_map_phi_w": ((2, 10), (1, 12)), "trim_w": ((8, 24), (6, 26)),
+    "trim_frac": ((0, 16), (-1, 18)), "trim_g_shift": ((1, 48), (0, 50)), "drift": ((0, 1), (0, 2)),
     "drift_block_log2": ((4, 12), (3, 13)), "drift_mu_log2": ((0, 8), (-1, 9)), "drift_ofs_frac": ((0, 8), (-1, 9)),
     "drift_ginv_w": ((8, 24), (6, 26)), "drift_fwd_w": ((2, 10), (1, 12)), "drift_table_w": ((8, 24), (6, 26)),
     "drift_table_frac": ((0, 12), (-1, 13)), "drift_kg_w": ((8, 24), (6, 26)), "drift_kg_shift": ((1, 60), (0, 62)),
@@ -95,9 +95,9 @@ def hdl_refusals(c: dict) -> list[str]:
     check(wave_w > 31 or adc_w > 31, f"fringe_core: WAVE_W = {wave_w}, ADC_W = {adc_w}: register fields must fit "
           "32 bits")
     check(g["TRIM"] not in (0, 1), f"fringe_core: TRIM = {g['TRIM']} must be 0 or 1")
-    check(g["TRIM"] != 0 and g["MAP_PSI_W"] + g["MAP_PHI_W"] > 15,
-          f"fringe_core: MAP_PSI_W + MAP_PHI_W = {g['MAP_PSI_W'] + g['MAP_PHI_W']} > 15: a trim map bank must fit "
-          "the 16-bit word address")
+    check(g["TRIM"] != 0 and g["TRIM_MAP_PSI_W"] + g["TRIM_MAP_PHI_W"] > 15,
+          f"fringe_core: TRIM_MAP_PSI_W + TRIM_MAP_PHI_W = {g['TRIM_MAP_PSI_W'] + g['TRIM_MAP_PHI_W']} > 15: a trim "
+          "map bank must fit the 16-bit word address")
     check(g["DRIFT"] not in (0, 1), f"fringe_core: DRIFT = {g['DRIFT']} must be 0 or 1")
     check(g["LP_W"] > 32, f"fringe_core: LP_W = {g['LP_W']} > 32: a table word {{slope, value}} must fit cfg_wr_data")
     # fringe_wave_lut
@@ -141,14 +141,15 @@ def hdl_refusals(c: dict) -> list[str]:
     if g["TRIM"] == 1:
         phi_max = min(10, fine_w - 1)
         in_range("fringe_trim", "AMP_W", wave_w + 1, 4, 32)
-        in_range("fringe_trim", "SPEED_LOG2", g["SPEED_LOG2"], 0, 8)
-        in_range("fringe_trim", "MAP_PSI_W", g["MAP_PSI_W"], 0, 8)
-        in_range("fringe_trim", "MAP_PHI_W", g["MAP_PHI_W"], 2, phi_max, f"min(10, FINE_W-1) = {phi_max}")
+        # fringe_trim names its own generics: the core's TRIM_SPEED_LOG2 is its SPEED_LOG2, and so on
+        in_range("fringe_trim", "SPEED_LOG2", g["TRIM_SPEED_LOG2"], 0, 8)
+        in_range("fringe_trim", "MAP_PSI_W", g["TRIM_MAP_PSI_W"], 0, 8)
+        in_range("fringe_trim", "MAP_PHI_W", g["TRIM_MAP_PHI_W"], 2, phi_max, f"min(10, FINE_W-1) = {phi_max}")
         in_range("fringe_trim", "TRIM_W", g["TRIM_W"], 8, 24)
         in_range("fringe_trim", "TRIM_FRAC", g["TRIM_FRAC"], 0, 16)
-        in_range("fringe_trim", "G_SHIFT", g["G_SHIFT"], 1, 48)
-        if not out and g["MAP_PSI_W"] > 0:
-            check(not some_mapping(0, g["MAP_PSI_W"], lines, fine_w), "fringe_trim: no exact sector mapping")
+        in_range("fringe_trim", "G_SHIFT", g["TRIM_G_SHIFT"], 1, 48)
+        if not out and g["TRIM_MAP_PSI_W"] > 0:
+            check(not some_mapping(0, g["TRIM_MAP_PSI_W"], lines, fine_w), "fringe_trim: no exact sector mapping")
     if g["DRIFT"] == 1:
         d = {name.removeprefix("DRIFT_"): v for name, v in g.items() if name.startswith("DRIFT_")}
         phi_max = min(10, fine_w - 1)
@@ -226,7 +227,7 @@ def test_default_config_is_legal_and_replace_rechecks():
         dataclasses.replace(cfg, trim=2)
     with pytest.raises(ValueError, match="exceeds D \\+ 1"):
         dataclasses.replace(cfg, drift=1, drift_block_log2=5)
-    dataclasses.replace(cfg, trim=0, map_phi_w=99)      # fringe_trim is not built: its limits do not apply
+    dataclasses.replace(cfg, trim=0, trim_map_phi_w=99)      # fringe_trim is not built: its limits do not apply
 
 
 @pytest.mark.parametrize("cancel", [0, 1])

@@ -181,9 +181,10 @@ def test_generated_speed_window_never_wraps_below_overspeed(lines):
     from fringe.fixed.config import CoreConfig
 
     cfg = CoreConfig.for_encoder(Encoder(lines_per_rev=lines, adc_bits=12))
-    p = TrimParams(lines=lines, fine_w=12, amp_w=12, speed_log2=cfg.speed_log2, map_psi_w=0, map_phi_w=4,
+    w = cfg.trim_speed_log2
+    p = TrimParams(lines=lines, fine_w=12, amp_w=12, speed_log2=w, map_psi_w=0, map_phi_w=4,
                    trim_w=16, trim_frac=0, g_shift=8)
-    assert cfg.speed_log2 == speed_window_log2(lines) and (cfg.speed_log2 == 5 or 2 << cfg.speed_log2 >= 2 * lines)
+    assert w == speed_window_log2(lines) and (w == 5 or 2 << w >= 2 * lines)
     step = (1 << p.fine_w) // 4 - 1                     # just under a quarter period per sample
     for sign in (1, -1):
         un = sign * step * np.arange(4 * p.window + 8, dtype=np.int64)

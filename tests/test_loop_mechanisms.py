@@ -145,9 +145,9 @@ def test_trim_sectors_follow_the_revolution_orders():
         norm = RevNormalisation({"sin": (np.zeros(8), w), "cos": (np.zeros(8), np.zeros(8))})
         c = dataclasses.replace(cal, rev_norm=norm, provenance={**cal.provenance, "noise_floor_arcsec": 3.0})
         core = core_config(c)
-        err, _ = sector_error(c, core, core.map_psi_w)
-        assert core.map_psi_w == 8 or err <= SECTOR_BUDGET * 3.0 * core.rev / 1_296_000
-        chosen[order] = core.map_psi_w
+        err, _ = sector_error(c, core, core.trim_map_psi_w)
+        assert core.trim_map_psi_w == 8 or err <= SECTOR_BUDGET * 3.0 * core.rev / 1_296_000
+        chosen[order] = core.trim_map_psi_w
     assert chosen[4] > chosen[1], chosen
 
 
@@ -195,9 +195,9 @@ def test_trim_bins_follow_the_phase_orders():
         c = dataclasses.replace(cal, angle_terms=[FittedEffect(f"generic:1:{order}:0", w)],
                                 provenance={**cal.provenance, "noise_floor_arcsec": 0.5})
         core = core_config(c)
-        err, _, _ = bin_error(c, core, core.map_phi_w)
+        err, _, _ = bin_error(c, core, core.trim_map_phi_w)
         assert err <= SECTOR_BUDGET * 0.5 * core.rev / 1_296_000
-        chosen[order] = core.map_phi_w
+        chosen[order] = core.trim_map_phi_w
     assert chosen[24] > chosen[2], chosen
 
 

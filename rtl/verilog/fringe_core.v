@@ -77,9 +77,9 @@ module fringe_core #(
         if (TRIM != 0 && TRIM != 1) begin : g_bad_trim
             $error("fringe_core: TRIM = %0d must be 0 or 1 (instance %m)", TRIM);
         end
-        if (TRIM != 0 && MAP_PSI_W + MAP_PHI_W > 15) begin : g_bad_map_w
-            $error("fringe_core: MAP_PSI_W + MAP_PHI_W = %0d > 15: a trim map bank must fit the 16-bit word address (instance %m)",
-                   MAP_PSI_W + MAP_PHI_W);
+        if (TRIM != 0 && TRIM_MAP_PSI_W + TRIM_MAP_PHI_W > 15) begin : g_bad_map_w
+            $error("fringe_core: TRIM_MAP_PSI_W + TRIM_MAP_PHI_W = %0d > 15: a trim map bank must fit the 16-bit word address (instance %m)",
+                   TRIM_MAP_PSI_W + TRIM_MAP_PHI_W);
         end
         if (COMPACT != 0 && COMPACT != 1) begin : g_bad_compact
             $error("fringe_core: COMPACT = %0d must be 0 or 1 (instance %m)", COMPACT);
@@ -106,7 +106,7 @@ module fringe_core #(
     wire [63:0]               wr_data;
 
     fringe_regs #(
-        .WAVE_ADDR_W(WAVE_ADDR_W), .LP_ADDR_W(LP_ADDR_W), .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W),
+        .WAVE_ADDR_W(WAVE_ADDR_W), .LP_ADDR_W(LP_ADDR_W), .MAP_PSI_W(TRIM_MAP_PSI_W), .MAP_PHI_W(TRIM_MAP_PHI_W),
         .FWD_W(DRIFT_FWD_W), .REGS_INIT(REGS_INIT)
     ) u_regs (
         .clk(clk), .cfg_wr_en(cfg_wr_en), .cfg_wr_addr(cfg_wr_addr), .cfg_wr_data(cfg_wr_data),
@@ -128,7 +128,7 @@ module fringe_core #(
 
     wire [WAVE_ADDR_W+1:0] wave_wr_addr = {wr_bank_r, wr_word[WAVE_ADDR_W:0]};
     wire [LP_ADDR_W:0]     lp_wr_addr   = {wr_bank_r, wr_word[LP_ADDR_W-1:0]};
-    wire [MAP_PSI_W+MAP_PHI_W+1:0] trim_wr_addr = {wr_bank_r, wr_word[MAP_PSI_W+MAP_PHI_W:0]};
+    wire [TRIM_MAP_PSI_W+TRIM_MAP_PHI_W+1:0] trim_wr_addr = {wr_bank_r, wr_word[TRIM_MAP_PSI_W+TRIM_MAP_PHI_W:0]};
 
     // ---- sample admission: COMPACT = 1 takes a sample every CLOCKS_PER_SAMPLE clock enables -------
     // The spacing holds through the pipeline (every stage advances on the same ce), so the iterated
@@ -186,7 +186,7 @@ module fringe_core #(
                 .ADC_W(ADC_W), .FINE_W(FINE_W), .BLOCK_LOG2(DRIFT_BLOCK_LOG2), .MU_LOG2(DRIFT_MU_LOG2),
                 .OFS_FRAC(DRIFT_OFS_FRAC), .GINV_W(DRIFT_GINV_W), .FWD_W(DRIFT_FWD_W), .TABLE_W(DRIFT_TABLE_W),
                 .TABLE_FRAC(DRIFT_TABLE_FRAC), .KG_W(DRIFT_KG_W), .KG_SHIFT(DRIFT_KG_SHIFT), .PIPE_LATENCY(PIPE_D),
-                .FWD_SIN_INIT(FWD_SIN_INIT), .FWD_COS_INIT(FWD_COS_INIT), .USER_W(CW + 3)
+                .FWD_SIN_INIT(DRIFT_FWD_SIN_INIT), .FWD_COS_INIT(DRIFT_FWD_COS_INIT), .USER_W(CW + 3)
             ) u_drift (
                 .clk(clk), .rst(rst), .ce(ce),
                 .in_valid(take_in), .raw_sin(sin), .raw_cos(cos), .in_user({coarse, bank_r, raw_clip_c, raw_clip_s}),
@@ -479,10 +479,10 @@ module fringe_core #(
             wire [U_L-1:0] trim_user;
 
             fringe_trim #(
-                .LINES(LINES), .FINE_W(FINE_W), .AMP_W(AMP_W), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W),
-                .MAP_PHI_W(MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT),
-                .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT), .MAP_INIT(MAP_INIT), .SPEED_INIT(SPEED_INIT),
-                .AMP_INIT(AMP_INIT), .USER_W(U_L)
+                .LINES(LINES), .FINE_W(FINE_W), .AMP_W(AMP_W), .SPEED_LOG2(TRIM_SPEED_LOG2),
+                .MAP_PSI_W(TRIM_MAP_PSI_W), .MAP_PHI_W(TRIM_MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC),
+                .G_SHIFT(TRIM_G_SHIFT), .SECT_RECIP(TRIM_SECT_RECIP), .SECT_SHIFT(TRIM_SECT_SHIFT),
+                .MAP_INIT(TRIM_MAP_INIT), .SPEED_INIT(TRIM_SPEED_INIT), .AMP_INIT(TRIM_AMP_INIT), .USER_W(U_L)
             ) u_trim (
                 .clk(clk), .rst(rst), .ce(ce),
                 .in_valid(p_valid), .pos(p_pos), .mag(p_user[U_P-1:6]), .bank(p_status[7]), .in_user(p_status),

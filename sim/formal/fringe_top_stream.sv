@@ -23,9 +23,10 @@
 module fringe_top_stream #(
     `include "fringe_formal_params.vh"   // the core parameters of the proofs' configuration
     // fringe_trim (TRIM = 1): the defaults of fringe_top, run.py sets them for the TRIM tasks
-    parameter integer TRIM = 0, parameter integer SPEED_LOG2 = 5, parameter integer MAP_PSI_W = 6,
-    parameter integer MAP_PHI_W = 5, parameter integer TRIM_W = 18, parameter integer TRIM_FRAC = 4,
-    parameter integer G_SHIFT = 24, parameter [63:0] SECT_RECIP = 64'd1, parameter integer SECT_SHIFT = 18,
+    parameter integer TRIM = 0, parameter integer TRIM_SPEED_LOG2 = 5, parameter integer TRIM_MAP_PSI_W = 6,
+    parameter integer TRIM_MAP_PHI_W = 5, parameter integer TRIM_W = 18, parameter integer TRIM_FRAC = 4,
+    parameter integer TRIM_G_SHIFT = 24, parameter [63:0] TRIM_SECT_RECIP = 64'd1,
+    parameter integer TRIM_SECT_SHIFT = 18,
     parameter integer COMPACT = 0,            // 1: the time-multiplexed core (run.py's *_compact tasks)
     parameter integer LATENCY = 28,
     parameter integer CLOCKS_PER_SAMPLE = 1   // fringe.fixed.config clocks_per_sample, passed by run.py
@@ -52,8 +53,9 @@ module fringe_top_stream #(
         .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
         .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
         .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
-        .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .SPEED_LOG2(SPEED_LOG2), .MAP_PSI_W(MAP_PSI_W), .MAP_PHI_W(MAP_PHI_W),
-        .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .G_SHIFT(G_SHIFT), .SECT_RECIP(SECT_RECIP), .SECT_SHIFT(SECT_SHIFT),
+        .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .TRIM_SPEED_LOG2(TRIM_SPEED_LOG2), .TRIM_MAP_PSI_W(TRIM_MAP_PSI_W),
+        .TRIM_MAP_PHI_W(TRIM_MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .TRIM_G_SHIFT(TRIM_G_SHIFT),
+        .TRIM_SECT_RECIP(TRIM_SECT_RECIP), .TRIM_SECT_SHIFT(TRIM_SECT_SHIFT),
         .COMPACT(COMPACT)
     ) dut (
         .clk(clk), .rst(rst),

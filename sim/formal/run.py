@@ -65,7 +65,8 @@ from fringe.hardware.rtlsim import top_parameters  # noqa: E402
 FORMAL_CONFIG = CoreConfig(adc_w=4, lines=4, coarse_w=2, wave_addr_w=2, wave_w=8, coef_w=8, fine_w=8,
                            cordic_stages=4, cordic_guard=1, lp_addr_w=2, lp_w=8, lp_frac=2, lp_if=2)
 #: with fringe_trim (TRIM = 1): its smallest legal tables (2 sectors x 4 bins, 8-bit values)
-TRIM_CONFIG = dataclasses.replace(FORMAL_CONFIG, trim=1, map_psi_w=1, map_phi_w=2, trim_w=8, speed_log2=1)
+TRIM_CONFIG = dataclasses.replace(FORMAL_CONFIG, trim=1, trim_map_psi_w=1, trim_map_phi_w=2, trim_w=8,
+                                  trim_speed_log2=1)
 #: the time-multiplexed core (COMPACT = 1): one sample per CORDIC_STAGES + 1 = 5 clock enables
 COMPACT_CONFIG = dataclasses.replace(FORMAL_CONFIG, compact=1)
 EXTRA_DEPTH = 12       # bmc: clocks beyond LATENCY

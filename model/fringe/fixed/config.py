@@ -25,7 +25,7 @@ from .trim import TrimParams, speed_window_log2
 from .wave_lut import WaveLutParams
 
 WAVE_LSB_ARCSEC = 2.0   # default table width: one LSB of a waveform table moves the angle by at most this
-TRIM_FIELDS = ("trim", "speed_log2", "map_psi_w", "map_phi_w", "trim_w", "trim_frac", "g_shift")
+TRIM_FIELDS = ("trim", "trim_speed_log2", "trim_map_psi_w", "trim_map_phi_w", "trim_w", "trim_frac", "trim_g_shift")
 DRIFT_FIELDS = ("drift", "drift_block_log2", "drift_mu_log2", "drift_ofs_frac", "drift_ginv_w", "drift_fwd_w",
                 "drift_table_w", "drift_table_frac", "drift_kg_w", "drift_kg_shift")
 CANCEL_FIELDS = ("cancel", "cancel_lut_w", "cancel_c_w", "cancel_block_log2", "cancel_mu_log2", "cancel_a_frac",
@@ -53,14 +53,15 @@ HDL_PARAMETER_DOCS = {
     "LP_RECIP": "long-period index multiplier (long_period.index_mapping; < 2^31 in VHDL)",
     "LP_SHIFT": "long-period index shift (long_period.index_mapping)",
     "TRIM": "1 = fringe_trim between the period count and the long-period table (docs/blocks/fringe_trim.md)",
-    "SPEED_LOG2": "speed window 2^SPEED_LOG2 samples, 0..8",
-    "MAP_PSI_W": "2^MAP_PSI_W error-map sectors per revolution, 0..8",
-    "MAP_PHI_W": "2^MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); MAP_PSI_W + MAP_PHI_W <= 15",
+    "TRIM_SPEED_LOG2": "speed window 2^TRIM_SPEED_LOG2 samples, 0..8",
+    "TRIM_MAP_PSI_W": "2^TRIM_MAP_PSI_W error-map sectors per revolution, 0..8",
+    "TRIM_MAP_PHI_W": "2^TRIM_MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); "
+                      "TRIM_MAP_PSI_W + TRIM_MAP_PHI_W <= 15",
     "TRIM_W": "trim table value/slope width, 8..24",
     "TRIM_FRAC": "fraction bits of the trim (fine counts), 0..16",
-    "G_SHIFT": "right shift of the speed and magnitude products, 1..48",
-    "SECT_RECIP": "sector multiplier (trim.sector_mapping; < 2^31 in VHDL)",
-    "SECT_SHIFT": "sector shift (trim.sector_mapping)",
+    "TRIM_G_SHIFT": "right shift of the speed and magnitude products, 1..48",
+    "TRIM_SECT_RECIP": "sector multiplier (trim.sector_mapping; < 2^31 in VHDL)",
+    "TRIM_SECT_SHIFT": "sector shift (trim.sector_mapping)",
     "DRIFT": "1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)",
     "DRIFT_BLOCK_LOG2": "samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)",
     "DRIFT_MU_LOG2": "tracker step 2^-DRIFT_MU_LOG2 per block, 0..8",
@@ -82,15 +83,34 @@ HDL_PARAMETER_DOCS = {
     "WAVE_SIN_INIT": "$readmemh image of the sine table, both banks",
     "WAVE_COS_INIT": "$readmemh image of the cosine table, both banks",
     "LP_INIT": "$readmemh image of the long-period table, both banks",
-    "MAP_INIT": "$readmemh image of the trim map, both banks (TRIM = 1)",
-    "SPEED_INIT": "$readmemh image of the trim speed table, both banks (TRIM = 1)",
-    "AMP_INIT": "$readmemh image of the trim magnitude table, both banks (TRIM = 1)",
-    "FWD_SIN_INIT": "$readmemh image of the drift sine forward table, both banks (DRIFT = 1)",
-    "FWD_COS_INIT": "$readmemh image of the drift cosine forward table, both banks (DRIFT = 1)",
+    "TRIM_MAP_INIT": "$readmemh image of the trim map, both banks (TRIM = 1)",
+    "TRIM_SPEED_INIT": "$readmemh image of the trim speed table, both banks (TRIM = 1)",
+    "TRIM_AMP_INIT": "$readmemh image of the trim magnitude table, both banks (TRIM = 1)",
+    "DRIFT_FWD_SIN_INIT": "$readmemh image of the drift sine forward table, both banks (DRIFT = 1)",
+    "DRIFT_FWD_COS_INIT": "$readmemh image of the drift cosine forward table, both banks (DRIFT = 1)",
     "CANCEL_LUT_INIT": "$readmemh image of the canceller's sine table (CANCEL = 1; canceller.sine_table)",
 }
 #: the 64-bit (Verilog) multipliers of the index mappings
-HDL_WIDE_PARAMETERS = ("LP_RECIP", "SECT_RECIP")
+HDL_WIDE_PARAMETERS = ("LP_RECIP", "TRIM_SECT_RECIP")
+
+#: CoreConfig fields renamed since configurations were first saved (CAL_DIR/core.json): old name -> new name.
+#: fringe_trim's fields took their block's prefix, as the drift and canceller ones have (issue 10).
+RENAMED_FIELDS = {"speed_log2": "trim_speed_log2", "map_psi_w": "trim_map_psi_w", "map_phi_w": "trim_map_phi_w",
+                  "g_shift": "trim_g_shift"}
+
+
+def current_field_names(saved: dict) -> dict:
+    """A saved configuration (the "config" of a core.json, any version) under today's field names
+    (RENAMED_FIELDS); the values are unchanged. ValueError when it names one field under both names."""
+    if not isinstance(saved, dict):
+        raise ValueError(f"the configuration is a {type(saved).__name__}, not an object")
+    out = dict(saved)
+    for old, new in RENAMED_FIELDS.items():
+        if old in out:
+            if new in out:
+                raise ValueError(f"'{old}' and '{new}' name one field ({new}); keep '{new}'")
+            out[new] = out.pop(old)
+    return out
 
 
 @dataclass(frozen=True)
@@ -111,12 +131,12 @@ class CoreConfig(PositionWidths):
     lp_if: int = 8             # LP_IF: interpolation fraction bits of the long-period table
     # fringe_trim (closed-loop corrections, docs/blocks/fringe_trim.md); TRIM = 0: not built, no latency
     trim: int = 0              # TRIM: 1 = fringe_trim between the period count and the long-period table
-    speed_log2: int = 5        # SPEED_LOG2: speed = position change over 2^SPEED_LOG2 samples (effects.SPEED_LOG2)
-    map_psi_w: int = 6         # MAP_PSI_W: 2^MAP_PSI_W error-map sectors per revolution
-    map_phi_w: int = 5         # MAP_PHI_W: 2^MAP_PHI_W error-map bins per signal period
+    trim_speed_log2: int = 5   # TRIM_SPEED_LOG2: speed = position change over 2^TRIM_SPEED_LOG2 samples
+    trim_map_psi_w: int = 6    # TRIM_MAP_PSI_W: 2^TRIM_MAP_PSI_W error-map sectors per revolution
+    trim_map_phi_w: int = 5    # TRIM_MAP_PHI_W: 2^TRIM_MAP_PHI_W error-map bins per signal period
     trim_w: int = 18           # TRIM_W: trim table value/slope width
     trim_frac: int = 4         # TRIM_FRAC: fraction bits of the trim (fine counts)
-    g_shift: int = 24          # G_SHIFT: right shift of the speed and magnitude products
+    trim_g_shift: int = 24     # TRIM_G_SHIFT: right shift of the speed and magnitude products
     # fringe_drift (the closed loop's online offset/gain tracker, docs/blocks/fringe_drift.md); DRIFT = 0: not built
     drift: int = 0             # DRIFT: 1 = fringe_drift normalises the ADC codes in front of everything
     drift_block_log2: int = 8  # DRIFT_BLOCK_LOG2: samples per tracker update = 2^DRIFT_BLOCK_LOG2 (>= 7 in the core)
@@ -152,9 +172,10 @@ class CoreConfig(PositionWidths):
                              "address")
         if self.trim not in (0, 1):
             raise ValueError(f"fringe_core: TRIM = {self.trim} must be 0 or 1")
-        if self.trim and self.map_psi_w + self.map_phi_w > 15:
-            raise ValueError(f"fringe_core: MAP_PSI_W + MAP_PHI_W = {self.map_psi_w + self.map_phi_w} > 15: a trim "
-                             "map bank must fit the 16-bit word address")
+        map_w = self.trim_map_psi_w + self.trim_map_phi_w
+        if self.trim and map_w > 15:
+            raise ValueError(f"fringe_core: TRIM_MAP_PSI_W + TRIM_MAP_PHI_W = {map_w} > 15: a trim map bank must fit "
+                             "the 16-bit word address")
         if self.drift not in (0, 1):
             raise ValueError(f"fringe_core: DRIFT = {self.drift} must be 0 or 1")
         if self.cancel not in (0, 1):
@@ -186,7 +207,7 @@ class CoreConfig(PositionWidths):
         base = dict(adc_w=enc.adc_bits, lines=enc.lines_per_rev, coarse_w=enc.coarse_bits,
                     wave_addr_w=min(enc.adc_bits - 1, max(8, enc.adc_bits - 4), 10),
                     wave_w=wave_w, coef_w=min(27, max(16, enc.adc_bits + 2)), fine_w=fine_w,
-                    cordic_stages=fine_w + 1, speed_log2=speed_window_log2(enc.lines_per_rev))
+                    cordic_stages=fine_w + 1, trim_speed_log2=speed_window_log2(enc.lines_per_rev))
         base.update(overrides)
         return cls(**base)
 
@@ -213,9 +234,11 @@ class CoreConfig(PositionWidths):
         return 1.0 / self.clocks_per_sample
 
     def trim_params(self) -> TrimParams:
-        return TrimParams(lines=self.lines, fine_w=self.fine_w, amp_w=self.wave_w + 1, speed_log2=self.speed_log2,
-                          map_psi_w=self.map_psi_w, map_phi_w=self.map_phi_w, trim_w=self.trim_w,
-                          trim_frac=self.trim_frac, g_shift=self.g_shift)
+        """fringe_trim's parameters: the TRIM_* fields under the block's own names."""
+        return TrimParams(lines=self.lines, fine_w=self.fine_w, amp_w=self.wave_w + 1,
+                          speed_log2=self.trim_speed_log2, map_psi_w=self.trim_map_psi_w,
+                          map_phi_w=self.trim_map_phi_w, trim_w=self.trim_w, trim_frac=self.trim_frac,
+                          g_shift=self.trim_g_shift)
 
     def drift_params(self, pipe_latency: int = 0) -> DriftParams:
         """fringe_drift's parameters; pipe_latency: clock enables from its normaliser outputs to its
@@ -238,7 +261,7 @@ class CoreConfig(PositionWidths):
         if self.trim:     # without fringe_trim its parameters are not passed (the HDL defaults stand)
             p.update({name.upper(): getattr(self, name) for name in TRIM_FIELDS})
             tp = self.trim_params()
-            p["SECT_RECIP"], p["SECT_SHIFT"] = tp.recip, tp.shift
+            p["TRIM_SECT_RECIP"], p["TRIM_SECT_SHIFT"] = tp.recip, tp.shift
         if self.drift:    # likewise fringe_drift's
             p.update({name.upper(): getattr(self, name) for name in DRIFT_FIELDS})
         if self.cancel:   # and fringe_canceller's
@@ -251,7 +274,7 @@ class CoreConfig(PositionWidths):
         p = {f.name.upper(): getattr(self, f.name) for f in dataclasses.fields(self)}
         p.update(self.hdl_parameters())
         tp = self.trim_params()
-        p["SECT_RECIP"], p["SECT_SHIFT"] = tp.recip, tp.shift
+        p["TRIM_SECT_RECIP"], p["TRIM_SECT_SHIFT"] = tp.recip, tp.shift
         return {k: p.get(k, "") for k in HDL_PARAMETER_DOCS}
 
     def to_dict(self) -> dict:

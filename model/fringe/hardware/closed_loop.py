@@ -171,11 +171,12 @@ def mag_scale(cfg) -> float:
 
 def grids_for(cal: Calibration, cfg) -> TrimGrids:
     dt = cal.provenance.get("sample_interval_s") or 1.0
-    return trim_grids(cal, cfg.rev, cfg.fine_w, cfg.map_psi_w, cfg.map_phi_w, cfg.speed_log2, mag_scale(cfg), dt)
+    return trim_grids(cal, cfg.rev, cfg.fine_w, cfg.trim_map_psi_w, cfg.trim_map_phi_w, cfg.trim_speed_log2,
+                      mag_scale(cfg), dt)
 
 
 def choose_g_shift(grids: TrimGrids, trim_w: int, trim_frac: int) -> int:
-    """The largest G_SHIFT (1..48) that keeps every gain value within a quarter of s(TRIM_W),
+    """The largest TRIM_G_SHIFT (1..48) that keeps every gain value within a quarter of s(TRIM_W),
     leaving room for the slopes (a slope is at most twice the largest value)."""
     peak = float(max(np.max(np.abs(grids.speed)), np.max(np.abs(grids.amp))))
     if peak == 0.0:      # no gains: the products are zero, any shift is exact; the largest keeps the budget tight
@@ -185,7 +186,7 @@ def choose_g_shift(grids: TrimGrids, trim_w: int, trim_frac: int) -> int:
 
 
 MAX_MAP_PSI_W = 8        # fringe_trim's limit
-MAX_MAP_WORDS_LOG2 = 14  # MAP_PSI_W + MAP_PHI_W at most this (the RTL allows 15): 2 banks x 2 dirs x 2^14 words
+MAX_MAP_WORDS_LOG2 = 14  # TRIM_MAP_PSI_W + TRIM_MAP_PHI_W at most this (RTL: 15): 2 banks x 2 dirs x 2^14 words
 SECTOR_BUDGET = 0.1      # the map's sector steps may add this fraction of the noise floor (0.5 % in quadrature)
 SECTOR_SHARE = 0.05      # without a noise floor: this fraction of the map's change over the revolution
 
@@ -196,7 +197,8 @@ def sector_error(cal: Calibration, cfg, map_psi_w: int) -> tuple[float, float]:
     dt = cal.provenance.get("sample_interval_s") or 1.0
 
     def grid(w):     # (not through a CoreConfig: the finer grid may lie beyond the block's limits)
-        return trim_grids(cal, cfg.rev, cfg.fine_w, w, cfg.map_phi_w, cfg.speed_log2, mag_scale(cfg), dt).map
+        return trim_grids(cal, cfg.rev, cfg.fine_w, w, cfg.trim_map_phi_w, cfg.trim_speed_log2, mag_scale(cfg),
+                          dt).map
     fine, coarse = grid(map_psi_w + 2), grid(map_psi_w)
     steps = fine - np.repeat(coarse, 4, axis=1)
     change = fine - fine.mean(axis=1, keepdims=True)
@@ -204,15 +206,15 @@ def sector_error(cal: Calibration, cfg, map_psi_w: int) -> tuple[float, float]:
 
 
 def choose_map_psi_w(cal: Calibration, cfg) -> int:
-    """The fewest sectors (from the configured MAP_PSI_W up) whose steps stay within the error budget: a tenth of
+    """The fewest sectors (from the configured TRIM_MAP_PSI_W up) whose steps stay within the error budget: a tenth of
     the noise floor the closed loop measured (cal.provenance["noise_floor_arcsec"]), else SECTOR_SHARE of the
     map's own change over the revolution. A map that does not change over the revolution keeps the configured
     value."""
     floor = cal.provenance.get("noise_floor_arcsec")
-    top = min(MAX_MAP_PSI_W, MAX_MAP_WORDS_LOG2 - cfg.map_phi_w)
+    top = min(MAX_MAP_PSI_W, MAX_MAP_WORDS_LOG2 - cfg.trim_map_phi_w)
     from ..fixed.trim import sector_mapping
 
-    start = min(cfg.map_psi_w, top)
+    start = min(cfg.trim_map_psi_w, top)
     for w in range(start, max(start, top) + 1):
         try:
             sector_mapping(cfg.lines, cfg.fine_w, w)
@@ -227,7 +229,8 @@ def choose_map_psi_w(cal: Calibration, cfg) -> int:
 
 def map_changes_over_revolution(cal: Calibration, cfg) -> bool:
     dt = cal.provenance.get("sample_interval_s") or 1.0     # many sectors: no revolution order aliases away
-    grid = trim_grids(cal, cfg.rev, cfg.fine_w, MAX_MAP_PSI_W, cfg.map_phi_w, cfg.speed_log2, mag_scale(cfg), dt).map
+    grid = trim_grids(cal, cfg.rev, cfg.fine_w, MAX_MAP_PSI_W, cfg.trim_map_phi_w, cfg.trim_speed_log2,
+                      mag_scale(cfg), dt).map
     return bool(np.max(np.abs(grid - grid[:, :1])) > 1e-9 * max(float(np.max(np.abs(grid))), 1e-300))
 
 
@@ -242,7 +245,8 @@ def bin_error(cal: Calibration, cfg, map_phi_w: int) -> tuple[float, float, floa
     dt = cal.provenance.get("sample_interval_s") or 1.0
 
     def grids(w):
-        return trim_grids(cal, cfg.rev, cfg.fine_w, cfg.map_psi_w, w, cfg.speed_log2, mag_scale(cfg), dt)
+        return trim_grids(cal, cfg.rev, cfg.fine_w, cfg.trim_map_psi_w, w, cfg.trim_speed_log2, mag_scale(cfg),
+                          dt)
     fine, coarse = grids(map_phi_w + 2), grids(map_phi_w)
 
     def left(f, c):       # f on the fine grid, c on the coarse one (periodic in the last axis)
@@ -258,19 +262,19 @@ def bin_error(cal: Calibration, cfg, map_phi_w: int) -> tuple[float, float, floa
 
 
 def choose_map_phi_w(cal: Calibration, cfg) -> int:
-    """The fewest phase bins per period (from the configured MAP_PHI_W up to the block's limit) whose linear
+    """The fewest phase bins per period (from the configured TRIM_MAP_PHI_W up to the block's limit) whose linear
     interpolation stays within the error budget: for the map, a tenth of the measured noise floor (as the
     sectors, choose_map_psi_w); for the speed and magnitude tables, BIN_SHARE of their own size. A fine-phase
     term of high order (the phase-domain structure's map) needs many bins, a smooth one few."""
     floor = cal.provenance.get("noise_floor_arcsec")
-    top = min(MAX_MAP_PHI_W, cfg.fine_w - 1, MAX_MAP_WORDS_LOG2 - cfg.map_psi_w)
-    for w in range(cfg.map_phi_w, max(cfg.map_phi_w, top) + 1):
+    top = min(MAX_MAP_PHI_W, cfg.fine_w - 1, MAX_MAP_WORDS_LOG2 - cfg.trim_map_psi_w)
+    for w in range(cfg.trim_map_phi_w, max(cfg.trim_map_phi_w, top) + 1):
         err, rel_speed, rel_amp = bin_error(cal, cfg, w)
         budget = SECTOR_BUDGET * floor * cfg.rev / ARCSEC_PER_REV if floor else 0.0
-        if (err <= budget or err == 0.0 or (not floor and w == cfg.map_phi_w)) and \
+        if (err <= budget or err == 0.0 or (not floor and w == cfg.trim_map_phi_w)) and \
                 max(rel_speed, rel_amp) <= BIN_SHARE:
             return w
-    return max(cfg.map_phi_w, top)
+    return max(cfg.trim_map_phi_w, top)
 
 
 MAX_TABLE_W = 24         # the widest table word the blocks accept (fringe_trim TRIM_W, fringe_drift TABLE_W)
@@ -281,22 +285,22 @@ def trim_config(cal: Calibration, cfg):
     if the calibration has no closed-loop correction).
 
     The format follows from the fitted values: at the configured TRIM_W the most fraction bits
-    (TRIM_FRAC, from the configured value down to 0) with which every map value and slope fits, G_SHIFT
-    the largest that keeps the gains in range; a wider TRIM_W (up to 24) only when no fraction fits.
+    (TRIM_FRAC, from the configured value down to 0) with which every map value and slope fits,
+    TRIM_G_SHIFT the largest that keeps the gains in range; a wider TRIM_W (up to 24) only when no fraction fits.
     Every choice is checked by building the tables. ValueError (what does not fit) when nothing does."""
     if not needs_trim(cal):
         return cfg
     on = dataclasses.replace(cfg, trim=1)
     if not map_changes_over_revolution(cal, on):     # one sector: every word of the map for the phase
-        on = dataclasses.replace(on, map_psi_w=0)
-    on = dataclasses.replace(on, map_phi_w=choose_map_phi_w(cal, on))
-    on = dataclasses.replace(on, map_psi_w=choose_map_psi_w(cal, on))
+        on = dataclasses.replace(on, trim_map_psi_w=0)
+    on = dataclasses.replace(on, trim_map_phi_w=choose_map_phi_w(cal, on))
+    on = dataclasses.replace(on, trim_map_psi_w=choose_map_psi_w(cal, on))
     grids = grids_for(cal, on)
     last = None
     for width in range(on.trim_w, max(on.trim_w, MAX_TABLE_W) + 1):
         for frac in range(on.trim_frac, -1, -1):
             trial = dataclasses.replace(on, trim_w=width, trim_frac=frac)
-            trial = dataclasses.replace(trial, g_shift=choose_g_shift(grids, width, frac))
+            trial = dataclasses.replace(trial, trim_g_shift=choose_g_shift(grids, width, frac))
             try:
                 _quantise_trim(grids, trial.trim_params())
                 return trial
@@ -325,7 +329,7 @@ def build_trim_tables(cal: Calibration, cfg) -> TrimTables:
         return _quantise_trim(grids_for(cal, cfg), p)
     except ValueError as e:
         raise ValueError(f"{e}: the closed-loop corrections do not fit fringe_trim's tables "
-                         f"(TRIM_W = {p.trim_w}, TRIM_FRAC = {p.trim_frac}, G_SHIFT = {p.g_shift})") from None
+                         f"(TRIM_W = {p.trim_w}, TRIM_FRAC = {p.trim_frac}, TRIM_G_SHIFT = {p.g_shift})") from None
 
 
 def _quantise_trim(grids: TrimGrids, p) -> TrimTables:

@@ -11,7 +11,7 @@ from ..calibration import Calibration
 from ..encoder import ARCSEC_PER_REV
 from ..errors import FringeInputError
 from ..fixed import long_period as lp_mod
-from ..fixed.config import CoreConfig, long_period_params
+from ..fixed.config import CoreConfig, current_field_names, long_period_params
 from .closed_loop import drift_config, trim_config, unsupported
 from .rom import render_roms, write_rendered
 from .tables import build_tables
@@ -21,13 +21,15 @@ ROM_DIR = "rom"
 
 
 def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
-    """The core configuration of a calibration: CAL_DIR/core.json if present, else the defaults."""
+    """The core configuration of a calibration: CAL_DIR/core.json if present, else the defaults. A core.json of
+    an earlier version is read under today's field names (config.RENAMED_FIELDS: e.g. its speed_log2 is
+    trim_speed_log2); core.json is written with today's names only."""
     base = {}
     path = os.path.join(cal_dir, CORE_JSON) if cal_dir else None
     if path and os.path.exists(path):
         try:
             with open(path, encoding="utf-8") as f:
-                base = json.load(f)["config"]
+                base = current_field_names(json.load(f)["config"])
         except (OSError, ValueError, KeyError) as e:
             raise FringeInputError(f"core configuration damaged ({e})", path) from None
         enc = cal.encoder    # the encoder's description is the one source of these

@@ -52,9 +52,9 @@ HARNESSES = ("cpp", "cocotb")
 INIT_FILES = {"REGS_INIT": "regs", "WAVE_SIN_INIT": "wave_sin", "WAVE_COS_INIT": "wave_cos",
               "LP_INIT": "long_period"}
 #: ... and those of fringe_trim, with TRIM = 1
-TRIM_INIT_FILES = {"MAP_INIT": "trim_map", "SPEED_INIT": "trim_speed", "AMP_INIT": "trim_amp"}
+TRIM_INIT_FILES = {"TRIM_MAP_INIT": "trim_map", "TRIM_SPEED_INIT": "trim_speed", "TRIM_AMP_INIT": "trim_amp"}
 #: ... and those of fringe_drift, with DRIFT = 1
-DRIFT_INIT_FILES = {"FWD_SIN_INIT": "drift_fwd_sin", "FWD_COS_INIT": "drift_fwd_cos"}
+DRIFT_INIT_FILES = {"DRIFT_FWD_SIN_INIT": "drift_fwd_sin", "DRIFT_FWD_COS_INIT": "drift_fwd_cos"}
 #: ... and fringe_canceller's, with CANCEL = 1
 CANCEL_INIT_FILES = {"CANCEL_LUT_INIT": "cancel_lut"}
 
@@ -92,8 +92,9 @@ def top_parameters(cfg: CoreConfig, init_dir: str | os.PathLike | None = None,
     # LP_RECIP is a 64-bit parameter in Verilog (a natural, < 2^31, in VHDL)
     p["LP_RECIP"] = f"64'd{int(lpp.recip)}" if sim == "verilator" else int(lpp.recip)
     p["LP_SHIFT"] = int(lpp.shift)
-    if cfg.trim:      # SECT_RECIP likewise
-        p["SECT_RECIP"] = f"64'd{int(cfg.trim_params().recip)}" if sim == "verilator" else int(cfg.trim_params().recip)
+    if cfg.trim:      # TRIM_SECT_RECIP likewise
+        recip = int(cfg.trim_params().recip)
+        p["TRIM_SECT_RECIP"] = f"64'd{recip}" if sim == "verilator" else recip
     if init_dir is not None:
         for generic, stem in init_files(cfg).items():
             path = str(Path(init_dir).resolve() / f"{stem}.mem")
