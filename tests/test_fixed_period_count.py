@@ -270,7 +270,7 @@ def test_empty_stream():
 
 def test_derived_constants():
     p = PeriodCountParams(16, 256, 9)
-    assert (p.rev, p.pos_w, p.coarse_span, p.coarse_tol, p.latency) == (1 << 24, 24, 1 << 15, (1 << 13) + (1 << 14), 3)
+    assert (p.rev, p.pos_w, p.coarse_span, p.coarse_tol, p.latency) == (1 << 24, 24, 1 << 15, (1 << 13) + (1 << 14), 4)
     p = PeriodCountParams(12, 100, 8)
     assert (p.rev, p.pos_w, p.coarse_span, p.coarse_tol) == (409600, 19, 1600, 400 + 1024)
     p = PeriodCountParams(16, 1, 0)
