@@ -281,7 +281,7 @@ def test_derived_constants():
     for lines in list(range(1, 70)) + [1000, 3600, (1 << 20) - 1, 1 << 20]:
         assert rev_and_pos_w(lines, 8)[1] == math.ceil(math.log2(lines << 8) - 1e-12)
     assert PeriodCountParams(16, 256, 9).hdl_parameters() == {"FINE_W": 16, "LINES": 256, "COARSE_W": 9}
-    assert LATENCY == 3
+    assert LATENCY == 4
 
 
 @pytest.mark.parametrize(
