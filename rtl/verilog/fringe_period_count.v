@@ -119,12 +119,13 @@ module fringe_period_count #(
     // read as unsigned (the most negative delta, -2^(FINE_W-1), is inside).
     localparam [FINE_W-1:0] Q1 = {2'b01, {(FINE_W-2){1'b0}}};
     localparam [FINE_W-1:0] Q3 = {2'b11, {(FINE_W-2){1'b0}}};
+    wire s1_over = ~s1_first & (s1_delta >= Q1) & (s1_delta <= Q3);
 
     always @(posedge clk) begin
         if (ce) begin
             s2_phase <= s1_phase;
             s2_first <= s1_first;
-            s2_over  <= ~s1_first & (s1_delta >= Q1) & (s1_delta <= Q3);
+            s2_over  <= s1_over;
         end
     end
 
@@ -159,7 +160,10 @@ module fringe_period_count #(
         end
     end
 
-    // stage 3: the three sums in parallel, chosen by sign bits; trk < REV <= 2^POS_W
+    // stage 3: the three sums in parallel, chosen by sign bits; trk < REV <= 2^POS_W. HI: the low
+    // FINE_W bits of trk are the sample's phase (pos_prev's are the previous valid sample's, delta is
+    // their difference, REV a multiple of 2^FINE_W): s3_pos takes them from s2_phase, so the choice
+    // of every mode drives N_W bits (its select, from m < anchor_m, reaches fewer cells)
     wire [SW-1:0] sum      = {2'b00, s3_pos} + s2_d;
     wire [SW-1:0] sum_up   = {2'b00, s3_pos} + s2_d_up;
     wire [SW-1:0] sum_down = {2'b00, s3_pos} + s2_d_down;
@@ -196,12 +200,17 @@ module fringe_period_count #(
             reg  [NR-1:0]     s2_n;          // floor((d + half) / 2^FINE_W), in [-2, LINES+1]
             reg  [FINE_W-1:0] s2_r;          // s(FINE_W), in [-2^(FINE_W-1), 2^(FINE_W-1))
             reg  [FINE_W-2:0] s2_m;          // r XOR sign: r for r >= 0, -r-1 below (no carry)
+            // registered here so that stage 3's choice is one LUT after m < anchor_m (4 inputs)
+            reg               s2_trusted;    // -TRUST <= r < TRUST: the top two bits of r agree
+            reg               s2_restart;    // the first sample or an overspeed: a start-up anchor
 
             always @(posedge clk) begin
                 if (ce) begin
-                    s2_n <= dh[W-1:FINE_W];
-                    s2_r <= {~dh[FINE_W-1], dh[FINE_W-2:0]};
-                    s2_m <= dh[FINE_W-2:0] ^ {(FINE_W-1){~dh[FINE_W-1]}};
+                    s2_n       <= dh[W-1:FINE_W];
+                    s2_r       <= {~dh[FINE_W-1], dh[FINE_W-2:0]};
+                    s2_m       <= dh[FINE_W-2:0] ^ {(FINE_W-1){~dh[FINE_W-1]}};
+                    s2_trusted <= ~dh[FINE_W-1] == dh[FINE_W-2];
+                    s2_restart <= s1_first | s1_over;
                 end
             end
 
@@ -209,14 +218,17 @@ module fringe_period_count #(
             wire signed [FINE_W:0] r   = $signed({s2_r[FINE_W-1], s2_r});
             wire signed [FINE_W:0] tol = $signed(TOL);
             wire err = (r > tol) | (r < -tol);
-            wire trusted  = s2_r[FINE_W-1] == s2_r[FINE_W-2];   // -TRUST <= r < TRUST
+            wire trusted  = s2_trusted;
             reg  trusted_seen;                                  // state: a trusted sample since reset
             reg  track_lost;                                    // state: an overspeed since the last absolute output
-            // anchor_m: m of the last absolute output, read only before the first trusted sample and
-            // after the first sample since reset, which writes it: data, not reset (as s3_pos)
+            // anchor_m: m of the last start-up anchor (start_up: the first sample, an overspeed, m <
+            // anchor_m), read only before the first trusted sample (where those are the absolute samples
+            // besides the trusted one that ends it) and after the first sample since reset, which writes
+            // it: data, not reset (as s3_pos). Its write enable leaves trusted out (the m loop is a
+            // compare and one LUT).
             reg  [FINE_W-2:0] anchor_m;
             wire closer   = s2_m < anchor_m;                    // in parallel with the track's sums
-            wire start_up = s2_first | s2_over | closer;        // the start-up anchor moves here
+            wire start_up = s2_restart | closer;                // the start-up anchor moves here
             wire absolute = trusted | (~trusted_seen & start_up);   // this sample's pos is the code's
             wire lost     = track_lost | s2_over;
 
@@ -231,7 +243,7 @@ module fringe_period_count #(
             end
 
             always @(posedge clk) begin
-                if (step & absolute) begin
+                if (step & start_up) begin
                     anchor_m <= s2_m;
                 end
             end
@@ -278,7 +290,8 @@ module fringe_period_count #(
 
                 always @(posedge clk) begin
                     if (step) begin
-                        s3_pos <= absolute ? {n_wrap[N_W-1:0], s2_phase} : trk[POS_W-1:0];
+                        // trk[FINE_W-1:0] is s2_phase (HI below): only the period number is chosen
+                        s3_pos <= {absolute ? n_wrap[N_W-1:0] : trk[POS_W-1:FINE_W], s2_phase};
                     end
                     if (ce) begin
                         s3_n     <= n_wrap[N_W-1:0];
@@ -301,21 +314,35 @@ module fringe_period_count #(
                 wire unused_n = &{1'b0, s2_n};
             end
 
-            // the top bits of cpos are zero (cpos < REV)
-            wire unused_c = &{1'b0, cpos[W-1:POS_W], trk[SW-1:POS_W], trk[FINE_W-1:0]};
+            // the top bits of cpos are zero (cpos < REV); s2_first is in s2_restart
+            wire unused_c = &{1'b0, cpos[W-1:POS_W], trk[SW-1:POS_W], trk[FINE_W-1:0], s2_first};
         end else begin : g_count
             // ---- incremental: pos = (pos_prev + delta) mod REV ----------------------------------
-            always @(posedge clk) begin
-                if (step) begin
-                    s3_pos <= s2_first ? {{N_W{1'b0}}, s2_phase} : trk[POS_W-1:0];
+            if (N_W > 0) begin : g_count_lines
+                always @(posedge clk) begin
+                    if (step) begin
+                        s3_pos <= {s2_first ? {N_W{1'b0}} : trk[POS_W-1:FINE_W], s2_phase};
+                    end
                 end
+            end else begin : g_count_one_line
+                // LINES = 1: the position is the phase, first sample or not
+                always @(posedge clk) begin
+                    if (step) begin
+                        s3_pos <= s2_phase;
+                    end
+                end
+
+                wire unused_f = &{1'b0, s2_first};
+            end
+
+            always @(posedge clk) begin
                 if (done) begin
                     coarse_err <= 1'b0;
                 end
             end
 
             // no coarse code
-            wire unused_c = &{1'b0, coarse, coarse_ofs, trk[SW-1:POS_W]};
+            wire unused_c = &{1'b0, coarse, coarse_ofs, trk[SW-1:POS_W], trk[FINE_W-1:0]};
         end
     endgenerate
 

@@ -87,6 +87,10 @@ architecture rtl of fringe_period_count is
 
     constant LINES_W : unsigned(W - 1 downto 0) := to_unsigned(LINES, W);
     constant REV_S   : unsigned(SW - 1 downto 0) := shift_left(to_unsigned(LINES, SW), FINE_W);
+    -- the period-number bits of a position: the low FINE_W bits of the track's sum are the sample's
+    -- phase (pos_prev's are the previous valid sample's, delta is their difference, REV a multiple of
+    -- 2^FINE_W), so s3_pos takes them from s2_phase and the choice drives N_W bits
+    constant HI      : unsigned(POS_W - 1 downto 0) := shift_left(not to_unsigned(0, POS_W), FINE_W);
 
     -- COARSE_TOL (< 2^(FINE_W-1) + 1) as s(FINE_W+1); 0 without a coarse code
     function tolerance return signed is
@@ -116,14 +120,19 @@ architecture rtl of fringe_period_count is
     signal s2_n       : unsigned(NR - 1 downto 0);      -- floor((d + half) / 2^FINE_W), in [-2, LINES+1]
     signal s2_r       : signed(FINE_W - 1 downto 0);    -- residual, in [-2^(FINE_W-1), 2^(FINE_W-1))
     signal s2_m       : unsigned(FINE_W - 2 downto 0);  -- r xor sign: r for r >= 0, -r-1 below (no carry)
+    -- registered in stage 2 so that stage 3's choice is one LUT after m < anchor_m (4 inputs)
+    signal s2_trusted : std_logic;                      -- -TRUST <= r < TRUST: the top two bits of r agree
+    signal s2_restart : std_logic;                      -- the first sample or an overspeed: a start-up anchor
     signal s2_d, s2_d_up, s2_d_down : unsigned(SW - 1 downto 0);  -- counter: delta, delta + REV, delta - REV
     signal s3_pos     : unsigned(POS_W - 1 downto 0);   -- data: the track's pos_prev, pos one stage early
     signal s3_over    : std_logic;
     signal trusted_seen : std_logic;                    -- state: a trusted sample since reset
     signal track_lost   : std_logic;                    -- state: an overspeed since the last absolute output
     signal track_bad    : std_logic;                    -- state: the last absolute output was a resync
-    -- m of the last absolute output, read only before the first trusted sample and after the first
-    -- sample since reset, which writes it: data, not reset (as s3_pos)
+    -- m of the last start-up anchor (start_up: the first sample, an overspeed, m < anchor_m), read only
+    -- before the first trusted sample (where those are the absolute samples besides the trusted one that
+    -- ends it) and after the first sample since reset, which writes it: data, not reset (as s3_pos). Its
+    -- write enable leaves trusted out (the m loop is a compare and one LUT).
     signal anchor_m     : unsigned(FINE_W - 2 downto 0);
     signal closer       : std_logic;                    -- m < anchor_m, in parallel with the track's sums
     signal start_up     : std_logic;                    -- the start-up anchor moves here
@@ -203,6 +212,11 @@ begin
                 else
                     s2_over <= '0';
                 end if;
+                if s1_first = '1' or (s1_delta >= Q1 and s1_delta <= Q3) then
+                    s2_restart <= '1';
+                else
+                    s2_restart <= '0';
+                end if;
                 -- dh = d + 2^(FINE_W-1) = centre - (phase - 2^(FINE_W-1)), one subtract: phase -
                 -- 2^(FINE_W-1) is phase with its top bit inverted, read as s(FINE_W); r is dh's low
                 -- bits with the top one inverted, as s(FINE_W)
@@ -211,6 +225,7 @@ begin
                 s2_n <= dh(W - 1 downto FINE_W);
                 s2_r <= signed(not dh(FINE_W - 1) & dh(FINE_W - 2 downto 0));
                 s2_m <= dh(FINE_W - 2 downto 0) xor (FINE_W - 2 downto 0 => not dh(FINE_W - 1));
+                s2_trusted <= dh(FINE_W - 1) xor dh(FINE_W - 2);
                 -- counter: delta + REV and delta - REV, so stage 3 adds once
                 dx := unsigned(resize(signed(s1_delta), SW));
                 s2_d      <= dx;
@@ -221,10 +236,10 @@ begin
     end process p_stage2;
 
     -- ---- stage 3: the track and the choice absolute/tracked (the loop) -------------------------
-    trusted  <= '1' when s2_r(FINE_W - 1) = s2_r(FINE_W - 2) else '0';
+    trusted  <= s2_trusted;
     -- counting mode never writes anchor_m: no compare against its power-up 'U' (short-circuit and)
     closer   <= '1' when COARSE_W > 0 and s2_m < anchor_m else '0';
-    start_up <= s2_first or s2_over or closer;
+    start_up <= s2_restart or closer;
     absolute <= trusted or (not trusted_seen and start_up);
     lost     <= track_lost or s2_over;
 
@@ -266,17 +281,20 @@ begin
         if rising_edge(clk) then
             if step = '1' then
                 if COARSE_W > 0 then
-                    if absolute = '1' then
+                    if start_up = '1' then
                         anchor_m <= s2_m;
+                    end if;
+                    -- trk's low FINE_W bits are s2_phase (HI): only the period number is chosen
+                    if absolute = '1' then
                         s3_pos <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s2_phase, POS_W);
                     else
-                        s3_pos <= trk(POS_W - 1 downto 0);
+                        s3_pos <= (trk(POS_W - 1 downto 0) and HI) or resize(s2_phase, POS_W);
                     end if;
                 else
                     if s2_first = '1' then
                         s3_pos <= resize(s2_phase, POS_W);
                     else
-                        s3_pos <= trk(POS_W - 1 downto 0);
+                        s3_pos <= (trk(POS_W - 1 downto 0) and HI) or resize(s2_phase, POS_W);
                     end if;
                 end if;
             end if;
