@@ -160,10 +160,10 @@ module fringe_period_count #(
         end
     end
 
-    // stage 3: the three sums in parallel, chosen by sign bits; trk < REV <= 2^POS_W. HI: the low
-    // FINE_W bits of trk are the sample's phase (pos_prev's are the previous valid sample's, delta is
-    // their difference, REV a multiple of 2^FINE_W): s3_pos takes them from s2_phase, so the choice
-    // of every mode drives N_W bits (its select, from m < anchor_m, reaches fewer cells)
+    // stage 3: the three sums in parallel, chosen by sign bits; trk < REV <= 2^POS_W. The low FINE_W
+    // bits of trk are the sample's phase (pos_prev's are the previous valid sample's, delta is their
+    // difference, REV a multiple of 2^FINE_W): s3_pos takes them from s2_phase, so the choice of
+    // either mode drives the N_W period bits only (its select, after m < anchor_m, reaches fewer cells)
     wire [SW-1:0] sum      = {2'b00, s3_pos} + s2_d;
     wire [SW-1:0] sum_up   = {2'b00, s3_pos} + s2_d_up;
     wire [SW-1:0] sum_down = {2'b00, s3_pos} + s2_d_down;
@@ -218,7 +218,7 @@ module fringe_period_count #(
             wire signed [FINE_W:0] r   = $signed({s2_r[FINE_W-1], s2_r});
             wire signed [FINE_W:0] tol = $signed(TOL);
             wire err = (r > tol) | (r < -tol);
-            wire trusted  = s2_trusted;
+            wire trusted  = s2_trusted;                         // -TRUST <= r < TRUST
             reg  trusted_seen;                                  // state: a trusted sample since reset
             reg  track_lost;                                    // state: an overspeed since the last absolute output
             // anchor_m: m of the last start-up anchor (start_up: the first sample, an overspeed, m <
@@ -290,7 +290,7 @@ module fringe_period_count #(
 
                 always @(posedge clk) begin
                     if (step) begin
-                        // trk[FINE_W-1:0] is s2_phase (HI below): only the period number is chosen
+                        // trk[FINE_W-1:0] is s2_phase: only the period number is chosen
                         s3_pos <= {absolute ? n_wrap[N_W-1:0] : trk[POS_W-1:FINE_W], s2_phase};
                     end
                     if (ce) begin
