@@ -270,7 +270,7 @@ def test_empty_stream():
 
 def test_derived_constants():
     p = PeriodCountParams(16, 256, 9)
-    assert (p.rev, p.pos_w, p.coarse_span, p.coarse_tol, p.latency) == (1 << 24, 24, 1 << 15, (1 << 13) + (1 << 14), 3)
+    assert (p.rev, p.pos_w, p.coarse_span, p.coarse_tol, p.latency) == (1 << 24, 24, 1 << 15, (1 << 13) + (1 << 14), 4)
     p = PeriodCountParams(12, 100, 8)
     assert (p.rev, p.pos_w, p.coarse_span, p.coarse_tol) == (409600, 19, 1600, 400 + 1024)
     p = PeriodCountParams(16, 1, 0)
@@ -281,7 +281,7 @@ def test_derived_constants():
     for lines in list(range(1, 70)) + [1000, 3600, (1 << 20) - 1, 1 << 20]:
         assert rev_and_pos_w(lines, 8)[1] == math.ceil(math.log2(lines << 8) - 1e-12)
     assert PeriodCountParams(16, 256, 9).hdl_parameters() == {"FINE_W": 16, "LINES": 256, "COARSE_W": 9}
-    assert LATENCY == 3
+    assert LATENCY == 4
 
 
 @pytest.mark.parametrize(

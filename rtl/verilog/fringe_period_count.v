@@ -12,7 +12,9 @@
 // differs from a track not lost by an overspeed since the last absolute output (a really wrong code:
 // pos resynchronises to the code), and every sample tracked from such a resync (track_bad).
 //
-// LATENCY = 3 clock enables, one sample per clock; ce = 0 freezes
+// LATENCY = 4 clock enables, one sample per clock: the track (pos_prev + delta, a one-clock loop) is
+// stage 3, the compare of its period number with the code's (resync, track_bad, coarse_err) stage 4,
+// out of the loop, from registered values; pos and overspeed wait one stage with it. ce = 0 freezes
 // every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_period_count.md.
 // Bit-exact model: model/fringe/fixed/period_count.py.
@@ -61,21 +63,27 @@ module fringe_period_count #(
         `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_period_count", "USER_W", USER_W, 1)
     endgenerate
 
-    // ---- valid (the only reset registers) and sideband: stages 1-2, then stage 3 -------------------
-    wire              s2_valid;      // the sample in stage 2 (it reaches the output at the next clock enable)
-    wire [USER_W-1:0] s2_user;
+    // ---- valid (the only reset registers) and sideband: stages 1-2, stage 3, then stage 4 ----------
+    wire              s2_valid;      // the sample in stage 2 (stage 3 takes it at the next clock enable)
+    wire              s3_valid;      // the sample in stage 3 (it reaches the output at the next clock enable)
+    wire [USER_W-1:0] s2_user, s3_user;
 
-    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY - 1)) u_valid_12 (
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY - 2)) u_valid_12 (
         .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
         .out_valid(s2_valid), .out_data(s2_user)
     );
     fringe_delay #(.WIDTH(USER_W), .DEPTH(1)) u_valid_3 (
         .clk(clk), .rst(rst), .ce(ce), .in_valid(s2_valid), .in_data(s2_user),
+        .out_valid(s3_valid), .out_data(s3_user)
+    );
+    fringe_delay #(.WIDTH(USER_W), .DEPTH(1)) u_valid_4 (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(s3_valid), .in_data(s3_user),
         .out_valid(out_valid), .out_data(out_user)
     );
 
     wire take = ce & in_valid;       // stage 1 takes a sample
-    wire done = ce & s2_valid;       // stage 3 produces an output
+    wire step = ce & s2_valid;       // stage 3 takes a sample: the track's loop and the state it reads
+    wire done = ce & s3_valid;       // stage 4 produces an output
 
     // ---- stage 1: delta to the previous valid sample -------------------------------------------
     reg  [FINE_W-1:0] phase_prev;    // data: the previous valid sample's phase
@@ -111,24 +119,32 @@ module fringe_period_count #(
     // read as unsigned (the most negative delta, -2^(FINE_W-1), is inside).
     localparam [FINE_W-1:0] Q1 = {2'b01, {(FINE_W-2){1'b0}}};
     localparam [FINE_W-1:0] Q3 = {2'b11, {(FINE_W-2){1'b0}}};
+    wire s1_over = ~s1_first & (s1_delta >= Q1) & (s1_delta <= Q3);
 
     always @(posedge clk) begin
         if (ce) begin
             s2_phase <= s1_phase;
             s2_first <= s1_first;
-            s2_over  <= ~s1_first & (s1_delta >= Q1) & (s1_delta <= Q3);
+            s2_over  <= s1_over;
         end
     end
 
-    // ---- stage 3: the flag out ------------------------------------------------------------------
+    // ---- stages 3 and 4: the position (stage 3's loop register) and the flag out ---------------------
+    reg  [POS_W-1:0] s3_pos;         // data: the track's pos_prev, pos one stage before the output
+    reg              s3_over;
+
     always @(posedge clk) begin
+        if (ce) begin
+            s3_over <= s2_over;
+        end
         if (done) begin
-            overspeed <= s2_over;
+            pos       <= s3_pos;
+            overspeed <= s3_over;
         end
     end
 
     // ---- stage 2: the track's delta and its two wrapped alternatives, delta + REV and delta - REV, so
-    // stage 3 adds once (pos holds pos_prev: a loop of one clock); both modes track
+    // stage 3 adds once (s3_pos holds pos_prev: a loop of one clock); both modes track
     localparam integer SW = POS_W + 2;      // signed sum: [-2^(FINE_W-1), REV + 2^(FINE_W-1))
     localparam [63:0]   LINES64 = LINES * 64'd1;
     localparam [SW-1:0] REV_S   = LINES64[SW-1:0] << FINE_W;
@@ -144,10 +160,13 @@ module fringe_period_count #(
         end
     end
 
-    // stage 3: the three sums in parallel, chosen by sign bits; trk < REV <= 2^POS_W
-    wire [SW-1:0] sum      = {2'b00, pos} + s2_d;
-    wire [SW-1:0] sum_up   = {2'b00, pos} + s2_d_up;
-    wire [SW-1:0] sum_down = {2'b00, pos} + s2_d_down;
+    // stage 3: the three sums in parallel, chosen by sign bits; trk < REV <= 2^POS_W. The low FINE_W
+    // bits of trk are the sample's phase (pos_prev's are the previous valid sample's, delta is their
+    // difference, REV a multiple of 2^FINE_W): s3_pos takes them from s2_phase, so the choice of
+    // either mode drives the N_W period bits only (its select, after m < anchor_m, reaches fewer cells)
+    wire [SW-1:0] sum      = {2'b00, s3_pos} + s2_d;
+    wire [SW-1:0] sum_up   = {2'b00, s3_pos} + s2_d_up;
+    wire [SW-1:0] sum_down = {2'b00, s3_pos} + s2_d_down;
     wire [SW-1:0] trk      = sum[SW-1] ? sum_up : (sum_down[SW-1] ? sum : sum_down);
 
     generate
@@ -181,12 +200,17 @@ module fringe_period_count #(
             reg  [NR-1:0]     s2_n;          // floor((d + half) / 2^FINE_W), in [-2, LINES+1]
             reg  [FINE_W-1:0] s2_r;          // s(FINE_W), in [-2^(FINE_W-1), 2^(FINE_W-1))
             reg  [FINE_W-2:0] s2_m;          // r XOR sign: r for r >= 0, -r-1 below (no carry)
+            // registered here so that stage 3's choice is one LUT after m < anchor_m (4 inputs)
+            reg               s2_trusted;    // -TRUST <= r < TRUST: the top two bits of r agree
+            reg               s2_restart;    // the first sample or an overspeed: a start-up anchor
 
             always @(posedge clk) begin
                 if (ce) begin
-                    s2_n <= dh[W-1:FINE_W];
-                    s2_r <= {~dh[FINE_W-1], dh[FINE_W-2:0]};
-                    s2_m <= dh[FINE_W-2:0] ^ {(FINE_W-1){~dh[FINE_W-1]}};
+                    s2_n       <= dh[W-1:FINE_W];
+                    s2_r       <= {~dh[FINE_W-1], dh[FINE_W-2:0]};
+                    s2_m       <= dh[FINE_W-2:0] ^ {(FINE_W-1){~dh[FINE_W-1]}};
+                    s2_trusted <= ~dh[FINE_W-1] == dh[FINE_W-2];
+                    s2_restart <= s1_first | s1_over;
                 end
             end
 
@@ -194,38 +218,62 @@ module fringe_period_count #(
             wire signed [FINE_W:0] r   = $signed({s2_r[FINE_W-1], s2_r});
             wire signed [FINE_W:0] tol = $signed(TOL);
             wire err = (r > tol) | (r < -tol);
-            wire trusted  = s2_r[FINE_W-1] == s2_r[FINE_W-2];   // -TRUST <= r < TRUST
+            wire trusted  = s2_trusted;                         // -TRUST <= r < TRUST
             reg  trusted_seen;                                  // state: a trusted sample since reset
             reg  track_lost;                                    // state: an overspeed since the last absolute output
-            reg  track_bad;                                     // state: the last absolute output was a resync
-            // anchor_m: m of the last absolute output, read only before the first trusted sample and
-            // after the first sample since reset, which writes it: data, not reset (as pos)
+            // anchor_m: m of the last start-up anchor (start_up: the first sample, an overspeed, m <
+            // anchor_m), read only before the first trusted sample (where those are the absolute samples
+            // besides the trusted one that ends it) and after the first sample since reset, which writes
+            // it: data, not reset (as s3_pos). Its write enable leaves trusted out (the m loop is a
+            // compare and one LUT).
             reg  [FINE_W-2:0] anchor_m;
             wire closer   = s2_m < anchor_m;                    // in parallel with the track's sums
-            wire start_up = s2_first | s2_over | closer;        // the start-up anchor moves here
+            wire start_up = s2_restart | closer;                // the start-up anchor moves here
             wire absolute = trusted | (~trusted_seen & start_up);   // this sample's pos is the code's
             wire lost     = track_lost | s2_over;
-            wire differs;                                       // the code's period number is not the track's
-            wire resync   = trusted & trusted_seen & ~lost & differs;
 
             always @(posedge clk) begin
                 if (rst) begin
                     trusted_seen <= 1'b0;
                     track_lost   <= 1'b0;
-                    track_bad    <= 1'b0;
-                end else if (done) begin
+                end else if (step) begin
                     trusted_seen <= trusted_seen | trusted;
                     track_lost   <= ~absolute & lost;
-                    track_bad    <= absolute ? resync : track_bad;
+                end
+            end
+
+            always @(posedge clk) begin
+                if (step & start_up) begin
+                    anchor_m <= s2_m;
+                end
+            end
+
+            // stage 4, out of the loop: a trusted sample after a trusted one, the track not lost
+            // (checked), whose period number differs from the track's is a resync
+            reg  s3_err, s3_absolute, s3_checked;
+            wire differs;                                       // the code's period number is not the track's
+            wire resync = s3_checked & differs;
+            reg  track_bad;                                     // state: the last absolute output was a resync
+
+            always @(posedge clk) begin
+                if (ce) begin
+                    s3_err      <= err;
+                    s3_absolute <= absolute;
+                    s3_checked  <= trusted & trusted_seen & ~lost;
+                end
+            end
+
+            always @(posedge clk) begin
+                if (rst) begin
+                    track_bad <= 1'b0;
+                end else if (done) begin
+                    track_bad <= s3_absolute ? resync : track_bad;
                 end
             end
 
             always @(posedge clk) begin
                 if (done) begin
-                    coarse_err <= err | (absolute ? resync : track_bad);
-                end
-                if (done & absolute) begin
-                    anchor_m <= s2_m;
+                    coarse_err <= s3_err | (s3_absolute ? resync : track_bad);
                 end
             end
 
@@ -235,12 +283,19 @@ module fringe_period_count #(
                 wire [NR-1:0] n_up   = s2_n + LINES_N;
                 wire [NR-1:0] n_down = s2_n - LINES_N;
                 wire [NR-1:0] n_wrap = s2_n[NR-1] ? n_up : (n_down[NR-1] ? s2_n : n_down);
-                // trk and the code's position share their low FINE_W bits (the phase)
-                assign differs = n_wrap[N_W-1:0] != trk[POS_W-1:FINE_W];
+                // trk and the code's position share their low FINE_W bits (the phase): their period
+                // numbers, registered, are compared in stage 4
+                reg  [N_W-1:0] s3_n, s3_trk_n;
+                assign differs = s3_n != s3_trk_n;
 
                 always @(posedge clk) begin
-                    if (done) begin
-                        pos <= absolute ? {n_wrap[N_W-1:0], s2_phase} : trk[POS_W-1:0];
+                    if (step) begin
+                        // trk[FINE_W-1:0] is s2_phase: only the period number is chosen
+                        s3_pos <= {absolute ? n_wrap[N_W-1:0] : trk[POS_W-1:FINE_W], s2_phase};
+                    end
+                    if (ce) begin
+                        s3_n     <= n_wrap[N_W-1:0];
+                        s3_trk_n <= trk[POS_W-1:FINE_W];
                     end
                 end
 
@@ -251,27 +306,43 @@ module fringe_period_count #(
                 assign differs = 1'b0;
 
                 always @(posedge clk) begin
-                    if (done) begin
-                        pos <= s2_phase;
+                    if (step) begin
+                        s3_pos <= s2_phase;
                     end
                 end
 
                 wire unused_n = &{1'b0, s2_n};
             end
 
-            // the top bits of cpos are zero (cpos < REV)
-            wire unused_c = &{1'b0, cpos[W-1:POS_W], trk[SW-1:POS_W], trk[FINE_W-1:0]};
+            // the top bits of cpos are zero (cpos < REV); s2_first is in s2_restart
+            wire unused_c = &{1'b0, cpos[W-1:POS_W], trk[SW-1:POS_W], trk[FINE_W-1:0], s2_first};
         end else begin : g_count
             // ---- incremental: pos = (pos_prev + delta) mod REV ----------------------------------
+            if (N_W > 0) begin : g_count_lines
+                always @(posedge clk) begin
+                    if (step) begin
+                        s3_pos <= {s2_first ? {N_W{1'b0}} : trk[POS_W-1:FINE_W], s2_phase};
+                    end
+                end
+            end else begin : g_count_one_line
+                // LINES = 1: the position is the phase, first sample or not
+                always @(posedge clk) begin
+                    if (step) begin
+                        s3_pos <= s2_phase;
+                    end
+                end
+
+                wire unused_f = &{1'b0, s2_first};
+            end
+
             always @(posedge clk) begin
                 if (done) begin
-                    pos        <= s2_first ? {{N_W{1'b0}}, s2_phase} : trk[POS_W-1:0];
                     coarse_err <= 1'b0;
                 end
             end
 
             // no coarse code
-            wire unused_c = &{1'b0, coarse, coarse_ofs, trk[SW-1:POS_W]};
+            wire unused_c = &{1'b0, coarse, coarse_ofs, trk[SW-1:POS_W], trk[FINE_W-1:0]};
         end
     endgenerate
 

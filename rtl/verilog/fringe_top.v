@@ -5,7 +5,7 @@
 // s_axis_tready = ce && the core's in_ready: nothing lost or duplicated. rst (synchronous, active
 // high) empties the pipeline.
 //
-// LATENCY = fringe_core's: CORDIC_STAGES + 24 (+ 13 with TRIM = 1, + 4 with DRIFT = 1, + 4 with
+// LATENCY = fringe_core's: CORDIC_STAGES + 25 (+ 13 with TRIM = 1, + 4 with DRIFT = 1, + 4 with
 // CANCEL = 1) clocks from the s_axis handshake to m_axis_tvalid when the sink does not stall.
 // Parameters, ports and pipeline: docs/blocks/fringe_top.md. Bit-exact model: model/fringe/fixed/core.py.
 

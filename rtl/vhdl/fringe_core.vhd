@@ -11,7 +11,7 @@
 -- the configuration write port (independent of ce) writes the inactive bank, CTRL swaps the banks.
 -- rst (synchronous, active high) clears the sample pipeline only; ce = 0 freezes it.
 --
--- LATENCY = CORDIC_STAGES + 24 (+ 13 with TRIM = 1, + 4 with DRIFT = 1, + 4 with CANCEL = 1) clock
+-- LATENCY = CORDIC_STAGES + 25 (+ 13 with TRIM = 1, + 4 with DRIFT = 1, + 4 with CANCEL = 1) clock
 -- enables from in_valid to out_valid (fringe_core_latency, fringe_pkg).
 -- Parameters, ports, banks and pipeline: docs/blocks/fringe_core.md (formats, registers, status word:
 -- docs/architecture.md). Bit-exact model: model/fringe/fixed/core.py (run_core, run_core_banks).

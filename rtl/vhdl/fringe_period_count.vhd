@@ -13,7 +13,9 @@
 -- flagged: edge jitter is not a wrong code). coarse_err: |r| > COARSE_TOL, or a trusted sample whose period number
 -- differs from a track not lost by an overspeed since the last absolute output (a really wrong code:
 -- pos resynchronises to the code), and every sample tracked from such a resync (track_bad).
--- LATENCY = 3 clock enables, one sample per clock; ce = 0 freezes
+-- LATENCY = 4 clock enables, one sample per clock: the track (pos_prev + delta, a one-clock loop) is
+-- stage 3, the compare of its period number with the code's (resync, track_bad, coarse_err) stage 4,
+-- out of the loop, from registered values; pos and overspeed wait one stage with it. ce = 0 freezes
 -- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_period_count.md.
 -- Bit-exact model: model/fringe/fixed/period_count.py.
@@ -85,6 +87,10 @@ architecture rtl of fringe_period_count is
 
     constant LINES_W : unsigned(W - 1 downto 0) := to_unsigned(LINES, W);
     constant REV_S   : unsigned(SW - 1 downto 0) := shift_left(to_unsigned(LINES, SW), FINE_W);
+    -- the period-number bits of a position: the low FINE_W bits of the track's sum are the sample's
+    -- phase (pos_prev's are the previous valid sample's, delta is their difference, REV a multiple of
+    -- 2^FINE_W), so s3_pos takes them from s2_phase and the choice drives N_W bits
+    constant HI      : unsigned(POS_W - 1 downto 0) := shift_left(not to_unsigned(0, POS_W), FINE_W);
 
     -- COARSE_TOL (< 2^(FINE_W-1) + 1) as s(FINE_W+1); 0 without a coarse code
     function tolerance return signed is
@@ -98,8 +104,9 @@ architecture rtl of fringe_period_count is
     constant TOL : signed(FINE_W downto 0) := tolerance;
 
     signal s2_valid   : std_logic;                              -- the sample in stage 2
-    signal s2_user    : std_logic_vector(USER_W - 1 downto 0);
-    signal take, done : std_logic;
+    signal s3_valid   : std_logic;                              -- the sample in stage 3
+    signal s2_user, s3_user : std_logic_vector(USER_W - 1 downto 0);
+    signal take, step, done : std_logic;
 
     signal phase_prev : unsigned(FINE_W - 1 downto 0);  -- data: the previous valid sample's phase
     signal have_prev  : std_logic;                      -- state: a valid sample was taken since reset
@@ -113,13 +120,19 @@ architecture rtl of fringe_period_count is
     signal s2_n       : unsigned(NR - 1 downto 0);      -- floor((d + half) / 2^FINE_W), in [-2, LINES+1]
     signal s2_r       : signed(FINE_W - 1 downto 0);    -- residual, in [-2^(FINE_W-1), 2^(FINE_W-1))
     signal s2_m       : unsigned(FINE_W - 2 downto 0);  -- r xor sign: r for r >= 0, -r-1 below (no carry)
+    -- registered in stage 2 so that stage 3's choice is one LUT after m < anchor_m (4 inputs)
+    signal s2_trusted : std_logic;                      -- -TRUST <= r < TRUST: the top two bits of r agree
+    signal s2_restart : std_logic;                      -- the first sample or an overspeed: a start-up anchor
     signal s2_d, s2_d_up, s2_d_down : unsigned(SW - 1 downto 0);  -- counter: delta, delta + REV, delta - REV
-    signal pos_r      : unsigned(POS_W - 1 downto 0);   -- the output; pos_prev of the track
+    signal s3_pos     : unsigned(POS_W - 1 downto 0);   -- data: the track's pos_prev, pos one stage early
+    signal s3_over    : std_logic;
     signal trusted_seen : std_logic;                    -- state: a trusted sample since reset
     signal track_lost   : std_logic;                    -- state: an overspeed since the last absolute output
     signal track_bad    : std_logic;                    -- state: the last absolute output was a resync
-    -- m of the last absolute output, read only before the first trusted sample and after the first
-    -- sample since reset, which writes it: data, not reset (as pos_r)
+    -- m of the last start-up anchor (start_up: the first sample, an overspeed, m < anchor_m), read only
+    -- before the first trusted sample (where those are the absolute samples besides the trusted one that
+    -- ends it) and after the first sample since reset, which writes it: data, not reset (as s3_pos). Its
+    -- write enable leaves trusted out (the m loop is a compare and one LUT).
     signal anchor_m     : unsigned(FINE_W - 2 downto 0);
     signal closer       : std_logic;                    -- m < anchor_m, in parallel with the track's sums
     signal start_up     : std_logic;                    -- the start-up anchor moves here
@@ -130,21 +143,30 @@ architecture rtl of fringe_period_count is
     signal trusted      : std_logic;                    -- -TRUST <= r < TRUST: the code cannot be flipped
     signal absolute     : std_logic;                    -- this sample's pos is the code's
     signal lost         : std_logic;                    -- the track is lost
+    -- stage 4, out of the loop: the period numbers of the code and the track, and what else the
+    -- resync and coarse_err take, registered in stage 3
+    signal s3_n, s3_trk_n : unsigned(maximum(POS_W - FINE_W, 1) - 1 downto 0);
+    signal s3_err, s3_absolute, s3_checked : std_logic;
 
 begin
 
-    -- ---- valid (reset) and sideband, LATENCY stages ------------------------------------------
+    -- ---- valid (reset) and sideband, LATENCY stages: stages 1-2, stage 3, then stage 4 --------
     u_valid_12 : entity work.fringe_delay
-        generic map (WIDTH => USER_W, DEPTH => LATENCY - 1)
+        generic map (WIDTH => USER_W, DEPTH => LATENCY - 2)
         port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
                   out_valid => s2_valid, out_data => s2_user);
     u_valid_3 : entity work.fringe_delay
         generic map (WIDTH => USER_W, DEPTH => 1)
         port map (clk => clk, rst => rst, ce => ce, in_valid => s2_valid, in_data => s2_user,
+                  out_valid => s3_valid, out_data => s3_user);
+    u_valid_4 : entity work.fringe_delay
+        generic map (WIDTH => USER_W, DEPTH => 1)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => s3_valid, in_data => s3_user,
                   out_valid => out_valid, out_data => out_user);
 
     take <= ce and in_valid;       -- stage 1 takes a sample
-    done <= ce and s2_valid;       -- stage 3 produces an output
+    step <= ce and s2_valid;       -- stage 3 takes a sample: the track's loop and the state it reads
+    done <= ce and s3_valid;       -- stage 4 produces an output
 
     p_state : process (clk)
     begin
@@ -190,6 +212,11 @@ begin
                 else
                     s2_over <= '0';
                 end if;
+                if s1_first = '1' or (s1_delta >= Q1 and s1_delta <= Q3) then
+                    s2_restart <= '1';
+                else
+                    s2_restart <= '0';
+                end if;
                 -- dh = d + 2^(FINE_W-1) = centre - (phase - 2^(FINE_W-1)), one subtract: phase -
                 -- 2^(FINE_W-1) is phase with its top bit inverted, read as s(FINE_W); r is dh's low
                 -- bits with the top one inverted, as s(FINE_W)
@@ -198,6 +225,7 @@ begin
                 s2_n <= dh(W - 1 downto FINE_W);
                 s2_r <= signed(not dh(FINE_W - 1) & dh(FINE_W - 2 downto 0));
                 s2_m <= dh(FINE_W - 2 downto 0) xor (FINE_W - 2 downto 0 => not dh(FINE_W - 1));
+                s2_trusted <= dh(FINE_W - 1) xor dh(FINE_W - 2);
                 -- counter: delta + REV and delta - REV, so stage 3 adds once
                 dx := unsigned(resize(signed(s1_delta), SW));
                 s2_d      <= dx;
@@ -207,11 +235,11 @@ begin
         end if;
     end process p_stage2;
 
-    -- ---- stage 3: position and flags ----------------------------------------------------------
-    trusted  <= '1' when s2_r(FINE_W - 1) = s2_r(FINE_W - 2) else '0';
+    -- ---- stage 3: the track and the choice absolute/tracked (the loop) -------------------------
+    trusted  <= s2_trusted;
     -- counting mode never writes anchor_m: no compare against its power-up 'U' (short-circuit and)
     closer   <= '1' when COARSE_W > 0 and s2_m < anchor_m else '0';
-    start_up <= s2_first or s2_over or closer;
+    start_up <= s2_restart or closer;
     absolute <= trusted or (not trusted_seen and start_up);
     lost     <= track_lost or s2_over;
 
@@ -221,13 +249,9 @@ begin
             if rst = '1' then
                 trusted_seen <= '0';
                 track_lost   <= '0';
-                track_bad    <= '0';
-            elsif done = '1' then
+            elsif step = '1' then
                 trusted_seen <= trusted_seen or trusted;
                 track_lost   <= not absolute and lost;
-                if absolute = '1' then
-                    track_bad <= resync;
-                end if;
             end if;
         end if;
     end process p_track;
@@ -238,9 +262,9 @@ begin
         variable sum, sum_up, sum_down : unsigned(SW - 1 downto 0);
         variable n_up, n_down : unsigned(NR - 1 downto 0);
     begin
-        sum      := resize(pos_r, SW) + s2_d;
-        sum_up   := resize(pos_r, SW) + s2_d_up;
-        sum_down := resize(pos_r, SW) + s2_d_down;
+        sum      := resize(s3_pos, SW) + s2_d;
+        sum_up   := resize(s3_pos, SW) + s2_d_up;
+        sum_down := resize(s3_pos, SW) + s2_d_down;
         trk      <= wrapped(sum, sum_up, sum_down);
         n_up     := s2_n + LINES_W(NR - 1 downto 0);
         n_down   := s2_n - LINES_W(NR - 1 downto 0);
@@ -251,45 +275,72 @@ begin
         end if;
     end process p_comb;
 
-    -- trk and the code's position share their low FINE_W bits (the phase)
-    differs <= '1' when resize(n_wrap, POS_W - FINE_W + 1) /= resize(trk(POS_W - 1 downto FINE_W), POS_W - FINE_W + 1)
-               else '0';
-    resync  <= trusted and trusted_seen and not lost and differs;
-
     p_stage3 : process (clk)
-        variable r   : signed(FINE_W downto 0);
-        variable err : std_logic;
+        variable r : signed(FINE_W downto 0);
     begin
         if rising_edge(clk) then
-            if done = '1' then
-                overspeed <= s2_over;
+            if step = '1' then
                 if COARSE_W > 0 then
-                    -- |r| > tol (two compares in parallel)
-                    r := resize(s2_r, FINE_W + 1);
-                    err := '0';
-                    if r > TOL or r < -TOL then
-                        err := '1';
-                    end if;
-                    if absolute = '1' then
+                    if start_up = '1' then
                         anchor_m <= s2_m;
-                        coarse_err <= err or resync;
-                        pos_r <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s2_phase, POS_W);
+                    end if;
+                    -- trk's low FINE_W bits are s2_phase (HI): only the period number is chosen
+                    if absolute = '1' then
+                        s3_pos <= shift_left(resize(n_wrap, POS_W), FINE_W) or resize(s2_phase, POS_W);
                     else
-                        coarse_err <= err or track_bad;
-                        pos_r <= trk(POS_W - 1 downto 0);
+                        s3_pos <= (trk(POS_W - 1 downto 0) and HI) or resize(s2_phase, POS_W);
                     end if;
                 else
                     if s2_first = '1' then
-                        pos_r <= resize(s2_phase, POS_W);
+                        s3_pos <= resize(s2_phase, POS_W);
                     else
-                        pos_r <= trk(POS_W - 1 downto 0);
+                        s3_pos <= (trk(POS_W - 1 downto 0) and HI) or resize(s2_phase, POS_W);
                     end if;
-                    coarse_err <= '0';
                 end if;
+            end if;
+            -- what stage 4 takes: trk and the code's position share their low FINE_W bits (the
+            -- phase), their period numbers are compared there, out of the loop
+            if ce = '1' then
+                s3_over <= s2_over;
+                -- |r| > tol (two compares in parallel)
+                r := resize(s2_r, FINE_W + 1);
+                if COARSE_W > 0 and (r > TOL or r < -TOL) then
+                    s3_err <= '1';
+                else
+                    s3_err <= '0';
+                end if;
+                s3_absolute <= absolute;
+                s3_checked  <= trusted and trusted_seen and not lost;
+                s3_n        <= resize(n_wrap, s3_n'length);
+                s3_trk_n    <= resize(trk(SW - 1 downto FINE_W), s3_trk_n'length);
             end if;
         end if;
     end process p_stage3;
 
-    pos <= std_logic_vector(pos_r);
+    -- ---- stage 4: the resync, track_bad, coarse_err; the outputs -----------------------------
+    differs <= '1' when POS_W > FINE_W and s3_n /= s3_trk_n else '0';
+    resync  <= s3_checked and differs;
+
+    p_stage4 : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                track_bad <= '0';
+            elsif done = '1' and s3_absolute = '1' then
+                track_bad <= resync;
+            end if;
+            if done = '1' then
+                pos       <= std_logic_vector(s3_pos);
+                overspeed <= s3_over;
+                if COARSE_W = 0 then
+                    coarse_err <= '0';
+                elsif s3_absolute = '1' then
+                    coarse_err <= s3_err or resync;
+                else
+                    coarse_err <= s3_err or track_bad;
+                end if;
+            end if;
+        end if;
+    end process p_stage4;
 
 end architecture rtl;

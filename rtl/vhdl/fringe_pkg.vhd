@@ -112,7 +112,7 @@ package fringe_pkg is
     constant QUADRATURE_LATENCY      : integer := 5;  -- fringe_quadrature
     constant CORDIC_LATENCY_BASE     : integer := 2;  -- fringe_cordic: STAGES + this
     constant CORDIC_ITER_CLOCKS_BASE : integer := 1;  -- fringe_cordic ITERATIVE = 1: a sample every STAGES + this clock enables
-    constant PERIOD_COUNT_LATENCY    : integer := 3;  -- fringe_period_count
+    constant PERIOD_COUNT_LATENCY    : integer := 4;  -- fringe_period_count
     constant TRIM_LATENCY            : integer := 13;  -- fringe_trim
     constant LONG_PERIOD_LATENCY     : integer := 8;  -- fringe_long_period
     constant DRIFT_NORM_LATENCY      : integer := 4;  -- fringe_drift normaliser

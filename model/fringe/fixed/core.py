@@ -73,7 +73,7 @@ def core_latency(cfg: CoreConfig) -> int:
     """LATENCY of rtl/*/fringe_core (and fringe_top): clock enables from in_valid to out_valid.
 
     The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 5, CORDIC
-    CORDIC_STAGES + 2, period count 3, long-period table 8; CORDIC_STAGES + 24 in all, plus fringe_trim's
+    CORDIC_STAGES + 2, period count 4, long-period table 8; CORDIC_STAGES + 25 in all, plus fringe_trim's
     LATENCY with TRIM = 1, fringe_canceller's with CANCEL = 1 (in drift_pipe_latency) and fringe_drift's
     normaliser (NORM_LATENCY) with DRIFT = 1 (INPUT_LATENCY and drift_pipe_latency: fixed/config.py). The
     same for COMPACT = 1, which only takes fewer samples: one per ``cfg.clocks_per_sample`` clock enables

@@ -55,13 +55,16 @@ the range and raises ``ValueError`` outside it).
 restarts there), or resumes one from `track_state`; it is vectorised (cumulative sums of delta from
 the last absolute sample; start-up anchors are running minima of m, restarted at overspeeds).
 
-The RTL has ``LATENCY = 3`` enabled clocks, one carry chain per stage: (1) delta and the coarse
+The RTL has ``LATENCY = 4`` enabled clocks, one carry chain per stage: (1) delta and the coarse
 centre; (2) the overspeed test, ``d + 2^(FINE_W-1)`` (period number and residual, and ``m``), and the track's
 delta with its two wrapped alternatives (the counter's in both modes); (3) ``|r| > COARSE_TOL``, the wrap of the period
 number and the tracked sum (three sums in parallel, chosen by sign bits) and ``m < anchor_m`` (``m``
 registered in stage 2 from r's bits: a compare of FINE_W-1 bits against a register, shorter than
-the sums beside it), then the choice between them and their period-number compare (the state loop:
-``pos``, anchor_m, trusted_seen, track_lost, track_bad).
+the sums beside it), then the choice between them (the state loop: ``pos``, anchor_m, trusted_seen,
+track_lost); (4) the compare of the two period numbers, registered in stage 3, and the resync,
+track_bad and coarse_err it decides. The compare was stage 3's until it made that stage the
+slowest path of the design (a compare after the POS_W add in the ``pos`` loop); nothing in the loop
+reads it, so it takes a clock of its own and the outputs one more clock.
 """
 
 from __future__ import annotations
@@ -87,7 +90,7 @@ __all__ = [
 ]
 
 #: Enabled clocks from ``in_valid`` to ``out_valid`` in the RTL.
-LATENCY = 3
+LATENCY = 4
 #: Widest position the blocks support: ``FINE_W + clog2(LINES) <= 48`` (REV < 2^48 fits int64 with room).
 POS_W_MAX = 48
 NAME = "fringe_period_count"
@@ -174,7 +177,7 @@ class PeriodCountParams(PositionWidths):
 
     @property
     def latency(self) -> int:
-        """LATENCY: enabled clocks from in_valid to out_valid, 3."""
+        """LATENCY: enabled clocks from in_valid to out_valid, 4."""
         return LATENCY
 
     def hdl_parameters(self) -> dict[str, int]:
@@ -183,7 +186,7 @@ class PeriodCountParams(PositionWidths):
 
 
 def latency(params: PeriodCountParams) -> int:
-    """Clock enables from ``in_valid`` to ``out_valid`` in the RTL: 3."""
+    """Clock enables from ``in_valid`` to ``out_valid`` in the RTL: 4."""
     return LATENCY
 
 
