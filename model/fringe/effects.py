@@ -53,8 +53,9 @@ class Context:
 def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int) -> np.ndarray:
     """Causal speed (rev/s): the position change over the last 2^log2_window samples; before that many samples
     came, over the longest power of two of samples there are (1, 2, 4, ...: a start-up has a speed from its
-    second sample on), 0 at the first. Exactly what fringe_trim computes in fine counts
-    (model/fringe/fixed/trim.py), with the window the generator gives it (fixed.trim.speed_window_log2)."""
+    second sample on), 0 at the first. What fringe_trim computes in fine counts (model/fringe/fixed/trim.py), with
+    the window the generator gives it (fixed.trim.speed_window_log2), but for its saturation of a start-up window's
+    scaled speed at half a revolution per window (beyond the overspeed limit only)."""
     n = len(rev_unwrapped)
     v = np.zeros(n)
     full = 1 << log2_window
