@@ -289,3 +289,25 @@ def test_a_line_the_online_blocks_make_is_not_a_tone():
     assert "canceller" in loop.update_ripple(f, cal_c, fs, high, tol)
     # nothing online: nothing is ripple, not even the electrical frequency
     assert loop.update_ripple(fe, SimpleNamespace(adaptive=False, tracker={}, canceller={}), fs, fe, tol) == ""
+
+
+def test_speed_effects_are_tested_only_where_the_reference_speed_changes():
+    """A 2-line encoder with offsets that change over the revolution, at a steady motion: its own speed estimate
+    changes by 2-3 % with its angle error (the encoder's view would test a skew), the reference's does not, so
+    speed effects are not offered; with a speed swing they are."""
+    from fringe.calibrate import calibrate
+    seed = 11
+    print("seed", seed)
+    rng = np.random.default_rng(seed)
+    for swing in (0.0, 0.2):
+        o = rng.uniform(0.05, 0.15)
+        mean = rng.uniform(2, 8)
+        cfg = SimulationConfig(lines_per_rev=2, coarse_bits=2, samples=16384, speed_mean_rev_s=mean,
+                               speed_swing_rev_s=swing * mean, rev_offset_mod_sin={1: (o, 0.0)},
+                               rev_offset_mod_cos={1: (0.0, o)})
+        m = measurement_of(simulate(cfg, int(rng.integers(1, 1000))))
+        ev = loop.evaluate(loop.LoopState(calibrate(m, cfg.encoder())), m)
+        v = loop.motion_speed(ev.ctx)
+        assert np.std(v) > loop.SPEED_SPREAD * np.mean(np.abs(v))     # the encoder's speed seems to change
+        _, skipped = loop.candidates(ev, 1.0, set())
+        assert ("sampling_skew" in skipped) == (swing == 0.0), skipped
