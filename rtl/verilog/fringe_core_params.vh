@@ -39,6 +39,7 @@ parameter integer DRIFT_TABLE_W      = 18,    // forward table value/slope width
 parameter integer DRIFT_TABLE_FRAC   = 4,     // fraction bits of the forward tables and W0_S/W0_C, 0..12
 parameter integer DRIFT_KG_W         = 18,    // KG_S/KG_C width, 8..24
 parameter integer DRIFT_KG_SHIFT     = 40,    // right shift of the gain-loop product, 1..60
+// fringe_canceller (the adaptive interference canceller): built only with CANCEL = 1
 parameter integer CANCEL             = 0,     // 1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)
 parameter integer CANCEL_LUT_W       = 10,    // 2^CANCEL_LUT_W entries of the canceller's sine table, 4..12
 parameter integer CANCEL_C_W         = 16,    // canceller sine table value width, 8..18

@@ -62,6 +62,7 @@ entity fringe_core is
         DRIFT_TABLE_FRAC   : integer := 4;   -- fraction bits of the forward tables and W0_S/W0_C, 0..12
         DRIFT_KG_W         : integer := 18;  -- KG_S/KG_C width, 8..24
         DRIFT_KG_SHIFT     : integer := 40;  -- right shift of the gain-loop product, 1..60
+        -- fringe_canceller (the adaptive interference canceller): built only with CANCEL = 1
         CANCEL             : integer := 0;   -- 1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)
         CANCEL_LUT_W       : integer := 10;  -- 2^CANCEL_LUT_W entries of the canceller's sine table, 4..12
         CANCEL_C_W         : integer := 16;  -- canceller sine table value width, 8..18
