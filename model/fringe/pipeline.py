@@ -99,6 +99,7 @@ def run_float(cal: Calibration, sin: np.ndarray, cos: np.ndarray, coarse: np.nda
     if cal.rev_norm is not None:     # the position in the revolution from a first pass selects the gains
         frac, mag = fine_phase(cal, sin, cos, 2 * np.pi * pos / enc.lines_per_rev)
         pos, coarse_err, fast = encoder_position(cal, frac, coarse, t)
+    counted = pos     # the position the terms see (fringe_trim's input): the result's context, as the core's
     if cal.angle_terms:
         from .effects import make_context
         ctx = make_context(frac, pos, enc.lines_per_rev, sample_times(len(frac), t), mag)
@@ -110,4 +111,4 @@ def run_float(cal: Calibration, sin: np.ndarray, cos: np.ndarray, coarse: np.nda
               | np.where((cos <= lo) | (cos >= hi), CLIP_COS, 0)
               | np.where(mag < cal.amp_low, AMP_LOW, 0) | np.where(mag > cal.amp_high, AMP_HIGH, 0)
               | np.where(fast, OVERSPEED, 0) | np.where(coarse_err, COARSE_ERR, 0))
-    return Result(output_angle(cal, pos), status.astype(np.int64), frac, pos, mag)
+    return Result(output_angle(cal, pos), status.astype(np.int64), frac, counted, mag)

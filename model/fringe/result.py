@@ -14,5 +14,6 @@ class Result:
     angle_deg: np.ndarray       # corrected output angle, [0, 360)
     status: np.ndarray          # int status word per sample
     frac: np.ndarray            # fine phase, fraction of a period
-    position: np.ndarray        # encoder position before long-period correction, periods [0, lines)
+    position: np.ndarray        # encoder position before the trim and long-period corrections (the period
+                                #   count's, which the trim's speed and sectors see), periods [0, lines)
     magnitude: np.ndarray       # corrected vector magnitude (1 nominal)
