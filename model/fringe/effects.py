@@ -58,13 +58,12 @@ def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int) -
     scaled speed at half a revolution per window (beyond the overspeed limit only)."""
     n = len(rev_unwrapped)
     v = np.zeros(n)
-    full = 1 << log2_window
-    idx = np.arange(n)
-    # the window of each sample: 2^floor(log2(index)) up to the full window (none for the first)
-    w = np.minimum(np.where(idx > 0, 1 << np.floor(np.log2(np.maximum(idx, 1))).astype(np.int64), 0), full)
-    k = idx[w > 0]
-    dt = t[k] - t[k - w[k]]
-    v[k] = (rev_unwrapped[k] - rev_unwrapped[k - w[k]]) / np.where(dt > 0, dt, 1.0)
+    for k in range(log2_window + 1):
+        w = 1 << k                      # samples [w, 2w) take the window w; from the full window on, that one
+        end = n if k == log2_window else min(2 * w, n)
+        if end > w:
+            dt = t[w:end] - t[:end - w]
+            v[w:end] = (rev_unwrapped[w:end] - rev_unwrapped[:end - w]) / np.where(dt > 0, dt, 1.0)
     return v
 
 
