@@ -555,9 +555,37 @@ def strided(ev: Evaluation) -> Evaluation:
                       None if ev.ref_speed is None else ev.ref_speed[sl])
 
 
+def reference_context(ev: Evaluation) -> Context | None:
+    """The context with the motion (speed, acceleration, direction) of the reference instead of the encoder's own
+    estimate. The encoder's speed is a difference of its own positions, so it carries the noise of the sample being
+    corrected: on a noisy encoder a speed term fitted to it cancels part of that noise (it acts as a smoothing
+    filter) and passes for a speed effect. The reference's motion is free of the encoder's noise, and a physical
+    speed or direction effect shows against it as well."""
+    if ev.ref_speed is None or ev.cal is None or len(ev.r) < 3:
+        return None
+    v = ev.cal.direction * ev.ref_speed           # the reference may count the other way
+    return dataclasses.replace(ev.ctx, speed=v, accel=np.gradient(v, ev.ctx.t), direction=np.where(v >= 0, 1, -1))
+
+
+def in_own_noise(ev: Evaluation, moving: Context | None, name: str, t: Test, sigma: float) -> bool:
+    """Whether a significant motion effect shows only through the encoder's own motion estimate (its noise): against
+    the reference's motion it is not testable (a direction that changes only in the encoder's estimate), not
+    significant, or would not lower the residual by MIN_GAIN. The encoder's estimate carries the physical
+    effect and the noise alike, so the share they explain is not compared, only whether the physical one is
+    there at all."""
+    effect = LIBRARY[name]
+    if moving is None or t.p_value >= P_VALUE or not {"speed", "direction"} & set(effect.needs):
+        return False
+    if testable(name, moving, ev.cal, ev.ref_speed):
+        return True
+    ref = test_library_effect(dataclasses.replace(ev, ctx=moving), effect, sigma)
+    return ref.p_value >= P_VALUE or ref.rms_after > (1 - MIN_GAIN) * ev.rms
+
+
 def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Test], dict]:
     tests, skipped = [], {}
     ev = strided(ev_full)
+    moving = reference_context(ev)
     for name in LIBRARY:
         if name in exclude:
             continue
@@ -565,7 +593,13 @@ def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Te
         if why:
             skipped[name] = why
             continue
-        tests.append(test_library_effect(ev, LIBRARY[name], sigma))
+        t = test_library_effect(ev, LIBRARY[name], sigma)
+        if in_own_noise(ev, moving, name, t, sigma):
+            skipped[name] = ("it shows against the encoder's own speed estimate but not against the reference's "
+                             "motion: the noise of the sample being corrected, which a speed term would smooth, "
+                             "not a physical effect")
+            continue
+        tests.append(t)
     known_hz = [float(e.split("@")[1]) for e in exclude if "@" in e]
     lines, notes = tone_candidates(ev_full, known_hz)
     for name, f, p_line, harmonic in lines:
