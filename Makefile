@@ -29,7 +29,7 @@ $(STAMP): pyproject.toml
 setup: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/python -m fringe.demo $(OUT)/demo
+	$(BIN)/python -m fringe.tools.demo $(OUT)/demo
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -n $(JOBS) -q
@@ -46,7 +46,7 @@ lint: $(STAMP)
 	$(BIN)/python sim/hdlgen.py --check
 
 bench: synth synth-families formal
-	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m fringe.bench --out results
+	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m fringe.tools.bench --out results
 
 $(SYNTH_STAMP): $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[test,synth]'

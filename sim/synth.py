@@ -15,8 +15,8 @@ Per configuration (``--configs``):
          time-multiplexed core: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC; same words); their
          rows carry the issue's targets (COMPACT_TARGETS, judged on the UP5K) in ``compact_targets``; they run
          on the UP5K only (CONFIG_DEVICES), whatever --devices lists besides
-the tables are filled from a real calibration of a short simulated recording (fringe.simulate ->
-fringe.evaluate.measurement_of -> fringe.calibrate -> fringe.hardware.tables.build_tables ->
+the tables are filled from a real calibration of a short simulated recording (fringe.dsp.simulate ->
+fringe.calib.evaluate.measurement_of -> fringe.calib.calibrate -> fringe.hardware.tables.build_tables ->
 fringe.hardware.rom.write_roms), so block-RAM inference sees what a user's design sees.
 
 Per device (``--devices``):
@@ -72,14 +72,14 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO / "model"))
 
-from fringe.calibrate import calibrate  # noqa: E402
-from fringe.evaluate import measurement_of  # noqa: E402
+from fringe.calib.calibrate import calibrate  # noqa: E402
+from fringe.calib.evaluate import measurement_of  # noqa: E402
+from fringe.dsp.simulate import SimulationConfig, seed_encoder, simulate  # noqa: E402
 from fringe.fixed.config import CoreConfig  # noqa: E402
 from fringe.fixed.core import core_latency  # noqa: E402
 from fringe.hardware.rom import write_roms  # noqa: E402
 from fringe.hardware.rtlsim import init_files  # noqa: E402
 from fringe.hardware.tables import build_tables  # noqa: E402
-from fringe.simulate import SimulationConfig, seed_encoder, simulate  # noqa: E402
 
 # the sources; main() points these at its copies in the tool folder (snapshot_inputs)
 RTL = REPO / "rtl" / "verilog"   # --rtl DIR points it elsewhere

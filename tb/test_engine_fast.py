@@ -35,13 +35,13 @@ def population():
 @pytest.mark.parametrize("adc_bits,lines,coarse_bits,compact", population())
 def test_fast_engine_words_equal_model(adc_bits, lines, coarse_bits, compact):
     from cocotb_runner import available_simulators
-    from fringe.calibrate import calibrate
-    from fringe.evaluate import measurement_of
+    from fringe.calib.calibrate import calibrate
+    from fringe.calib.evaluate import measurement_of
+    from fringe.dsp.simulate import seed_encoder, simulate
     from fringe.fixed.config import CoreConfig
     from fringe.fixed.core import core_latency, run_core, to_adc_codes
     from fringe.hardware.rtlsim import run_rtl, top_widths
     from fringe.hardware.tables import build_tables
-    from fringe.simulate import seed_encoder, simulate
 
     if available_simulators()["verilator"]:
         pytest.skip(available_simulators()["verilator"])

@@ -23,11 +23,11 @@ RM44_FILE = RM44_DIR / "2017_10_02_xs_150u.csv"
 def rm44():
     if not RM44_FILE.is_file():
         pytest.skip(f"{RM44_FILE} not found (shared recordings absent)")
-    from fringe.calibrate import calibrate
-    from fringe.datasets import RM44_ENCODER, halves, read_rm44
+    from fringe.calib.calibrate import calibrate
     from fringe.fixed.config import CoreConfig
     from fringe.fixed.core import run_core, to_adc_codes
     from fringe.hardware.tables import build_tables
+    from fringe.io.datasets import RM44_ENCODER, halves, read_rm44
 
     meas = read_rm44(str(RM44_FILE))
     cal = calibrate(halves(meas)[0], RM44_ENCODER)
@@ -71,7 +71,7 @@ def test_run_rtl_result_is_the_model_angle(rm44):
 def test_cli_correct_verilog_rows_equal_model(tmp_path, capsys):
     """`fringe correct --engine verilog` writes the same rows as `--engine model` (a simulated
     seed-encoder file through the whole command line)."""
-    from fringe.cli import main
+    from fringe.cli.cli import main
 
     d = tmp_path
     assert main(["simulate", "--preset", "seed-encoder", "--out", str(d / "a.csv"), "--encoder-out",
@@ -88,8 +88,8 @@ def test_cli_correct_verilog_rows_equal_model(tmp_path, capsys):
 
 
 def _write_recording(cfg, seed: int, path) -> None:
-    from fringe import simulate
-    from fringe.dataio import write_csv
+    from fringe.dsp import simulate
+    from fringe.io.dataio import write_csv
 
     rec = simulate.simulate(cfg, seed=seed)
     cols = {k: rec.columns[k] for k in ("t_s", "sin", "cos", "coarse", "ref_deg") if k in rec.columns}
@@ -102,8 +102,8 @@ def test_cli_loop_calibration_rtl_rows_equal_model(sim, tmp_path, case):
     `fringe correct`: the RTL engine writes the same rows as the bit-exact model."""
     import json
 
-    from fringe.cli import main
-    from fringe.scenarios import scenario
+    from fringe.cli.cli import main
+    from fringe.loop.scenarios import scenario
 
     cfg, expected = scenario(case, samples=60_000)
     d = tmp_path
@@ -128,13 +128,13 @@ def test_run_rtl_with_canceller_matches_model(sim):
     """A calibration that cancels interference online (CANCEL = 1, the core's config from it) on a recording
     with an additive tone: every word of the RTL engine (rtlsim, CANCEL_LUT_INIT, CANCEL_FREQ) equals
     ``run_core``'s, and the canceller's words are not those of the same core without it."""
-    from fringe.calibrate import calibrate
-    from fringe.evaluate import measurement_of
+    from fringe.calib.calibrate import calibrate
+    from fringe.calib.evaluate import measurement_of
+    from fringe.dsp.simulate import SimulationConfig, simulate
     from fringe.fixed.core import run_core, to_adc_codes
     from fringe.hardware.corefiles import core_config
     from fringe.hardware.rtlsim import run_rtl
     from fringe.hardware.tables import build_tables
-    from fringe.simulate import SimulationConfig, simulate
 
     base = SimulationConfig(samples=6000)
     noisy = dataclasses.replace(base, interference_fs=0.01, interference_hz=0.137 * base.sample_rate_hz)

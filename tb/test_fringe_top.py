@@ -1,7 +1,7 @@
 """fringe_top (Verilog and VHDL) against the bit-exact core model, every output word exactly.
 
-Data: a simulated recording per configuration (``fringe.simulate``), calibrated with
-``fringe.calibrate.calibrate`` (calibration A: the init files of both banks) and a second,
+Data: a simulated recording per configuration (``fringe.dsp.simulate``), calibrated with
+``fringe.calib.calibrate.calibrate`` (calibration A: the init files of both banks) and a second,
 different recording and calibration (B: written through the configuration port in mid-stream).
 Expected words: ``run_core`` / ``run_core_banks`` on the samples the DUT accepted.
 
@@ -519,7 +519,7 @@ if cocotb is not None:
 
 
 def one_line_sim(**kw):
-    from fringe.simulate import ChannelConfig, SimulationConfig
+    from fringe.dsp.simulate import ChannelConfig, SimulationConfig
 
     base = dict(lines_per_rev=1, adc_bits=16, coarse_bits=0, samples=20000, speed_mean_rev_s=1.0,
                 speed_swing_rev_s=0.5,
@@ -531,14 +531,14 @@ def one_line_sim(**kw):
 
 
 def seed_sim(**kw):
-    from fringe.simulate import seed_encoder
+    from fringe.dsp.simulate import seed_encoder
 
     return dataclasses.replace(seed_encoder(), **{"samples": 20000, **kw})
 
 
 def other_channels(sc):
     """A different encoder of the same kind: other offsets, gains, phase, harmonics (calibration B)."""
-    from fringe.simulate import ChannelConfig
+    from fringe.dsp.simulate import ChannelConfig
 
     s, c = sc.sin_channel, sc.cos_channel
     return dataclasses.replace(
@@ -605,9 +605,9 @@ def prepare(name: str, compact: int = 0) -> Path:
     """Calibrations, init files and sample streams of one configuration (COMPACT = compact), at a fixed place."""
     if (name, compact) in _PREPARED:
         return _PREPARED[name, compact]
-    from fringe.calibrate import calibrate
-    from fringe.evaluate import measurement_of
-    from fringe.simulate import simulate
+    from fringe.calib.calibrate import calibrate
+    from fringe.calib.evaluate import measurement_of
+    from fringe.dsp.simulate import simulate
 
     make_cfg, make_sim, dec = CONFIGS[name]
     cfg = dataclasses.replace(make_cfg(), compact=compact)

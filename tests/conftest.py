@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fringe.dataio import Measurement
-from fringe.simulate import seed_encoder, simulate
+from fringe.dsp.simulate import seed_encoder, simulate
+from fringe.io.dataio import Measurement
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 

@@ -10,10 +10,10 @@ import dataclasses
 import numpy as np
 import pytest
 
-from fringe.calibrate import calibrate, seed_method
-from fringe.evaluate import figures, measurement_of, noise_floor_arcsec
-from fringe.metrics import binned_mean
-from fringe.simulate import seed_encoder, simulate
+from fringe.calib.calibrate import calibrate, seed_method
+from fringe.calib.evaluate import figures, measurement_of, noise_floor_arcsec
+from fringe.dsp.metrics import binned_mean
+from fringe.dsp.simulate import seed_encoder, simulate
 
 
 def test_seed_encoder_reaches_the_noise_floor(seed_recordings):
@@ -70,7 +70,7 @@ def test_reference_free_calibration_uses_smooth_motion():
     cal = calibrate(meas, cfg.encoder())
     assert cal.long_period is None and any("long-period" in s for s in cal.skipped)
     val = simulate(cfg, seed=32)
-    from fringe.pipeline import fine_phase
+    from fringe.engine.pipeline import fine_phase
     frac, _ = fine_phase(cal, val.columns["sin"].astype(float), val.columns["cos"].astype(float))
     true = np.mod(val.fine_phase_rad / (2 * np.pi), 1.0)
     d = np.angle(np.exp(2j * np.pi * (frac - true))) / (2 * np.pi) * cfg.encoder().period_arcsec

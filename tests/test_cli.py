@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from fringe.cli import main
+from fringe.cli.cli import main
 
 HEADER = "t_s,sin,cos,coarse,ref_deg"
 
@@ -155,12 +155,12 @@ def test_correct_runs_a_calibration_with_the_canceller_in_one_piece(workdir, cap
     bit-exact model over the whole recording (streamed in pieces, the model refused it: nothing was written)."""
     import dataclasses
 
-    from fringe.calibrate import calibrate
-    from fringe.calstore import save_calibration
-    from fringe.dataio import read_measurement
+    from fringe.calib.calibrate import calibrate
+    from fringe.cli.engines import run_engine
     from fringe.encoder import load_encoder
-    from fringe.engines import run_engine
     from fringe.hardware.corefiles import core_files
+    from fringe.io.calstore import save_calibration
+    from fringe.io.dataio import read_measurement
 
     d = workdir
     enc = load_encoder(str(d / "enc.json"))

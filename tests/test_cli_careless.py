@@ -20,7 +20,7 @@ import shutil
 import numpy as np
 import pytest
 
-from fringe.cli import main
+from fringe.cli.cli import main
 
 CASES = int(os.environ.get("FRINGE_CARELESS_CASES", "14"))
 SEED = int(os.environ.get("FRINGE_CARELESS_SEED", "20261202"))

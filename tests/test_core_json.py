@@ -11,9 +11,9 @@ import os
 
 import pytest
 
-from fringe.cli import main
+from fringe.cli.cli import main
 from fringe.fixed.config import RENAMED_FIELDS, CoreConfig, current_field_names
-from fringe.outputs import MANIFEST, write_manifest
+from fringe.io.outputs import MANIFEST, write_manifest
 
 #: the HDL parameters the previous version wrote into core.json under other names (TRIM = 1 / DRIFT = 1 only)
 OLD_HDL_NAMES = {"TRIM_SPEED_LOG2": "SPEED_LOG2", "TRIM_MAP_PSI_W": "MAP_PSI_W", "TRIM_MAP_PHI_W": "MAP_PHI_W",
@@ -87,8 +87,8 @@ def test_current_field_names():
 @pytest.mark.parametrize("trim", [0, 1])
 def test_an_old_core_json_loads_with_its_values(work, trim):
     """The previous version's core.json (its names, its values) gives the configuration the new names give."""
-    from fringe.calstore import load_calibration
     from fringe.hardware.corefiles import core_config
+    from fringe.io.calstore import load_calibration
 
     old = _folder(work, f"cal_old_{trim}", lambda c: _old(c, trim=trim, **OLD_VALUES))
     new = _folder(work, f"cal_new_{trim}", lambda c: _new(c, **OLD_VALUES) | {"trim": trim})

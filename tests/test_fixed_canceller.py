@@ -128,12 +128,12 @@ def test_core_with_canceller_removes_interference():
     estimation noise), and it rises by more than twice without the canceller."""
     import dataclasses
 
-    from fringe.calibrate import calibrate
-    from fringe.evaluate import measurement_of
+    from fringe.calib.calibrate import calibrate
+    from fringe.calib.evaluate import measurement_of
+    from fringe.dsp.metrics import error_arcsec
+    from fringe.dsp.simulate import SimulationConfig, simulate
     from fringe.hardware.corefiles import core_config
     from fringe.hardware.tables import run_model
-    from fringe.metrics import error_arcsec
-    from fringe.simulate import SimulationConfig, simulate
 
     base = SimulationConfig(samples=20_000)
     noisy = dataclasses.replace(base, interference_fs=0.01, interference_hz=0.137 * base.sample_rate_hz)

@@ -3,16 +3,16 @@
 import numpy as np
 import pytest
 
-from fringe.calibrate import calibrate
-from fringe.evaluate import measurement_of
+from fringe.calib.calibrate import calibrate
+from fringe.calib.evaluate import measurement_of
+from fringe.dsp.simulate import SimulationConfig, seed_encoder, simulate
+from fringe.engine.pipeline import run_float
 from fringe.fixed.config import CoreConfig
 from fringe.fixed.core import error_budget
 from fringe.fixed.long_period import index_mapping
 from fringe.fixed.period_count import PeriodCountParams, period_count
 from fringe.hardware.rom import FORMATS, write_roms
 from fringe.hardware.tables import build_tables, run_model
-from fringe.pipeline import run_float
-from fringe.simulate import SimulationConfig, seed_encoder, simulate
 
 
 @pytest.fixture(scope="module")

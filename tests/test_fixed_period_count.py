@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hdl_text import block_texts, missing_checks
 
+from fringe.dsp.position import coarse_fine_combine, count_periods
 from fringe.fixed.period_count import (
     LATENCY,
     PeriodCountParams,
@@ -18,7 +19,6 @@ from fringe.fixed.period_count import (
     rev_and_pos_w,
     track_state,
 )
-from fringe.position import coarse_fine_combine, count_periods
 
 PARAMS = [
     PeriodCountParams(16, 256, 9),
@@ -157,7 +157,7 @@ def test_period_number_range_and_wrap_exhaustive(lines, fine_w, coarse_w):
 
 @pytest.mark.parametrize("p", [q for q in PARAMS if q.coarse_w and q.pos_w <= 40], ids=_pid)
 def test_coarse_combination_equals_float_reference(p):
-    """The float engine (fringe.position) gives the same position and flag: the budget is 0
+    """The float engine (fringe.dsp.position) gives the same position and flag: the budget is 0
     (only exact half-period ties differ: float rounds them to even, the hardware up)."""
     rng = np.random.default_rng(11)
     phase, coarse, ofs = stream(p, rng, 50_000)

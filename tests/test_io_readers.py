@@ -13,9 +13,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from fringe.dataio import read_measurement
 from fringe.encoder import encoder_from_dict
 from fringe.errors import FringeInputError
+from fringe.io.dataio import read_measurement
 
 EXAMPLES = int(os.environ.get("FRINGE_FUZZ_EXAMPLES", "300"))
 COMMON = dict(deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

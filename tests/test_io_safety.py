@@ -12,8 +12,8 @@ import time
 import numpy as np
 import pytest
 
-from fringe.cli import main
-from fringe.outputs import MANIFEST, TMP_PREFIX
+from fringe.cli.cli import main
+from fringe.io.outputs import MANIFEST, TMP_PREFIX
 
 
 @pytest.fixture(scope="module")
@@ -194,7 +194,7 @@ def test_a_mixed_truncated_or_edited_calibration_is_refused(work, tmp_path, caps
 
 def test_a_calibration_from_another_encoder_is_refused_even_with_a_fresh_manifest(work, tmp_path, capsys):
     """core.json's encoder fields must agree with calibration.json's encoder, whoever wrote the manifest."""
-    from fringe.outputs import write_manifest
+    from fringe.io.outputs import write_manifest
 
     def edit(c):
         EDITS["core.json lines edited"](c)
@@ -332,7 +332,7 @@ def test_bad_options_are_one_line(work, tmp_path, capsys, argv):
 
 
 def test_a_huge_recording_is_refused_before_reading(work, tmp_path, capsys, monkeypatch):
-    import fringe.dataio as dataio
+    import fringe.io.dataio as dataio
     monkeypatch.setattr(dataio, "available_memory", lambda: 1 << 20)
     status, err = run(["calibrate", work / "b.csv", "--encoder", work / "enc.json", "--out", tmp_path / "c"], capsys)
     one_line_failure(status, err)
@@ -343,12 +343,12 @@ def test_a_huge_recording_is_refused_before_reading(work, tmp_path, capsys, monk
 
 def test_correct_in_pieces_gives_the_rows_of_one_run(work, tmp_path, monkeypatch):
     """Pieces of random sizes, with and without fringe_trim and a coarse code: the same words."""
-    from fringe.calstore import load_calibration
-    from fringe.dataio import iter_measurement, read_measurement
     from fringe.fixed.core import CoreStream, run_core, to_adc_codes
     from fringe.hardware.closed_loop import TrimTables
     from fringe.hardware.corefiles import core_config
     from fringe.hardware.tables import build_tables
+    from fringe.io.calstore import load_calibration
+    from fringe.io.dataio import iter_measurement, read_measurement
 
     cal = load_calibration(str(work / "cal"))
     m = read_measurement(str(work / "b.csv"), cal.encoder)
@@ -376,8 +376,8 @@ def test_correct_in_pieces_gives_the_rows_of_one_run(work, tmp_path, monkeypatch
 
 
 def test_binary_recordings_read_like_csv(work, tmp_path):
-    from fringe.dataio import read_measurement
     from fringe.encoder import load_encoder
+    from fringe.io.dataio import read_measurement
 
     enc = load_encoder(str(work / "enc.json"))
     a = read_measurement(str(work / "b.csv"), enc)

@@ -5,8 +5,8 @@ import json
 import numpy as np
 import pytest
 
-from fringe import longperiod
-from fringe.longperiod import (
+from fringe.dsp import longperiod
+from fringe.dsp.longperiod import (
     FourierSeries,
     _crossover,
     _donors,
@@ -16,7 +16,7 @@ from fringe.longperiod import (
     fit_lsq,
     select_harmonics,
 )
-from fringe.seeds import SEED000_WEIGHTS, seed000_error_arcsec
+from fringe.dsp.seeds import SEED000_WEIGHTS, seed000_error_arcsec
 
 X64 = np.arange(64) * 2 * np.pi / 64          # the paper's training angles: 5.625 degree steps
 Q_SEED = 20 / np.sqrt(12)                     # quantisation noise of the seed's 20" encoder

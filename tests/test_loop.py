@@ -10,13 +10,13 @@ import json
 import numpy as np
 import pytest
 
-from fringe.engines import run_engine
+from fringe.calib.evaluate import measurement_of, noise_floor_arcsec
+from fringe.cli.engines import run_engine
+from fringe.dsp.simulate import simulate
 from fringe.errors import FringeInputError
-from fringe.evaluate import measurement_of, noise_floor_arcsec
 from fringe.hardware.closed_loop import unsupported
-from fringe.loop import evaluate, run_loop
-from fringe.scenarios import SCENARIOS, scenario
-from fringe.simulate import simulate
+from fringe.loop.loop import evaluate, run_loop
+from fringe.loop.scenarios import SCENARIOS, scenario
 
 
 @pytest.mark.parametrize("case", list(SCENARIOS))
@@ -42,7 +42,7 @@ def test_loop_names_the_undeclared_effect(case):
 
 
 def test_loop_needs_a_reference(tmp_path, capsys):
-    from fringe.cli import main
+    from fringe.cli.cli import main
     assert main(["simulate", "--preset", "seed-encoder", "--out", str(tmp_path / "a.csv"), "--encoder-out",
                  str(tmp_path / "e.json"), "--samples", "2000"]) == 0
     text = (tmp_path / "a.csv").read_text().splitlines()
@@ -58,7 +58,7 @@ def test_loop_needs_a_reference(tmp_path, capsys):
 
 
 def test_loop_writes_report_and_a_calibration_correct_accepts(tmp_path, capsys):
-    from fringe.cli import main
+    from fringe.cli.cli import main
     cfg_args = ["--preset", "seed-encoder", "--samples", "100000"]
     assert main(["simulate", *cfg_args, "--out", str(tmp_path / "a.csv"), "--encoder-out", str(tmp_path / "e.json"),
                  "--seed", "3"]) == 0
@@ -77,13 +77,13 @@ def test_loop_writes_report_and_a_calibration_correct_accepts(tmp_path, capsys):
 
 def test_loop_on_rm44(shared_data):
     """Real data nobody declared anything about: the loop runs, reports, and never makes it worse."""
-    from fringe.datasets import RM44_ENCODER, halves, read_rm44
+    from fringe.io.datasets import RM44_ENCODER, halves, read_rm44
     meas = read_rm44(str(shared_data / "rm44_hall_vs_tonic" / "2017_10_02_xs_250u.csv"))
     train, val = halves(meas)
     base, state, report = run_loop(train, RM44_ENCODER, val)
     assert report["after"]["rms_arcsec"] <= report["before"]["rms_arcsec"]
     # the speed domain is tested exactly when the speed spreads by SPEED_SPREAD of its mean or more
-    from fringe.loop import SPEED_SPREAD, evaluate, motion_speed
+    from fringe.loop.loop import SPEED_SPREAD, evaluate, motion_speed
     v = motion_speed(evaluate(state, train).ctx)
     untested = any(u["domain"] == "speed" and "not tested" in u["description"] for u in report["unexplained"])
     assert untested == bool(np.std(v) < SPEED_SPREAD * np.mean(np.abs(v))), (np.std(v), np.mean(np.abs(v)))

@@ -8,9 +8,9 @@ import json
 import numpy as np
 import pytest
 
-from fringe import loop
-from fringe.evaluate import measurement_of
-from fringe.simulate import SimulationConfig, simulate
+from fringe.calib.evaluate import measurement_of
+from fringe.dsp.simulate import SimulationConfig, simulate
+from fringe.loop import loop
 
 
 def test_refine_frequency_reaches_the_noise_limit():
@@ -81,7 +81,7 @@ def test_several_tones_are_found():
 def test_an_incremental_encoder_gets_no_revolution_terms():
     """Without a coarse code the count starts wherever a recording starts: offsets and gains over the revolution
     are real in the fit recording but would not repeat, so they are not offered."""
-    from fringe.calibrate import calibrate
+    from fringe.calib.calibrate import calibrate
 
     cfg = SimulationConfig(lines_per_rev=64, coarse_bits=0, samples=16_384, speed_mean_rev_s=2.0,
                            speed_swing_rev_s=1.0, rev_offset_mod_sin={1: (0.01, 0.0)}, ref_error_arcsec={})
@@ -99,8 +99,8 @@ def test_an_incremental_encoder_gets_no_revolution_terms():
 def test_tracker_constants_are_chosen_stored_and_used(tmp_path):
     """A fast drift wants a faster tracker than the default: the loop measures the choice, calibration.json keeps
     it, and the core configuration built from the folder uses it."""
-    from fringe.calstore import load_calibration, save_calibration
     from fringe.hardware.corefiles import core_config
+    from fringe.io.calstore import load_calibration, save_calibration
 
     cfg = SimulationConfig(lines_per_rev=64, coarse_bits=8, samples=16_384, speed_mean_rev_s=2.0,
                            speed_swing_rev_s=1.0, drift_offset_rms=0.02, drift_gain_rms=0.02,
@@ -131,8 +131,8 @@ def test_tracker_constants_are_chosen_stored_and_used(tmp_path):
 def test_trim_sectors_follow_the_revolution_orders():
     """fringe_trim's map holds one value per sector: a gain that changes four times per revolution needs more
     sectors than one that changes once, for the same error budget; the chosen format leaves steps within it."""
-    from fringe.calibrate import calibrate
-    from fringe.effects import RevNormalisation
+    from fringe.calib.calibrate import calibrate
+    from fringe.dsp.effects import RevNormalisation
     from fringe.hardware.closed_loop import SECTOR_BUDGET, sector_error
     from fringe.hardware.corefiles import core_config
 
@@ -158,7 +158,7 @@ def test_a_common_gain_change_is_met_in_the_phase_domain(draw):
     ADC bits, gain swing, speed drawn at random; seed printed) the loop must take the phase-domain remedy and end
     within 1.25x the floor on the bit-exact engine: the same encoder and validation recording without the gain
     change, through the same correction (what noise alone leaves)."""
-    from fringe.engines import run_engine
+    from fringe.cli.engines import run_engine
 
     seed = 5100 + draw
     rng = np.random.default_rng(seed)
@@ -181,8 +181,8 @@ def test_a_common_gain_change_is_met_in_the_phase_domain(draw):
 def test_trim_bins_follow_the_phase_orders():
     """fringe_trim interpolates its phase tables linearly between 2^MAP_PHI_W bins: a fine-phase term of order 24
     needs more bins than one of order 2 for the same budget, and the chosen format keeps within it."""
-    from fringe.calibrate import calibrate
-    from fringe.effects import FittedEffect
+    from fringe.calib.calibrate import calibrate
+    from fringe.dsp.effects import FittedEffect
     from fringe.hardware.closed_loop import SECTOR_BUDGET, bin_error
     from fringe.hardware.corefiles import core_config
 
@@ -206,7 +206,7 @@ def test_validation_figures_in_blocks_equal_the_whole(monkeypatch, coarse_bits, 
     """The error before and after on a long validation recording is measured block by block (bounded memory):
     the figures must be those of the recording taken whole, for an absolute and an incremental encoder (whose
     period count restarts with every block) and with the drift tracker (run in before each block)."""
-    from fringe.calibrate import calibrate
+    from fringe.calib.calibrate import calibrate
 
     cfg = SimulationConfig(lines_per_rev=64, coarse_bits=coarse_bits, samples=40_000, speed_mean_rev_s=2.0,
                            speed_swing_rev_s=1.0, ref_error_arcsec={})
@@ -227,8 +227,8 @@ def test_a_float_only_term_leaves_the_core_terms_as_they_were():
     """refit_angle_terms fits the core's terms first and the float engine's terms on what they leave: the core,
     which runs without the float-only term, keeps exactly the weights it would have had without it (fitted
     jointly, a speed^2 term over a narrow speed range trades weight with a speed term and the constant shape)."""
-    from fringe.calibrate import calibrate
-    from fringe.effects import FittedEffect, generic_name
+    from fringe.calib.calibrate import calibrate
+    from fringe.dsp.effects import FittedEffect, generic_name
 
     cfg = SimulationConfig(samples=16_384, lines_per_rev=64, coarse_bits=0, sampling_skew_s=2e-5,
                            speed_mean_rev_s=1.0, speed_swing_rev_s=0.3)
@@ -250,7 +250,7 @@ def test_the_noise_floor_is_not_inflated_by_a_fast_electrical_rate():
     differences see the error change from sample to sample and the spectrum sees it smeared by the sweep; the
     floor the loop uses must stay within 10 % of the noise (the MAD's own scatter on 16 k samples is ~1 %; a
     residual order-k error between neighbours in phase is under k * 2 pi / 256 of its size)."""
-    from fringe.effects import Context
+    from fringe.dsp.effects import Context
 
     seed = 11
     print("seed", seed)
@@ -295,7 +295,7 @@ def test_speed_effects_are_tested_only_where_the_reference_speed_changes():
     """A 2-line encoder with offsets that change over the revolution, at a steady motion: its own speed estimate
     changes by 2-3 % with its angle error (the encoder's view would test a skew), the reference's does not, so
     speed effects are not offered; with a speed swing they are."""
-    from fringe.calibrate import calibrate
+    from fringe.calib.calibrate import calibrate
     seed = 11
     print("seed", seed)
     rng = np.random.default_rng(seed)

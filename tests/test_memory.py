@@ -14,9 +14,9 @@ import sys
 import numpy as np
 import pytest
 
-from fringe import dataio, diagnose
-from fringe.dataio import Measurement, read_measurement, write_csv
 from fringe.encoder import encoder_from_dict
+from fringe.io import dataio, diagnose
+from fringe.io.dataio import Measurement, read_measurement, write_csv
 
 SEED = 20261202
 ENCODER = {"lines_per_rev": 256, "adc_bits": 12, "coarse_bits": 9}
@@ -93,9 +93,9 @@ def test_checks_in_blocks_name_the_same_jump(monkeypatch):
 PROBE = """
 import os, resource, sys
 import pyarrow.csv
-from fringe.dataio import read_measurement, check_signal_scale
-from fringe.diagnose import check_recording
-from fringe.calibrate import check_recording as check_signals
+from fringe.io.dataio import read_measurement, check_signal_scale
+from fringe.io.diagnose import check_recording
+from fringe.calib.calibrate import check_recording as check_signals
 from fringe.encoder import encoder_from_dict
 enc = encoder_from_dict({encoder!r})
 before = int(open("/proc/self/statm").read().split()[1]) * os.sysconf("SC_PAGE_SIZE")

@@ -1,4 +1,4 @@
-"""The randomised population of the closed loop (fringe.population): a small fixed subset of it, and
+"""The randomised population of the closed loop (fringe.tools.population): a small fixed subset of it, and
 the generator's table formats on random fitted values."""
 
 import dataclasses
@@ -6,9 +6,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from fringe.effects import FittedEffect
-from fringe.population import CLASSES, STRENGTH_RANGE, draw_case, population_case, summarise
-from fringe.simulate import max_speed_ok
+from fringe.dsp.effects import FittedEffect
+from fringe.dsp.simulate import max_speed_ok
+from fringe.tools.population import CLASSES, STRENGTH_RANGE, draw_case, population_case, summarise
 
 
 def test_draws_cover_the_ranges_and_respect_the_overspeed_limit():
@@ -56,11 +56,11 @@ def test_summary_counts_names_and_aborts():
 def test_trim_format_follows_the_fitted_values():
     """Random closed-loop terms over nine decades on random encoders: fringe_trim's format is chosen so the
     tables build, and the tables then hold the float values to within their rounding."""
-    from fringe.calibrate import calibrate
-    from fringe.evaluate import measurement_of
+    from fringe.calib.calibrate import calibrate
+    from fringe.calib.evaluate import measurement_of
+    from fringe.dsp.simulate import SimulationConfig, simulate
     from fringe.hardware.closed_loop import build_trim_tables, grids_for
     from fringe.hardware.corefiles import core_config
-    from fringe.simulate import SimulationConfig, simulate
 
     seed = 31
     print("seed", seed)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fringe.position import coarse_fine_combine, count_periods, fit_coarse_offset
+from fringe.dsp.position import coarse_fine_combine, count_periods, fit_coarse_offset
 
 
 @pytest.mark.parametrize("lines,coarse_bits", [(256, 9), (256, 8), (100, 8), (3, 4), (1, 3)])
@@ -55,7 +55,7 @@ def test_the_track_restarts_at_gaps_in_the_rows():
     """Rows taken out of a recording (the loop's interleaved halves, cross-validation folds) leave gaps the motion
     crossed unseen: the coarse/fine track restarts at each (pipeline.run_starts), else a gap of a period and a
     fraction is tracked as the fraction alone and the position is a period off until the next trusted sample."""
-    from fringe.pipeline import run_starts
+    from fringe.engine.pipeline import run_starts
 
     lines, bits = 64, 6                                  # one code per period: tracking carries the edges
     n = 40_000

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from fringe.quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse
+from fringe.dsp.quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse
 
 
 def _lissajous(alpha, g_s=1.0, g_c=1.0, o_s=0.0, o_c=0.0, n=2000):

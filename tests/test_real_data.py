@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from fringe.calibrate import calibrate, uncorrected
-from fringe.datasets import RM44_ENCODER, halves, read_rm44
-from fringe.evaluate import figures
+from fringe.calib.calibrate import calibrate, uncorrected
+from fringe.calib.evaluate import figures
+from fringe.io.datasets import RM44_ENCODER, halves, read_rm44
 
 
 @pytest.mark.parametrize("name", ["2017_10_02_xs_000u.csv", "2017_10_02_xs_450u.csv"])
@@ -22,7 +22,7 @@ def test_rm44_calibrated_on_half_corrects_the_other_half(shared_data, name):
     fixed, res = figures(cal, val)
     assert fixed.rms_arcsec < 0.5 * raw.rms_arcsec
     # noise from successive differences of the residual (the systematic part is smooth)
-    from fringe.metrics import error_arcsec
+    from fringe.dsp.metrics import error_arcsec
     err = error_arcsec(res.angle_deg, val.ref_deg)
     noise = np.std(np.diff(err)) / np.sqrt(2)
     assert fixed.rms_arcsec < 1.5 * noise
@@ -32,7 +32,7 @@ def test_rm44_calibrated_on_half_corrects_the_other_half(shared_data, name):
 
 @pytest.fixture(scope="module")
 def rm44_against_plain(shared_data):
-    from fringe.bench_real import real_vs_plain_bench
+    from fringe.tools.bench_real import real_vs_plain_bench
     return real_vs_plain_bench(str(shared_data))
 
 
@@ -62,11 +62,11 @@ def test_rm44_declared_model_against_the_plain_fit(rm44_against_plain):
 def test_rm44_bit_exact_core_within_its_error_budget(shared_data):
     """The phase-table calibration through the core: every sample within the core's error budget
     of the float engine (the readings as whole ADC codes, as the core's port takes them)."""
-    from fringe.bench_real import as_adc_codes
-    from fringe.evaluate import float_engine
+    from fringe.calib.evaluate import float_engine
     from fringe.fixed.core import error_budget
     from fringe.hardware.corefiles import core_config
     from fringe.hardware.tables import build_tables, run_model
+    from fringe.tools.bench_real import as_adc_codes
 
     for name in ("2017_10_02_xs_175u.csv", "2017_10_02_xs_450u.csv"):
         train, val = halves(as_adc_codes(read_rm44(str(shared_data / "rm44_hall_vs_tonic" / name))))
@@ -90,7 +90,7 @@ def test_rm44_one_line_sensor_gets_a_long_period_table(shared_data):
 def test_cv_harmonics_finds_the_order_of_random_series():
     """Random series (orders 0..20, every harmonic well above the noise's standard error), random
     angles and noise: held-out selection must keep every true harmonic and add few."""
-    from fringe.fourierfit import cv_folds, cv_harmonics
+    from fringe.dsp.fourierfit import cv_folds, cv_harmonics
 
     seed = 9401
     rng = np.random.default_rng(seed)
@@ -113,7 +113,7 @@ def test_cv_harmonics_keeps_the_default_unless_the_gain_is_significant():
     standard error) must be found; where it lies below, the choice stays between the true order and
     the default (dropping harmonics that only fit noise is a true, if small, held-out gain; adding
     some, or dropping true ones, is not)."""
-    from fringe.fourierfit import cv_folds, cv_harmonics
+    from fringe.dsp.fourierfit import cv_folds, cv_harmonics
 
     seed = 9402
     rng = np.random.default_rng(seed)
@@ -140,8 +140,8 @@ def test_held_out_runs_keep_near_nyquist_interference_out_of_the_fit():
     white noise's (63 weights on 450 samples: about 14 %, twice that with the held-out side); runs of
     calibrate.CV_MIN_RUN samples cancel it within each run, and the growth must stay below a quarter of
     the white-noise figure (the small white noise added: 1 % of the power)."""
-    from fringe.calibrate import CV_MIN_RUN, LP_ORDER_FOLDS
-    from fringe.fourierfit import cv_folds, cv_harmonics
+    from fringe.calib.calibrate import CV_MIN_RUN, LP_ORDER_FOLDS
+    from fringe.dsp.fourierfit import cv_folds, cv_harmonics
 
     n = 500
     i = np.arange(n)
@@ -166,9 +166,9 @@ def test_rm44_per_channel_inverse_keeps_a_long_period_table(shared_data):
     from order 0) and the order tolerance stopped at 1, leaving harmonics up to 12 uncorrected (odd rows
     4 % worse than the plain fit). With held-out runs and the default order it must keep them: order
     above 1, and within the declared model's per-file bound of the plain fit (1 %)."""
-    from fringe.bench_real import PlainFit, as_adc_codes, rms_arcsec
-    from fringe.calibrate import WAVEFORM, CalibrationOptions
-    from fringe.evaluate import float_engine
+    from fringe.calib.calibrate import WAVEFORM, CalibrationOptions
+    from fringe.calib.evaluate import float_engine
+    from fringe.tools.bench_real import PlainFit, as_adc_codes, rms_arcsec
 
     meas = as_adc_codes(read_rm44(str(shared_data / "rm44_hall_vs_tonic" /
                                       "early_2017_08_14_kalibriran_sin_cos_ref.csv")))
@@ -191,7 +191,7 @@ def test_one_line_sensor_with_changing_amplitude_matches_the_plain_fit(seed):
     fit by 10 %: its conic centre is off by a few % of the amplitude there. A waveform whose
     harmonics change with the amplitude is reported in `skipped` (the open-loop core cannot
     carry it), and only then."""
-    from fringe.bench_real import simulated_row
+    from fringe.tools.bench_real import simulated_row
 
     r = simulated_row(seed)
     choice = r["choices"]["model_choice"]

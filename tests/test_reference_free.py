@@ -21,11 +21,11 @@ import os
 import numpy as np
 import pytest
 
-from fringe.calibrate import calibrate, ellipse_only
-from fringe.cli import main
-from fringe.dataio import Measurement
+from fringe.calib.calibrate import calibrate, ellipse_only
+from fringe.cli.cli import main
 from fringe.encoder import Encoder
-from fringe.pipeline import fine_phase
+from fringe.engine.pipeline import fine_phase
+from fringe.io.dataio import Measurement
 
 
 def rng(seed: int = 0) -> np.random.Generator:
@@ -79,7 +79,7 @@ def test_servo_recording_with_pauses_calibrates_and_corrects(tmp_path, servo, ca
 
 
 def test_servo_waveform_correction_is_twice_as_smooth_as_the_ellipse(shared_data):
-    from fringe.bench_reference_free import SERVO, servo_figures
+    from fringe.tools.bench_reference_free import SERVO, servo_figures
     fig = servo_figures(str(shared_data / SERVO))
     print(f"roughness on held-out runs: ellipse only {fig['roughness_ellipse_only_deg_el']:.3f} deg el, "
           f"corrected {fig['roughness_corrected_deg_el']:.3f} deg el")
@@ -102,7 +102,7 @@ def test_nmm_shape_correction_rounds_the_figure(shared_data, axis):
     on a radius of 500 is 0.2 %, its harmonics averaged over 8000 held-out rows ~0.01 %; the 2.2 %
     radial scatter of Y makes that ~0.03 %. X and Z have nothing else; Y's higher harmonics need
     channel harmonics that fold the channels' halves (not invertible by their tables), see the bench."""
-    from fringe.bench_reference_free import NMM, nmm_figures
+    from fringe.tools.bench_reference_free import NMM, nmm_figures
     fig = nmm_figures(str(shared_data / NMM / f"nmm_test01_{axis}_sincos.csv"))
     print(fig)
     assert fig["radius_harmonics_ellipse_only_pct"][4] > 0.4
@@ -201,7 +201,7 @@ def test_bad_input_still_gets_one_line_and_exit_2(tmp_path, capsys):
 def test_shape_path_helps_a_real_sensor_with_its_reference_hidden(shared_data):
     """RM44 (one period per revolution, no t_s): calibrated with ref_deg hidden, the shape path must
     never be worse than the ellipse alone against the hidden reference, on every xs recording."""
-    from fringe.bench_reference_free import RM44, rm44_without_reference
+    from fringe.tools.bench_reference_free import RM44, rm44_without_reference
     files = sorted((shared_data / RM44).glob("*_xs_*.csv"))
     assert files
     for f in files:

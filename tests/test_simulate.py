@@ -2,10 +2,10 @@
 
 import numpy as np
 
-from fringe import seeds
+from fringe.dsp import seeds
+from fringe.dsp.metrics import binned_mean
+from fringe.dsp.simulate import graduation_error_arcsec, seed_encoder, simulate
 from fringe.encoder import ARCSEC_PER_REV
-from fringe.metrics import binned_mean
-from fringe.simulate import graduation_error_arcsec, seed_encoder, simulate
 
 PERIOD_ARCSEC = ARCSEC_PER_REV / 256
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from fringe import seeds
-from fringe.waveform import ChannelWaveform, PaperChannel, build_inverse, multiple_angle_matrix
+from fringe.dsp import seeds
+from fringe.dsp.waveform import ChannelWaveform, PaperChannel, build_inverse, multiple_angle_matrix
 
 
 def test_multiple_angle_matrix_is_exact():
@@ -54,7 +54,7 @@ def test_general_inverse_handles_even_and_cosine_phase_harmonics():
     # at an extreme x(y) has a square-root shape: a table step spans dtheta ~ sqrt(2*step/|g''|),
     # so the weighted error is about |d(ideal)/dtheta| * dtheta * weight ~ 2e-5 here
     assert np.max(err) < 3e-5
-    from fringe.waveform import paper_channel
+    from fringe.dsp.waveform import paper_channel
     seed_err = np.abs(paper_channel(sin_ch).invert(y) - ideal) * weight
     assert np.max(seed_err) > 1e-2, "the seed's inverse should fail on this waveform"
 

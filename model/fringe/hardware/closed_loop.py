@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..calibration import Calibration, static_phase
-from ..effects import MAG_REF, REV_ORDERS
+from ..dsp.calibration import Calibration, static_phase
+from ..dsp.effects import MAG_REF, REV_ORDERS
 from ..encoder import ARCSEC_PER_REV
 from ..fixed import trim as trim_mod
 from ..fixed.cordic import cordic_gain
@@ -47,7 +47,7 @@ def unsupported(cal: Calibration) -> list[str]:
 
     Terms marked for the float engine only (FittedEffect.engine == "float": no legal table width carries
     them, or no core block exists for them) are not counted: the core runs the rest of the calibration."""
-    from ..effects import GENERIC_FACTORS, parse_generic
+    from ..dsp.effects import GENERIC_FACTORS, parse_generic
 
     return [t.name for t in core_terms(cal) if t.name not in TRIM_EFFECTS
             and not (t.name.startswith("generic:") and GENERIC_FACTORS[parse_generic(t.name)[0]])]
@@ -141,7 +141,7 @@ def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_
 def _generic_into(term, grid, gs, ga, phi, psi, counts, rev, speed_log2, mag_scale, sample_interval_s):
     """A term of the general dictionary (effects.generic_design) into fringe_trim's tables: the phase shape
     per factor column, placed in the table that multiplies by that factor."""
-    from ..effects import GENERIC_FACTORS, parse_generic, phase_columns
+    from ..dsp.effects import GENERIC_FACTORS, parse_generic, phase_columns
 
     factor, k, m = parse_generic(term.name)
     if not GENERIC_FACTORS[factor]:

@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from ..calibration import Calibration
+from ..dsp.calibration import Calibration
 from ..encoder import ARCSEC_PER_REV
 from ..errors import FringeInputError
 from ..fixed import long_period as lp_mod

@@ -23,7 +23,7 @@ from ..fixed.config import CoreConfig, long_period_params
 from ..fixed.core import CoreTables
 from ..fixed.regmap import REG_W, REGISTERS, register_words
 from ..fixed.table_ram import format_hex
-from ..outputs import atomic_dir
+from ..io.outputs import atomic_dir
 
 FORMATS = ("mem", "mif", "coe", "vhdl")
 

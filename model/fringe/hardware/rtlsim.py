@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..calibration import Calibration
+from ..dsp.calibration import Calibration
 from ..fixed.config import CoreConfig, long_period_params
 from ..fixed.core import CoreTables, core_latency, to_adc_codes
 from ..result import Result
@@ -298,9 +298,9 @@ def engine_speed(samples: int = 1_000_000, cocotb_samples: int = 20_000, ghdl_sa
     """
     import time
 
-    from ..calibrate import calibrate
-    from ..evaluate import measurement_of
-    from ..simulate import seed_encoder, simulate
+    from ..calib.calibrate import calibrate
+    from ..calib.evaluate import measurement_of
+    from ..dsp.simulate import seed_encoder, simulate
     from .tables import run_model
 
     sim_cfg = seed_encoder()

@@ -7,7 +7,8 @@ import math
 
 import numpy as np
 
-from ..calibration import Calibration
+from ..dsp.calibration import Calibration
+from ..dsp.waveform import WaveformInverse
 from ..encoder import ARCSEC_PER_REV
 from ..fixed import cordic as cordic_mod
 from ..fixed import long_period as lp_mod
@@ -17,7 +18,6 @@ from ..fixed.canceller import freq_word
 from ..fixed.config import CoreConfig, drift_pipe_latency, long_period_params
 from ..fixed.core import CoreTables, run_core, to_adc_codes
 from ..result import Result
-from ..waveform import WaveformInverse
 from .closed_loop import build_drift_tables, build_trim_tables
 
 

@@ -13,9 +13,9 @@ import time
 
 import numpy as np
 
-from . import simulate
-from .dataio import read_measurement, write_csv
-from .encoder import Encoder
+from ..dsp import simulate
+from ..encoder import Encoder
+from ..io.dataio import read_measurement, write_csv
 
 TARGET_BYTES_PER_ROW = 200     # issue 8: calibrate and loop
 TARGET_IO_SPEEDUP = 5          # issue 8: against numpy's savetxt/loadtxt row loops of the earlier reader

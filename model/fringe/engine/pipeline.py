@@ -10,13 +10,13 @@ import dataclasses
 
 import numpy as np
 
-from .calibration import Calibration, float_canceller, static_phase
-from .encoder import ARCSEC_PER_REV
-from .fixed import drift as drift_mod
-from .hardware.closed_loop import build_drift_tables, drift_config
-from .hardware.corefiles import core_config
-from .position import coarse_fine_combine, count_periods, overspeed
-from .result import AMP_HIGH, AMP_LOW, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, Result
+from ..dsp.calibration import Calibration, float_canceller, static_phase
+from ..dsp.position import coarse_fine_combine, count_periods, overspeed
+from ..encoder import ARCSEC_PER_REV
+from ..fixed import drift as drift_mod
+from ..hardware.closed_loop import build_drift_tables, drift_config
+from ..hardware.corefiles import core_config
+from ..result import AMP_HIGH, AMP_LOW, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, Result
 
 
 def fine_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray, psi: np.ndarray | None = None):
@@ -101,7 +101,7 @@ def run_float(cal: Calibration, sin: np.ndarray, cos: np.ndarray, coarse: np.nda
         pos, coarse_err, fast = encoder_position(cal, frac, coarse, t)
     counted = pos     # the position the terms see (fringe_trim's input): the result's context, as the core's
     if cal.angle_terms:
-        from .effects import make_context
+        from ..dsp.effects import make_context
         ctx = make_context(frac, pos, enc.lines_per_rev, sample_times(len(frac), t), mag)
         correction = sum(term.predict(ctx) for term in cal.angle_terms)
         # the terms model the error of the output angle: map it back into the encoder's direction

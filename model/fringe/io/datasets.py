@@ -8,9 +8,9 @@ revolution. The sine channel runs against the reference's direction, which calib
 
 import numpy as np
 
+from ..encoder import Encoder
+from ..errors import FringeInputError
 from .dataio import Measurement
-from .encoder import Encoder
-from .errors import FringeInputError
 
 RM44_ENCODER = Encoder(lines_per_rev=1, adc_bits=12, coarse_bits=0, full_scale=0.5)
 RM44_SAMPLE_RATE_HZ = 1000.0

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .encoder import Encoder
-from .errors import FringeInputError
+from ..encoder import Encoder
+from ..errors import FringeInputError
 
 REQUIRED = ("sin", "cos")
 OPTIONAL = ("coarse", "ref_deg", "t_s")

@@ -4,14 +4,14 @@ import dataclasses
 
 import numpy as np
 
-from .calibration import Calibration
-from .dataio import Measurement
-from .encoder import ARCSEC_PER_REV
-from .metrics import ErrorFigures, error_arcsec, error_figures
-from .pipeline import run_float
-from .position import wrap
-from .result import Result
-from .simulate import Recording, SimulationConfig, simulate
+from ..dsp.calibration import Calibration
+from ..dsp.metrics import ErrorFigures, error_arcsec, error_figures
+from ..dsp.position import wrap
+from ..dsp.simulate import Recording, SimulationConfig, simulate
+from ..encoder import ARCSEC_PER_REV
+from ..engine.pipeline import run_float
+from ..io.dataio import Measurement
+from ..result import Result
 
 
 def measurement_of(rec: Recording, path: str = "simulated") -> Measurement:

@@ -19,8 +19,8 @@ import stat
 import tempfile
 from contextlib import contextmanager
 
-from . import __version__
-from .errors import FringeInputError
+from .. import __version__
+from ..errors import FringeInputError
 
 MANIFEST = "fringe-manifest.json"
 FORMAT = "fringe-output"

@@ -19,17 +19,17 @@ import os
 
 import numpy as np
 
-from .calibrate import calibrate, check_recording, find_direction_and_zero, lp_error_arcsec
-from .calibration import Calibration
-from .dataio import Measurement
-from .datasets import RM44_ENCODER, halves, read_rm44
-from .encoder import ARCSEC_PER_REV, Encoder
-from .hardware.corefiles import core_config
-from .hardware.tables import run_model
-from .metrics import error_arcsec
-from .pipeline import fine_phase
-from .quadrature import fit_conic
-from .simulate import ChannelConfig, SimulationConfig
+from ..calib.calibrate import calibrate, check_recording, find_direction_and_zero, lp_error_arcsec
+from ..dsp.calibration import Calibration
+from ..dsp.metrics import error_arcsec
+from ..dsp.quadrature import fit_conic
+from ..dsp.simulate import ChannelConfig, SimulationConfig
+from ..encoder import ARCSEC_PER_REV, Encoder
+from ..engine.pipeline import fine_phase
+from ..hardware.corefiles import core_config
+from ..hardware.tables import run_model
+from ..io.dataio import Measurement
+from ..io.datasets import RM44_ENCODER, halves, read_rm44
 
 PLAIN_HARMONICS = 16
 
@@ -60,7 +60,7 @@ class PlainFit:
         self.weights = np.linalg.lstsq(m, err[use], rcond=None)[0]
 
     def _rev(self, meas: Measurement) -> tuple[np.ndarray, np.ndarray]:
-        from .pipeline import encoder_position
+        from ..engine.pipeline import encoder_position
         frac, mag = fine_phase(self.cal, meas.sin, meas.cos)
         pos, _, _ = encoder_position(self.cal, frac, None)
         return pos / self.cal.encoder.lines_per_rev, mag
@@ -84,7 +84,7 @@ def as_adc_codes(meas: Measurement) -> Measurement:
 
 def compare(train: Measurement, val: Measurement, enc: Encoder) -> dict:
     """Validation RMS (arcsec) of fringe (float and bit-exact engines) and of the two plain fits."""
-    from .evaluate import float_engine
+    from ..calib.evaluate import float_engine
 
     cal = calibrate(train, enc)
     exact = run_model(cal, core_config(cal), val.sin, val.cos, val.coarse)
@@ -157,8 +157,8 @@ def one_line_case(rng: np.random.Generator) -> SimulationConfig:
 def simulated_row(seed: int) -> dict:
     """One random 1-line case: calibrate on one recording, validate on another (new noise,
     trajectory and gain wander); validation RMS (arcsec) of fringe and of the plain fits."""
-    from .evaluate import measurement_of
-    from .simulate import simulate
+    from ..calib.evaluate import measurement_of
+    from ..dsp.simulate import simulate
 
     cfg = one_line_case(np.random.default_rng(seed))
     enc = cfg.encoder()

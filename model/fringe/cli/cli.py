@@ -9,7 +9,7 @@ import warnings
 
 import numpy as np
 
-from .errors import FringeInputError
+from ..errors import FringeInputError
 
 ENGINES = ("model", "float", "verilog", "vhdl")
 
@@ -82,9 +82,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def cmd_simulate(a) -> int:
-    from . import simulate
-    from .dataio import check_memory, write_csv
-    from .outputs import atomic_output, check_output_file
+    from ..dsp import simulate
+    from ..io.dataio import check_memory, write_csv
+    from ..io.outputs import atomic_output, check_output_file
 
     check_output_file(a.out, "simulate", form="CSV")
     if a.encoder_out:
@@ -111,9 +111,9 @@ SIMULATE_BYTES_PER_SAMPLE = 400   # the simulator's arrays and the CSV text, per
 def _read_for_calibration(path, enc):
     """The recording, refused early when its signals cannot be calibrated (too short, dead, clipped) or
     when it disagrees with the encoder description (diagnose)."""
-    from .calibrate import check_recording as check_signals
-    from .dataio import check_signal_scale, read_measurement
-    from .diagnose import check_recording
+    from ..calib.calibrate import check_recording as check_signals
+    from ..io.dataio import check_signal_scale, read_measurement
+    from ..io.diagnose import check_recording
 
     meas = read_measurement(path, enc)
     check_signals(meas, enc)
@@ -149,11 +149,11 @@ def _note_fitting_rows(cal, meas):
 
 
 def cmd_calibrate(a) -> int:
-    from .calibrate import calibrate
-    from .calstore import save_calibration
-    from .encoder import load_encoder
-    from .hardware.corefiles import core_files
-    from .outputs import check_output_dir
+    from ..calib.calibrate import calibrate
+    from ..encoder import load_encoder
+    from ..hardware.corefiles import core_files
+    from ..io.calstore import save_calibration
+    from ..io.outputs import check_output_dir
 
     inputs = (a.data, a.encoder)
     check_output_dir(a.out, "calibration", inputs)
@@ -164,7 +164,7 @@ def cmd_calibrate(a) -> int:
     command = f"fringe calibrate {a.data} --encoder {a.encoder} --out {a.out}"
     extra = core_files(cal, command)
     if a.plots:
-        from .report import calibration_plots
+        from ..calib.report import calibration_plots
         extra.update(calibration_plots(cal, meas))
     save_calibration(cal, a.out, extra, inputs, command)
     print(summary_text(cal, meas))
@@ -173,8 +173,8 @@ def cmd_calibrate(a) -> int:
 
 
 def summary_text(cal, meas) -> str:
-    from .metrics import error_arcsec, error_figures
-    from .pipeline import run_float
+    from ..dsp.metrics import error_arcsec, error_figures
+    from ..engine.pipeline import run_float
 
     lines = []
     q = cal.quad
@@ -197,10 +197,10 @@ def summary_text(cal, meas) -> str:
 
 
 def cmd_correct(a) -> int:
-    from .calstore import load_calibration
-    from .dataio import csv_writer, iter_measurement, read_measurement
+    from ..io.calstore import load_calibration
+    from ..io.dataio import csv_writer, iter_measurement, read_measurement
+    from ..io.outputs import check_output_file
     from .engines import run_engine, streamable
-    from .outputs import check_output_file
 
     inputs = (a.data, a.cal)
     check_output_file(a.out, "correct", inputs)
@@ -238,7 +238,7 @@ class CorrectSummary:
         self.has_ref = True
 
     def add(self, angle, status, ref):
-        from .position import circular_mean, wrap
+        from ..dsp.position import circular_mean, wrap
 
         self.rows += len(angle)
         self.flagged += int(np.count_nonzero(status & 0x7F))
@@ -262,9 +262,9 @@ class CorrectSummary:
 
 
 def cmd_loop(a) -> int:
-    from .encoder import load_encoder
-    from .loop import run_loop
-    from .outputs import check_output_dir
+    from ..encoder import load_encoder
+    from ..io.outputs import check_output_dir
+    from ..loop.loop import run_loop
 
     check_output_dir(a.out, "loop", (a.data, a.encoder, a.validate))
     enc = load_encoder(a.encoder)
@@ -272,7 +272,7 @@ def cmd_loop(a) -> int:
     shown = []    # the plots need no more rows than the decision; no reference to the recordings is kept here
     base, state, report = run_loop(_read_for_calibration(a.data, enc), enc, val, shown)
     del val
-    from .loopreport import write_outputs  # matplotlib only now: its memory does not add to the loop's peak
+    from ..loop.loopreport import write_outputs  # matplotlib only now: its memory does not add to the loop's peak
     write_outputs(base, state, report, shown[0], None, a.out)
     b, f = report["before"], report["after"]
     print(f"declared model: RMS {b['rms_arcsec']:.3f}\"; with the added effects: RMS {f['rms_arcsec']:.3f}\" "
@@ -290,10 +290,10 @@ ROM_OPTIONS = ("wave_addr_w", "wave_w", "fine_w", "cordic_stages", "lp_addr_w")
 
 
 def cmd_rom(a) -> int:
-    from .calstore import load_calibration
-    from .hardware.corefiles import core_config, write_core_roms
-    from .hardware.rom import FORMATS
-    from .outputs import check_output_dir
+    from ..hardware.corefiles import core_config, write_core_roms
+    from ..hardware.rom import FORMATS
+    from ..io.calstore import load_calibration
+    from ..io.outputs import check_output_dir
 
     formats = [f.strip() for f in a.format.split(",") if f.strip()]
     unknown = [f for f in formats if f not in FORMATS]

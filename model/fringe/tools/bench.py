@@ -14,22 +14,22 @@ import time
 
 import numpy as np
 
-from . import __version__
+from .. import __version__
+from ..calib.calibrate import calibrate, ellipse_only, seed_method, uncorrected
+from ..calib.evaluate import figures, float_engine, measurement_of, noise_floor_arcsec
+from ..dsp.metrics import error_arcsec
+from ..dsp.simulate import seed_encoder, simulate
+from ..fixed.config import CoreConfig
+from ..fixed.core import error_budget
+from ..hardware.rtlsim import engine_speed
+from ..hardware.tables import build_tables, run_model
+from ..io.datasets import RM44_ENCODER, halves, read_rm44
 from .bench_io import io_and_memory
 from .bench_real import real_vs_plain_bench, simulated_bench
 from .bench_reference_free import reference_free_bench, reference_free_markdown
-from .calibrate import calibrate, ellipse_only, seed_method, uncorrected
-from .datasets import RM44_ENCODER, halves, read_rm44
-from .evaluate import figures, float_engine, measurement_of, noise_floor_arcsec
-from .fixed.config import CoreConfig
-from .fixed.core import error_budget
-from .hardware.rtlsim import engine_speed
-from .hardware.tables import build_tables, run_model
-from .metrics import error_arcsec
 from .population import loop_speed, population_bench
-from .simulate import seed_encoder, simulate
 
-SHARED_DATA = os.path.join(os.path.dirname(__file__), "..", "..", "..", "shared", "data")
+SHARED_DATA = os.path.join(os.path.dirname(__file__), "..", "..", "..", "..", "shared", "data")
 
 
 def seed_preset_accuracy(samples: int = 200_000) -> dict:
@@ -116,7 +116,7 @@ def rm44(folder: str) -> dict | str:
 
 
 def de_vs_desa() -> dict | str:
-    from . import longperiod
+    from ..dsp import longperiod
     if not hasattr(longperiod, "de_benchmark"):
         return "skipped: longperiod.de_benchmark not available"
     t0 = time.perf_counter()
@@ -128,9 +128,9 @@ def de_vs_desa() -> dict | str:
 def _model_rms(state, val) -> float | str:
     """Validation RMS of the loop's calibration through the bit-exact core (fringe_trim carrying the
     added corrections), or which correction keeps it in the float engine."""
-    from .engines import run_engine
-    from .hardware.closed_loop import unsupported
-    from .loop import evaluate
+    from ..cli.engines import run_engine
+    from ..hardware.closed_loop import unsupported
+    from ..loop.loop import evaluate
 
     if unsupported(state.cal):
         return "float only: " + ", ".join(unsupported(state.cal))
@@ -138,8 +138,8 @@ def _model_rms(state, val) -> float | str:
 
 
 def loop_scenarios(samples: int = 100_000) -> dict:
-    from .loop import run_loop
-    from .scenarios import SCENARIOS, scenario
+    from ..loop.loop import run_loop
+    from ..loop.scenarios import SCENARIOS, scenario
 
     rows = {}
     for name in SCENARIOS:
@@ -156,7 +156,7 @@ def loop_scenarios(samples: int = 100_000) -> dict:
 
 
 def loop_rm44(folder: str) -> dict | str:
-    from .loop import run_loop
+    from ..loop.loop import run_loop
 
     def one(train, val) -> dict:
         _, state, rep = run_loop(train, RM44_ENCODER, val)
@@ -273,7 +273,7 @@ OTHER_SECTIONS = {"reference_free": reference_free_markdown, "real_vs_plain_fit"
 
 
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="fringe.bench", description=__doc__)
+    p = argparse.ArgumentParser(prog="fringe.tools.bench", description=__doc__)
     p.add_argument("--out", default="results")
     p.add_argument("--quick", action="store_true", help="smaller runs (for a smoke test)")
     a = p.parse_args(argv)

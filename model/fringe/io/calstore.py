@@ -6,14 +6,14 @@ import os
 
 import numpy as np
 
-from . import __version__
-from .calibration import CANCELLER_KEYS, Calibration
-from .encoder import encoder_from_dict
-from .errors import FringeInputError
-from .longperiod import FourierSeries
+from .. import __version__
+from ..dsp.calibration import CANCELLER_KEYS, Calibration
+from ..dsp.longperiod import FourierSeries
+from ..dsp.quadrature import QuadratureCorrection
+from ..dsp.waveform import ChannelWaveform, WaveformInverse
+from ..encoder import encoder_from_dict
+from ..errors import FringeInputError
 from .outputs import atomic_dir, verify_dir
-from .quadrature import QuadratureCorrection
-from .waveform import ChannelWaveform, WaveformInverse
 
 TRACKER_KEYS = ("drift_block_log2", "drift_mu_log2")     # the drift tracker constants a calibration may choose
 
@@ -140,10 +140,10 @@ def load_calibration(cal_dir: str) -> Calibration:
         cal.tracker = dict(tracker)
         cal.canceller = _canceller(loop.get("canceller") or {}, path)
         if loop.get("rev_normalisation"):
-            from .effects import RevNormalisation
+            from ..dsp.effects import RevNormalisation
             cal.rev_norm = RevNormalisation.from_dict(loop["rev_normalisation"])
         if loop.get("angle_terms"):
-            from .effects import FittedEffect, known_term
+            from ..dsp.effects import FittedEffect, known_term
             for t in loop["angle_terms"]:
                 if not known_term(t["name"]):
                     raise ValueError(f"unknown closed-loop term '{t['name']}'")

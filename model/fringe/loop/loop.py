@@ -17,10 +17,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage, signal, stats
 
-from .calibrate import calibrate
-from .calibration import Calibration
-from .dataio import Measurement
-from .effects import (
+from ..calib.calibrate import calibrate
+from ..dsp.calibration import Calibration
+from ..dsp.effects import (
     GENERIC,
     GENERIC_FACTORS,
     GENERIC_PHASE_ORDERS,
@@ -37,12 +36,13 @@ from .effects import (
     parse_generic,
     tone_columns,
 )
-from .encoder import ARCSEC_PER_REV, Encoder
-from .errors import FringeInputError
-from .fixed.trim import speed_window_log2
-from .metrics import error_arcsec, error_figures
-from .pipeline import run_float, sample_times
-from .position import shifted
+from ..dsp.metrics import error_arcsec, error_figures
+from ..dsp.position import shifted
+from ..encoder import ARCSEC_PER_REV, Encoder
+from ..engine.pipeline import run_float, sample_times
+from ..errors import FringeInputError
+from ..fixed.trim import speed_window_log2
+from ..io.dataio import Measurement
 
 P_VALUE = 1e-6
 MIN_GAIN = 0.01          # an effect must remove at least this fraction of the residual RMS
@@ -422,7 +422,7 @@ def channel_errors(ev: Evaluation) -> np.ndarray | None:
     """Each channel's reading minus the calibrated waveform at the reference's fine phase (ADC codes,
     shape (2, n)): an additive tone shows here as a line at its frequency; an angle error (a vibration)
     only through the waveform's slope, modulated by the fine phase."""
-    from .hardware.closed_loop import channel_waveforms
+    from ..hardware.closed_loop import channel_waveforms
 
     if ev.meas is None or ev.cal is None or not ev.cal.waves or ev.cal.adaptive:
         return None
@@ -831,7 +831,7 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
 def recalibrate(meas: Measurement, cal: Calibration, known_error_arcsec: np.ndarray | None = None) -> Calibration:
     """The declared model calibrated again, in the structure the loop chose for `cal` (the per-channel waveform
     inverse, or the phase-domain structure of `phase_domain`), with a known error held out of it."""
-    from .calibrate import PHASE_TABLE, CalibrationOptions
+    from ..calib.calibrate import PHASE_TABLE, CalibrationOptions
 
     structure = PHASE_TABLE if cal.fit.get("phase_domain") else None
     fresh = calibrate(meas, cal.encoder, CalibrationOptions(structure=structure, known_error_arcsec=known_error_arcsec))
@@ -935,8 +935,8 @@ def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measure
 def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) -> Calibration:
     """Signal-domain fit: offsets and gains over the revolution against the reference's phase, then the
     declared model re-calibrated on the normalised signals (its waveform was biased by the effect)."""
-    from .calibrate import reference_phase
-    from .effects import fit_rev_normalisation
+    from ..calib.calibrate import reference_phase
+    from ..dsp.effects import fit_rev_normalisation
 
     new = cal
     for _ in range(rounds):
@@ -1032,7 +1032,7 @@ def phase_domain(state: LoopState, meas: Measurement, keep_amplitude: bool) -> L
 
 def _compose(first, second):
     """Normalisations applied one after the other, to first order in the (small) weights."""
-    from .effects import RevNormalisation
+    from ..dsp.effects import RevNormalisation
     return RevNormalisation({k: (first.weights[k][0] + second.weights[k][0], first.weights[k][1] + second.weights[k][1])
                              for k in ("sin", "cos")})
 
@@ -1165,7 +1165,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         state.cal, provenance={**state.cal.provenance, "noise_floor_arcsec": round(sigma, 6)}))
     report["unexplained"] = unexplained(ev_fit, sigma)
     report["artefacts"] = [a.to_dict() for a in state.artefacts]
-    from .hardware.closed_loop import float_only
+    from ..hardware.closed_loop import float_only
     report["float_engine_only"] = float_only(state.cal)
     if state.ref_lag_s:
         report["artefacts"].append({"name": "ref_lag", "lag_s": state.ref_lag_s,
@@ -1199,9 +1199,9 @@ def magnitude_cause(state: LoopState, remedy: str) -> str:
 def engine_rms(state: LoopState, meas: Measurement) -> float | None:
     """The validation RMS on the bit-exact engine (the core's own arithmetic, tables and block interplay), None
     where the core cannot run the calibration."""
-    from .hardware.closed_loop import unsupported
-    from .hardware.corefiles import core_config
-    from .hardware.tables import run_model
+    from ..hardware.closed_loop import unsupported
+    from ..hardware.corefiles import core_config
+    from ..hardware.tables import run_model
 
     if unsupported(state.cal):
         return None
@@ -1291,7 +1291,7 @@ def _fourier(x: np.ndarray, orders) -> np.ndarray:
 def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
     """What is still significant, by domain (or why a domain could not be tested)."""
     ctx = ev.ctx
-    from .effects import _legendre_time
+    from ..dsp.effects import _legendre_time
 
     domains = {     # name: (columns of a block of rows, why the domain cannot be tested, number of columns)
         "fine phase": ((ctx.phi, range(1, 33)), None, 64),

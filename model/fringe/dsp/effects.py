@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .fixed.trim import speed_window_log2
+from ..fixed.trim import speed_window_log2
 from .position import wrap
 
 MAG_REF = 1.0                 # amplitude terms work on magnitude - MAG_REF (a fixed point, as in the hardware)

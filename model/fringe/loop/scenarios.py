@@ -6,7 +6,7 @@ closed loop should give them (`effects.LIBRARY`, or "tone").
 
 import dataclasses
 
-from .simulate import SimulationConfig, seed_encoder
+from ..dsp.simulate import SimulationConfig, seed_encoder
 
 SCENARIOS = {
     "none": ({}, set()),

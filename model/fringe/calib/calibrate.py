@@ -29,17 +29,17 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.stats import f as f_dist
 
-from .calibration import Calibration
-from .dataio import Measurement
-from .encoder import ARCSEC_PER_REV, Encoder
-from .errors import FringeInputError
-from .fourierfit import cv_folds, cv_harmonics, fit_select, paired_gain_t, significant_choice
-from .metrics import error_arcsec
-from .pipeline import encoder_position, fine_phase, run_float
-from .position import circular_mean, fit_coarse_offset, wrap
-from .quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
-from .smoothmotion import MAX_STEP_PERIODS, MotionTooSlow, smooth_motion_phase, times
-from .waveform import ChannelWaveform, PaperChannel, WaveformInverse, build_inverse, is_invertible
+from ..dsp.calibration import Calibration
+from ..dsp.fourierfit import cv_folds, cv_harmonics, fit_select, paired_gain_t, significant_choice
+from ..dsp.metrics import error_arcsec
+from ..dsp.position import circular_mean, fit_coarse_offset, wrap
+from ..dsp.quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
+from ..dsp.smoothmotion import MAX_STEP_PERIODS, MotionTooSlow, smooth_motion_phase, times
+from ..dsp.waveform import ChannelWaveform, PaperChannel, WaveformInverse, build_inverse, is_invertible
+from ..encoder import ARCSEC_PER_REV, Encoder
+from ..engine.pipeline import encoder_position, fine_phase, run_float
+from ..errors import FringeInputError
+from ..io.dataio import Measurement
 
 MIN_SAMPLES = 64
 MAX_CLIPPED_FRACTION = 0.005

@@ -8,15 +8,15 @@ the seeds' own method and an ellipse-only correction. Plots go to OUT/.
 import os
 import sys
 
-from . import cli
-from .calibrate import ellipse_only, seed_method, uncorrected
-from .calstore import load_calibration
-from .dataio import read_measurement
-from .encoder import load_encoder
-from .engines import run_engine
-from .metrics import error_arcsec, error_figures
-from .pipeline import run_float
-from .report import error_plot, lissajous_plot
+from ..calib.calibrate import ellipse_only, seed_method, uncorrected
+from ..calib.report import error_plot, lissajous_plot
+from ..cli import cli
+from ..cli.engines import run_engine
+from ..dsp.metrics import error_arcsec, error_figures
+from ..encoder import load_encoder
+from ..engine.pipeline import run_float
+from ..io.calstore import load_calibration
+from ..io.dataio import read_measurement
 
 
 def run(cmd: list[str]):

@@ -8,9 +8,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .calibration import Calibration  # noqa: E402
-from .metrics import error_arcsec, split_error  # noqa: E402
-from .pipeline import run_float  # noqa: E402
+from ..dsp.calibration import Calibration  # noqa: E402
+from ..dsp.metrics import error_arcsec, split_error  # noqa: E402
+from ..engine.pipeline import run_float  # noqa: E402
 
 
 def error_plot(path: str, curves: dict, fine_bins: int = 64, rev_bins: int = 256):

@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..encoder import ARCSEC_PER_REV, Encoder
+from ..errors import FringeInputError
 from . import seeds
-from .encoder import ARCSEC_PER_REV, Encoder
-from .errors import FringeInputError
 from .position import shifted
 
 

@@ -11,9 +11,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .dataio import Measurement  # noqa: E402
+from ..calib.report import error_plot, lissajous_plot  # noqa: E402
+from ..io.dataio import Measurement  # noqa: E402
 from .loop import DECISION_ROWS, DECISION_RUNS, LoopState, evaluate, uniform_run  # noqa: E402
-from .report import error_plot, lissajous_plot  # noqa: E402
 
 PLOT_POINTS = 20_000     # points per scatter plot (the spectra and the map use every sample)
 
@@ -134,9 +134,9 @@ def write_markdown(report: dict, plots: dict, path: str):
 def write_outputs(base: LoopState, state: LoopState, report: dict, train: Measurement,
                   validate: Measurement | None, out_dir: str):
     """DIR/report.json, DIR/report.md with plots, DIR/cal/; all or nothing."""
-    from .calstore import save_calibration
-    from .hardware.corefiles import core_files
-    from .outputs import atomic_dir
+    from ..hardware.corefiles import core_files
+    from ..io.calstore import save_calibration
+    from ..io.outputs import atomic_dir
 
     with atomic_dir(out_dir, "loop", command="fringe loop") as tmp:
         save_calibration(state.cal, os.path.join(tmp, "cal"), core_files(state.cal, "fringe loop"),

@@ -5,7 +5,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .encoder import Encoder
+from ..encoder import Encoder
 from .longperiod import FourierSeries
 from .quadrature import QuadratureCorrection
 
@@ -53,6 +53,6 @@ CANCELLER_KEYS = ("tone_hz", "sample_rate_hz", "cancel_block_log2", "cancel_mu_l
 
 def float_canceller(cal: Calibration):
     """The float twin of fringe_canceller for cal.canceller, from reset (fixed/canceller.py, CancelFloat)."""
-    from .fixed.canceller import CancelFloat, freq_word
+    from ..fixed.canceller import CancelFloat, freq_word
     k = cal.canceller
     return CancelFloat(freq_word(k["tone_hz"], k["sample_rate_hz"]), k["cancel_block_log2"], k["cancel_mu_log2"])

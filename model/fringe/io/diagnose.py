@@ -8,9 +8,9 @@ error of a few percent of a period is far below what these checks look for.
 
 import numpy as np
 
+from ..encoder import Encoder
+from ..errors import FringeInputError
 from .dataio import Measurement
-from .encoder import Encoder
-from .errors import FringeInputError
 
 SCALE_OK = (0.8, 1.25)        # motion ratios accepted as "the same motion"
 MIN_PERIODS = 0.9             # less motion than about a period: the raw phase itself is not sound

@@ -18,8 +18,8 @@ import time
 
 import numpy as np
 
-from .encoder import ARCSEC_PER_REV
-from .simulate import ChannelConfig, SimulationConfig, trajectory
+from ..dsp.simulate import ChannelConfig, SimulationConfig, trajectory
+from ..encoder import ARCSEC_PER_REV
 
 SAMPLES = 16_384
 STRENGTH_RANGE = (0.5, 50.0)      # effect RMS on the angle, in units of the floor's
@@ -155,11 +155,11 @@ def population_case(seed: int) -> dict:
     """Fit on one recording, validate on another; the names, and the validation RMS over the floor
     (the same validation recording without its additive noise, through the same correction) for the
     float and the bit-exact engine. Never raises: an abort is a result."""
-    from .engines import run_engine
-    from .evaluate import measurement_of, noise_floor_arcsec
-    from .hardware.closed_loop import float_only
-    from .loop import evaluate, run_loop
-    from .simulate import simulate
+    from ..calib.evaluate import measurement_of, noise_floor_arcsec
+    from ..cli.engines import run_engine
+    from ..dsp.simulate import simulate
+    from ..hardware.closed_loop import float_only
+    from ..loop.loop import evaluate, run_loop
 
     case = draw_case(seed)
     cfg = case["config"]
@@ -196,10 +196,10 @@ def common_gain_shows(cfg: SimulationConfig, cal, seed: int, floor_arcsec: float
     """Whether a common gain change moves the angle through the calibrated tables by at least half the noise
     floor (noise-free fit recording with and without it). atan2 alone would not see it, but the per-channel
     waveform inverse assumes the amplitude it was calibrated at: then it is an amplitude-dependent error."""
-    from .evaluate import measurement_of
-    from .pipeline import run_float
-    from .position import wrap
-    from .simulate import simulate
+    from ..calib.evaluate import measurement_of
+    from ..dsp.position import wrap
+    from ..dsp.simulate import simulate
+    from ..engine.pipeline import run_float
 
     gain_mod = {k: v for k, v in cfg.rev_gain_mod.items() if k != 2}
     angles = []
@@ -292,7 +292,7 @@ def loop_speed(samples: int = 1_000_000, small: int = 20_000) -> dict:
     import os
     import tempfile
 
-    from .cli import main
+    from ..cli.cli import main
 
     with tempfile.TemporaryDirectory(prefix="fringe-loop-speed-") as tmp:
         runs = {}

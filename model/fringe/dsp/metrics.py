@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .encoder import ARCSEC_PER_REV
+from ..encoder import ARCSEC_PER_REV
 from .position import circular_mean, wrap
 
 

@@ -18,12 +18,12 @@ import os
 
 import numpy as np
 
-from .calibrate import calibrate, ellipse_only
-from .dataio import Measurement
-from .encoder import Encoder
-from .fourierfit import fit_select
-from .pipeline import fine_phase
-from .smoothmotion import motion_roughness, motion_segments
+from ..calib.calibrate import calibrate, ellipse_only
+from ..dsp.fourierfit import fit_select
+from ..dsp.smoothmotion import motion_roughness, motion_segments
+from ..encoder import Encoder
+from ..engine.pipeline import fine_phase
+from ..io.dataio import Measurement
 
 SERVO = os.path.join("servoproject_optical", "optEncTestData.txt")
 SERVO_OFFSET = 8192            # the logger writes unsigned codes around mid-range

@@ -1,0 +1,1 @@
+"""Fitting a recording (the calibration) and judging a correction."""

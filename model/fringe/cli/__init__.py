@@ -1,0 +1,1 @@
+"""The `fringe` command line and the correction engines behind `fringe correct --engine`."""

@@ -1,0 +1,1 @@
+"""Files: recordings, safe outputs, calibration folders and the shared data sets."""

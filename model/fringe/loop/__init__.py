@@ -1,0 +1,1 @@
+"""The closed loop (`fringe loop`), its scenarios and its report."""
