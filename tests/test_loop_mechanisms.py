@@ -319,8 +319,8 @@ def test_a_noisy_encoders_own_speed_is_not_a_speed_effect():
     difference of its own noisy positions, so a speed term fitted to it smooths the noise of the sample being
     corrected and is highly significant (checked: the test would name it). Against the reference's motion it
     explains nothing, so it is not offered as a physical effect; a real channel skew still is."""
-    from fringe.calibrate import calibrate
-    from fringe.effects import LIBRARY
+    from fringe.calib.calibrate import calibrate
+    from fringe.dsp.effects import LIBRARY
     seed = 3
     print("seed", seed)
     for skew_s in (0.0, 5e-4):
