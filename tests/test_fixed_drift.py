@@ -24,9 +24,11 @@ from fringe.fixed.drift import (
 )
 
 P1 = DriftParams(adc_w=14, fine_w=16, block_log2=8, mu_log2=3, ofs_frac=4, ginv_w=18, fwd_w=6, table_w=18,
-                 table_frac=2, kg_w=18, kg_shift=38)
+                 table_frac=2, kg_w=18, kg_shift=38)                  # HOLD = 1 (the default)
 P2 = DriftParams(adc_w=10, fine_w=12, block_log2=6, mu_log2=1, ofs_frac=0, ginv_w=12, fwd_w=4, table_w=12,
-                 table_frac=0, kg_w=12, kg_shift=21, pipe_latency=14)   # at the limit: 4 + 14 + 15 = D + 1
+                 table_frac=0, kg_w=12, kg_shift=21, pipe_latency=13, hold=0)   # at the limit: 4 + 13 + 16 = D + 1
+P1H0 = dataclasses.replace(P1, hold=0, kg_shift=37)                   # W = B/2: KG one shift less
+P2H1 = dataclasses.replace(P2, hold=1, block_log2=4, pipe_latency=40, kg_shift=20)       # no latency limit with HOLD = 1
 
 
 class Encoder:
@@ -68,9 +70,16 @@ class Encoder:
         return drift_run(self.rs, self.rc, self.phase_of, self.p, self.tables, self.w0, self.kg, **kw)
 
 
-def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg):
-    """The contract of docs/blocks/fringe_drift.md as a plain per-sample loop on Python integers."""
-    B, D = p.b, p.d
+def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg, *, old: bool = False):
+    """The contract of docs/blocks/fringe_drift.md as a plain per-sample loop on Python integers.
+
+    old = True: the tracker before HOLD, window and gear shift (D = B/2, every sample of the block
+    accumulated, a fixed step 2^-MU_LOG2), for comparisons of the start-up."""
+    B = p.b
+    D = B // 2 if old else (0 if p.hold else B // 2)
+    W = B if old or p.hold else B // 2
+    wl = W.bit_length() - 1
+    u = 0                                 # updates so far
     off, ginv = [0, 0], [p.unity, p.unity]
     pending = []                          # (apply index, state)
     lo, hi = -(1 << (p.adc_w - 1)), (1 << (p.adc_w - 1)) - 1
@@ -92,25 +101,32 @@ def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg):
         sat.append(int(s))
         ph = int(phase_of(np.array([y[0]]), np.array([y[1]]))[0])
         fb = p.fb
+        inwin = n % B >= B - W
         for k in (0, 1):
             word = int(tables[k][ph >> fb])
             sl, va = (int(x[0]) for x in unpack_words(np.array([word]), p))
             a = va + ((sl * (ph & ((1 << fb) - 1)) + (1 << (fb - 1))) >> fb)
             e = (y[k] << p.table_frac) - int(w0[k]) - a
-            se[k] += e
-            sea[k] += e * a
-        if prev is not None:
+            if inwin:
+                se[k] += e
+                sea[k] += e * a
+        if prev is not None and inwin:
             d = (ph - prev) % (1 << p.fine_w)
             sweep += min(d, (1 << p.fine_w) - d)
         prev = ph
         if n % B == B - 1:
             cur = pending[-1][1] if pending else (off[0], off[1], ginv[0], ginv[1])
             if sweep >= 1 << p.fine_w:
+                gear = p.mu_log2 if old else min(p.mu_log2, u.bit_length())
+                u += 1
                 no, ng = [], []
                 for k in (0, 1):
-                    o = cur[k] + ((se[k] << p.ofs_frac) >> (p.block_log2 + p.table_frac + p.mu_log2))
+                    o = cur[k] + ((se[k] << p.ofs_frac) >> (wl + p.table_frac + gear))
                     no.append(min(max(o, -(1 << (p.ofs_w - 1))), (1 << (p.ofs_w - 1)) - 1))
-                    g = cur[2 + k] - ((sea[k] * int(kg[k]) + (1 << (p.kg_shift - 1))) >> p.kg_shift)
+                    # the shift KG_SHIFT - (MU_LOG2 - G) of the contract, rounded with half of it
+                    sh = p.kg_shift - (p.mu_log2 - gear)
+                    step = (sea[k] * int(kg[k]) + (1 << (sh - 1))) >> sh if sh >= 1 else sea[k] * int(kg[k]) << -sh
+                    g = cur[2 + k] - step
                     ng.append(min(max(g, 0), (1 << p.ginv_w) - 1))
                 cur = (no[0], no[1], ng[0], ng[1])
             states.append(cur)
@@ -124,14 +140,26 @@ def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg):
 
 def test_derived_constants():
     p = P1
-    assert (p.b, p.d, p.fb, p.bins, p.ofs_w, p.unity, p.norm_shift, p.off_shift) == (256, 128, 10, 64, 18, 1 << 16,
-                                                                                      20, 13)
+    assert (p.b, p.d, p.w, p.fb, p.bins, p.ofs_w, p.unity, p.norm_shift, p.off_shift(3)) == (
+        256, 0, 256, 10, 64, 18, 1 << 16, 20, 13)
     assert (p.e_w, p.se_w, p.sea_w, p.sweep_w, p.word_w) == (20, 28, 47, 24, 36)
-    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 15, 4, 15)
+    q = P1H0
+    assert (q.d, q.w, q.w_log2, q.off_shift(0), q.se_w, q.sea_w, q.sweep_w) == (128, 128, 7, 9, 27, 46, 23)
+    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 16, 4, 16)
     assert p.hdl_parameters()["PIPE_LATENCY"] == 0 and p.hdl_parameters()["KG_SHIFT"] == 38
+    assert p.hdl_parameters()["HOLD"] == 1 and q.hdl_parameters()["HOLD"] == 0
 
 
-BASE = P1.hdl_parameters()
+def test_gear_schedule():
+    """G_u = min(MU_LOG2, bit_length(u)): steps 1, 1/2, 1/4, 1/4, 1/8 x 4, ... down to 2^-MU_LOG2."""
+    p = dataclasses.replace(P1, mu_log2=4)
+    steps = [2.0 ** -p.gear(u) for u in range(20)]
+    assert steps == [1, 0.5, 0.25, 0.25] + [0.125] * 4 + [0.0625] * 12
+    assert [P1.gear(u) for u in (0, 1, 2, 4, 100)] == [0, 1, 2, 3, 3]
+    assert [dataclasses.replace(P1, mu_log2=0).gear(u) for u in (0, 1, 5)] == [0, 0, 0]
+
+
+BASE = P1H0.hdl_parameters()
 KEYS = {k.lower(): k for k in BASE}
 
 
@@ -154,10 +182,13 @@ KEYS = {k.lower(): k for k in BASE}
         *out_of_range("fringe_drift", "kg_w", 8, 24),
         *out_of_range("fringe_drift", "kg_shift", 1, 60),
         ({"pipe_latency": -1}, "fringe_drift: PIPE_LATENCY = -1 must be >= 0"),
-        ({"pipe_latency": 111}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 111 + 15 = 130 "
+        ({"pipe_latency": 110}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 110 + 16 = 130 "
                                 "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = 129: the update would come too late"),
-        ({"block_log2": 4}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 15 = 19 exceeds "
+        ({"block_log2": 4}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 16 = 20 exceeds "
                             "D + 1 = 2^(BLOCK_LOG2-1) + 1 = 9: the update would come too late"),
+        ({"block_log2": 4, "hold": 1}, "NOERROR"),             # HOLD = 1: no latency limit
+        ({"pipe_latency": 1000, "hold": 1}, "NOERROR"),
+        *out_of_range("fringe_drift", "hold", 0, 1),
         ({"table_w": 18.0}, "fringe_drift: TABLE_W must be an integer"),
     ],
 )
@@ -172,14 +203,14 @@ def test_parameter_validation(over, msg):
 
 
 def test_pipe_latency_limit_is_exact():
-    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 110})   # 4 + 110 + 15 = 129 = D + 1
+    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 109})   # 4 + 109 + 16 = 129 = D + 1
 
 
 def test_hdl_messages_match_model():
     v, h = block_texts("fringe_drift")
     ranges = (("ADC_W", "4..24"), ("FINE_W", "8..30"), ("BLOCK_LOG2", "4..12"), ("MU_LOG2", "0..8"),
               ("OFS_FRAC", "0..8"), ("GINV_W", "8..24"), ("TABLE_W", "8..24"), ("TABLE_FRAC", "0..12"),
-              ("KG_W", "8..24"), ("KG_SHIFT", "1..60"))
+              ("KG_W", "8..24"), ("KG_SHIFT", "1..60"), ("HOLD", "0..1"))
     assert not missing_checks("fringe_drift", ranges)
     for frag in ("out of range 2..min(10, FINE_W-1) = ", "ADC_W + OFS_FRAC = ", " exceeds 32",
                  "NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = ", "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = ",
@@ -228,9 +259,9 @@ def test_tables_pack_unpack_and_limits():
 # ---------------------------------------------------------------------------- bit-exact behaviour
 
 
-@pytest.mark.parametrize("p", [P1, P2], ids=["P1", "P2"])
+@pytest.mark.parametrize("p", [P1, P2, P1H0, P2H1], ids=["P1", "P2-hold0", "P1-hold0", "P2-hold1"])
 def test_matches_plain_reference(p):
-    enc = Encoder(p, 9 * p.b + 37, seed=3, speed=0.05, drift=5.0)
+    enc = Encoder(p, max(9 * p.b, 600) + 37, seed=3, speed=max(0.05, 1.5 / p.w), drift=5.0)
     r = enc.run()
     ys, yc, sat, states = reference(enc.rs, enc.rc, enc.phase_of, p, enc.tables, enc.w0, enc.kg)
     np.testing.assert_array_equal(r.y_sin, ys)
@@ -260,7 +291,7 @@ def test_slow_blocks_are_skipped():
     r = enc.run()
     assert not r.updated.any() and (r.sweep < 1 << p.fine_w).all()
     assert (r.states == r.states[0]).all()
-    fast = Encoder(p, 30 * p.b, seed=5, speed=1.5 / p.b).run()
+    fast = Encoder(p, 30 * p.b, seed=5, speed=1.5 / p.w).run()     # 1.5 periods per window
     assert fast.updated.all()
 
 
@@ -282,7 +313,7 @@ def test_tracker_converges_on_drifting_signal():
     enc = Encoder(p, n, seed=7)
     r = enc.run()
     j = np.arange(r.states.shape[0] - 1)
-    at = np.minimum((j + 1) * p.b + p.d, n - 1)
+    at = np.minimum(r.apply_at, n - 1)
     late = j >= len(j) // 4
     off_err = np.abs(r.states[1:, :2] / 2.0 ** p.ofs_frac - np.stack([enc.os[at], enc.oc[at]], 1))[late]
     gain_err = np.abs(r.states[1:, 2:] / p.unity * np.stack([enc.gs[at], enc.gc[at]], 1) - 1)[late]
@@ -296,8 +327,8 @@ def test_tracker_converges_on_drifting_signal():
     assert abs(ys.mean()) < 3.0 and abs(np.sqrt(2) * ys.std() / enc.amp - 1) < 3e-3
 
 
-def test_float_agrees_within_bound():
-    p = P1
+@pytest.mark.parametrize("p", [P1, P1H0], ids=["hold1", "hold0"])
+def test_float_agrees_within_bound(p):
     enc = Encoder(p, 300_000, seed=8)
     r = enc.run()
     f = drift_float(enc.rs, enc.rc, enc.phase_of, p, enc.tables, enc.w0, enc.kg)
