@@ -28,7 +28,7 @@ P1 = DriftParams(adc_w=14, fine_w=16, block_log2=8, mu_log2=3, ofs_frac=4, ginv_
 P2 = DriftParams(adc_w=10, fine_w=12, block_log2=6, mu_log2=1, ofs_frac=0, ginv_w=12, fwd_w=4, table_w=12,
                  table_frac=0, kg_w=12, kg_shift=21, pipe_latency=13, hold=0)   # at the limit: 4 + 13 + 16 = D + 1
 P1H0 = dataclasses.replace(P1, hold=0, kg_shift=37)                   # W = B/2: KG one shift less
-P2H1 = dataclasses.replace(P2, hold=1, block_log2=4, pipe_latency=40, kg_shift=20)       # no latency limit with HOLD = 1
+P2H1 = dataclasses.replace(P2, hold=1, block_log2=4, pipe_latency=40, kg_shift=20)   # HOLD = 1: no latency limit
 
 
 class Encoder:

@@ -504,8 +504,9 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
     2^TABLE_FRAC`` (exact interpolation of the same table words), ``e = y - w0 - a`` (w0 = W0 /
     2^TABLE_FRAC), per update (the block's last W samples, gear G_u) ``off += mean(e) 2^-G_u`` and ``ginv -=
     sum(e a) KG 2^(2 TABLE_FRAC - KG_SHIFT - GINV_W + 2 + MU_LOG2 - G_u)``, same sweep test (the phases from
-    ``phase_of`` may be floats in fine counts), same application points. Returns y_sin, y_cos, phase (per sample) and states (blocks + 1, 4) in
-    the fixed-point LSB units of OFF and GINV (floats) for a direct comparison, and updated."""
+    ``phase_of`` may be floats in fine counts), same application points. Returns y_sin, y_cos, phase (per
+    sample) and states (blocks + 1, 4) in the fixed-point LSB units of OFF and GINV (floats) for a direct
+    comparison, and updated."""
     p = params
     rs = np.asarray(raw_sin, dtype=np.float64)
     rc = np.asarray(raw_cos, dtype=np.float64)
