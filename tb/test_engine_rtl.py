@@ -154,3 +154,36 @@ def test_run_rtl_with_canceller_matches_model(sim):
     assert bad.size == 0, (f"{bad.size} of {len(m.sin)} words differ; first at {bad[0]}: RTL pos={got.pos[bad[0]]} "
                            f"status={got.status[bad[0]]:#04x}, model pos={expected.pos[bad[0]]} "
                            f"status={expected.status[bad[0]]:#04x}")
+
+
+def test_run_rtl_with_drift_hold_matches_model(sim):
+    """fringe_drift with its hold (DRIFT = 1, DRIFT_HOLD = 1, a short block): the RTL engine's harness waits
+    for s_axis_tready at every block boundary and every word equals ``run_core``'s; the recording starts
+    with an offset / gain error the tracker removes (its words are not those of the core without it)."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.calib.evaluate import measurement_of
+    from fringe.dsp.simulate import ChannelConfig, SimulationConfig, simulate
+    from fringe.fixed.core import run_core, to_adc_codes
+    from fringe.hardware.corefiles import core_config
+    from fringe.hardware.rtlsim import drift_hold_clocks, run_rtl
+    from fringe.hardware.tables import build_tables
+
+    base = SimulationConfig(samples=3000)
+    cal0 = calibrate(measurement_of(simulate(dataclasses.replace(base, samples=20_000), 1)), base.encoder())
+    cal = dataclasses.replace(cal0, adaptive=True, tracker={"drift_block_log2": 5, "drift_mu_log2": 2})
+    cfg = core_config(cal)
+    assert cfg.drift == 1 and cfg.drift_hold == 1 and drift_hold_clocks(cfg, 3000) > 0
+    s = base.sin_channel
+    off = dataclasses.replace(base, sin_channel=ChannelConfig(offset=s.offset + 0.02, gain=s.gain * 1.03,
+                                                              phase_rad=s.phase_rad, sin_h=dict(s.sin_h),
+                                                              cos_h=dict(s.cos_h)))
+    m = measurement_of(simulate(off, 2))
+    tables = build_tables(cal, cfg)
+    sin, cos = to_adc_codes(m.sin, cfg.adc_w, "sin"), to_adc_codes(m.cos, cfg.adc_w, "cos")
+    expected = run_core(tables, cfg, sin, cos, m.coarse)
+    cfg0 = dataclasses.replace(cfg, drift=0)
+    without = run_core(build_tables(cal0, cfg0), cfg0, sin, cos, m.coarse)
+    assert (expected.pos != without.pos).mean() > 0.3
+    got = run_rtl(cal, cfg, m.sin, m.cos, m.coarse, sim=sim, tables=tables)
+    bad = np.flatnonzero((got.pos != expected.pos) | (got.status != expected.status))
+    assert bad.size == 0, f"{bad.size} of {len(m.sin)} words differ; first at {bad[0]}"

@@ -13,13 +13,18 @@ ramping), the resets, ce and in_valid patterns and the table writes; the model (
 segment, table versions numbered as model banks) gives every normaliser output word and the tracker
 state after every accepted input sample, both checked exactly:
 
-1. full speed (ce = 1, in_valid = 1: the update arrives with zero margin when PIPE_LATENCY is at its
-   limit), bank 0;
+1. full speed (ce = 1, in_valid = 1: with HOLD = 0 the update arrives with zero margin when PIPE_LATENCY
+   is at its limit; with HOLD = 1 every block boundary must wait exactly NORM_LATENCY + PIPE_LATENCY +
+   OBS_LATENCY - 1 clocks with in_ready = 0, the first clock the update is resolved), bank 0;
 2. random idle cycles and ce stalls while bank 1 of both tables is rewritten through the write port
    (junk on the bus when wr_en = 0), then a bank flip to the new bank 1, a reset in mid-stream;
 3. a slow section (SWEEP < one period per block: the blocks are skipped, the state holds), then fast;
 4. full-scale spikes in the raw codes (y saturates: norm_sat); after a reset, KG at its maximum (about
    90 times the nominal): GINV overshoots and saturates (track_sat).
+
+The plan is a sequence of offers: a cycle offering a sample (ce = 1, in_valid = 1) while the block's
+in_ready is 0 is repeated until the sample is taken (AXI-Stream style), so the samples of each reset
+segment, and the model's words, do not depend on how long the block holds.
 
 Replay a failure: ``FRINGE_SEED=<seed in the message> pytest tb/test_fringe_drift.py -k ...``.
 """
@@ -190,7 +195,7 @@ if cocotb is not None:
 def params_of(raw: dict) -> DriftParams:
     return DriftParams(raw["ADC_W"], raw["FINE_W"], raw["BLOCK_LOG2"], raw["MU_LOG2"], raw["OFS_FRAC"],
                        raw["GINV_W"], raw["FWD_W"], raw["TABLE_W"], raw["TABLE_FRAC"], raw["KG_W"], raw["KG_SHIFT"],
-                       raw["PIPE_LATENCY"])
+                       raw["PIPE_LATENCY"], raw["HOLD"])
 
 
 def _config():
@@ -278,8 +283,15 @@ if cocotb is not None:
             raise AssertionError(f"[{tag}] cycle {i} ({cycles[i].note if i < len(cycles) else 'end'}): {msg}")
 
         handles: dict[str, object] = {}
-        for i, c in enumerate(cycles):
+        stall = NORM_LATENCY + p.pipe_latency + OBS_LATENCY - 1     # HOLD = 1 at full speed, per boundary
+        holds = []                # per boundary waited at: (held clocks, all at full speed)
+        held = 0
+        held_full = True
+        i = 0
+        while i < len(cycles):
+            c = cycles[i]
             apply_cycle(dut, c, handles)
+            ready = int(dut.in_ready.value)          # from registers only: settled since the last edge
             src = pipe[-1] if p.pipe_latency else cur
             if src is None:
                 _idle_obs(dut, p, rng)
@@ -298,7 +310,17 @@ if cocotb is not None:
             await RisingEdge(dut.clk)
             await ReadOnly()
             nv = int(dut.norm_valid.value)
+            hold = bool(c.ce and c.valid and not c.rst and not ready)   # offered, not taken: offer it again
+            if hold:
+                if not p.hold:
+                    fail(i, "in_ready = 0 with HOLD = 0")
+                held += 1
+                held_full &= c.note.startswith("full speed")
+            elif c.accepted and held:
+                holds.append((held, held_full))
+                held, held_full = 0, True
             if c.rst:
+                held, held_full = 0, True
                 dropped += len(inflight)
                 inflight.clear()
                 pipe = [None] * p.pipe_latency
@@ -312,7 +334,7 @@ if cocotb is not None:
                     pipe = [cur] + pipe[:-1]
                 for s in inflight:
                     s[0] += 1
-                if c.valid:
+                if c.valid and not hold:
                     inflight.append([1, c.expect, i])
                     st = _state(dut, p)
                     if st != c.expect[4]:
@@ -340,6 +362,8 @@ if cocotb is not None:
             if not nv:
                 last_out = None
             await FallingEdge(dut.clk)
+            if not hold:
+                i += 1
         if inflight:
             fail(len(cycles), "samples still in flight at the end")
         upd = sum(int(r.updated.sum()) for r in results)
@@ -347,28 +371,37 @@ if cocotb is not None:
         if not (dropped and sat_seen and tsat_seen and upd > 10 and skipped >= 3):
             raise AssertionError(f"[{tag}] plan not effective: dropped {dropped}, norm_sat {sat_seen}, "
                                  f"track_sat {tsat_seen}, updates {upd}, skipped {skipped}")
-        dut._log.info("%d cycles, %d words and %d states checked, %d dropped by resets, %d updates, %d skipped",
-                      len(cycles), checked, states_checked, dropped, upd, skipped)
+        # HOLD = 1: every boundary of the full-speed section waited exactly until its update was resolved
+        # (the first clock after it, not one later: the words above show it was not earlier)
+        full = [h for h, f in holds if f]
+        if p.hold and (len(full) < 4 or any(h != stall for h in full)):
+            raise AssertionError(f"[{tag}] full-speed holds {full}, expected at least 4 of {stall} clocks")
+        dut._log.info("%d cycles, %d words and %d states checked, %d dropped by resets, %d updates, %d skipped, "
+                      "holds %s", len(cycles), checked, states_checked, dropped, upd, skipped, holds)
 
 
 # ============================================================================ pytest side
 
 PARAM_SETS = [
-    # (DriftParams, USER_W): PIPE_LATENCY at its limit (4 + 14 + 15 = D + 1)
+    # (DriftParams, USER_W): HOLD = 0 with PIPE_LATENCY at its limit (4 + 13 + 16 = D + 1)
     (DriftParams(adc_w=12, fine_w=14, block_log2=6, mu_log2=2, ofs_frac=3, ginv_w=16, fwd_w=5, table_w=16,
-                 table_frac=2, kg_w=16, kg_shift=24, pipe_latency=14), 2),
-    (DriftParams(adc_w=16, fine_w=18, block_log2=6, mu_log2=3, ofs_frac=0, ginv_w=20, fwd_w=7, table_w=20,
-                 table_frac=0, kg_w=20, kg_shift=30, pipe_latency=6), 1),
-    # the widest words: ADC_W 24 + OFS_FRAC 8, GINV_W/TABLE_W/KG_W 24, FINE_W 30, FWD_W 10
+                 table_frac=2, kg_w=16, kg_shift=23, pipe_latency=13, hold=0), 2),
+    # HOLD = 1: a pipeline longer than the block (the hold covers it), the smallest block
+    (DriftParams(adc_w=16, fine_w=18, block_log2=4, mu_log2=3, ofs_frac=0, ginv_w=20, fwd_w=7, table_w=20,
+                 table_frac=0, kg_w=20, kg_shift=28, pipe_latency=21, hold=1), 1),
+    # the widest words: ADC_W 24 + OFS_FRAC 8, GINV_W/TABLE_W/KG_W 24, FINE_W 30, FWD_W 10; HOLD = 1
     (DriftParams(adc_w=24, fine_w=30, block_log2=7, mu_log2=0, ofs_frac=8, ginv_w=24, fwd_w=10, table_w=24,
-                 table_frac=1, kg_w=24, kg_shift=46, pipe_latency=0), 3),
+                 table_frac=1, kg_w=24, kg_shift=46, pipe_latency=0, hold=1), 3),
+    # HOLD = 0, a longer block, MU_LOG2 at its maximum (the gear's left shift of SEA * KG by 8)
+    (DriftParams(adc_w=14, fine_w=16, block_log2=7, mu_log2=8, ofs_frac=4, ginv_w=18, fwd_w=6, table_w=18,
+                 table_frac=2, kg_w=18, kg_shift=36, pipe_latency=20, hold=0), 2),
 ]
 
 
 def _id(ps) -> str:
     p, u = ps
     return (f"A{p.adc_w}-F{p.fine_w}-B{p.block_log2}-M{p.mu_log2}-O{p.ofs_frac}-G{p.ginv_w}-W{p.fwd_w}-T{p.table_w}"
-            f"-TF{p.table_frac}-K{p.kg_w}-KS{p.kg_shift}-P{p.pipe_latency}-U{u}")
+            f"-TF{p.table_frac}-K{p.kg_w}-KS{p.kg_shift}-P{p.pipe_latency}-H{p.hold}-U{u}")
 
 
 @pytest.mark.parametrize("ps", PARAM_SETS, ids=[_id(ps) for ps in PARAM_SETS])
@@ -377,7 +410,8 @@ def test_plan_is_effective(ps):
     p, user_w = ps
     cycles, feed, results = build_plan(p, user_w, DEFAULT_SEED)
     assert len(results) == 3
-    assert all(r.updated.sum() >= 5 for r in results) and (~results[1].updated).sum() >= 3   # slow: skipped
+    assert all(r.updated.sum() >= 5 for r in results[:2]) and (~results[1].updated).sum() >= 3   # slow: skipped
+    assert results[-1].updated.any()     # KG far too large: GINV saturates in the first updates
     assert results[-1].track_sat.any() and results[1].sat.any()
     assert not results[0].track_sat.any()
     assert all(c.expect is not None for c in cycles if c.accepted)
@@ -387,13 +421,13 @@ def test_plan_is_effective(ps):
 test_latency_constant_matches_model = constants_test(TOPLEVEL, NORM_LATENCY=NORM_LATENCY, OBS_LATENCY=OBS_LATENCY)
 
 
-BASE = PARAM_SETS[0][0].hdl_parameters()       # at the limit: PIPE_LATENCY 15 is one over
+BASE = PARAM_SETS[0][0].hdl_parameters()       # HOLD = 0 at the limit: PIPE_LATENCY 14 is one over
 ILLEGAL = [
     {"ADC_W": 3}, {"ADC_W": 25}, {"FINE_W": 7, "FWD_W": 4}, {"FINE_W": 31}, {"BLOCK_LOG2": 13},
     {"MU_LOG2": 9}, {"OFS_FRAC": 9}, {"ADC_W": 24, "OFS_FRAC": 8, "PIPE_LATENCY": 0}, {"GINV_W": 7},
     {"GINV_W": 25}, {"FWD_W": 1}, {"FWD_W": 14}, {"TABLE_W": 7}, {"TABLE_W": 25}, {"TABLE_FRAC": 13},
-    {"KG_W": 7}, {"KG_W": 25}, {"KG_SHIFT": 0}, {"KG_SHIFT": 61}, {"PIPE_LATENCY": -1}, {"PIPE_LATENCY": 15},
-    {"BLOCK_LOG2": 4, "PIPE_LATENCY": 0},
+    {"KG_W": 7}, {"KG_W": 25}, {"KG_SHIFT": 0}, {"KG_SHIFT": 61}, {"PIPE_LATENCY": -1}, {"PIPE_LATENCY": 14},
+    {"BLOCK_LOG2": 4, "PIPE_LATENCY": 0}, {"HOLD": -1}, {"HOLD": 2},
 ]
 
 
@@ -422,3 +456,29 @@ def test_fringe_drift(sim, ps):
     for k, path in _init_files(p).items():
         hdl[k] = path
     run_block(TOPLEVEL, "test_fringe_drift", hdl, sim=sim, timeout_s=600, extra_env=env)
+
+
+class _LateParams(DriftParams):
+    """HOLD = 1's window and gear, but each update applied one block late (from (j+2)B): what the core
+    would compute if the boundary sample did not wait for its update."""
+
+    @property
+    def d(self) -> int:
+        return self.b
+
+
+@pytest.mark.parametrize("ps", [ps for ps in PARAM_SETS if ps[0].hold],
+                         ids=[_id(ps) for ps in PARAM_SETS if ps[0].hold])
+def test_hold_is_needed(ps):
+    """Without the hold the words differ: the model with every update applied one block late gives other
+    normalised codes on a stream like the plan's full-speed section (so the exact comparison of the stream
+    test catches a boundary sample taken before its update)."""
+    p, _ = ps
+    rs, rc = encoder(p, np.random.default_rng(DEFAULT_SEED), 6 * p.b, 0, 2.3 / p.b)
+    tables, w0, kg = waveform_tables(p, 0)
+    late = _LateParams(**{f: getattr(p, f) for f in p.__dataclass_fields__})
+    r = drift_run(rs, rc, phase_of_factory(p, w0), p, tables, w0, kg)
+    q = drift_run(rs, rc, phase_of_factory(p, w0), late, tables, w0, kg)
+    k = min(q.apply_at.size, r.apply_at.size)
+    assert r.updated.sum() >= 3 and late.d == p.b and (q.apply_at[:k] == r.apply_at[:k] + p.b).all()
+    assert (q.y_sin[p.b:2 * p.b] == r.y_sin[p.b:2 * p.b]).mean() < 0.5    # block 1: reset state vs update 0

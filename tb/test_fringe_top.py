@@ -24,7 +24,9 @@ Configurations: the seed preset (12-bit ADC, 256 lines, 9-bit coarse code), the 
 fringe_canceller (CANCEL = 1: the stream carries an additive tone at bank A's CANCEL_FREQ, bank B's word
 differs, so a swap changes the NCO word), and a 16-bit ADC, 1 line, no coarse code; each pipelined
 (COMPACT = 0) and also time-multiplexed on the simulators COMPACT_CONFIGS names (COMPACT = 1: the monitor
-checks s_axis_tready against clocks_per_sample at every edge, the words are the same model's).
+checks s_axis_tready against clocks_per_sample at every edge, the words are the same model's); with
+fringe_drift (DRIFT_HOLD = 1) the monitor also expects s_axis_tready = 0 at each tracker block boundary until
+the block's update is resolved.
 Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_top.py``.
 """
 
@@ -41,7 +43,8 @@ import pytest
 from lib.cocotb_optional import cocotb
 
 from fringe.encoder import Encoder
-from fringe.fixed.config import CoreConfig
+from fringe.fixed import drift as drift_mod
+from fringe.fixed.config import CoreConfig, drift_pipe_latency
 from fringe.fixed.core import CoreTables, core_latency, run_core, run_core_banks
 from fringe.fixed.quadrature import QuadratureCoefs
 from fringe.hardware.rtlsim import pack_inputs, top_parameters, top_widths, unpack_outputs, write_init_files
@@ -118,6 +121,13 @@ class Bench:
         self.n_ce = 0                                      # enabled edges so far
         self.last_in: int | None = None                    # enabled edge of the last handshake since reset
         self.cps = case.cfg.clocks_per_sample
+        # DRIFT = 1, DRIFT_HOLD = 1: the sample at a tracker block boundary (a nonzero multiple of B since
+        # reset) waits until its update is resolved, NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY clock enables
+        # after the block's last sample at the earliest (exactly then: fringe_drift's own test)
+        cfg = case.cfg
+        self.hold_b = (1 << cfg.drift_block_log2) if cfg.drift and cfg.drift_hold else 0
+        self.hold_gap = drift_mod.NORM_LATENCY + drift_pipe_latency(cfg) + drift_mod.OBS_LATENCY
+        self.n_since_rst = 0                               # samples accepted since reset
         cocotb.start_soon(self._monitor())
 
     async def _monitor(self) -> None:
@@ -128,7 +138,10 @@ class Bench:
             rst = int(d.rst.value)
             # s_axis_tready = ce and one sample per clocks_per_sample clock enables (COMPACT = 1)
             ce = int(not int(d.m_axis_tvalid.value) or int(d.m_axis_tready.value))
-            want = int(ce and (self.last_in is None or self.n_ce + 1 - self.last_in >= self.cps))
+            gap = self.cps
+            if self.hold_b and self.n_since_rst and self.n_since_rst % self.hold_b == 0:
+                gap = max(gap, self.hold_gap)
+            want = int(ce and (self.last_in is None or self.n_ce + 1 - self.last_in >= gap))
             if int(d.s_axis_tready.value) != want:
                 raise AssertionError(f"edge {self.edge}: s_axis_tready = {int(d.s_axis_tready.value)}, expected "
                                      f"{want} (ce {ce}, last sample at enabled edge {self.last_in}, now "
@@ -141,9 +154,11 @@ class Bench:
             if int(d.s_axis_tvalid.value) and int(d.s_axis_tready.value):
                 self.ins.append((int(d.s_axis_tdata.value), self.bank, None if rst else self.epoch))
                 self.last_in = self.n_ce + 1
+                self.n_since_rst += 1
             if rst:
                 self.epoch += 1
                 self.last_in = None
+                self.n_since_rst = 0
             self.n_ce += ce
             if (int(d.cfg_wr_en.value) and int(d.cfg_wr_addr.value) == 0x80
                     and int(d.cfg_wr_data.value) & 1):

@@ -133,3 +133,16 @@ def test_a_field_under_both_names_is_refused(work, capsys):
     err = capsys.readouterr().err.strip()
     assert status == 2 and "\n" not in err and "core.json" in err and "'g_shift' and 'trim_g_shift'" in err, err
     assert not (work / "rom_both").exists()
+
+
+def test_a_core_json_without_drift_hold_loads(work):
+    """A core.json written before DRIFT_HOLD existed loads with the default, DRIFT_HOLD = 1 (the tracker's
+    words follow the new timing; its constants keep their meaning)."""
+    from fringe.hardware.corefiles import core_config
+    from fringe.io.calstore import load_calibration
+
+    folder = _folder(work, "cal_no_hold", lambda c: {k: v for k, v in c.items() if k != "drift_hold"})
+    saved = json.loads(open(os.path.join(folder, "core.json"), encoding="utf-8").read())["config"]
+    assert "drift_hold" not in saved and "drift_mu_log2" in saved
+    cfg = core_config(load_calibration(folder), folder)
+    assert cfg.drift_hold == 1 == CoreConfig().drift_hold

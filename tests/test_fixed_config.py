@@ -39,6 +39,7 @@ RANGES = {
     "drift_block_log2": ((4, 12), (3, 13)), "drift_mu_log2": ((0, 8), (-1, 9)), "drift_ofs_frac": ((0, 8), (-1, 9)),
     "drift_ginv_w": ((8, 24), (6, 26)), "drift_fwd_w": ((2, 10), (1, 12)), "drift_table_w": ((8, 24), (6, 26)),
     "drift_table_frac": ((0, 12), (-1, 13)), "drift_kg_w": ((8, 24), (6, 26)), "drift_kg_shift": ((1, 60), (0, 62)),
+    "drift_hold": ((0, 1), (0, 2)),
 }
 
 
@@ -165,12 +166,13 @@ def hdl_refusals(c: dict) -> list[str]:
         in_range("fringe_drift", "TABLE_FRAC", d["TABLE_FRAC"], 0, 12)
         in_range("fringe_drift", "KG_W", d["KG_W"], 8, 24)
         in_range("fringe_drift", "KG_SHIFT", d["KG_SHIFT"], 1, 60)
+        in_range("fringe_drift", "HOLD", d["HOLD"], 0, 1)
         # fringe_core's PIPE_D: the input registers, the waveform tables, the quadrature, the canceller
         # (CANCEL = 1) and the CORDIC
         pipe = (k["CORE_INPUT_LATENCY"] + k["WAVE_LUT_LATENCY"] + k["QUADRATURE_LATENCY"]
                 + g.get("CANCEL", 0) * k["CANCEL_LATENCY"] + g["CORDIC_STAGES"] + k["CORDIC_LATENCY_BASE"])
         norm, obs = k["DRIFT_NORM_LATENCY"], k["DRIFT_OBS_LATENCY"]
-        if d["BLOCK_LOG2"] >= 1:
+        if d["BLOCK_LOG2"] >= 1 and d["HOLD"] == 0:     # HOLD = 1: the input waits for the update
             late = (1 << (d["BLOCK_LOG2"] - 1)) + 1
             check(norm + pipe + obs > late,
                   f"fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = {norm} + {pipe} + {obs} = "
@@ -226,24 +228,25 @@ def test_default_config_is_legal_and_replace_rechecks():
     with pytest.raises(ValueError, match="fringe_core: TRIM = 2 must be 0 or 1"):
         dataclasses.replace(cfg, trim=2)
     with pytest.raises(ValueError, match="exceeds D \\+ 1"):
-        dataclasses.replace(cfg, drift=1, drift_block_log2=5)
+        dataclasses.replace(cfg, drift=1, drift_block_log2=5, drift_hold=0)
+    dataclasses.replace(cfg, drift=1, drift_block_log2=4)    # HOLD = 1: no deadline
     dataclasses.replace(cfg, trim=0, trim_map_phi_w=99)      # fringe_trim is not built: its limits do not apply
 
 
 @pytest.mark.parametrize("cancel", [0, 1])
 def test_drift_update_deadline_counts_the_canceller(cancel):
     """With DRIFT = 1 the tracker's update deadline holds the canceller's latency when CANCEL = 1: the
-    transcription and the model draw the line at the same CORDIC_STAGES (29 | 30 with the canceller)."""
+    transcription and the model draw the line at the same CORDIC_STAGES (28 | 29 with the canceller, HOLD = 0)."""
     base = {name: getattr(CoreConfig(), name) for name in RANGES}
     verdicts = []
     for stages in range(26, 33):
-        c = {**base, "drift": 1, "drift_block_log2": 7, "cordic_stages": stages, "cancel": cancel}
+        c = {**base, "drift": 1, "drift_block_log2": 7, "drift_hold": 0, "cordic_stages": stages, "cancel": cancel}
         hdl, model = hdl_refusals(c), model_refusal(c)
         assert (model is None) == (not hdl), f"{c}: HDL {hdl or 'accepts'}, model {model or 'accepts'}"
         if model is not None:
             assert model in hdl, f"{c}: the model says {model!r}, the HDL {hdl}"
         verdicts.append(model is None)
-    assert verdicts == [True] * (4 if cancel else 7) + [False] * (3 if cancel else 0)
+    assert verdicts == [True] * (3 if cancel else 7) + [False] * (4 if cancel else 0)
 
 
 def verilator() -> tuple[list[str], dict] | None:

@@ -24,9 +24,11 @@ from fringe.fixed.drift import (
 )
 
 P1 = DriftParams(adc_w=14, fine_w=16, block_log2=8, mu_log2=3, ofs_frac=4, ginv_w=18, fwd_w=6, table_w=18,
-                 table_frac=2, kg_w=18, kg_shift=38)
+                 table_frac=2, kg_w=18, kg_shift=38)                  # HOLD = 1 (the default)
 P2 = DriftParams(adc_w=10, fine_w=12, block_log2=6, mu_log2=1, ofs_frac=0, ginv_w=12, fwd_w=4, table_w=12,
-                 table_frac=0, kg_w=12, kg_shift=21, pipe_latency=14)   # at the limit: 4 + 14 + 15 = D + 1
+                 table_frac=0, kg_w=12, kg_shift=21, pipe_latency=13, hold=0)   # at the limit: 4 + 13 + 16 = D + 1
+P1H0 = dataclasses.replace(P1, hold=0, kg_shift=37)                   # W = B/2: KG one shift less
+P2H1 = dataclasses.replace(P2, hold=1, block_log2=4, pipe_latency=40, kg_shift=20)   # HOLD = 1: no latency limit
 
 
 class Encoder:
@@ -68,9 +70,16 @@ class Encoder:
         return drift_run(self.rs, self.rc, self.phase_of, self.p, self.tables, self.w0, self.kg, **kw)
 
 
-def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg):
-    """The contract of docs/blocks/fringe_drift.md as a plain per-sample loop on Python integers."""
-    B, D = p.b, p.d
+def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg, *, old: bool = False):
+    """The contract of docs/blocks/fringe_drift.md as a plain per-sample loop on Python integers.
+
+    old = True: the tracker before HOLD, window and gear shift (D = B/2, every sample of the block
+    accumulated, a fixed step 2^-MU_LOG2), for comparisons of the start-up."""
+    B = p.b
+    D = B // 2 if old else (0 if p.hold else B // 2)
+    W = B if old or p.hold else B // 2
+    wl = W.bit_length() - 1
+    u = 0                                 # updates so far
     off, ginv = [0, 0], [p.unity, p.unity]
     pending = []                          # (apply index, state)
     lo, hi = -(1 << (p.adc_w - 1)), (1 << (p.adc_w - 1)) - 1
@@ -92,25 +101,32 @@ def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg):
         sat.append(int(s))
         ph = int(phase_of(np.array([y[0]]), np.array([y[1]]))[0])
         fb = p.fb
+        inwin = n % B >= B - W
         for k in (0, 1):
             word = int(tables[k][ph >> fb])
             sl, va = (int(x[0]) for x in unpack_words(np.array([word]), p))
             a = va + ((sl * (ph & ((1 << fb) - 1)) + (1 << (fb - 1))) >> fb)
             e = (y[k] << p.table_frac) - int(w0[k]) - a
-            se[k] += e
-            sea[k] += e * a
-        if prev is not None:
+            if inwin:
+                se[k] += e
+                sea[k] += e * a
+        if prev is not None and inwin:
             d = (ph - prev) % (1 << p.fine_w)
             sweep += min(d, (1 << p.fine_w) - d)
         prev = ph
         if n % B == B - 1:
             cur = pending[-1][1] if pending else (off[0], off[1], ginv[0], ginv[1])
             if sweep >= 1 << p.fine_w:
+                gear = p.mu_log2 if old else min(p.mu_log2, u.bit_length())
+                u += 1
                 no, ng = [], []
                 for k in (0, 1):
-                    o = cur[k] + ((se[k] << p.ofs_frac) >> (p.block_log2 + p.table_frac + p.mu_log2))
+                    o = cur[k] + ((se[k] << p.ofs_frac) >> (wl + p.table_frac + gear))
                     no.append(min(max(o, -(1 << (p.ofs_w - 1))), (1 << (p.ofs_w - 1)) - 1))
-                    g = cur[2 + k] - ((sea[k] * int(kg[k]) + (1 << (p.kg_shift - 1))) >> p.kg_shift)
+                    # the shift KG_SHIFT - (MU_LOG2 - G) of the contract, rounded with half of it
+                    sh = p.kg_shift - (p.mu_log2 - gear)
+                    step = (sea[k] * int(kg[k]) + (1 << (sh - 1))) >> sh if sh >= 1 else sea[k] * int(kg[k]) << -sh
+                    g = cur[2 + k] - step
                     ng.append(min(max(g, 0), (1 << p.ginv_w) - 1))
                 cur = (no[0], no[1], ng[0], ng[1])
             states.append(cur)
@@ -124,14 +140,26 @@ def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg):
 
 def test_derived_constants():
     p = P1
-    assert (p.b, p.d, p.fb, p.bins, p.ofs_w, p.unity, p.norm_shift, p.off_shift) == (256, 128, 10, 64, 18, 1 << 16,
-                                                                                      20, 13)
+    assert (p.b, p.d, p.w, p.fb, p.bins, p.ofs_w, p.unity, p.norm_shift, p.off_shift(3)) == (
+        256, 0, 256, 10, 64, 18, 1 << 16, 20, 13)
     assert (p.e_w, p.se_w, p.sea_w, p.sweep_w, p.word_w) == (20, 28, 47, 24, 36)
-    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 15, 4, 15)
+    q = P1H0
+    assert (q.d, q.w, q.w_log2, q.off_shift(0), q.se_w, q.sea_w, q.sweep_w) == (128, 128, 7, 9, 27, 46, 23)
+    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 16, 4, 16)
     assert p.hdl_parameters()["PIPE_LATENCY"] == 0 and p.hdl_parameters()["KG_SHIFT"] == 38
+    assert p.hdl_parameters()["HOLD"] == 1 and q.hdl_parameters()["HOLD"] == 0
 
 
-BASE = P1.hdl_parameters()
+def test_gear_schedule():
+    """G_u = min(MU_LOG2, bit_length(u)): steps 1, 1/2, 1/4, 1/4, 1/8 x 4, ... down to 2^-MU_LOG2."""
+    p = dataclasses.replace(P1, mu_log2=4)
+    steps = [2.0 ** -p.gear(u) for u in range(20)]
+    assert steps == [1, 0.5, 0.25, 0.25] + [0.125] * 4 + [0.0625] * 12
+    assert [P1.gear(u) for u in (0, 1, 2, 4, 100)] == [0, 1, 2, 3, 3]
+    assert [dataclasses.replace(P1, mu_log2=0).gear(u) for u in (0, 1, 5)] == [0, 0, 0]
+
+
+BASE = P1H0.hdl_parameters()
 KEYS = {k.lower(): k for k in BASE}
 
 
@@ -154,10 +182,13 @@ KEYS = {k.lower(): k for k in BASE}
         *out_of_range("fringe_drift", "kg_w", 8, 24),
         *out_of_range("fringe_drift", "kg_shift", 1, 60),
         ({"pipe_latency": -1}, "fringe_drift: PIPE_LATENCY = -1 must be >= 0"),
-        ({"pipe_latency": 111}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 111 + 15 = 130 "
+        ({"pipe_latency": 110}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 110 + 16 = 130 "
                                 "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = 129: the update would come too late"),
-        ({"block_log2": 4}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 15 = 19 exceeds "
+        ({"block_log2": 4}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 16 = 20 exceeds "
                             "D + 1 = 2^(BLOCK_LOG2-1) + 1 = 9: the update would come too late"),
+        ({"block_log2": 4, "hold": 1}, "NOERROR"),             # HOLD = 1: no latency limit
+        ({"pipe_latency": 1000, "hold": 1}, "NOERROR"),
+        *out_of_range("fringe_drift", "hold", 0, 1),
         ({"table_w": 18.0}, "fringe_drift: TABLE_W must be an integer"),
     ],
 )
@@ -172,14 +203,14 @@ def test_parameter_validation(over, msg):
 
 
 def test_pipe_latency_limit_is_exact():
-    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 110})   # 4 + 110 + 15 = 129 = D + 1
+    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 109})   # 4 + 109 + 16 = 129 = D + 1
 
 
 def test_hdl_messages_match_model():
     v, h = block_texts("fringe_drift")
     ranges = (("ADC_W", "4..24"), ("FINE_W", "8..30"), ("BLOCK_LOG2", "4..12"), ("MU_LOG2", "0..8"),
               ("OFS_FRAC", "0..8"), ("GINV_W", "8..24"), ("TABLE_W", "8..24"), ("TABLE_FRAC", "0..12"),
-              ("KG_W", "8..24"), ("KG_SHIFT", "1..60"))
+              ("KG_W", "8..24"), ("KG_SHIFT", "1..60"), ("HOLD", "0..1"))
     assert not missing_checks("fringe_drift", ranges)
     for frag in ("out of range 2..min(10, FINE_W-1) = ", "ADC_W + OFS_FRAC = ", " exceeds 32",
                  "NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = ", "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = ",
@@ -228,9 +259,9 @@ def test_tables_pack_unpack_and_limits():
 # ---------------------------------------------------------------------------- bit-exact behaviour
 
 
-@pytest.mark.parametrize("p", [P1, P2], ids=["P1", "P2"])
+@pytest.mark.parametrize("p", [P1, P2, P1H0, P2H1], ids=["P1", "P2-hold0", "P1-hold0", "P2-hold1"])
 def test_matches_plain_reference(p):
-    enc = Encoder(p, 9 * p.b + 37, seed=3, speed=0.05, drift=5.0)
+    enc = Encoder(p, max(9 * p.b, 600) + 37, seed=3, speed=max(0.05, 1.5 / p.w), drift=5.0)
     r = enc.run()
     ys, yc, sat, states = reference(enc.rs, enc.rc, enc.phase_of, p, enc.tables, enc.w0, enc.kg)
     np.testing.assert_array_equal(r.y_sin, ys)
@@ -260,7 +291,7 @@ def test_slow_blocks_are_skipped():
     r = enc.run()
     assert not r.updated.any() and (r.sweep < 1 << p.fine_w).all()
     assert (r.states == r.states[0]).all()
-    fast = Encoder(p, 30 * p.b, seed=5, speed=1.5 / p.b).run()
+    fast = Encoder(p, 30 * p.b, seed=5, speed=1.5 / p.w).run()     # 1.5 periods per window
     assert fast.updated.all()
 
 
@@ -282,7 +313,7 @@ def test_tracker_converges_on_drifting_signal():
     enc = Encoder(p, n, seed=7)
     r = enc.run()
     j = np.arange(r.states.shape[0] - 1)
-    at = np.minimum((j + 1) * p.b + p.d, n - 1)
+    at = np.minimum(r.apply_at, n - 1)
     late = j >= len(j) // 4
     off_err = np.abs(r.states[1:, :2] / 2.0 ** p.ofs_frac - np.stack([enc.os[at], enc.oc[at]], 1))[late]
     gain_err = np.abs(r.states[1:, 2:] / p.unity * np.stack([enc.gs[at], enc.gc[at]], 1) - 1)[late]
@@ -296,8 +327,8 @@ def test_tracker_converges_on_drifting_signal():
     assert abs(ys.mean()) < 3.0 and abs(np.sqrt(2) * ys.std() / enc.amp - 1) < 3e-3
 
 
-def test_float_agrees_within_bound():
-    p = P1
+@pytest.mark.parametrize("p", [P1, P1H0], ids=["hold1", "hold0"])
+def test_float_agrees_within_bound(p):
     enc = Encoder(p, 300_000, seed=8)
     r = enc.run()
     f = drift_float(enc.rs, enc.rc, enc.phase_of, p, enc.tables, enc.w0, enc.kg)
@@ -309,3 +340,154 @@ def test_float_agrees_within_bound():
     assert np.abs(f["y_sin"] - r.y_sin)[100_000:].max() < 2.0
 
 
+
+
+# ---------------------------------------------------------------------------- start-up: deadbeat and gear shift
+
+
+def _exact_stream(p: DriftParams, n: int, off, gain, step_bins: int = 3):
+    """Raw codes that are exactly ``off + gain * value[bin]`` (integers: values are multiples of 16 and
+    the gains 1 +- 1/16) at phases on the bin starts, stepping ``step_bins`` bins per sample (every bin once
+    in any 2^FWD_W consecutive samples), with zero-mean tables (W0 = 0): the tracker's only errors are its
+    own roundings. Returns (rs, rc, phase_of, tables, w0, kg, values)."""
+    amp = 0.3 * 2 ** (p.adc_w - 1)
+    k = np.arange(p.bins)
+    vals = [16 * np.round(amp * f(2 * np.pi * k / p.bins) / 16).astype(np.int64) for f in (np.sin, np.cos)]
+    assert all(v.sum() == 0 for v in vals)                     # odd / even symmetry: W0 = 0
+    bins = (step_bins * np.arange(n) + 5) % p.bins
+    raw = [(o + g * v[bins]) for o, g, v in zip(off, gain, vals, strict=True)]
+    assert all(np.array_equal(r, np.round(r)) for r in raw)
+    ph = bins << p.fb
+    pos = [0]
+
+    def phase_of(ys, yc):                                      # the true phases, in order
+        out = ph[pos[0]:pos[0] + len(ys)]
+        pos[0] += len(ys)
+        return out
+
+    tables = np.stack([pack_words(v, p) for v in vals])
+    kg = [kg_for(v, p) for v in vals]
+    return raw[0].astype(np.int64), raw[1].astype(np.int64), phase_of, tables, (0, 0), kg, vals
+
+
+def _largest_kg_shift(p: DriftParams, vals) -> DriftParams:
+    for ks in range(60, 0, -1):
+        q = dataclasses.replace(p, kg_shift=ks)
+        try:
+            [kg_for(v, q) for v in vals]
+            return q
+        except ValueError:
+            continue
+    raise AssertionError("no KG_SHIFT fits")
+
+
+@pytest.mark.parametrize("hold", [1, 0])
+def test_first_update_is_deadbeat(hold):
+    """A constant offset and gain error, noise-free, a uniform sweep: the first update (step 1) removes the
+    offset error exactly and the gain error to first order (GINV = unity (2 - g): the gain step is linear in
+    the error; the second-order rest (g - 1)^2 / g goes with the next updates), within error_bound. The
+    tracker before HOLD (D = B/2, the whole block, the fixed step 2^-MU_LOG2) is far from it."""
+    p0 = DriftParams(adc_w=14, fine_w=16, block_log2=6 + 1 - hold, mu_log2=3, ofs_frac=4, ginv_w=18, fwd_w=6,
+                     table_w=18, table_frac=0, kg_w=18, kg_shift=30, hold=hold)
+    off, gain = (37, -23), (1 + 1 / 16, 1 - 1 / 16)
+    vals = _exact_stream(p0, 16, off, gain)[-1]
+    p = _largest_kg_shift(p0, vals)
+    assert p.w == p.bins                                       # the window sweeps every bin once
+    rs, rc, phase_of, tables, w0, kg, _ = _exact_stream(p, 12 * p.b, off, gain)
+    r = drift_run(rs, rc, phase_of, p, tables, w0, kg)
+    b = error_bound(p)
+    assert r.updated.all()
+    first = r.states[1]
+    want_off = np.array(off) * 2 ** p.ofs_frac
+    lin_ginv = p.unity * (2 - np.array(gain))                  # the linear step's target
+    true_ginv = p.unity / np.array(gain)
+    assert np.abs(first[:2] - want_off).max() <= b["off_lsb"], (first, want_off, b)
+    assert np.abs(first[2:] - lin_ginv).max() <= b["ginv_lsb"], (first, lin_ginv, b)
+    second_order = p.unity * (np.array(gain) - 1) ** 2 / np.array(gain)
+    assert (np.abs(first[2:] - true_ginv) <= b["ginv_lsb"] + second_order).all()
+    # later updates keep the offset and bring the gain to the truth within the bound
+    assert np.abs(r.states[1:, :2] - want_off).max() <= b["off_lsb"]
+    assert np.abs(r.states[-1, 2:] - true_ginv).max() <= b["ginv_lsb"]
+    # the old tracker's first update: an eighth of the way
+    rs, rc, phase_of, tables, w0, kg, _ = _exact_stream(p, 4 * p.b, off, gain)
+    old = reference(rs, rc, phase_of, dataclasses.replace(p, hold=0, pipe_latency=0), tables, w0, kg, old=True)[3]
+    assert np.abs(old[1, :2] - want_off).min() > b["off_lsb"]
+
+
+def test_gear_shift_in_the_updates():
+    """Update u moves the offset by 2^-G_u of its mean error: on a constant offset error seen through a
+    tracker whose gain loop is off (KG = 0), the offset error after each update is exactly the fraction
+    prod(1 - 2^-G_u) of the start (with G_0 = 0 it is gone after the first: the schedule shows with the
+    first update skipped, by a slow first block)."""
+    p = DriftParams(adc_w=14, fine_w=16, block_log2=6, mu_log2=3, ofs_frac=4, ginv_w=18, fwd_w=6, table_w=18,
+                    table_frac=0, kg_w=18, kg_shift=30, hold=1)
+    off, gain = (1024, -512), (1.0, 1.0)
+    rs, rc, phase_of, tables, w0, _, _ = _exact_stream(p, 8 * p.b, off, gain)
+    r = drift_run(rs, rc, phase_of, p, tables, w0, (0, 0))
+    err = np.array(off) * 2 ** p.ofs_frac - r.states[:, :2]
+    assert (err[0] == np.array(off) * 16).all() and (err[1:] == 0).all()          # G_0 = 0: deadbeat
+    # start from a state that is not the truth: the step fractions 1/2, 1/4, 1/4, 1/8 of update 1.. show on
+    # the offset moves of an offset that jumps after the first update
+    rs2 = rs.copy()
+    rs2[p.b:] += 256
+    phase_of2 = _exact_stream(p, 8 * p.b, off, gain)[2]
+    r2 = drift_run(rs2, rc, phase_of2, p, tables, w0, (0, 0))
+    e = (off[0] + 256) * 16 - r2.states[1:, 0]                 # before updates 1, 2, ...
+    moved = -np.diff(e)
+    frac = moved[:5] / e[:5]
+    np.testing.assert_allclose(frac, [2.0 ** -p.gear(u) for u in range(1, 6)], atol=0)
+
+
+def _settle_samples(y_s, y_c, ideal_s, ideal_c, floor: float, win: int = 32) -> int:
+    """Samples until the RMS error of the normalised codes (windows of ``win``) stays below 3 floors."""
+    err = (np.asarray(y_s, float) - ideal_s) ** 2 + (np.asarray(y_c, float) - ideal_c) ** 2
+    n = err.size // win * win
+    rms = np.sqrt(err[:n].reshape(-1, win).mean(axis=1) / 2)
+    bad = np.flatnonzero(rms > 3 * floor)
+    return 0 if bad.size == 0 else int(bad[-1] + 1) * win
+
+
+def test_startup_is_shorter_than_before():
+    """From reset with a full offset / gain error and noise, the phase computed from the normalised codes
+    (as in the core): the samples until the normalised codes stay within 3 times the noise floor (RMS over
+    32-sample windows). HOLD = 1, B = 32, MU_LOG2 = 2 with the gear shift, against the tracker before (D =
+    B/2, the whole block accumulated, a fixed step) with B = 128 (its smallest block in the core) at its
+    best step; the same averaging length B 2^MU_LOG2 = 128 as the old MU_LOG2 = 0, and the same steady
+    error (checked). Measured on the same stream; the floor is that of a perfect normaliser (the true
+    offset and gain removed)."""
+    p_new = DriftParams(adc_w=14, fine_w=16, block_log2=5, mu_log2=2, ofs_frac=4, ginv_w=18, fwd_w=6,
+                        table_w=18, table_frac=2, kg_w=18, kg_shift=34, hold=1)
+    n = 12_000
+    enc = Encoder(p_new, n, seed=11, speed=0.05, drift=0.0)          # 1.6 periods per 32 samples
+    rng = np.random.default_rng(12)
+    lo, hi = -(1 << (p_new.adc_w - 1)), (1 << (p_new.adc_w - 1)) - 1
+    noise = [rng.normal(0, 2.0, n) for _ in range(2)]
+    ideal_s = enc.w0f[0] + enc.amp * np.sin(enc.phi)
+    ideal_c = enc.w0f[1] + enc.amp * np.cos(enc.phi)
+    rs = np.clip(np.round(enc.os + enc.gs * ideal_s + noise[0]), lo, hi).astype(np.int64)
+    rc = np.clip(np.round(enc.oc + enc.gc * ideal_c + noise[1]), lo, hi).astype(np.int64)
+    floor = np.sqrt((((rs - enc.os) / enc.gs - ideal_s) ** 2 + ((rc - enc.oc) / enc.gc - ideal_c) ** 2).mean() / 2)
+
+    def run(p, old=False):
+        vs, w0s = make_fwd_table(lambda ph: enc.w0f[0] + enc.amp * np.sin(2 * np.pi * ph), p)
+        vc, w0c = make_fwd_table(lambda ph: enc.w0f[1] + enc.amp * np.cos(2 * np.pi * ph), p)
+        tables = np.stack([pack_words(vs, p), pack_words(vc, p)])
+        kp = _largest_kg_shift(dataclasses.replace(p, hold=1) if old else p, (vs, vc))   # old: KG for W = B
+        p = dataclasses.replace(p, kg_shift=kp.kg_shift)
+        kg = (kg_for(vs, kp), kg_for(vc, kp))
+        if old:
+            ys, yc = reference(rs, rc, enc.phase_of, p, tables, (w0s, w0c), kg, old=True)[:2]
+        else:
+            r = drift_run(rs, rc, enc.phase_of, p, tables, (w0s, w0c), kg)
+            ys, yc = r.y_sin, r.y_cos
+        tail = np.sqrt((((ys - ideal_s) ** 2 + (yc - ideal_c) ** 2)[n // 2:]).mean() / 2)
+        return _settle_samples(ys, yc, ideal_s, ideal_c, floor), tail / floor
+
+    new, new_tail = run(p_new)
+    olds = {mu: run(dataclasses.replace(p_new, block_log2=7, mu_log2=mu, hold=0), old=True) for mu in (0, 1, 2)}
+    best = min(olds, key=lambda mu: olds[mu][0])
+    print(f"start-up to 3x the floor ({floor:.2f} codes): HOLD=1 B=32 MU_LOG2=2: {new} samples (steady "
+          f"{new_tail:.2f} floors); before, B=128: "
+          + ", ".join(f"MU_LOG2={m}: {s} ({t:.2f})" for m, (s, t) in olds.items()))
+    assert new < olds[best][0], (new, olds)
+    assert new_tail <= 1.05 * olds[best][1], (new_tail, olds)     # not bought with a noisier steady state

@@ -26,7 +26,8 @@ module fringe_core #(
     input  wire             ce,           // clock enable: the pipeline advances when 1
     // sample in: taken at a clock enable with in_valid = 1 and in_ready = 1
     input  wire             in_valid,
-    output wire             in_ready,     // 1 with COMPACT = 0; COMPACT = 1: 0 for CLOCKS_PER_SAMPLE-1 clock enables after a sample
+    output wire             in_ready,     // 1 with COMPACT = 0; COMPACT = 1: 0 for CLOCKS_PER_SAMPLE-1 clock enables after a sample;
+                                          // DRIFT = 1, DRIFT_HOLD = 1: also 0 while a tracker block boundary waits for its update
     input  wire [ADC_W-1:0] sin,          // s(ADC_W)
     input  wire [ADC_W-1:0] cos,          // s(ADC_W)
     input  wire [((COARSE_W > 0) ? COARSE_W : 1)-1:0] coarse,  // u(COARSE_W); 1 bit, ignored, when COARSE_W = 0
@@ -134,6 +135,9 @@ module fringe_core #(
     // The spacing holds through the pipeline (every stage advances on the same ce), so the iterated
     // CORDIC is free whenever a sample reaches it.
     wire take_in = in_valid && in_ready;
+    wire admit_ready;                     // the COMPACT spacing
+    wire drift_ready;                     // fringe_drift's hold (DRIFT = 1, DRIFT_HOLD = 1)
+    assign in_ready = admit_ready && drift_ready;
 
     generate
         if (COMPACT != 0) begin : g_admit
@@ -153,9 +157,9 @@ module fringe_core #(
                 end
             end
 
-            assign in_ready = (wait_r == {WAIT_W{1'b0}});
+            assign admit_ready = (wait_r == {WAIT_W{1'b0}});
         end else begin : g_admit_all
-            assign in_ready = 1'b1;
+            assign admit_ready = 1'b1;
         end
     endgenerate
 
@@ -186,10 +190,12 @@ module fringe_core #(
                 .ADC_W(ADC_W), .FINE_W(FINE_W), .BLOCK_LOG2(DRIFT_BLOCK_LOG2), .MU_LOG2(DRIFT_MU_LOG2),
                 .OFS_FRAC(DRIFT_OFS_FRAC), .GINV_W(DRIFT_GINV_W), .FWD_W(DRIFT_FWD_W), .TABLE_W(DRIFT_TABLE_W),
                 .TABLE_FRAC(DRIFT_TABLE_FRAC), .KG_W(DRIFT_KG_W), .KG_SHIFT(DRIFT_KG_SHIFT), .PIPE_LATENCY(PIPE_D),
+                .HOLD(DRIFT_HOLD),
                 .FWD_SIN_INIT(DRIFT_FWD_SIN_INIT), .FWD_COS_INIT(DRIFT_FWD_COS_INIT), .USER_W(CW + 3)
             ) u_drift (
                 .clk(clk), .rst(rst), .ce(ce),
                 .in_valid(take_in), .raw_sin(sin), .raw_cos(cos), .in_user({coarse, bank_r, raw_clip_c, raw_clip_s}),
+                .in_ready(drift_ready),
                 .norm_valid(n_valid), .y_sin(n_sin), .y_cos(n_cos), .norm_sat(n_sat), .norm_user(nu),
                 .obs_valid(c_valid), .obs_phase(phase), .obs_y_sin(c_dx[DX_W-1 -: ADC_W]),
                 .obs_y_cos(c_dx[ADC_W+2:3]), .obs_bank(c_bank),
@@ -205,6 +211,7 @@ module fringe_core #(
             // the tracker's state is observable in simulation; the samples carry norm_sat
             wire unused_drift = &{1'b0, off_s, off_c, ginv_s, ginv_c, track_sat, c_dx[2:0]};
         end else begin : g_no_drift
+            assign drift_ready = 1'b1;
             assign n_valid  = take_in;
             assign n_sin    = sin;
             assign n_cos    = cos;

@@ -30,8 +30,8 @@ parameter [63:0]  TRIM_SECT_RECIP    = 64'd1, // sector multiplier (trim.sector_
 parameter integer TRIM_SECT_SHIFT    = 18,    // sector shift (trim.sector_mapping)
 // fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
 parameter integer DRIFT              = 0,     // 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
-parameter integer DRIFT_BLOCK_LOG2   = 8,     // samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)
-parameter integer DRIFT_MU_LOG2      = 1,     // tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
+parameter integer DRIFT_BLOCK_LOG2   = 8,     // samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)
+parameter integer DRIFT_MU_LOG2      = 1,     // final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8
 parameter integer DRIFT_OFS_FRAC     = 4,     // fraction bits of the tracked offsets, 0..8
 parameter integer DRIFT_GINV_W       = 18,    // tracked inverse gains u(DRIFT_GINV_W), 8..24
 parameter integer DRIFT_FWD_W        = 8,     // 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
@@ -39,6 +39,7 @@ parameter integer DRIFT_TABLE_W      = 18,    // forward table value/slope width
 parameter integer DRIFT_TABLE_FRAC   = 4,     // fraction bits of the forward tables and W0_S/W0_C, 0..12
 parameter integer DRIFT_KG_W         = 18,    // KG_S/KG_C width, 8..24
 parameter integer DRIFT_KG_SHIFT     = 40,    // right shift of the gain-loop product, 1..60
+parameter integer DRIFT_HOLD         = 1,     // 1 = tracker updates apply at the block boundary, in_ready holds the input until ready; 0 = half a block later, no hold
 // fringe_canceller (the adaptive interference canceller): built only with CANCEL = 1
 parameter integer CANCEL             = 0,     // 1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)
 parameter integer CANCEL_LUT_W       = 10,    // 2^CANCEL_LUT_W entries of the canceller's sine table, 4..12

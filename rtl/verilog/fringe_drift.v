@@ -1,8 +1,9 @@
 // fringe_drift: online offset / gain tracker for drifting sin/cos signals: a normaliser at
 // the front of the core and an observer of each sample's fine phase.
 //
-// NORM_LATENCY = 4 clock enables (in_valid to norm_valid); OBS_LATENCY = 15 (a
-// block's last observer sample to its pending update), one sample per clock; ce = 0 freezes
+// NORM_LATENCY = 4 clock enables (in_valid to norm_valid); OBS_LATENCY = 16 (a
+// block's last observer sample to its resolved update), one sample per clock; HOLD = 1: in_ready = 0
+// holds the sample at a block boundary until the block's update is resolved; ce = 0 freezes
 // every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_drift.md.
 // Bit-exact model: model/fringe/fixed/drift.py.
@@ -13,7 +14,7 @@ module fringe_drift #(
     parameter integer ADC_W        = 14,   // ADC code width, 4..24
     parameter integer FINE_W       = 16,   // fine phase bits per period, 8..30
     parameter integer BLOCK_LOG2   = 8,    // B = 2^BLOCK_LOG2 samples per update block, 4..12
-    parameter integer MU_LOG2      = 3,    // offset step 2^-MU_LOG2 of the mean error, 0..8
+    parameter integer MU_LOG2      = 3,    // final step 2^-MU_LOG2 (gear shift from 1), 0..8
     parameter integer OFS_FRAC     = 4,    // fraction bits of OFF, 0..8; ADC_W + OFS_FRAC <= 32
     parameter integer GINV_W       = 18,   // GINV width (GINV_W - 2 fraction bits), 8..24
     parameter integer FWD_W        = 6,    // 2^FWD_W bins per period in the forward tables, 2..min(10, FINE_W-1)
@@ -22,6 +23,7 @@ module fringe_drift #(
     parameter integer KG_W         = 18,   // KG width (unsigned), 8..24
     parameter integer KG_SHIFT     = 40,   // right shift of SEA * KG, 1..60
     parameter integer PIPE_LATENCY = 0,    // clock enables from the norm outputs to the obs inputs in the core, >= 0
+    parameter integer HOLD         = 1,    // 1: updates apply at the block boundary (in_ready holds); 0: B/2 later
     parameter         FWD_SIN_INIT = "",   // $readmemh image of the sine table, 2 banks x 2^FWD_W words; "" = zeros
     parameter         FWD_COS_INIT = "",   // $readmemh image of the cosine table, 2 banks x 2^FWD_W words; "" = zeros
     parameter integer USER_W       = 1     // normaliser sideband width, >= 1
@@ -34,6 +36,7 @@ module fringe_drift #(
     input  wire signed [ADC_W-1:0]           raw_sin,    // s(ADC_W)
     input  wire signed [ADC_W-1:0]           raw_cos,
     input  wire [USER_W-1:0]                 in_user,
+    output wire                              in_ready,   // HOLD = 1: 0 while a block boundary waits for its update
     // normaliser out
     output wire                              norm_valid,
     output reg  signed [ADC_W-1:0]           y_sin,      // s(ADC_W)
@@ -67,7 +70,8 @@ module fringe_drift #(
 
     localparam integer NORM_LATENCY = DRIFT_NORM_LATENCY;
     localparam integer OBS_LATENCY  = DRIFT_OBS_LATENCY;
-    localparam integer D        = 1 << (BLOCK_LOG2 - 1);
+    localparam integer D        = (HOLD != 0) ? 0 : 1 << (BLOCK_LOG2 - 1);   // application delay
+    localparam integer WL       = BLOCK_LOG2 - 1 + ((HOLD != 0) ? 1 : 0);   // log2(W), W samples accumulated
     localparam integer FWD_MAX  = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
     localparam integer TOTAL    = NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY;
 
@@ -91,10 +95,11 @@ module fringe_drift #(
         `FRINGE_CHECK_RANGE(g_bad_kg_shift, "fringe_drift", "KG_SHIFT", KG_SHIFT, 1, 60)
         if (PIPE_LATENCY < 0) begin : g_bad_pipe
             $error("fringe_drift: PIPE_LATENCY = %0d must be >= 0 (instance %m)", PIPE_LATENCY);
-        end else if (TOTAL > D + 1) begin : g_late
+        end else if (HOLD == 0 && TOTAL > D + 1) begin : g_late
             $error("fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = %0d + %0d + %0d = %0d exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = %0d: the update would come too late (instance %m)",
                    NORM_LATENCY, PIPE_LATENCY, OBS_LATENCY, TOTAL, D + 1);
         end
+        `FRINGE_CHECK_RANGE(g_bad_hold, "fringe_drift", "HOLD", HOLD, 0, 1)
         `FRINGE_CHECK_MIN(g_bad_user_w, "fringe_drift", "USER_W", USER_W, 1)
     endgenerate
 
@@ -109,13 +114,13 @@ module fringe_drift #(
     localparam integer YW     = ADC_W + TABLE_FRAC + 1;               // y * 2^TABLE_FRAC - W0
     localparam integer E_W    = ((YW > AW) ? YW : AW) + 1;            // e
     localparam integer EA_W   = E_W + AW;                             // e * a
-    localparam integer SE_W   = E_W + BLOCK_LOG2;
-    localparam integer SEA_W  = EA_W + BLOCK_LOG2;
-    localparam integer SW_W   = FINE_W + BLOCK_LOG2;                  // SWEEP
-    localparam integer SH_O   = BLOCK_LOG2 + TABLE_FRAC + MU_LOG2;    // offset step shift
+    localparam integer SE_W   = E_W + WL;
+    localparam integer SEA_W  = EA_W + WL;
+    localparam integer SW_W   = FINE_W + WL;                          // SWEEP
+    localparam integer SH_B   = WL + TABLE_FRAC;                      // offset step shift at gear 0 (+ G)
     localparam integer XW     = SE_W + OFS_FRAC + 1;                  // SE * 2^OFS_FRAC
     localparam integer OS_W   = XW + 1;                               // OFF + step
-    localparam integer KP_W   = SEA_W + KG_W + 1;                     // SEA * KG
+    localparam integer KP_W   = SEA_W + KG_W + MU_LOG2 + 1;           // SEA * KG * 2^(MU_LOG2 - G)
     localparam integer PR_W   = ((KP_W > KG_SHIFT) ? KP_W : KG_SHIFT) + 1;   // + 2^(KG_SHIFT-1)
     localparam integer DG_W   = PR_W - KG_SHIFT;                      // the GINV step
     localparam integer GS_W   = (((GINV_W + 1) > DG_W) ? GINV_W + 1 : DG_W) + 1;   // GINV - step
@@ -124,14 +129,32 @@ module fringe_drift #(
     localparam [BLOCK_LOG2-1:0] CNT_LAST = {BLOCK_LOG2{1'b1}};
 
     // ---- application of the pending update (normaliser input side) ---------------------------------
-    wire                   acc_n = ce & in_valid & ~rst;
+    wire                   in_take = in_valid & in_ready;
+    wire                   acc_n = ce & in_take & ~rst;
     reg  [BLOCK_LOG2-1:0]  ncnt;          // accepted input samples since reset, mod B
     reg                    npast;         // at least B accepted since reset
     reg                    pend_valid;
     reg  signed [OW-1:0]   pend_off_s, pend_off_c;
     reg  [GINV_W-1:0]      pend_ginv_s, pend_ginv_c;
     reg                    pend_sat;
-    wire                   take = acc_n & npast & (ncnt == CNT_D) & pend_valid;
+    reg                    resolved;      // the last complete block's update is known (pending or skipped)
+    wire                   at_apply = npast & (ncnt == CNT_D);   // the next sample is an application sample
+    wire                   take = acc_n & at_apply & pend_valid;
+    wire                   upd_done;      // a block's update resolved (stage 16), below
+
+    // HOLD = 1: the boundary sample waits until its block's update is resolved (at most one block is
+    // outstanding: the next one needs samples past this boundary). HOLD = 0: never waits (the latency check).
+    assign in_ready = (HOLD == 0) | ~at_apply | resolved;
+
+    always @(posedge clk) begin
+        if (rst) begin
+            resolved <= 1'b0;
+        end else if (ce && upd_done) begin
+            resolved <= 1'b1;
+        end else if (acc_n && at_apply) begin
+            resolved <= 1'b0;
+        end
+    end
 
     always @(posedge clk) begin
         if (rst) begin
@@ -159,7 +182,7 @@ module fringe_drift #(
 
     // ---- normaliser ------------------------------------------------------------------------------------
     fringe_delay #(.WIDTH(USER_W), .DEPTH(NORM_LATENCY)) u_norm_valid (
-        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(in_take), .in_data(in_user),
         .out_valid(norm_valid), .out_data(norm_user)
     );
 
@@ -178,7 +201,7 @@ module fringe_drift #(
 
     always @(posedge clk) begin
         if (ce) begin
-            // 1: input registers
+            // 1: input registers (a held sample is not taken: norm_valid stays 0)
             n1_s <= raw_sin;
             n1_c <= raw_cos;
             // 2: d = raw * 2^OFS_FRAC - OFF (the state after this sample's acceptance)
@@ -244,11 +267,13 @@ module fringe_drift #(
     );
 
     // ---- observer: pipeline --------------------------------------------------------------------------
-    wire o8_valid, o8_last;           // stage 8: valid, the block's last sample (9: o9_go)
+    wire o8_valid, o8_last, o8_win;   // stage 8: valid, the block's last sample, in the window (9: o9_go)
+    // the window: the block's last W samples (HOLD = 0: the second half, normalised with the latest state)
+    wire obs_win = (HOLD != 0) | ocnt[BLOCK_LOG2-1];
 
-    fringe_delay #(.WIDTH(1), .DEPTH(8)) u_obs_valid (
-        .clk(clk), .rst(rst), .ce(ce), .in_valid(obs_valid), .in_data(ocnt == CNT_LAST),
-        .out_valid(o8_valid), .out_data(o8_last)
+    fringe_delay #(.WIDTH(2), .DEPTH(8)) u_obs_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(obs_valid), .in_data({obs_win, ocnt == CNT_LAST}),
+        .out_valid(o8_valid), .out_data({o8_win, o8_last})
     );
 
     // 1
@@ -328,11 +353,11 @@ module fringe_drift #(
     reg  signed [SEA_W-1:0] sea_s, sea_c, snap_sea_s, snap_sea_c;
     reg  [SW_W-1:0]         sweep, snap_sweep;
     reg                     o9_go;
-    wire signed [SE_W-1:0]  se_s_n  = se_s + {{BLOCK_LOG2{o8_es[E_W-1]}}, o8_es};
-    wire signed [SE_W-1:0]  se_c_n  = se_c + {{BLOCK_LOG2{o8_ec[E_W-1]}}, o8_ec};
-    wire signed [SEA_W-1:0] sea_s_n = sea_s + {{BLOCK_LOG2{o8_eas[EA_W-1]}}, o8_eas};
-    wire signed [SEA_W-1:0] sea_c_n = sea_c + {{BLOCK_LOG2{o8_eac[EA_W-1]}}, o8_eac};
-    wire [SW_W-1:0]         sweep_n = sweep + {{BLOCK_LOG2{1'b0}}, o8_abs};
+    wire signed [SE_W-1:0]  se_s_n  = se_s + {{WL{o8_es[E_W-1]}}, o8_es};
+    wire signed [SE_W-1:0]  se_c_n  = se_c + {{WL{o8_ec[E_W-1]}}, o8_ec};
+    wire signed [SEA_W-1:0] sea_s_n = sea_s + {{WL{o8_eas[EA_W-1]}}, o8_eas};
+    wire signed [SEA_W-1:0] sea_c_n = sea_c + {{WL{o8_eac[EA_W-1]}}, o8_eac};
+    wire [SW_W-1:0]         sweep_n = sweep + {{WL{1'b0}}, o8_abs};
     wire                    blk_end = o8_valid & o8_last;
 
     always @(posedge clk) begin
@@ -351,7 +376,7 @@ module fringe_drift #(
             sea_s <= {SEA_W{1'b0}};
             sea_c <= {SEA_W{1'b0}};
             sweep <= {SW_W{1'b0}};
-        end else if (ce && o8_valid) begin
+        end else if (ce && o8_valid && o8_win) begin
             se_s  <= se_s_n;
             se_c  <= se_c_n;
             sea_s <= sea_s_n;
@@ -370,9 +395,10 @@ module fringe_drift #(
         end
     end
 
-    // ---- the update (stages 10..15) -------------------------------------------------------------------
-    // 10..13 P = SEA * KG: 18x18 partial products (fringe_split_mul); OFF + step, OFF saturated, SWEEP test
-    // 14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   15 GINV saturated: pending
+    // ---- the update (stages 10..16) -------------------------------------------------------------------
+    // 10..13 P = SEA * KG: 18x18 partial products (fringe_split_mul); 10 the offset step at the gear,
+    // 11 OFF + step, 12 OFF saturated, SWEEP test carried along; 14 P * 2^(MU_LOG2 - G) >>> KG_SHIFT and
+    // its rounding bit; 15 GINV - that - the bit (the rounding as a borrow); 16 GINV saturated: resolved.
     localparam integer P_W = SEA_W + KG_W;                  // SEA * KG, exact
     wire [2*SEA_W-1:0] kg_e = {snap_sea_c, snap_sea_s};   // {cosine, sine}
     wire [2*KG_W-1:0]  kg_k = {kg_hold_c, kg_hold_s};
@@ -391,88 +417,119 @@ module fringe_drift #(
         end
     endgenerate
 
-    // P sign-extended to PR_W bits (the rounding below may look at bits above the product)
-    wire [PR_W+P_W-1:0] px_s = {{PR_W{kg_p[P_W-1]}}, kg_p[0 +: P_W]};
-    wire [PR_W+P_W-1:0] px_c = {{PR_W{kg_p[2*P_W-1]}}, kg_p[P_W +: P_W]};
+    // Gear shift: update number u (updates resolved with SWEEP passed since reset, i.e. applied or about to
+    // be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The gear
+    // changes only at stage 16, after the stages 10 and 14 of the same block read it, and long before the
+    // next block's stage 10 (B >= 16 samples later).
+    reg  [3:0] gear;
+    reg  [8:0] g_left;
+    wire [3:0] g_up = MU_LOG2[3:0] - gear;                 // MU_LOG2 - G: the gain step's left shift
+    wire [5:0] sh_o = SH_B[5:0] + {2'b00, gear};          // log2(W) + TABLE_FRAC + G
+
+    // P sign-extended to PR_W bits, times 2^(MU_LOG2 - G) (fits: PR_W > P_W + MU_LOG2 + 1)
+    wire signed [PR_W-1:0] px_s = {{(PR_W-P_W){kg_p[P_W-1]}}, kg_p[0 +: P_W]};
+    wire signed [PR_W-1:0] px_c = {{(PR_W-P_W){kg_p[2*P_W-1]}}, kg_p[P_W +: P_W]};
+    wire signed [PR_W-1:0] pk_s = px_s <<< g_up;
+    wire signed [PR_W-1:0] pk_c = px_c <<< g_up;
 
     wire signed [XW-1:0]   sex_s = {{(OFS_FRAC+1){snap_se_s[SE_W-1]}}, snap_se_s};
     wire signed [XW-1:0]   sex_c = {{(OFS_FRAC+1){snap_se_c[SE_W-1]}}, snap_se_c};
-    wire signed [XW-1:0]   stp_s = (sex_s <<< OFS_FRAC) >>> SH_O;
-    wire signed [XW-1:0]   stp_c = (sex_c <<< OFS_FRAC) >>> SH_O;
-    reg  signed [OS_W-1:0] u1_os, u1_oc;
-    wire                   u5_valid, u5_ok; // stage 14: valid, the SWEEP test
-    reg  signed [OW-1:0]   u2_os, u2_oc;
-    reg                    u2_sat;
-    wire signed [OW-1:0]   u5_os, u5_oc;
-    wire                   u5_sat, u5_carry_valid;
-    reg  signed [GS_W-1:0] u5_gs, u5_gc;
-    // (P + 2^(KG_SHIFT-1)) >>> KG_SHIFT = (P >>> KG_SHIFT) + P[KG_SHIFT-1]
-    wire signed [DG_W-1:0] dg_s = px_s[PR_W-1:KG_SHIFT];
-    wire signed [DG_W-1:0] dg_c = px_c[PR_W-1:KG_SHIFT];
-    wire [GS_W-1:0]        dgn_s = ~{{(GS_W-DG_W){dg_s[DG_W-1]}}, dg_s};
-    wire [GS_W-1:0]        dgn_c = ~{{(GS_W-DG_W){dg_c[DG_W-1]}}, dg_c};
-    wire [GS_W-1:0]        rbn_s = {{(GS_W-1){1'b0}}, ~px_s[KG_SHIFT-1]};
-    wire [GS_W-1:0]        rbn_c = {{(GS_W-1){1'b0}}, ~px_c[KG_SHIFT-1]};
+    wire signed [XW-1:0]   sxo_s = sex_s <<< OFS_FRAC;
+    wire signed [XW-1:0]   sxo_c = sex_c <<< OFS_FRAC;
+    reg  signed [XW-1:0]   u1_ss, u1_sc;   // 10: the offset steps
+    reg  signed [OS_W-1:0] u2_os, u2_oc;   // 11: OFF + step
+    reg  signed [OW-1:0]   u3_os, u3_oc;   // 12: saturated
+    reg                    u3_sat;
+    wire                   u6_valid, u6_ok; // stage 15: valid, the SWEEP test
+    wire signed [OW-1:0]   u6_os, u6_oc;
+    wire                   u6_sat, u6_carry_valid;
+    reg  signed [DG_W-1:0] u5_dg_s, u5_dg_c; // 14: (P * 2^(MU_LOG2 - G)) >>> KG_SHIFT
+    reg                    u5_rb_s, u5_rb_c; //     and bit KG_SHIFT-1 (the rounding)
+    reg  signed [GS_W-1:0] u6_gs, u6_gc;
+    wire [GS_W-1:0]        dgn_s = ~{{(GS_W-DG_W){u5_dg_s[DG_W-1]}}, u5_dg_s};
+    wire [GS_W-1:0]        dgn_c = ~{{(GS_W-DG_W){u5_dg_c[DG_W-1]}}, u5_dg_c};
+    wire [GS_W-1:0]        rbn_s = {{(GS_W-1){1'b0}}, ~u5_rb_s};
+    wire [GS_W-1:0]        rbn_c = {{(GS_W-1){1'b0}}, ~u5_rb_c};
     // OFF + step in range of s(OW) <=> bits OS_W-1 .. OW-1 all equal the sign
-    wire os_over = `FRINGE_OUTSIDE(u1_os, OS_W, OW);
-    wire oc_over = `FRINGE_OUTSIDE(u1_oc, OS_W, OW);
+    wire os_over = `FRINGE_OUTSIDE(u2_os, OS_W, OW);
+    wire oc_over = `FRINGE_OUTSIDE(u2_oc, OS_W, OW);
     // GINV - step: below 0 -> 0, above 2^GINV_W - 1 -> 2^GINV_W - 1
-    wire gs_neg  = u5_gs[GS_W-1];
-    wire gc_neg  = u5_gc[GS_W-1];
-    wire gs_high = ~gs_neg & |u5_gs[GS_W-2:GINV_W];
-    wire gc_high = ~gc_neg & |u5_gc[GS_W-2:GINV_W];
+    wire gs_neg  = u6_gs[GS_W-1];
+    wire gc_neg  = u6_gc[GS_W-1];
+    wire gs_high = ~gs_neg & |u6_gs[GS_W-2:GINV_W];
+    wire gc_high = ~gc_neg & |u6_gc[GS_W-2:GINV_W];
 
-    fringe_delay #(.WIDTH(1), .DEPTH(5)) u_upd_valid (
+    fringe_delay #(.WIDTH(1), .DEPTH(6)) u_upd_valid (
         .clk(clk), .rst(rst), .ce(ce), .in_valid(o9_go), .in_data(|snap_sweep[SW_W-1:FINE_W]),
-        .out_valid(u5_valid), .out_data(u5_ok)
+        .out_valid(u6_valid), .out_data(u6_ok)
     );
 
-    // 12..14: OFF carried along
+    // 13..15: OFF carried along
     fringe_delay #(.WIDTH(2 * OW + 1), .DEPTH(3)) u_upd_carry (
-        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({u2_os, u2_oc, u2_sat}),
-        .out_valid(u5_carry_valid), .out_data({u5_os, u5_oc, u5_sat})
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({u3_os, u3_oc, u3_sat}),
+        .out_valid(u6_carry_valid), .out_data({u6_os, u6_oc, u6_sat})
     );
 
     always @(posedge clk) begin
         if (ce) begin
-            // 10
-            u1_os <= {{(OS_W-OW){off_sin[OW-1]}}, off_sin} + {stp_s[XW-1], stp_s};
-            u1_oc <= {{(OS_W-OW){off_cos[OW-1]}}, off_cos} + {stp_c[XW-1], stp_c};
+            // 10: (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC + G)
+            u1_ss  <= sxo_s >>> sh_o;
+            u1_sc  <= sxo_c >>> sh_o;
             // 11
-            u2_os  <= `FRINGE_SATURATE(u1_os, OS_W, OW);
-            u2_oc  <= `FRINGE_SATURATE(u1_oc, OS_W, OW);
-            u2_sat <= os_over | oc_over;
-            // 14: GINV - step
-            u5_gs  <= {{(GS_W-GINV_W){1'b0}}, ginv_sin} + dgn_s + rbn_s;
-            u5_gc  <= {{(GS_W-GINV_W){1'b0}}, ginv_cos} + dgn_c + rbn_c;
+            u2_os  <= {{(OS_W-OW){off_sin[OW-1]}}, off_sin} + {u1_ss[XW-1], u1_ss};
+            u2_oc  <= {{(OS_W-OW){off_cos[OW-1]}}, off_cos} + {u1_sc[XW-1], u1_sc};
+            // 12
+            u3_os  <= `FRINGE_SATURATE(u2_os, OS_W, OW);
+            u3_oc  <= `FRINGE_SATURATE(u2_oc, OS_W, OW);
+            u3_sat <= os_over | oc_over;
+            // 14: the gain step at the gear, (P * 2^(MU_LOG2 - G) + 2^(KG_SHIFT-1)) >>> KG_SHIFT in two parts
+            u5_dg_s <= pk_s[PR_W-1:KG_SHIFT];
+            u5_dg_c <= pk_c[PR_W-1:KG_SHIFT];
+            u5_rb_s <= pk_s[KG_SHIFT-1];
+            u5_rb_c <= pk_c[KG_SHIFT-1];
+            // 15: GINV - step
+            u6_gs  <= {{(GS_W-GINV_W){1'b0}}, ginv_sin} + dgn_s + rbn_s;
+            u6_gc  <= {{(GS_W-GINV_W){1'b0}}, ginv_cos} + dgn_c + rbn_c;
         end
     end
 
-    // 15: the pending update (taken by the normaliser at its application sample)
+    // 16: resolved: the pending update (taken by the normaliser at its application sample) or a skip
+    assign upd_done = u6_valid;
+
     always @(posedge clk) begin
         if (rst) begin
             pend_valid <= 1'b0;
-        end else if (ce && u5_valid && u5_ok) begin
+            gear       <= 4'd0;
+            g_left     <= 9'd1;
+        end else if (ce && u6_valid && u6_ok) begin
             pend_valid <= 1'b1;
+            if (gear != MU_LOG2[3:0]) begin
+                if (g_left == 9'd1) begin
+                    gear   <= gear + 4'd1;
+                    g_left <= 9'd1 << gear;        // 2^(G_new - 1) updates at the new gear
+                end else begin
+                    g_left <= g_left - 9'd1;
+                end
+            end
         end else if (take) begin
             pend_valid <= 1'b0;
         end
     end
 
     always @(posedge clk) begin
-        if (ce && u5_valid && u5_ok) begin
-            pend_off_s  <= u5_os;
-            pend_off_c  <= u5_oc;
-            pend_ginv_s <= gs_neg ? {GINV_W{1'b0}} : (gs_high ? {GINV_W{1'b1}} : u5_gs[GINV_W-1:0]);
-            pend_ginv_c <= gc_neg ? {GINV_W{1'b0}} : (gc_high ? {GINV_W{1'b1}} : u5_gc[GINV_W-1:0]);
-            pend_sat    <= u5_sat | gs_neg | gs_high | gc_neg | gc_high;
+        if (ce && u6_valid && u6_ok) begin
+            pend_off_s  <= u6_os;
+            pend_off_c  <= u6_oc;
+            pend_ginv_s <= gs_neg ? {GINV_W{1'b0}} : (gs_high ? {GINV_W{1'b1}} : u6_gs[GINV_W-1:0]);
+            pend_ginv_c <= gc_neg ? {GINV_W{1'b0}} : (gc_high ? {GINV_W{1'b1}} : u6_gc[GINV_W-1:0]);
+            pend_sat    <= u6_sat | gs_neg | gs_high | gc_neg | gc_high;
         end
     end
 
     // Bits that carry nothing: the rounded-off bits of the products and of the offset step; the
     // valid outputs of the delays that carry data only.
-    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], px_s, px_c,
-                    snap_sweep[FINE_W-1:0], o8_carry_valid, u5_carry_valid};
+    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], pk_s, pk_c,
+                    snap_sweep[FINE_W-1:0], o8_carry_valid, u6_carry_valid};
 
 endmodule
 

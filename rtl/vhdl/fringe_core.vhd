@@ -53,8 +53,8 @@ entity fringe_core is
         TRIM_SECT_SHIFT    : integer := 18;  -- sector shift (trim.sector_mapping)
         -- fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
         DRIFT              : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
-        DRIFT_BLOCK_LOG2   : integer := 8;   -- samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)
-        DRIFT_MU_LOG2      : integer := 1;   -- tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
+        DRIFT_BLOCK_LOG2   : integer := 8;   -- samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)
+        DRIFT_MU_LOG2      : integer := 1;   -- final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8
         DRIFT_OFS_FRAC     : integer := 4;   -- fraction bits of the tracked offsets, 0..8
         DRIFT_GINV_W       : integer := 18;  -- tracked inverse gains u(DRIFT_GINV_W), 8..24
         DRIFT_FWD_W        : integer := 8;   -- 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
@@ -62,6 +62,7 @@ entity fringe_core is
         DRIFT_TABLE_FRAC   : integer := 4;   -- fraction bits of the forward tables and W0_S/W0_C, 0..12
         DRIFT_KG_W         : integer := 18;  -- KG_S/KG_C width, 8..24
         DRIFT_KG_SHIFT     : integer := 40;  -- right shift of the gain-loop product, 1..60
+        DRIFT_HOLD         : integer := 1;   -- 1 = tracker updates apply at the block boundary, in_ready holds the input until ready; 0 = half a block later, no hold
         -- fringe_canceller (the adaptive interference canceller): built only with CANCEL = 1
         CANCEL             : integer := 0;   -- 1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)
         CANCEL_LUT_W       : integer := 10;  -- 2^CANCEL_LUT_W entries of the canceller's sine table, 4..12
@@ -89,7 +90,8 @@ entity fringe_core is
         ce          : in  std_logic;      -- clock enable: the pipeline advances when 1
         -- sample in: taken at a clock enable with in_valid = '1' and in_ready = '1'
         in_valid    : in  std_logic;
-        in_ready    : out std_logic;      -- '1' with COMPACT = 0; COMPACT = 1: '0' for CLOCKS_PER_SAMPLE-1 clock enables after a sample
+        in_ready    : out std_logic;      -- '1' with COMPACT = 0; COMPACT = 1: '0' for CLOCKS_PER_SAMPLE-1 clock enables after a sample;
+                                          -- DRIFT = 1, DRIFT_HOLD = 1: also '0' while a tracker block boundary waits for its update
         sin         : in  std_logic_vector(ADC_W - 1 downto 0);   -- s(ADC_W)
         cos         : in  std_logic_vector(ADC_W - 1 downto 0);   -- s(ADC_W)
         coarse      : in  std_logic_vector(maximum(COARSE_W, 1) - 1 downto 0);  -- u(COARSE_W); 1 bit, ignored, when 0
@@ -189,6 +191,8 @@ architecture rtl of fringe_core is
     signal n_valid      : std_logic;
     signal take_in      : std_logic;    -- the sample is taken (in_valid and in_ready)
     signal in_ready_i   : std_logic;
+    signal admit_ready  : std_logic;    -- the COMPACT spacing
+    signal drift_ready  : std_logic;    -- fringe_drift's hold (DRIFT = 1, DRIFT_HOLD = 1)
     signal c_ready      : std_logic;    -- always '1': the admission spaces the samples
     signal n_sin, n_cos : std_logic_vector(ADC_W - 1 downto 0);
     signal n_sat, n_bank, n_clip_s, n_clip_c : std_logic;
@@ -311,6 +315,7 @@ begin
     -- The spacing holds through the pipeline (every stage advances on the same ce), so the iterated
     -- CORDIC is free whenever a sample reaches it.
     take_in  <= in_valid and in_ready_i;
+    in_ready_i <= admit_ready and drift_ready;
     in_ready <= in_ready_i;
 
     g_admit : if COMPACT /= 0 generate
@@ -331,9 +336,9 @@ begin
             end if;
         end process p_admit;
 
-        in_ready_i <= '1' when wait_r = 0 else '0';
+        admit_ready <= '1' when wait_r = 0 else '0';
     else generate
-        in_ready_i <= '1';
+        admit_ready <= '1';
     end generate g_admit;
 
     -- ---- the drift normaliser (DRIFT = 1) or the raw codes ----------------------------------------
@@ -361,11 +366,11 @@ begin
             generic map (ADC_W => ADC_W, FINE_W => FINE_W, BLOCK_LOG2 => DRIFT_BLOCK_LOG2,
                          MU_LOG2 => DRIFT_MU_LOG2, OFS_FRAC => DRIFT_OFS_FRAC, GINV_W => DRIFT_GINV_W,
                          FWD_W => DRIFT_FWD_W, TABLE_W => DRIFT_TABLE_W, TABLE_FRAC => DRIFT_TABLE_FRAC,
-                         KG_W => DRIFT_KG_W, KG_SHIFT => DRIFT_KG_SHIFT, PIPE_LATENCY => PIPE_D,
+                         KG_W => DRIFT_KG_W, KG_SHIFT => DRIFT_KG_SHIFT, PIPE_LATENCY => PIPE_D, HOLD => DRIFT_HOLD,
                          FWD_SIN_INIT => DRIFT_FWD_SIN_INIT, FWD_COS_INIT => DRIFT_FWD_COS_INIT, USER_W => CW + 3)
             port map (
                 clk => clk, rst => rst, ce => ce,
-                in_valid => take_in, raw_sin => sin, raw_cos => cos, in_user => d_in_user,
+                in_valid => take_in, raw_sin => sin, raw_cos => cos, in_user => d_in_user, in_ready => drift_ready,
                 norm_valid => n_valid, y_sin => n_sin, y_cos => n_cos, norm_sat => n_sat, norm_user => nu,
                 obs_valid => c_valid, obs_phase => phase,
                 obs_y_sin => c_dx(DX_W - 1 downto ADC_W + 3), obs_y_cos => c_dx(ADC_W + 2 downto 3),
@@ -384,6 +389,7 @@ begin
         n_clip_c <= nu(1);
         n_clip_s <= nu(0);
     else generate
+        drift_ready <= '1';
         n_valid  <= take_in;
         n_sin    <= sin;
         n_cos    <= cos;

@@ -2,8 +2,9 @@
 -- the front of the core and an observer of each sample's fine phase.
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_drift.v (same generics, ports and behaviour).
--- NORM_LATENCY = 4 clock enables (in_valid to norm_valid); OBS_LATENCY = 15 (a
--- block's last observer sample to its pending update), one sample per clock; ce = 0 freezes
+-- NORM_LATENCY = 4 clock enables (in_valid to norm_valid); OBS_LATENCY = 16 (a
+-- block's last observer sample to its resolved update), one sample per clock; HOLD = 1: in_ready = '0'
+-- holds the sample at a block boundary until the block's update is resolved; ce = 0 freezes
 -- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_drift.md.
 -- Bit-exact model: model/fringe/fixed/drift.py.
@@ -18,7 +19,7 @@ entity fringe_drift is
         ADC_W        : integer := 14;   -- ADC code width, 4..24
         FINE_W       : integer := 16;   -- fine phase bits per period, 8..30
         BLOCK_LOG2   : integer := 8;    -- B = 2^BLOCK_LOG2 samples per update block, 4..12
-        MU_LOG2      : integer := 3;    -- offset step 2^-MU_LOG2 of the mean error, 0..8
+        MU_LOG2      : integer := 3;    -- final step 2^-MU_LOG2 (gear shift from 1), 0..8
         OFS_FRAC     : integer := 4;    -- fraction bits of OFF, 0..8; ADC_W + OFS_FRAC <= 32
         GINV_W       : integer := 18;   -- GINV width (GINV_W - 2 fraction bits), 8..24
         FWD_W        : integer := 6;    -- 2^FWD_W bins per period in the forward tables, 2..min(10, FINE_W-1)
@@ -27,6 +28,7 @@ entity fringe_drift is
         KG_W         : integer := 18;   -- KG width (unsigned), 8..24
         KG_SHIFT     : integer := 40;   -- right shift of SEA * KG, 1..60
         PIPE_LATENCY : integer := 0;    -- clock enables from the norm outputs to the obs inputs in the core, >= 0
+        HOLD         : integer := 1;    -- 1: updates apply at the block boundary (in_ready holds); 0: B/2 later
         FWD_SIN_INIT : string  := "";   -- hex image of the sine table, 2 banks x 2^FWD_W words; "" = zeros
         FWD_COS_INIT : string  := "";   -- hex image of the cosine table, 2 banks x 2^FWD_W words; "" = zeros
         USER_W       : integer := 1     -- normaliser sideband width, >= 1
@@ -40,6 +42,7 @@ entity fringe_drift is
         raw_sin    : in  std_logic_vector(ADC_W - 1 downto 0);             -- s(ADC_W)
         raw_cos    : in  std_logic_vector(ADC_W - 1 downto 0);
         in_user    : in  std_logic_vector(USER_W - 1 downto 0);
+        in_ready   : out std_logic;                                        -- HOLD = 1: '0' while a boundary waits
         -- normaliser out
         norm_valid : out std_logic;
         y_sin      : out std_logic_vector(ADC_W - 1 downto 0);             -- s(ADC_W)
@@ -99,18 +102,20 @@ architecture rtl of fringe_drift is
         check_range("fringe_drift", "KG_W", KG_W, 8, 24);
         check_range("fringe_drift", "KG_SHIFT", KG_SHIFT, 1, 60);
         check_min("fringe_drift", "PIPE_LATENCY", PIPE_LATENCY, 0);
-        assert TOTAL <= D1
+        assert HOLD /= 0 or TOTAL <= D1
             report "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = " & integer'image(NORM_LATENCY)
                    & " + " & integer'image(PIPE_LATENCY) & " + " & integer'image(OBS_LATENCY) & " = "
                    & integer'image(TOTAL) & " exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = " & integer'image(D1)
                    & ": the update would come too late"
             severity failure;
+        check_range("fringe_drift", "HOLD", HOLD, 0, 1);
         check_min("fringe_drift", "USER_W", USER_W, 1);
         return true;
     end function generics_ok;
     constant GENERICS_CHECKED : boolean := generics_ok;
 
-    constant D      : integer := 2 ** (BLOCK_LOG2 - 1);
+    constant D      : integer := (1 - minimum(HOLD, 1)) * 2 ** (BLOCK_LOG2 - 1);   -- application delay
+    constant WL     : integer := BLOCK_LOG2 - 1 + minimum(HOLD, 1);   -- log2(W), W samples accumulated
     constant OW     : integer := ADC_W + OFS_FRAC;                  -- OFF
     constant SHN    : integer := OFS_FRAC + GINV_W - 2;             -- normaliser shift
     constant PW     : integer := OW + GINV_W + 2;                   -- (raw * 2^OFS_FRAC - OFF) * GINV
@@ -121,13 +126,13 @@ architecture rtl of fringe_drift is
     constant YW     : integer := ADC_W + TABLE_FRAC + 1;            -- y * 2^TABLE_FRAC - W0
     constant E_W    : integer := maximum(YW, AW) + 1;               -- e
     constant EA_W   : integer := E_W + AW;                          -- e * a
-    constant SE_W   : integer := E_W + BLOCK_LOG2;
-    constant SEA_W  : integer := EA_W + BLOCK_LOG2;
-    constant SW_W   : integer := FINE_W + BLOCK_LOG2;               -- SWEEP
-    constant SH_O   : integer := BLOCK_LOG2 + TABLE_FRAC + MU_LOG2; -- offset step shift
+    constant SE_W   : integer := E_W + WL;
+    constant SEA_W  : integer := EA_W + WL;
+    constant SW_W   : integer := FINE_W + WL;                       -- SWEEP
+    constant SH_B   : integer := WL + TABLE_FRAC;                   -- offset step shift at gear 0 (+ G)
     constant XW     : integer := SE_W + OFS_FRAC + 1;               -- SE * 2^OFS_FRAC
     constant OS_W   : integer := XW + 1;                            -- OFF + step
-    constant KP_W   : integer := SEA_W + KG_W + 1;                  -- SEA * KG
+    constant KP_W   : integer := SEA_W + KG_W + MU_LOG2 + 1;        -- SEA * KG * 2^(MU_LOG2 - G)
     constant PR_W   : integer := maximum(KP_W, KG_SHIFT) + 1;       -- + 2^(KG_SHIFT-1)
     constant DG_W   : integer := PR_W - KG_SHIFT;                   -- the GINV step
     constant GS_W   : integer := maximum(GINV_W + 1, DG_W) + 1;     -- GINV - step
@@ -136,7 +141,11 @@ architecture rtl of fringe_drift is
     constant CNT_LAST : unsigned(BLOCK_LOG2 - 1 downto 0) := (others => '1');
 
     -- application
+    signal in_take    : std_logic;
+    signal in_ready_i : std_logic;
     signal acc_n      : std_logic;
+    signal at_apply   : std_logic;                      -- the next sample is an application sample
+    signal resolved   : std_logic;                      -- the last complete block's update is known
     signal take       : std_logic;
     signal ncnt       : unsigned(BLOCK_LOG2 - 1 downto 0);
     signal npast      : std_logic;
@@ -165,7 +174,9 @@ architecture rtl of fringe_drift is
     signal obs_frac   : std_logic_vector(FB - 1 downto 0);
     signal a_s, a_c   : std_logic_vector(AW - 1 downto 0);   -- from the forward tables
     signal o_last     : std_logic;                      -- the block's last sample (observer input)
-    signal o8_valid, o8_last : std_logic;               -- stage 8: valid, the block's last sample
+    signal o_win      : std_logic;                      -- in the window (the block's last W samples)
+    signal o8_valid, o8_last, o8_win : std_logic;       -- stage 8: valid, the block's last sample, window
+    signal o_flags, o8_flags : std_logic_vector(1 downto 0);
     signal o1_phase, o1_prev : unsigned(FINE_W - 1 downto 0);
     signal o1_nz      : std_logic;
     signal o1_ys, o1_yc   : signed(ADC_W - 1 downto 0);
@@ -198,21 +209,32 @@ architecture rtl of fringe_drift is
     signal kg_k           : std_logic_vector(2 * KG_W - 1 downto 0);
     signal kg_p           : std_logic_vector(2 * P_W - 1 downto 0);
     signal px_s, px_c     : signed(PR_W - 1 downto 0);
-    signal u1_os, u1_oc : signed(OS_W - 1 downto 0);
+    signal gear         : integer range 0 to 8;         -- G_u = min(MU_LOG2, bit_length(u))
+    signal g_left       : integer range 0 to 256;       -- updates left at this gear
+    signal u1_ss, u1_sc : signed(XW - 1 downto 0);
+    signal u2_os, u2_oc : signed(OS_W - 1 downto 0);
     signal sweep_ok     : std_logic;                    -- the SWEEP test of the snapshot
-    signal u5_valid     : std_logic;                    -- stage 14: valid
-    signal u5_ok        : std_logic_vector(0 downto 0); -- stage 14: the SWEEP test
-    signal u2_os, u2_oc, u5_os, u5_oc : signed(OW - 1 downto 0);
-    signal u2_sat, u5_sat : std_logic;
-    signal u5_carry     : std_logic_vector(2 * OW downto 0);
-    signal u5_carry_valid : std_logic;
-    signal u5_gs, u5_gc : signed(GS_W - 1 downto 0);
+    signal u6_valid     : std_logic;                    -- stage 15: valid
+    signal u6_ok        : std_logic_vector(0 downto 0); -- stage 15: the SWEEP test
+    signal u3_os, u3_oc, u6_os, u6_oc : signed(OW - 1 downto 0);
+    signal u3_sat, u6_sat : std_logic;
+    signal u6_carry     : std_logic_vector(2 * OW downto 0);
+    signal u6_carry_valid : std_logic;
+    signal u5_dg_s, u5_dg_c : signed(DG_W - 1 downto 0);
+    signal u5_rb_s, u5_rb_c : std_logic;
+    signal u6_gs, u6_gc : signed(GS_W - 1 downto 0);
 
 begin
 
     -- ---- application of the pending update ------------------------------------------------------------
-    acc_n <= ce and in_valid and not rst;
-    take  <= '1' when acc_n = '1' and npast = '1' and ncnt = CNT_D and pend_valid = '1' else '0';
+    in_take  <= in_valid and in_ready_i;
+    acc_n    <= ce and in_take and not rst;
+    at_apply <= '1' when npast = '1' and ncnt = CNT_D else '0';
+    take     <= acc_n and at_apply and pend_valid;
+    -- HOLD = 1: the boundary sample waits until its block's update is resolved (at most one block is
+    -- outstanding: the next one needs samples past this boundary). HOLD = 0: never waits (the latency check).
+    in_ready_i <= '1' when HOLD = 0 or at_apply = '0' or resolved = '1' else '0';
+    in_ready   <= in_ready_i;
 
     p_apply : process (clk)
     begin
@@ -250,7 +272,7 @@ begin
     -- ---- normaliser ------------------------------------------------------------------------------------
     u_norm_valid : entity work.fringe_delay
         generic map (WIDTH => USER_W, DEPTH => NORM_LATENCY)
-        port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
+        port map (clk => clk, rst => rst, ce => ce, in_valid => in_take, in_data => in_user,
                   out_valid => norm_valid, out_data => norm_user);
 
     p_norm : process (clk)
@@ -330,11 +352,16 @@ begin
 
     -- ---- observer: pipeline ------------------------------------------------------------------------------
     o_last <= '1' when ocnt = CNT_LAST else '0';
+    -- the window: the block's last W samples (HOLD = 0: the second half, normalised with the latest state)
+    o_win  <= '1' when HOLD /= 0 or ocnt(BLOCK_LOG2 - 1) = '1' else '0';
+    o_flags <= o_win & o_last;
 
     u_obs_valid : entity work.fringe_delay
-        generic map (WIDTH => 1, DEPTH => 8)
-        port map (clk => clk, rst => rst, ce => ce, in_valid => obs_valid, in_data(0) => o_last,
-                  out_valid => o8_valid, out_data(0) => o8_last);
+        generic map (WIDTH => 2, DEPTH => 8)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => obs_valid, in_data => o_flags,
+                  out_valid => o8_valid, out_data => o8_flags);
+    o8_last <= o8_flags(0);
+    o8_win  <= o8_flags(1);
 
     p_obs : process (clk)
         variable dl     : unsigned(FINE_W - 1 downto 0);
@@ -424,7 +451,7 @@ begin
                 sea_s <= (others => '0');
                 sea_c <= (others => '0');
                 sweep <= (others => '0');
-            elsif ce = '1' and o8_valid = '1' then
+            elsif ce = '1' and o8_valid = '1' and o8_win = '1' then
                 se_s  <= se_s_n;
                 se_c  <= se_c_n;
                 sea_s <= sea_s_n;
@@ -441,9 +468,10 @@ begin
         end if;
     end process p_acc;
 
-    -- ---- the update (stages 10..15) -------------------------------------------------------------------
-    -- 10..13 P = SEA * KG: 18x18 partial products (g_ch); 10 OFF + step, SWEEP test; 11 OFF saturated
-    -- 14 GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] (the rounding bit as borrow)   15 GINV saturated: pending
+    -- ---- the update (stages 10..16) -------------------------------------------------------------------
+    -- 10..13 P = SEA * KG: 18x18 partial products (g_ch); 10 the offset step at the gear, 11 OFF + step,
+    -- 12 OFF saturated, SWEEP test carried along; 14 P * 2^(MU_LOG2 - G) >>> KG_SHIFT and its rounding bit;
+    -- 15 GINV - that - the bit (the rounding as a borrow); 16 GINV saturated: resolved.
     kg_e <= std_logic_vector(snap_sea_c) & std_logic_vector(snap_sea_s);   -- {cosine, sine}
     kg_k <= std_logic_vector(kg_hold_c) & std_logic_vector(kg_hold_s);
 
@@ -459,85 +487,119 @@ begin
                       b => kg_k((ch + 1) * KG_W - 1 downto ch * KG_W), p => kg_p((ch + 1) * P_W - 1 downto ch * P_W));
     end generate g_ch;
 
+    -- P sign-extended to PR_W bits (fits P * 2^(MU_LOG2 - G): PR_W > P_W + MU_LOG2 + 1)
     px_s <= resize(signed(kg_p(P_W - 1 downto 0)), PR_W);
     px_c <= resize(signed(kg_p(2 * P_W - 1 downto P_W)), PR_W);
 
     sweep_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
 
     u_upd_valid : entity work.fringe_delay
-        generic map (WIDTH => 1, DEPTH => 5)
+        generic map (WIDTH => 1, DEPTH => 6)
         port map (clk => clk, rst => rst, ce => ce, in_valid => o9_go, in_data(0) => sweep_ok,
-                  out_valid => u5_valid, out_data => u5_ok);
+                  out_valid => u6_valid, out_data => u6_ok);
 
-    -- 12..14: OFF carried along
+    -- 13..15: OFF carried along
     u_upd_carry : entity work.fringe_delay
         generic map (WIDTH => 2 * OW + 1, DEPTH => 3)
         port map (clk => clk, rst => rst, ce => ce, in_valid => '0',
-                  in_data => std_logic_vector(u2_os) & std_logic_vector(u2_oc) & u2_sat,
-                  out_valid => u5_carry_valid, out_data => u5_carry);
-    u5_os  <= signed(u5_carry(2 * OW downto OW + 1));
-    u5_oc  <= signed(u5_carry(OW downto 1));
-    u5_sat <= u5_carry(0);
+                  in_data => std_logic_vector(u3_os) & std_logic_vector(u3_oc) & u3_sat,
+                  out_valid => u6_carry_valid, out_data => u6_carry);
+    u6_os  <= signed(u6_carry(2 * OW downto OW + 1));
+    u6_oc  <= signed(u6_carry(OW downto 1));
+    u6_sat <= u6_carry(0);
 
+    -- Gear shift: update number u (updates resolved with SWEEP passed since reset, i.e. applied or about to
+    -- be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The gear
+    -- changes only at stage 16, after the stages 10 and 14 of the same block read it, and long before the
+    -- next block's stage 10 (B >= 16 samples later).
     p_upd : process (clk)
-        variable stp_s, stp_c : signed(XW - 1 downto 0);
-        variable dg_s, dg_c   : signed(DG_W - 1 downto 0);
+        variable sxo_s, sxo_c : signed(XW - 1 downto 0);
+        variable pk_s, pk_c   : signed(PR_W - 1 downto 0);
+        variable dgn_s, dgn_c : signed(GS_W - 1 downto 0);
         variable rbn_s, rbn_c : signed(GS_W - 1 downto 0);
         variable gs_neg, gc_neg, gs_high, gc_high, os_over, oc_over : boolean;
     begin
         if rising_edge(clk) then
             if ce = '1' then
-                -- 10: OFF + step, SWEEP test
-                stp_s := shift_right(shift_left(resize(snap_se_s, XW), OFS_FRAC), SH_O);
-                stp_c := shift_right(shift_left(resize(snap_se_c, XW), OFS_FRAC), SH_O);
-                u1_os <= resize(off_s, OS_W) + resize(stp_s, OS_W);
-                u1_oc <= resize(off_c, OS_W) + resize(stp_c, OS_W);
-                -- 11: OFF saturated
-                os_over := outside(u1_os, OW);
-                oc_over := outside(u1_oc, OW);
-                u2_os  <= saturate(u1_os, OW);
-                u2_oc  <= saturate(u1_oc, OW);
-                u2_sat <= '1' when os_over or oc_over else '0';
-                -- 14: GINV - (P >>> KG_SHIFT) - P[KG_SHIFT-1] = GINV + not dg + not P[KG_SHIFT-1]
-                dg_s := px_s(PR_W - 1 downto KG_SHIFT);
-                dg_c := px_c(PR_W - 1 downto KG_SHIFT);
+                -- 10: (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC + G)
+                sxo_s := shift_left(resize(snap_se_s, XW), OFS_FRAC);
+                sxo_c := shift_left(resize(snap_se_c, XW), OFS_FRAC);
+                u1_ss <= shift_right(sxo_s, SH_B + gear);
+                u1_sc <= shift_right(sxo_c, SH_B + gear);
+                -- 11: OFF + step
+                u2_os <= resize(off_s, OS_W) + resize(u1_ss, OS_W);
+                u2_oc <= resize(off_c, OS_W) + resize(u1_sc, OS_W);
+                -- 12: OFF saturated
+                os_over := outside(u2_os, OW);
+                oc_over := outside(u2_oc, OW);
+                u3_os  <= saturate(u2_os, OW);
+                u3_oc  <= saturate(u2_oc, OW);
+                u3_sat <= '1' when os_over or oc_over else '0';
+                -- 14: the gain step at the gear, (P * 2^(MU_LOG2 - G) + 2^(KG_SHIFT-1)) >>> KG_SHIFT in two parts
+                pk_s := shift_left(px_s, MU_LOG2 - gear);
+                pk_c := shift_left(px_c, MU_LOG2 - gear);
+                u5_dg_s <= pk_s(PR_W - 1 downto KG_SHIFT);
+                u5_dg_c <= pk_c(PR_W - 1 downto KG_SHIFT);
+                u5_rb_s <= pk_s(KG_SHIFT - 1);
+                u5_rb_c <= pk_c(KG_SHIFT - 1);
+                -- 15: GINV - dg - rb = GINV + not dg + not rb
+                dgn_s := not resize(u5_dg_s, GS_W);
+                dgn_c := not resize(u5_dg_c, GS_W);
                 rbn_s := (others => '0');
                 rbn_c := (others => '0');
-                rbn_s(0) := not px_s(KG_SHIFT - 1);
-                rbn_c(0) := not px_c(KG_SHIFT - 1);
-                u5_gs <= signed(resize(ginv_s, GS_W)) + (not resize(dg_s, GS_W)) + rbn_s;
-                u5_gc <= signed(resize(ginv_c, GS_W)) + (not resize(dg_c, GS_W)) + rbn_c;
+                rbn_s(0) := not u5_rb_s;
+                rbn_c(0) := not u5_rb_c;
+                u6_gs <= signed(resize(ginv_s, GS_W)) + dgn_s + rbn_s;
+                u6_gc <= signed(resize(ginv_c, GS_W)) + dgn_c + rbn_c;
             end if;
-            -- 15: the pending update (taken by the normaliser at its application sample)
-            gs_neg  := u5_gs(GS_W - 1) = '1';
-            gc_neg  := u5_gc(GS_W - 1) = '1';
-            gs_high := not gs_neg and u5_gs(GS_W - 2 downto GINV_W) /= 0;
-            gc_high := not gc_neg and u5_gc(GS_W - 2 downto GINV_W) /= 0;
+            -- 16: resolved: the pending update (taken by the normaliser at its application sample) or a skip
+            gs_neg  := u6_gs(GS_W - 1) = '1';
+            gc_neg  := u6_gc(GS_W - 1) = '1';
+            gs_high := not gs_neg and u6_gs(GS_W - 2 downto GINV_W) /= 0;
+            gc_high := not gc_neg and u6_gc(GS_W - 2 downto GINV_W) /= 0;
             if rst = '1' then
                 pend_valid <= '0';
-            elsif ce = '1' and u5_valid = '1' and u5_ok(0) = '1' then
+                gear       <= 0;
+                g_left     <= 1;
+            elsif ce = '1' and u6_valid = '1' and u6_ok(0) = '1' then
                 pend_valid <= '1';
+                if gear /= MU_LOG2 then
+                    if g_left = 1 then
+                        gear   <= gear + 1;
+                        g_left <= 2 ** gear;         -- 2^(G_new - 1) updates at the new gear
+                    else
+                        g_left <= g_left - 1;
+                    end if;
+                end if;
             elsif take = '1' then
                 pend_valid <= '0';
             end if;
-            if ce = '1' and u5_valid = '1' and u5_ok(0) = '1' then
-                pend_off_s <= u5_os;
-                pend_off_c <= u5_oc;
+            if ce = '1' and u6_valid = '1' and u6_ok(0) = '1' then
+                pend_off_s <= u6_os;
+                pend_off_c <= u6_oc;
                 if gs_neg then
                     pend_ginv_s <= (others => '0');
                 elsif gs_high then
                     pend_ginv_s <= (others => '1');
                 else
-                    pend_ginv_s <= unsigned(u5_gs(GINV_W - 1 downto 0));
+                    pend_ginv_s <= unsigned(u6_gs(GINV_W - 1 downto 0));
                 end if;
                 if gc_neg then
                     pend_ginv_c <= (others => '0');
                 elsif gc_high then
                     pend_ginv_c <= (others => '1');
                 else
-                    pend_ginv_c <= unsigned(u5_gc(GINV_W - 1 downto 0));
+                    pend_ginv_c <= unsigned(u6_gc(GINV_W - 1 downto 0));
                 end if;
-                pend_sat <= '1' when u5_sat = '1' or gs_neg or gs_high or gc_neg or gc_high else '0';
+                pend_sat <= '1' when u6_sat = '1' or gs_neg or gs_high or gc_neg or gc_high else '0';
+            end if;
+            -- the boundary sample's update is known once resolved (HOLD = 1: in_ready)
+            if rst = '1' then
+                resolved <= '0';
+            elsif ce = '1' and u6_valid = '1' then
+                resolved <= '1';
+            elsif acc_n = '1' and at_apply = '1' then
+                resolved <= '0';
             end if;
         end if;
     end process p_upd;

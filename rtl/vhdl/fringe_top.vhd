@@ -47,8 +47,8 @@ entity fringe_top is
         TRIM_SECT_SHIFT    : integer := 18;  -- sector shift (trim.sector_mapping)
         -- fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
         DRIFT              : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
-        DRIFT_BLOCK_LOG2   : integer := 8;   -- samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)
-        DRIFT_MU_LOG2      : integer := 1;   -- tracker step 2^-DRIFT_MU_LOG2 per block, 0..8
+        DRIFT_BLOCK_LOG2   : integer := 8;   -- samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)
+        DRIFT_MU_LOG2      : integer := 1;   -- final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8
         DRIFT_OFS_FRAC     : integer := 4;   -- fraction bits of the tracked offsets, 0..8
         DRIFT_GINV_W       : integer := 18;  -- tracked inverse gains u(DRIFT_GINV_W), 8..24
         DRIFT_FWD_W        : integer := 8;   -- 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
@@ -56,6 +56,7 @@ entity fringe_top is
         DRIFT_TABLE_FRAC   : integer := 4;   -- fraction bits of the forward tables and W0_S/W0_C, 0..12
         DRIFT_KG_W         : integer := 18;  -- KG_S/KG_C width, 8..24
         DRIFT_KG_SHIFT     : integer := 40;  -- right shift of the gain-loop product, 1..60
+        DRIFT_HOLD         : integer := 1;   -- 1 = tracker updates apply at the block boundary, in_ready holds the input until ready; 0 = half a block later, no hold
         -- fringe_canceller (the adaptive interference canceller): built only with CANCEL = 1
         CANCEL             : integer := 0;   -- 1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)
         CANCEL_LUT_W       : integer := 10;  -- 2^CANCEL_LUT_W entries of the canceller's sine table, 4..12
@@ -140,7 +141,7 @@ begin
             TRIM_SECT_SHIFT => TRIM_SECT_SHIFT, DRIFT => DRIFT, DRIFT_BLOCK_LOG2 => DRIFT_BLOCK_LOG2,
             DRIFT_MU_LOG2 => DRIFT_MU_LOG2, DRIFT_OFS_FRAC => DRIFT_OFS_FRAC, DRIFT_GINV_W => DRIFT_GINV_W,
             DRIFT_FWD_W => DRIFT_FWD_W, DRIFT_TABLE_W => DRIFT_TABLE_W, DRIFT_TABLE_FRAC => DRIFT_TABLE_FRAC,
-            DRIFT_KG_W => DRIFT_KG_W, DRIFT_KG_SHIFT => DRIFT_KG_SHIFT, CANCEL => CANCEL,
+            DRIFT_KG_W => DRIFT_KG_W, DRIFT_KG_SHIFT => DRIFT_KG_SHIFT, DRIFT_HOLD => DRIFT_HOLD, CANCEL => CANCEL,
             CANCEL_LUT_W => CANCEL_LUT_W, CANCEL_C_W => CANCEL_C_W, CANCEL_BLOCK_LOG2 => CANCEL_BLOCK_LOG2,
             CANCEL_MU_LOG2 => CANCEL_MU_LOG2, CANCEL_A_FRAC => CANCEL_A_FRAC, CANCEL_A_W => CANCEL_A_W,
             REGS_INIT => REGS_INIT, WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT,

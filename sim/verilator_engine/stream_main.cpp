@@ -8,7 +8,8 @@
 // OUT.bin: n little-endian uint64, every m_axis_tdata word in order.
 // stdout:  one JSON line {"samples", "latency", "cycles"}.
 // The protocol is model/fringe/hardware/rtl_stream.py's (the cocotb path): rst high for 3 clocks, then one sample
-// per clock (each when s_axis_tready = 1: COMPACT = 1 takes one per CORDIC_STAGES + 1) with m_axis_tready = 1; the ROM images and registers come from the init-file
+// per clock (each when s_axis_tready = 1: COMPACT = 1 takes one per CORDIC_STAGES + 1, DRIFT_HOLD = 1 waits at
+// each tracker block boundary) with m_axis_tready = 1; the ROM images and registers come from the init-file
 // parameters the binary was built with (read by $readmemh when the model starts).
 #include <cstdint>
 #include <cstdio>

@@ -27,7 +27,7 @@ from .wave_lut import WaveLutParams
 WAVE_LSB_ARCSEC = 2.0   # default table width: one LSB of a waveform table moves the angle by at most this
 TRIM_FIELDS = ("trim", "trim_speed_log2", "trim_map_psi_w", "trim_map_phi_w", "trim_w", "trim_frac", "trim_g_shift")
 DRIFT_FIELDS = ("drift", "drift_block_log2", "drift_mu_log2", "drift_ofs_frac", "drift_ginv_w", "drift_fwd_w",
-                "drift_table_w", "drift_table_frac", "drift_kg_w", "drift_kg_shift")
+                "drift_table_w", "drift_table_frac", "drift_kg_w", "drift_kg_shift", "drift_hold")
 CANCEL_FIELDS = ("cancel", "cancel_lut_w", "cancel_c_w", "cancel_block_log2", "cancel_mu_log2", "cancel_a_frac",
                  "cancel_a_w")
 
@@ -63,8 +63,8 @@ HDL_PARAMETER_DOCS = {
     "TRIM_SECT_RECIP": "sector multiplier (trim.sector_mapping; < 2^31 in VHDL)",
     "TRIM_SECT_SHIFT": "sector shift (trim.sector_mapping)",
     "DRIFT": "1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)",
-    "DRIFT_BLOCK_LOG2": "samples per tracker update = 2^DRIFT_BLOCK_LOG2, >= 7 in the core (PIPE_D)",
-    "DRIFT_MU_LOG2": "tracker step 2^-DRIFT_MU_LOG2 per block, 0..8",
+    "DRIFT_BLOCK_LOG2": "samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)",
+    "DRIFT_MU_LOG2": "final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8",
     "DRIFT_OFS_FRAC": "fraction bits of the tracked offsets, 0..8",
     "DRIFT_GINV_W": "tracked inverse gains u(DRIFT_GINV_W), 8..24",
     "DRIFT_FWD_W": "2^DRIFT_FWD_W bins of the forward waveform tables, 2..10",
@@ -72,6 +72,8 @@ HDL_PARAMETER_DOCS = {
     "DRIFT_TABLE_FRAC": "fraction bits of the forward tables and W0_S/W0_C, 0..12",
     "DRIFT_KG_W": "KG_S/KG_C width, 8..24",
     "DRIFT_KG_SHIFT": "right shift of the gain-loop product, 1..60",
+    "DRIFT_HOLD": "1 = tracker updates apply at the block boundary, in_ready holds the input until ready; "
+                  "0 = half a block later, no hold",
     "CANCEL": "1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)",
     "CANCEL_LUT_W": "2^CANCEL_LUT_W entries of the canceller's sine table, 4..12",
     "CANCEL_C_W": "canceller sine table value width, 8..18",
@@ -140,7 +142,7 @@ class CoreConfig(PositionWidths):
     # fringe_drift (the closed loop's online offset/gain tracker, docs/blocks/fringe_drift.md); DRIFT = 0: not built
     drift: int = 0             # DRIFT: 1 = fringe_drift normalises the ADC codes in front of everything
     drift_block_log2: int = 8  # DRIFT_BLOCK_LOG2: samples per tracker update = 2^DRIFT_BLOCK_LOG2 (>= 7 in the core)
-    drift_mu_log2: int = 1     # DRIFT_MU_LOG2: tracker step 2^-DRIFT_MU_LOG2 per block
+    drift_mu_log2: int = 1     # DRIFT_MU_LOG2: final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1)
     drift_ofs_frac: int = 4    # DRIFT_OFS_FRAC: fraction bits of the tracked offsets (ADC codes)
     drift_ginv_w: int = 18     # DRIFT_GINV_W: tracked inverse gains u(DRIFT_GINV_W), DRIFT_GINV_W-2 fraction bits
     drift_fwd_w: int = 8       # DRIFT_FWD_W: 2^DRIFT_FWD_W bins of the forward waveform tables
@@ -148,6 +150,7 @@ class CoreConfig(PositionWidths):
     drift_table_frac: int = 4  # DRIFT_TABLE_FRAC: fraction bits of the forward tables (ADC codes)
     drift_kg_w: int = 18       # DRIFT_KG_W: gain-loop constants u(DRIFT_KG_W)
     drift_kg_shift: int = 40   # DRIFT_KG_SHIFT: right shift of the gain-loop product
+    drift_hold: int = 1        # DRIFT_HOLD: 1 = updates apply at the block boundary (in_ready holds the input)
     # fringe_canceller (the interference canceller, docs/blocks/fringe_canceller.md); CANCEL = 0: not built
     cancel: int = 0            # CANCEL: 1 = fringe_canceller between the quadrature and the CORDIC
     cancel_lut_w: int = 10     # CANCEL_LUT_W: 2^CANCEL_LUT_W sine table entries per turn
@@ -246,7 +249,8 @@ class CoreConfig(PositionWidths):
         return DriftParams(adc_w=self.adc_w, fine_w=self.fine_w, block_log2=self.drift_block_log2,
                            mu_log2=self.drift_mu_log2, ofs_frac=self.drift_ofs_frac, ginv_w=self.drift_ginv_w,
                            fwd_w=self.drift_fwd_w, table_w=self.drift_table_w, table_frac=self.drift_table_frac,
-                           kg_w=self.drift_kg_w, kg_shift=self.drift_kg_shift, pipe_latency=pipe_latency)
+                           kg_w=self.drift_kg_w, kg_shift=self.drift_kg_shift, pipe_latency=pipe_latency,
+                           hold=self.drift_hold)
 
     def cancel_params(self) -> CancelParams:
         return CancelParams(wave_w=self.wave_w, lut_w=self.cancel_lut_w, c_w=self.cancel_c_w,

@@ -13,13 +13,16 @@ OBSERVER (each sample's fine phase from downstream with the same sample's y)::
     bin = phase >> FB, frac = phase mod 2^FB, FB = FINE_W - FWD_W
     a_k = value + ((slope * frac + 2^(FB-1)) >>> FB)        word {slope, value} at {bank, bin}
     e_k = y_k * 2^TABLE_FRAC - W0_k - a_k
-    per block j (observer samples [jB, (j+1)B), B = 2^BLOCK_LOG2):
+    block j = observer samples [jB, (j+1)B), B = 2^BLOCK_LOG2; its window = the last W of them, those
+    normalised with the latest state: W = B with HOLD = 1, W = B/2 with HOLD = 0; over the window
       SE_k = sum e_k;  SEA_k = sum e_k * a_k;  SWEEP = sum |wrap(phase[n] - phase[n-1])| (first sample after reset: 0)
-    at the end of block j, if SWEEP >= 2^FINE_W:
-      OFF_k  += (SE_k * 2^OFS_FRAC) >>> (BLOCK_LOG2 + TABLE_FRAC + MU_LOG2)     saturated to s(ADC_W + OFS_FRAC)
-      GINV_k -= (SEA_k * KG_k + 2^(KG_SHIFT-1)) >>> KG_SHIFT                    saturated to u(GINV_W)
+    at the end of block j, if SWEEP >= 2^FINE_W, update number u (applied updates before it, since reset)
+    with the gear G_u = min(MU_LOG2, bit_length(u)) (steps 1, 1/2, 1/4, 1/4, 1/8 x 4, ... 2^-MU_LOG2):
+      OFF_k  += (SE_k * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC + G_u)                 saturated to s(ADC_W + OFS_FRAC)
+      GINV_k -= (SEA_k * KG_k * 2^(MU_LOG2 - G_u) + 2^(KG_SHIFT-1)) >>> KG_SHIFT     saturated to u(GINV_W)
       track_sat = either of the four saturated (held through skipped blocks, cleared by reset)
-    the new state applies from normaliser input sample (j+1)B + D on, D = B/2.
+    the new state applies from normaliser input sample (j+1)B + D on: D = 0 with HOLD = 1 (the normaliser
+    holds sample (j+1)B until the update is resolved: in_ready), D = B/2 with HOLD = 0.
 
 ``KG_k`` is the value of the block's last sample's bank; ``W0_k`` and the tables those of each sample's
 bank. Everything per sample is int64 (the widest product e * a is below 2^62); the block sums of e * a
@@ -58,7 +61,7 @@ NAME = "fringe_drift"
 NORM_LATENCY = 4
 #: Enabled clocks from obs_valid of a block's last sample (its own clock enable counted) until the
 #: block's update is pending (ready to be applied).
-OBS_LATENCY = 15
+OBS_LATENCY = 16
 
 
 def _check_int(name: str, v) -> None:
@@ -82,10 +85,11 @@ class DriftParams:
     kg_w: int = 18           # width of KG, 8..24
     kg_shift: int = 40       # right shift of SEA * KG, 1..60
     pipe_latency: int = 0    # clock enables from norm outputs to obs inputs in the core, >= 0
+    hold: int = 1            # 1: updates apply at the block boundary (the input waits: in_ready); 0: D = B/2 later
 
     def __post_init__(self) -> None:
         for f in ("adc_w", "fine_w", "block_log2", "mu_log2", "ofs_frac", "ginv_w", "fwd_w", "table_w",
-                  "table_frac", "kg_w", "kg_shift", "pipe_latency"):
+                  "table_frac", "kg_w", "kg_shift", "pipe_latency", "hold"):
             _check_int(f.upper(), getattr(self, f))
         check_range(NAME, "ADC_W", self.adc_w, 4, 24)
         check_range(NAME, "FINE_W", self.fine_w, 8, 30)
@@ -103,8 +107,9 @@ class DriftParams:
         check_range(NAME, "KG_SHIFT", self.kg_shift, 1, 60)
         if self.pipe_latency < 0:
             raise ValueError(f"{NAME}: PIPE_LATENCY = {self.pipe_latency} must be >= 0")
+        check_range(NAME, "HOLD", self.hold, 0, 1)
         total = NORM_LATENCY + self.pipe_latency + OBS_LATENCY
-        if total > self.d + 1:
+        if not self.hold and total > self.d + 1:
             raise ValueError(f"{NAME}: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = {NORM_LATENCY} + "
                              f"{self.pipe_latency} + {OBS_LATENCY} = {total} exceeds D + 1 = "
                              f"2^(BLOCK_LOG2-1) + 1 = {self.d + 1}: the update would come too late")
@@ -117,8 +122,23 @@ class DriftParams:
 
     @property
     def d(self) -> int:
-        """D: the application delay after a block's end, B/2 samples."""
-        return 1 << (self.block_log2 - 1)
+        """D: the application delay after a block's end: 0 with HOLD = 1, B/2 samples with HOLD = 0."""
+        return 0 if self.hold else 1 << (self.block_log2 - 1)
+
+    @property
+    def w_log2(self) -> int:
+        """log2(W): BLOCK_LOG2 with HOLD = 1, BLOCK_LOG2 - 1 with HOLD = 0."""
+        return self.block_log2 - 1 + self.hold
+
+    @property
+    def w(self) -> int:
+        """W: the samples accumulated per update, the last W of each block (those normalised with the
+        latest state): B with HOLD = 1, B/2 with HOLD = 0."""
+        return 1 << self.w_log2
+
+    def gear(self, u: int) -> int:
+        """G_u = min(MU_LOG2, bit_length(u)) of update number u (applied updates before it since reset)."""
+        return min(self.mu_log2, int(u).bit_length())
 
     @property
     def fb(self) -> int:
@@ -145,10 +165,9 @@ class DriftParams:
         """OFS_FRAC + GINV_W - 2."""
         return self.ofs_frac + self.ginv_w - 2
 
-    @property
-    def off_shift(self) -> int:
-        """BLOCK_LOG2 + TABLE_FRAC + MU_LOG2: the right shift of SE * 2^OFS_FRAC."""
-        return self.block_log2 + self.table_frac + self.mu_log2
+    def off_shift(self, g: int) -> int:
+        """log2(W) + TABLE_FRAC + G: the right shift of SE * 2^OFS_FRAC at gear G."""
+        return self.w_log2 + self.table_frac + g
 
     @property
     def word_w(self) -> int:
@@ -162,18 +181,18 @@ class DriftParams:
 
     @property
     def se_w(self) -> int:
-        """Width of SE: e_w + BLOCK_LOG2."""
-        return self.e_w + self.block_log2
+        """Width of SE: e_w + log2(W)."""
+        return self.e_w + self.w_log2
 
     @property
     def sea_w(self) -> int:
-        """Width of SEA: e_w + TABLE_W + 1 + BLOCK_LOG2 (a is s(TABLE_W + 1))."""
-        return self.e_w + self.table_w + 1 + self.block_log2
+        """Width of SEA: e_w + TABLE_W + 1 + log2(W) (a is s(TABLE_W + 1))."""
+        return self.e_w + self.table_w + 1 + self.w_log2
 
     @property
     def sweep_w(self) -> int:
-        """Width of SWEEP (unsigned): FINE_W + BLOCK_LOG2."""
-        return self.fine_w + self.block_log2
+        """Width of SWEEP (unsigned): FINE_W + log2(W)."""
+        return self.fine_w + self.w_log2
 
     @property
     def norm_latency(self) -> int:
@@ -188,7 +207,7 @@ class DriftParams:
         return {"ADC_W": self.adc_w, "FINE_W": self.fine_w, "BLOCK_LOG2": self.block_log2, "MU_LOG2": self.mu_log2,
                 "OFS_FRAC": self.ofs_frac, "GINV_W": self.ginv_w, "FWD_W": self.fwd_w, "TABLE_W": self.table_w,
                 "TABLE_FRAC": self.table_frac, "KG_W": self.kg_w, "KG_SHIFT": self.kg_shift,
-                "PIPE_LATENCY": self.pipe_latency}
+                "PIPE_LATENCY": self.pipe_latency, "HOLD": self.hold}
 
 
 # ---------------------------------------------------------------------------- tables
@@ -245,14 +264,16 @@ def unpack_words(words, params: DriftParams) -> tuple[np.ndarray, np.ndarray]:
 
 
 def kg_for(values, params: DriftParams) -> int:
-    """KG = round(2^(KG_SHIFT + GINV_W - 2 - MU_LOG2) / (B * mean(a^2))), mean(a^2) over the bin values
-    (table LSBs): the gain loop then corrects a relative gain error by 2^-MU_LOG2 per block. ValueError
+    """KG = round(2^(KG_SHIFT + GINV_W - 2 - MU_LOG2) / (W * mean(a^2))), mean(a^2) over the bin values
+    (table LSBs), W the samples accumulated per update: at the design step 2^-MU_LOG2 (the gear's last) the
+    gain loop corrects that fraction of a relative gain error per update (the gear multiplies KG's step by
+    2^(MU_LOG2 - G)). ValueError
     when it does not fit u(KG_W) (choose KG_SHIFT) or the table is zero."""
     p = params
     m2 = float(np.mean(np.asarray(values, dtype=np.float64) ** 2))
     if m2 <= 0:
         raise ValueError(f"{NAME}: KG of an all-zero table")
-    kg = int(np.floor(2.0 ** (p.kg_shift + p.ginv_w - 2 - p.mu_log2) / (p.b * m2) + 0.5))
+    kg = int(np.floor(2.0 ** (p.kg_shift + p.ginv_w - 2 - p.mu_log2) / (p.w * m2) + 0.5))
     if not 0 <= kg < 1 << p.kg_w:
         raise ValueError(f"{NAME}: KG = {kg} does not fit u({p.kg_w}); change KG_SHIFT")
     return kg
@@ -316,7 +337,8 @@ class DriftResult:
     y_sin, y_cos, sat, phase: per sample. states: (blocks + 1, 4) = (off_sin, off_cos, ginv_sin, ginv_cos),
     row 0 the reset state, row j+1 the state after block j (applied from sample apply_at[j] =
     (j+1)B + D on; the same as row j when the block was skipped). updated, track_sat, sweep, se, sea: per
-    complete block (track_sat: the flag once the block's state applies; se, sea as Python ints, lists).
+    complete block, over its window of the last W samples (track_sat: the flag once the block's state
+    applies; se, sea as Python ints, lists).
     state_index: per sample, the row of ``states`` the normaliser used."""
 
     y_sin: np.ndarray
@@ -337,14 +359,16 @@ def _sat(v: int, lo: int, hi: int) -> tuple[int, bool]:
     return (lo, True) if v < lo else (hi, True) if v > hi else (v, False)
 
 
-def update(state, se, sea, kg, params: DriftParams) -> tuple[tuple[int, int, int, int], bool]:
-    """One block's update (Python ints): ``((off_s, off_c, ginv_s, ginv_c), saturated)``."""
+def update(state, se, sea, kg, params: DriftParams, gear: int) -> tuple[tuple[int, int, int, int], bool]:
+    """One block's update at gear G (Python ints): ``((off_s, off_c, ginv_s, ginv_c), saturated)``."""
     p = params
     olo, ohi = _limits(p.ofs_w)
     off, ginv, sat = [], [], False
+    sh = p.off_shift(gear)
+    up = p.mu_log2 - gear          # the gain step 2^(MU_LOG2 - G) times KG's design step
     for k in (0, 1):
-        o, s1 = _sat(int(state[k]) + ((int(se[k]) << p.ofs_frac) >> p.off_shift), olo, ohi)
-        g, s2 = _sat(int(state[2 + k]) - ((int(sea[k]) * int(kg[k]) + (1 << (p.kg_shift - 1))) >> p.kg_shift),
+        o, s1 = _sat(int(state[k]) + ((int(se[k]) << p.ofs_frac) >> sh), olo, ohi)
+        g, s2 = _sat(int(state[2 + k]) - (((int(sea[k]) * int(kg[k])) << up) + (1 << (p.kg_shift - 1)) >> p.kg_shift),
                      0, (1 << p.ginv_w) - 1)
         off.append(o)
         ginv.append(g)
@@ -443,15 +467,16 @@ def drift_run(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], np.
             d = (phase[lo_i:end] - phase[lo_i - 1:end - 1]) & fmask
             dabs[lo_i:end] = np.where(d >= half, (1 << p.fine_w) - d, d)
         start = end
-        # block j is complete once (j+1)B samples are in; its update applies from (j+1)B + D
+        # block j is complete once (j+1)B samples are in; its update (over the block's last W samples)
+        # applies from (j+1)B + D
         if j < nblocks:
-            sl = slice(j * B, (j + 1) * B)
+            sl = slice((j + 1) * B - p.w, (j + 1) * B)
             sw = int(dabs[sl].sum())
             se = (int(e[0, sl].sum()), int(e[1, sl].sum()))
             sea = (_sum_exact(ea[0, sl]), _sum_exact(ea[1, sl]))
             ok = sw >= 1 << p.fine_w
             if ok:
-                state, flag = update(state, se, sea, kga[bk[(j + 1) * B - 1]], p)
+                state, flag = update(state, se, sea, kga[bk[(j + 1) * B - 1]], p, p.gear(sum(updated)))
             states.append(state)
             updated.append(ok)
             tsat.append(flag)
@@ -477,10 +502,11 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
     Units: codes. ``off`` in ADC codes (OFF / 2^OFS_FRAC), ``ginv`` the gain ratio (GINV / 2^(GINV_W-2)),
     ``y = (raw - off) * ginv`` clipped to the s(ADC_W) range, ``a = (value + slope * frac / 2^FB) /
     2^TABLE_FRAC`` (exact interpolation of the same table words), ``e = y - w0 - a`` (w0 = W0 /
-    2^TABLE_FRAC), per block ``off += mean(e) 2^-MU_LOG2`` and ``ginv -= sum(e a) KG 2^(2 TABLE_FRAC -
-    KG_SHIFT - GINV_W + 2)``, same sweep test (the phases from ``phase_of`` may be floats in fine counts),
-    same application points. Returns y_sin, y_cos, phase (per sample) and states (blocks + 1, 4) in
-    the fixed-point LSB units of OFF and GINV (floats) for a direct comparison, and updated."""
+    2^TABLE_FRAC), per update (the block's last W samples, gear G_u) ``off += mean(e) 2^-G_u`` and ``ginv -=
+    sum(e a) KG 2^(2 TABLE_FRAC - KG_SHIFT - GINV_W + 2 + MU_LOG2 - G_u)``, same sweep test (the phases from
+    ``phase_of`` may be floats in fine counts), same application points. Returns y_sin, y_cos, phase (per
+    sample) and states (blocks + 1, 4) in the fixed-point LSB units of OFF and GINV (floats) for a direct
+    comparison, and updated."""
     p = params
     rs = np.asarray(raw_sin, dtype=np.float64)
     rc = np.asarray(raw_cos, dtype=np.float64)
@@ -523,15 +549,16 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
             e[k, start:end] = y - w0a[bk[start:end], k] - a[k, start:end]
         start = end
         if j < n // B:
-            sl = slice(j * B, (j + 1) * B)
-            ph_b = phase[max(j * B - 1, 0):(j + 1) * B]
+            sl = slice((j + 1) * B - p.w, (j + 1) * B)
+            ph_b = phase[max((j + 1) * B - p.w - 1, 0):(j + 1) * B]
             d = np.mod(np.diff(ph_b) + per / 2, per) - per / 2
             sw = float(np.abs(d).sum())
             ok = sw >= per
             if ok:
                 kgb = kga[bk[(j + 1) * B - 1]]
-                off = off + e[:, sl].mean(axis=1) * 2.0 ** -p.mu_log2
-                ginv = ginv - (e[:, sl] * a[:, sl]).sum(axis=1) * kgb * gk
+                g = p.gear(int(sum(updated)))
+                off = off + e[:, sl].mean(axis=1) * 2.0 ** -g
+                ginv = ginv - (e[:, sl] * a[:, sl]).sum(axis=1) * kgb * gk * 2.0 ** (p.mu_log2 - g)
             states.append((off[0] * 2.0 ** p.ofs_frac, off[1] * 2.0 ** p.ofs_frac,
                            ginv[0] * p.unity, ginv[1] * p.unity))
             updated.append(ok)

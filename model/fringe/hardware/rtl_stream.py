@@ -5,7 +5,8 @@ Exchange directory ``$FRINGE_RTL_STREAM_DIR``:
 - out: ``output.txt`` (every m_axis_tdata word, hex, in order), ``result.json`` (measured latency).
 
 The sink never stalls (``m_axis_tready`` = 1), so the pipelined core takes one sample per clock and the
-compact one (COMPACT = 1) one per ``clocks_per_sample``: a sample is held until s_axis_tready takes it. The
+compact one (COMPACT = 1) one per ``clocks_per_sample``; fringe_drift (DRIFT_HOLD = 1) holds the sample at each
+block boundary until its update is resolved: a sample is held until s_axis_tready takes it. The
 samples are driven and the outputs read at the falling edge (both settled there).
 """
 
@@ -26,6 +27,7 @@ async def rtl_stream(dut):
     words = [int(x, 16) for x in (xdir / "input.txt").read_text().split()]
     meta = json.loads((xdir / "meta.json").read_text())
     n, lat, per = int(meta["n"]), int(meta["latency"]), int(meta.get("clocks_per_sample", 1))
+    hold = int(meta.get("hold_clocks", 0))     # fringe_drift's waits at its block boundaries (DRIFT_HOLD = 1)
     assert len(words) == n, f"input.txt has {len(words)} words, meta.json says {n}"
 
     cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start(start_high=False))
@@ -45,7 +47,7 @@ async def rtl_stream(dut):
     tdata, tvalid, m_valid, m_data = dut.s_axis_tdata, dut.s_axis_tvalid, dut.m_axis_tvalid, dut.m_axis_tdata
     tready = dut.s_axis_tready
     cyc = k = 0
-    limit = n * per + lat + 50
+    limit = n * per + hold + lat + 50
     while len(out) < n:
         # at a falling edge: the next rising edge takes this input (if s_axis_tready) and the output shown now
         if k < n:

@@ -7,7 +7,8 @@ configuration (cached under ``sim_build/``), streams every sample through its AX
 full speed and returns every output word. The words must equal ``run_core``'s
 (``tb/test_engine_rtl.py`` checks it on a real recording).
 
-Two harnesses drive the same protocol (reset, then one sample per clock, sink never stalls):
+Two harnesses drive the same protocol (reset, then one sample per clock whenever s_axis_tready takes it:
+COMPACT = 1 and fringe_drift's hold at its block boundaries make it 0 at times; sink never stalls):
 - Verilator: the C++ harness ``sim/verilator_engine/stream_main.cpp`` reads the samples from a
   binary file and writes the output words, no Python per sample (``harness="cpp"``, the default);
 - GHDL, and Verilator with ``harness="cocotb"``: the cocotb module ``fringe.hardware.rtl_stream``.
@@ -32,7 +33,8 @@ from pathlib import Path
 import numpy as np
 
 from ..dsp.calibration import Calibration
-from ..fixed.config import CoreConfig, long_period_params
+from ..fixed import drift as drift_mod
+from ..fixed.config import CoreConfig, drift_pipe_latency, long_period_params
 from ..fixed.core import CoreTables, core_latency, to_adc_codes
 from ..result import Result
 from .rom import images, render
@@ -255,6 +257,16 @@ def run_rtl(cal: Calibration | None, cfg: CoreConfig, sin, cos, coarse=None, sim
     return RtlOutput(pos, status, latency)
 
 
+def drift_hold_clocks(cfg: CoreConfig, n: int) -> int:
+    """Clock enables fringe_drift's hold (DRIFT = 1, DRIFT_HOLD = 1) adds to a stream of n samples at most:
+    each block boundary waits until NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY clock enables after the
+    block's last sample (docs/blocks/fringe_drift.md)."""
+    if not (cfg.drift and cfg.drift_hold):
+        return 0
+    gap = drift_mod.NORM_LATENCY + drift_pipe_latency(cfg) + drift_mod.OBS_LATENCY
+    return (n >> cfg.drift_block_log2) * gap
+
+
 def _run_cocotb(cr, params: dict, work: Path, sim: str, n: int, cfg: CoreConfig, sin_c, cos_c, coarse_c,
                 timeout_s: float):
     """Stream through the cocotb module rtl_stream.py: (output words, measured latency)."""
@@ -263,6 +275,7 @@ def _run_cocotb(cr, params: dict, work: Path, sim: str, n: int, cfg: CoreConfig,
         (Path(xdir) / "input.txt").write_text("".join(f"{w:x}\n" for w in words))
         (Path(xdir) / "meta.json").write_text(json.dumps({"n": n, "latency": core_latency(cfg),
                                                           "clocks_per_sample": cfg.clocks_per_sample,
+                                                          "hold_clocks": drift_hold_clocks(cfg, n),
                                                           "config": cfg.to_dict()}))
         try:
             cr.run_block(TOPLEVEL, STREAM_MODULE, params, sim=sim, timeout_s=timeout_s,
