@@ -847,8 +847,11 @@ def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
     return dataclasses.replace(fresh, **{**kept, **changes})
 
 
-TRACKER_BLOCK_LOG2 = (7, 8, 9, 10)     # fringe_drift's update block (the core needs at least 2^7 samples)
-TRACKER_MU_LOG2 = (0, 1, 2)            # and its step: together the tracker's time constant, 2^(block + mu) samples
+# fringe_drift's update block and final step (its gear shift starts at 1): together the settled tracker's time
+# constant, 2^(block + mu) samples. Short blocks start up soon after reset (with DRIFT_HOLD = 1 each update applies at
+# the next block's first sample); long ones still update on a slow motion (a block must sweep a whole period)
+TRACKER_BLOCK_LOG2 = (5, 6, 7, 8, 10, 12)
+TRACKER_MU_LOG2 = (0, 1, 2, 4)
 
 
 def choose_tracker(cal: Calibration, state: LoopState, meas: Measurement) -> Calibration:
