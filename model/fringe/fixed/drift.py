@@ -439,6 +439,7 @@ def drift_run(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], np.
     state = (0, 0, p.unity, p.unity)
     states = [state]
     updated, tsat, sweep, ses, seas = [], [], [], [], []
+    applied = 0                 # updates applied since reset: the gear's count
     flag = False
     fmask = (1 << p.fine_w) - 1
     half = 1 << (p.fine_w - 1)
@@ -476,7 +477,8 @@ def drift_run(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], np.
             sea = (_sum_exact(ea[0, sl]), _sum_exact(ea[1, sl]))
             ok = sw >= 1 << p.fine_w
             if ok:
-                state, flag = update(state, se, sea, kga[bk[(j + 1) * B - 1]], p, p.gear(sum(updated)))
+                state, flag = update(state, se, sea, kga[bk[(j + 1) * B - 1]], p, p.gear(applied))
+                applied += 1
             states.append(state)
             updated.append(ok)
             tsat.append(flag)
@@ -532,6 +534,7 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
     a = np.empty((2, n))
     states = [(0.0, 0.0, float(p.unity), float(p.unity))]
     updated = []
+    applied = 0                 # updates applied since reset: the gear's count
     start, j = 0, 0
     while start < n:
         end = min(n, (j + 1) * B + D)
@@ -556,7 +559,8 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
             ok = sw >= per
             if ok:
                 kgb = kga[bk[(j + 1) * B - 1]]
-                g = p.gear(int(sum(updated)))
+                g = p.gear(applied)
+                applied += 1
                 off = off + e[:, sl].mean(axis=1) * 2.0 ** -g
                 ginv = ginv - (e[:, sl] * a[:, sl]).sum(axis=1) * kgb * gk * 2.0 ** (p.mu_log2 - g)
             states.append((off[0] * 2.0 ** p.ofs_frac, off[1] * 2.0 ** p.ofs_frac,
