@@ -338,3 +338,35 @@ def test_a_noisy_encoders_own_speed_is_not_a_speed_effect():
         else:
             assert "sampling_skew" in skipped and "ref_lag" in skipped and "own speed" in skipped["ref_lag"]
             assert not named & {"sampling_skew", "ref_lag", "acceleration", "hysteresis"}
+
+
+def test_float_engine_keeps_the_cores_order_of_tracker_and_revolution_map():
+    """In the core fringe_drift tracks the raw readings and fringe_trim's map subtracts the angle image of the
+    revolution's offsets and gains behind it; a fast tracker follows part of a gain that changes over the
+    revolution. The float engine must run them in that order: normalising the readings first (the order it had)
+    hides that part from the tracker, and the float engine then differs from the core by about the share the
+    tracker follows, a large part of the image R (29" of R = 31" here). The core's own rounding (fine counts, table words, the map's
+    sectors and bins) does not scale with R: with R of tens of arcseconds it stays well under R / 4."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.cli.engines import run_engine
+    from fringe.dsp.effects import RevNormalisation
+    from fringe.hardware.closed_loop import rev_norm_image
+
+    cfg = SimulationConfig(lines_per_rev=64, coarse_bits=8, samples=20_000, speed_mean_rev_s=2.0,
+                           speed_swing_rev_s=0.5, ref_error_arcsec={})
+    meas = measurement_of(simulate(cfg, 4))
+    cal = calibrate(meas, cfg.encoder())
+    gain = np.zeros(8)
+    gain[2] = 0.03                      # cos 2 psi on the sine channel's gain
+    off = np.zeros(8)
+    off[1] = 0.01 * cfg.encoder().adc_half_range     # sin psi on the cosine channel's offset
+    norm = RevNormalisation({"sin": (np.zeros(8), gain), "cos": (off, np.zeros(8))})
+    # blocks of 128 samples sweep a period and more at 2 rev/s x 64 lines (78 samples per period at 10 kHz):
+    # every block updates, at the full step
+    cal = dataclasses.replace(cal, rev_norm=norm, adaptive=True, tracker={"drift_block_log2": 7, "drift_mu_log2": 0})
+    res = run_engine("float", cal, meas, None)
+    image = rev_norm_image(cal, 2 * np.pi * res.position / cfg.lines_per_rev, 2 * np.pi * res.frac)
+    r = float(np.sqrt(np.mean(image ** 2))) * 1_296_000 / cfg.lines_per_rev
+    d = (run_engine("model", cal, meas, None).angle_deg - res.angle_deg + 180.0) % 360.0 - 180.0
+    assert r > 20.0, r
+    assert float(np.sqrt(np.mean((d * 3600.0) ** 2))) < r / 4, r

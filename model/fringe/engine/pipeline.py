@@ -14,16 +14,22 @@ from ..dsp.calibration import Calibration, float_canceller, static_phase
 from ..dsp.position import coarse_fine_combine, count_periods, overspeed
 from ..encoder import ARCSEC_PER_REV
 from ..fixed import drift as drift_mod
-from ..hardware.closed_loop import build_drift_tables, drift_config
+from ..hardware.closed_loop import build_drift_tables, drift_config, rev_norm_image
 from ..hardware.corefiles import core_config
 from ..result import AMP_HIGH, AMP_LOW, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, Result
 
 
 def fine_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray, psi: np.ndarray | None = None):
+    if cal.adaptive:
+        # the core's order: fringe_drift tracks the raw readings, and fringe_trim's map subtracts the angle image of
+        # the revolution's offsets and gains behind it. Normalising the readings first instead would hide from the
+        # tracker what it follows of them in the core, and the map would take that part out a second time.
+        frac, mag = tracked_phase(cal, sin, cos)
+        if cal.rev_norm is not None and psi is not None:
+            frac = (frac - rev_norm_image(cal, psi, 2 * np.pi * frac)) % 1.0
+        return frac, mag
     if cal.rev_norm is not None and psi is not None:
         sin, cos = cal.rev_norm.apply(sin, cos, psi)
-    if cal.adaptive:
-        return tracked_phase(cal, sin, cos)
     return static_phase(cal, sin, cos)
 
 
@@ -34,6 +40,18 @@ def tracked_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
     the new values apply from a fixed sample on, causal as in the hardware. fringe_drift's equations without
     rounding (drift.drift_float), with the forward tables of the core configuration's defaults. Returns
     (fraction of a period, magnitude)."""
+    r, mags, scale = _tracked(cal, sin, cos)
+    return r["phase"] / scale, mags
+
+
+def tracked_readings(cal: Calibration, sin: np.ndarray, cos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The readings as the tables see them behind the online tracker (its normalised sine and cosine, ADC codes):
+    what a channel-domain test compares with the calibrated waveform when the calibration tracks drift."""
+    r, _, _ = _tracked(cal, sin, cos)
+    return r["y_sin"], r["y_cos"]
+
+
+def _tracked(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
     cfg = drift_config(cal, core_config(cal))
     p = cfg.drift_params()
     t = build_drift_tables(cal, cfg)
@@ -50,7 +68,7 @@ def tracked_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
         return frac * scale
 
     r = drift_mod.drift_float(sin, cos, phase_of, p, words, t.w0, t.kg)
-    return r["phase"] / scale, (np.concatenate(mags) if mags else np.zeros(0))
+    return r, (np.concatenate(mags) if mags else np.zeros(0)), scale
 
 
 def run_starts(t: np.ndarray | None, n: int) -> np.ndarray | None:

@@ -97,6 +97,25 @@ def rev_norm_error(cal: Calibration, psi: np.ndarray, phi: np.ndarray) -> np.nda
     return out
 
 
+IMAGE_PSI_POINTS = 64    # revolution angles and fine phases of rev_norm_image's grid: REV_ORDERS <= 4 and the
+IMAGE_PHI_POINTS = 256   # waveform's low orders vary slowly on it (linear interpolation errors below 1e-3 of them)
+
+
+def rev_norm_image(cal: Calibration, psi: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """rev_norm_error at each sample's own revolution angle psi and measured phase phi (rad), as a fraction of a
+    period: the function fringe_trim's map tabulates, interpolated (periodic, bilinear) on a fine grid instead of
+    the core's table widths."""
+    gp = 2 * np.pi * np.arange(IMAGE_PSI_POINTS) / IMAGE_PSI_POINTS
+    gf = 2 * np.pi * np.arange(IMAGE_PHI_POINTS) / IMAGE_PHI_POINTS
+    grid = rev_norm_error(cal, gp, gf)
+    u = np.mod(np.asarray(psi, float), 2 * np.pi) / (2 * np.pi) * IMAGE_PSI_POINTS
+    v = np.mod(np.asarray(phi, float), 2 * np.pi) / (2 * np.pi) * IMAGE_PHI_POINTS
+    i0, j0 = np.floor(u).astype(int) % IMAGE_PSI_POINTS, np.floor(v).astype(int) % IMAGE_PHI_POINTS
+    i1, j1 = (i0 + 1) % IMAGE_PSI_POINTS, (j0 + 1) % IMAGE_PHI_POINTS
+    a, b = u - np.floor(u), v - np.floor(v)
+    return ((1 - a) * ((1 - b) * grid[i0, j0] + b * grid[i0, j1]) + a * ((1 - b) * grid[i1, j0] + b * grid[i1, j1]))
+
+
 def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_w: int, speed_log2: int,
                mag_scale: float, sample_interval_s: float) -> TrimGrids:
     """The three tables of fringe_trim in float at their points.

@@ -39,7 +39,7 @@ from ..dsp.effects import (
 from ..dsp.metrics import error_arcsec, error_figures
 from ..dsp.position import shifted
 from ..encoder import ARCSEC_PER_REV, Encoder
-from ..engine.pipeline import run_float, sample_times
+from ..engine.pipeline import run_float, sample_times, tracked_readings
 from ..errors import FringeInputError
 from ..fixed.trim import speed_window_log2
 from ..io.dataio import Measurement
@@ -424,11 +424,13 @@ def channel_errors(ev: Evaluation) -> np.ndarray | None:
     only through the waveform's slope, modulated by the fine phase."""
     from ..hardware.closed_loop import channel_waveforms
 
-    if ev.meas is None or ev.cal is None or not ev.cal.waves or ev.cal.adaptive:
+    if ev.meas is None or ev.cal is None or not ev.cal.waves:
         return None
     waves = channel_waveforms(ev.cal)
     sin, cos = ev.meas.sin, ev.meas.cos
-    if ev.cal.rev_norm is not None:     # the readings as the waveform stage sees them (normalised per sector)
+    if ev.cal.adaptive:     # the readings behind the drift tracker, which takes the slow offsets and gains out
+        sin, cos = tracked_readings(ev.cal, sin, cos)
+    elif ev.cal.rev_norm is not None:     # as the waveform stage sees them (normalised per sector)
         sin, cos = ev.cal.rev_norm.apply(sin, cos, ev.ctx.psi)
     frac = ev.ctx.phi / (2 * np.pi)
     dfrac = ev.r * ev.ctx.lines / ARCSEC_PER_REV      # the residual as a fraction of a period
@@ -534,8 +536,8 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
         elif not sideband:
             out.append(("tone", f, line_p_value(angle), harmonic))
     if chan is None:
-        notes.append("channel-domain test not run (the calibration tracks drift): a line in the angle cannot be "
-                     "told from interference")
+        notes.append("channel-domain test not run (the calibration has no per-channel waveform): a line in the "
+                     "angle cannot be told from interference")
     return out, notes
 
 
@@ -950,6 +952,14 @@ def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) ->
         phi = reference_phase(new if new.long_period is not None else
                               dataclasses.replace(new, long_period=np.zeros_like), meas, rev)
         psi = 2 * np.pi * (rev % 1.0)
+        if cal.adaptive:
+            # the core's drift tracker sits in front and follows part of them: the map takes out what it leaves
+            # (pipeline.fine_phase); the declared model stays, the tracker's forward tables are made from it
+            ys, yc = tracked_readings(new, meas.sin, meas.cos)
+            norm = fit_rev_normalisation(new.waves, ys, yc, phi, psi) if raw_norm is None else \
+                _compose(raw_norm, fit_rev_normalisation(new.waves, *raw_norm.apply(ys, yc, psi), phi, psi))
+            new = dataclasses.replace(new, rev_norm=norm)
+            continue
         norm = fit_rev_normalisation(new.waves, meas.sin, meas.cos, phi, psi) if raw_norm is None else \
             _compose(raw_norm, fit_rev_normalisation(new.waves, *raw_norm.apply(meas.sin, meas.cos, psi), phi, psi))
         s, c = norm.apply(meas.sin, meas.cos, psi)
