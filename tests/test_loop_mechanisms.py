@@ -345,8 +345,9 @@ def test_float_engine_keeps_the_cores_order_of_tracker_and_revolution_map():
     revolution's offsets and gains behind it; a fast tracker follows part of a gain that changes over the
     revolution. The float engine must run them in that order: normalising the readings first (the order it had)
     hides that part from the tracker, and the float engine then differs from the core by about the share the
-    tracker follows, a large part of the image R (29" of R = 31" here). The core's own rounding (fine counts, table words, the map's
-    sectors and bins) does not scale with R: with R of tens of arcseconds it stays well under R / 4."""
+    tracker follows, a large part of the image R (29" of R = 31" here). The core's own rounding (fine counts, table
+    words, the map's sectors and bins) does not scale with R: with R of tens of arcseconds it stays well under
+    R / 4."""
     from fringe.calib.calibrate import calibrate
     from fringe.cli.engines import run_engine
     from fringe.dsp.effects import RevNormalisation
