@@ -272,8 +272,8 @@ def kg_for(values, params: DriftParams) -> int:
     (table LSBs), W the samples accumulated per update: at the design step 2^-MU_LOG2 (the gear's last) the
     gain loop corrects that fraction of a relative gain error of its channel per update (the gear multiplies
     KG's step by 2^(MU_LOG2 - G)). The 4/3: with the phase from the same codes the observer sees 3/4 of a
-    channel's gain error (and 1/4 of it on the other channel), for any ellipse the core's quadrature
-    correction makes a circle: not a property of the table. ValueError
+    channel's gain error (and 1/4 of it on the other channel) on any ellipse that the core's quadrature
+    correction makes a circle: a constant, not a property of the table. ValueError
     when it does not fit u(KG_W) (choose KG_SHIFT) or the table is zero."""
     p = params
     m2 = float(np.mean(np.asarray(values, dtype=np.float64) ** 2))
