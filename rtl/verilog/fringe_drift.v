@@ -117,7 +117,9 @@ module fringe_drift #(
     localparam integer SE_W   = E_W + WL;
     localparam integer SEA_W  = EA_W + WL;
     localparam integer SW_W   = FINE_W + WL;                          // SWEEP
-    localparam integer SH_B   = WL + TABLE_FRAC;                      // offset step shift at gear 0 (+ G)
+    // offset step shift at gear 0 (+ G), 1 less than log2(W) + TABLE_FRAC: the phase comes from the same
+    // codes, so the observer sees half of an offset error; the doubled step removes it (>= 2: WL >= 3)
+    localparam integer SH_B   = WL + TABLE_FRAC - 1;
     localparam integer XW     = SE_W + OFS_FRAC + 1;                  // SE * 2^OFS_FRAC
     localparam integer OS_W   = XW + 1;                               // OFF + step
     localparam integer KP_W   = SEA_W + KG_W + MU_LOG2 + 1;           // SEA * KG * 2^(MU_LOG2 - G)
@@ -424,7 +426,7 @@ module fringe_drift #(
     reg  [3:0] gear;
     reg  [8:0] g_left;
     wire [3:0] g_up = MU_LOG2[3:0] - gear;                 // MU_LOG2 - G: the gain step's left shift
-    wire [5:0] sh_o = SH_B[5:0] + {2'b00, gear};          // log2(W) + TABLE_FRAC + G
+    wire [5:0] sh_o = SH_B[5:0] + {2'b00, gear};          // log2(W) + TABLE_FRAC - 1 + G
 
     // P sign-extended to PR_W bits, times 2^(MU_LOG2 - G) (fits: PR_W > P_W + MU_LOG2 + 1)
     wire signed [PR_W-1:0] px_s = {{(PR_W-P_W){kg_p[P_W-1]}}, kg_p[0 +: P_W]};
@@ -472,7 +474,7 @@ module fringe_drift #(
 
     always @(posedge clk) begin
         if (ce) begin
-            // 10: (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC + G)
+            // 10: (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC - 1 + G)
             u1_ss  <= sxo_s >>> sh_o;
             u1_sc  <= sxo_c >>> sh_o;
             // 11

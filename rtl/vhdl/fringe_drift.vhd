@@ -129,7 +129,9 @@ architecture rtl of fringe_drift is
     constant SE_W   : integer := E_W + WL;
     constant SEA_W  : integer := EA_W + WL;
     constant SW_W   : integer := FINE_W + WL;                       -- SWEEP
-    constant SH_B   : integer := WL + TABLE_FRAC;                   -- offset step shift at gear 0 (+ G)
+    -- offset step shift at gear 0 (+ G), 1 less than log2(W) + TABLE_FRAC: the phase comes from the same
+    -- codes, so the observer sees half of an offset error; the doubled step removes it (>= 2: WL >= 3)
+    constant SH_B   : integer := WL + TABLE_FRAC - 1;
     constant XW     : integer := SE_W + OFS_FRAC + 1;               -- SE * 2^OFS_FRAC
     constant OS_W   : integer := XW + 1;                            -- OFF + step
     constant KP_W   : integer := SEA_W + KG_W + MU_LOG2 + 1;        -- SEA * KG * 2^(MU_LOG2 - G)
@@ -521,7 +523,7 @@ begin
     begin
         if rising_edge(clk) then
             if ce = '1' then
-                -- 10: (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC + G)
+                -- 10: (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC - 1 + G)
                 sxo_s := shift_left(resize(snap_se_s, XW), OFS_FRAC);
                 sxo_c := shift_left(resize(snap_se_c, XW), OFS_FRAC);
                 u1_ss <= shift_right(sxo_s, SH_B + gear);

@@ -18,12 +18,15 @@ OBSERVER (each sample's fine phase from downstream with the same sample's y)::
       SE_k = sum e_k;  SEA_k = sum e_k * a_k;  SWEEP = sum |wrap(phase[n] - phase[n-1])| (first sample after reset: 0)
     at the end of block j, if SWEEP >= 2^FINE_W, update number u (applied updates before it, since reset)
     with the gear G_u = min(MU_LOG2, bit_length(u)) (steps 1, 1/2, 1/4, 1/4, 1/8 x 4, ... 2^-MU_LOG2):
-      OFF_k  += (SE_k * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC + G_u)                 saturated to s(ADC_W + OFS_FRAC)
+      OFF_k  += (SE_k * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC - 1 + G_u)             saturated to s(ADC_W + OFS_FRAC)
       GINV_k -= (SEA_k * KG_k * 2^(MU_LOG2 - G_u) + 2^(KG_SHIFT-1)) >>> KG_SHIFT     saturated to u(GINV_W)
       track_sat = either of the four saturated (held through skipped blocks, cleared by reset)
     the new state applies from normaliser input sample (j+1)B + D on: D = 0 with HOLD = 1 (the normaliser
     holds sample (j+1)B until the update is resolved: in_ready), D = B/2 with HOLD = 0.
 
+The offset step is twice the mean error (the shift's -1) and KG carries a factor 4/3 (`kg_for`): inside
+the core the phase comes from the same normalised codes, so the observer sees half of an offset error and
+3/4 of a relative gain error (docs/blocks/fringe_drift.md, "Loop gain").
 ``KG_k`` is the value of the block's last sample's bank; ``W0_k`` and the tables those of each sample's
 bank. Everything per sample is int64 (the widest product e * a is below 2^62); the block sums of e * a
 are split into 32-bit halves and the update runs on Python integers (SEA * KG needs about 100 bits).
@@ -166,8 +169,9 @@ class DriftParams:
         return self.ofs_frac + self.ginv_w - 2
 
     def off_shift(self, g: int) -> int:
-        """log2(W) + TABLE_FRAC + G: the right shift of SE * 2^OFS_FRAC at gear G."""
-        return self.w_log2 + self.table_frac + g
+        """log2(W) + TABLE_FRAC - 1 + G: the right shift of SE * 2^OFS_FRAC at gear G (twice the mean error:
+        the observer sees half of an offset error)."""
+        return self.w_log2 + self.table_frac - 1 + g
 
     @property
     def word_w(self) -> int:
@@ -264,16 +268,18 @@ def unpack_words(words, params: DriftParams) -> tuple[np.ndarray, np.ndarray]:
 
 
 def kg_for(values, params: DriftParams) -> int:
-    """KG = round(2^(KG_SHIFT + GINV_W - 2 - MU_LOG2) / (W * mean(a^2))), mean(a^2) over the bin values
+    """KG = round(4/3 * 2^(KG_SHIFT + GINV_W - 2 - MU_LOG2) / (W * mean(a^2))), mean(a^2) over the bin values
     (table LSBs), W the samples accumulated per update: at the design step 2^-MU_LOG2 (the gear's last) the
-    gain loop corrects that fraction of a relative gain error per update (the gear multiplies KG's step by
-    2^(MU_LOG2 - G)). ValueError
+    gain loop corrects that fraction of a relative gain error of its channel per update (the gear multiplies
+    KG's step by 2^(MU_LOG2 - G)). The 4/3: with the phase from the same codes the observer sees 3/4 of a
+    channel's gain error (and 1/4 of it on the other channel) on any ellipse that the core's quadrature
+    correction makes a circle: a constant, not a property of the table. ValueError
     when it does not fit u(KG_W) (choose KG_SHIFT) or the table is zero."""
     p = params
     m2 = float(np.mean(np.asarray(values, dtype=np.float64) ** 2))
     if m2 <= 0:
         raise ValueError(f"{NAME}: KG of an all-zero table")
-    kg = int(np.floor(2.0 ** (p.kg_shift + p.ginv_w - 2 - p.mu_log2) / (p.w * m2) + 0.5))
+    kg = int(np.floor(2.0 ** (p.kg_shift + p.ginv_w - 2 - p.mu_log2) * 4 / (3 * p.w * m2) + 0.5))
     if not 0 <= kg < 1 << p.kg_w:
         raise ValueError(f"{NAME}: KG = {kg} does not fit u({p.kg_w}); change KG_SHIFT")
     return kg
@@ -504,7 +510,7 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
     Units: codes. ``off`` in ADC codes (OFF / 2^OFS_FRAC), ``ginv`` the gain ratio (GINV / 2^(GINV_W-2)),
     ``y = (raw - off) * ginv`` clipped to the s(ADC_W) range, ``a = (value + slope * frac / 2^FB) /
     2^TABLE_FRAC`` (exact interpolation of the same table words), ``e = y - w0 - a`` (w0 = W0 /
-    2^TABLE_FRAC), per update (the block's last W samples, gear G_u) ``off += mean(e) 2^-G_u`` and ``ginv -=
+    2^TABLE_FRAC), per update (the block's last W samples, gear G_u) ``off += 2 mean(e) 2^-G_u`` and ``ginv -=
     sum(e a) KG 2^(2 TABLE_FRAC - KG_SHIFT - GINV_W + 2 + MU_LOG2 - G_u)``, same sweep test (the phases from
     ``phase_of`` may be floats in fine counts), same application points. Returns y_sin, y_cos, phase (per
     sample) and states (blocks + 1, 4) in the fixed-point LSB units of OFF and GINV (floats) for a direct
@@ -561,7 +567,7 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
                 kgb = kga[bk[(j + 1) * B - 1]]
                 g = p.gear(applied)
                 applied += 1
-                off = off + e[:, sl].mean(axis=1) * 2.0 ** -g
+                off = off + e[:, sl].mean(axis=1) * 2.0 ** (1 - g)
                 ginv = ginv - (e[:, sl] * a[:, sl]).sum(axis=1) * kgb * gk * 2.0 ** (p.mu_log2 - g)
             states.append((off[0] * 2.0 ** p.ofs_frac, off[1] * 2.0 ** p.ofs_frac,
                            ginv[0] * p.unity, ginv[1] * p.unity))
@@ -573,20 +579,23 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
 
 def error_bound(params: DriftParams, *, ginv_min: float = 0.5) -> dict[str, float]:
     """Steady-state bound on |fixed - float| of the tracked state, per channel, after both trackers
-    have settled on the same signal (OFF LSBs and GINV LSBs).
+    have settled on the same signal (OFF LSBs and GINV LSBs), inside the core (the phase from the
+    normalised codes).
 
-    Per update the fixed tracker differs from the float one by (in codes of offset): the rounding of y
-    (1/2 code each sample, a mean of at most 1/2; scaled back to the input by 1/ginv), the interpolation
-    rounding (2^-TABLE_FRAC / 2), and the floor of the offset step (at most one OFF LSB = 2^-OFS_FRAC codes,
-    i.e. a dead band of 2^(MU_LOG2 - OFS_FRAC) codes in the mean error). The loop corrects a fraction
-    2^-MU_LOG2 of the error per block, so a persistent per-block difference delta settles at delta 2^MU_LOG2
-    (geometric sum). The gain loop: its step is rounded to 1/2 GINV LSB (dead band 2^(MU_LOG2 - 1) LSB)
-    plus the relative effect of the mean code rounding against the signal (estimated with a quarter of
-    the code range as amplitude). Bounds, not estimates: the rounding means are taken at their worst
-    (1/2), which a moving signal never reaches."""
+    Per update the fixed tracker's mean error differs from the float one's by the rounding of y (1/2 code
+    each sample, a mean of at most 1/2; scaled back to the input by 1/ginv) and the interpolation rounding
+    (2^-TABLE_FRAC / 2). Both settle where their mean error is zero; the observer sees half of an offset
+    error, so a bias b of the mean error moves the settled offset by 2 b. The floor of the offset step
+    (twice the mean error, floored to OFF LSBs) leaves a dead band of 2^(MU_LOG2 - OFS_FRAC - 1) codes in the
+    mean error at the final step, 2^(MU_LOG2 - OFS_FRAC) codes of offset. The gain loop: its step is rounded
+    to 1/2 GINV LSB (with KG's 4/3 the channel's own error moves GINV by 2^-MU_LOG2 of it per update: a
+    dead band of 2^(MU_LOG2 - 1) LSB), plus the relative effect of the mean code rounding against the signal
+    (estimated with a quarter of the code range as amplitude), doubled: the observer's gain matrix
+    [[3/4, 1/4], [1/4, 3/4]] has the inverse [[3/2, -1/2], [-1/2, 3/2]] (a row sum of magnitudes 2). Bounds,
+    not estimates: the rounding means are taken at their worst (1/2), which a moving signal never reaches."""
     p = params
-    off_codes = (0.5 + 0.5 * 2.0 ** -p.table_frac + 2.0 ** (p.mu_log2 - p.ofs_frac)) / ginv_min
+    off_codes = (2 * (0.5 + 0.5 * 2.0 ** -p.table_frac) + 2.0 ** (p.mu_log2 - p.ofs_frac)) / ginv_min
     amp = 2.0 ** (p.adc_w - 3)
-    ginv_rel = (0.5 + 0.5 * 2.0 ** -p.table_frac) / amp / ginv_min
+    ginv_rel = 2 * (0.5 + 0.5 * 2.0 ** -p.table_frac) / amp / ginv_min
     return {"off_lsb": off_codes * 2.0 ** p.ofs_frac + 1.0,
             "ginv_lsb": ginv_rel * p.unity + 2.0 ** (p.mu_log2 - 1) + 1.0}

@@ -381,9 +381,10 @@ def channel_waveforms(cal: Calibration):
 def choose_kg_shift(cal: Calibration, cfg) -> int:
     """The largest KG_SHIFT (1..60) that keeps both KG constants below half of u(KG_W)."""
     p = dataclasses.replace(cfg, drift_kg_shift=1).drift_params()
-    m2 = max(float(np.mean(make_fwd_table(f, p)[0].astype(float) ** 2)) for f in channel_waveforms(cal).values())
-    # KG = 2^(KG_SHIFT + GINV_W - 2 - MU_LOG2) / (W m2) < 2^(KG_W - 1)
-    shift = int(np.floor(np.log2(2.0 ** (p.kg_w - 1) * p.w * m2))) - (p.ginv_w - 2 - p.mu_log2)
+    # the smaller mean square gives the larger KG
+    m2 = min(float(np.mean(make_fwd_table(f, p)[0].astype(float) ** 2)) for f in channel_waveforms(cal).values())
+    # KG = 4/3 2^(KG_SHIFT + GINV_W - 2 - MU_LOG2) / (W m2) < 2^(KG_W - 1) (kg_for)
+    shift = int(np.floor(np.log2(2.0 ** (p.kg_w - 1) * p.w * m2 * 3 / 4))) - (p.ginv_w - 2 - p.mu_log2)
     return int(min(60, max(1, shift)))
 
 
