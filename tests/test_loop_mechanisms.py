@@ -371,3 +371,32 @@ def test_float_engine_keeps_the_cores_order_of_tracker_and_revolution_map():
     d = (run_engine("model", cal, meas, None).angle_deg - res.angle_deg + 180.0) % 360.0 - 180.0
     assert r > 20.0, r
     assert float(np.sqrt(np.mean((d * 3600.0) ** 2))) < r / 4, r
+
+
+def test_a_vibrations_sidebands_in_the_channels_are_not_interference():
+    """A vibration v(t) moves the phase: each channel errs by its waveform's slope times v, lines at f_v +- the
+    electrical frequency; an additive tone adds one line to both channels at any phase. Random frequencies,
+    sizes and noise (seed printed): the sideband of a vibration is told apart (its frequency returned), an
+    additive tone at the same frequency is not taken for one."""
+    seed = 11
+    print("seed", seed)
+    rng = np.random.default_rng(seed)
+    n, fs = 8192, 10_000.0
+    t = np.arange(n) / fs
+    for _ in range(10):
+        amp = rng.uniform(500, 20_000)
+        h2 = rng.uniform(0, 0.1) * amp            # a second harmonic: the slope is not a pure sinusoid
+        waves = {"sin": lambda x, a=amp, b=h2: a * np.sin(2 * np.pi * x) + b * np.sin(4 * np.pi * x),
+                 "cos": lambda x, a=amp, b=h2: a * np.cos(2 * np.pi * x) + b * np.cos(4 * np.pi * x)}
+        fe, fv = rng.uniform(100, 2000), rng.uniform(5, 400)
+        phase = fe * t + rng.uniform()
+        noise = rng.uniform(0.5, 5.0)
+        v = rng.uniform(1e-3, 2e-2) * np.sin(2 * np.pi * fv * t + rng.uniform(0, 2 * np.pi))      # periods
+        slope = np.stack([(waves[k](phase + 1e-6) - waves[k](phase - 1e-6)) / 2e-6 for k in ("sin", "cos")])
+        vib = slope * v + rng.normal(0, noise, (2, n))
+        f_v = loop.vibration_sideband(vib, phase, waves, t, fe + fv, fe)
+        assert f_v is not None and abs(f_v - fv) < 1e-6, (fe, fv, f_v)
+        size = np.sqrt(np.mean((slope * v) ** 2))
+        tone = size * np.sqrt(2) * np.stack([np.sin(2 * np.pi * (fe + fv) * t + rng.uniform(0, 2 * np.pi))
+                                             for _ in range(2)]) + rng.normal(0, noise, (2, n))
+        assert loop.vibration_sideband(tone, phase, waves, t, fe + fv, fe) is None, (fe, fv)

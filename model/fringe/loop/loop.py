@@ -418,10 +418,11 @@ def steady_rate(ctx: Context) -> float | None:
     return float(np.mean(v)) if np.std(v) < 0.05 * np.mean(np.abs(v)) else None
 
 
-def channel_errors(ev: Evaluation) -> np.ndarray | None:
+def channel_errors(ev: Evaluation, with_phase: bool = False):
     """Each channel's reading minus the calibrated waveform at the reference's fine phase (ADC codes,
     shape (2, n)): an additive tone shows here as a line at its frequency; an angle error (a vibration)
-    only through the waveform's slope, modulated by the fine phase."""
+    only through the waveform's slope, modulated by the fine phase. With `with_phase`, also that phase
+    (periods) and the waveforms: (errors, phase, waves)."""
     from ..hardware.closed_loop import channel_waveforms
 
     if ev.meas is None or ev.cal is None or not ev.cal.waves:
@@ -440,8 +441,42 @@ def channel_errors(ev: Evaluation) -> np.ndarray | None:
         e = np.stack([sin - waves["sin"](ref), cos - waves["cos"](ref)])
         power = float(np.sum(e * e))
         if best is None or power < best[0]:
-            best = (power, e)
-    return best[1]
+            best = (power, e, ref)
+    return (best[1], best[2], waves) if with_phase else best[1]
+
+
+def explained(x: np.ndarray, y: np.ndarray) -> float:
+    """The power (sum of squares) of y that least squares on the columns of x explains."""
+    w, *_ = np.linalg.lstsq(x, y, rcond=None)
+    fit = x @ w
+    return float(fit @ fit)
+
+
+def vibration_sideband(chan: np.ndarray, phase: np.ndarray, waves: dict, t: np.ndarray, f_chan: float,
+                       electrical: float) -> float | None:
+    """Whether a line at f_chan in the channels is a vibration's sideband rather than additive interference. A
+    vibration v(t) at f_v moves the phase: each channel errs by its waveform's slope times it, W'(theta) v(t),
+    lines at f_v +- the electrical frequency; an additive tone adds the same line to a channel at any phase.
+    The two models are fitted to both channels' errors (the vibration with two weights shared by the channels,
+    at f_v = |f_chan -+ electrical|; the tone with two per channel): the vibration's frequency (Hz) when it
+    explains more, else None."""
+    def slope(kind):
+        h = 1e-4
+        return (waves[kind](phase + h) - waves[kind](phase - h)) / (2 * h)
+
+    y = chan - chan.mean(axis=1, keepdims=True)
+    tone = sum(explained(np.column_stack([np.cos(2 * np.pi * f_chan * t), np.sin(2 * np.pi * f_chan * t)]), e)
+               for e in y)
+    ds = np.concatenate([slope("sin"), slope("cos")])
+    stacked = np.concatenate(list(y))
+    best = None
+    for f_v in (abs(f_chan - electrical), f_chan + electrical):
+        tt = np.concatenate([t, t])
+        p = explained(np.column_stack([ds * np.cos(2 * np.pi * f_v * tt), ds * np.sin(2 * np.pi * f_v * tt)]),
+                      stacked)
+        if p > tone and (best is None or p > best[0]):
+            best = (p, f_v)
+    return None if best is None else best[1]
 
 
 def folded(f, fs: float):
@@ -504,8 +539,8 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
     rate = steady_rate(ev.ctx)
     electrical = abs(rate) * ev.ctx.lines if rate else None
     out, notes = [], []
-    chan = channel_errors(ev)
-    chan = None if chan is None else chan[:, run]
+    got = channel_errors(ev, with_phase=True)
+    chan = None if got is None else got[0][:, run]
     chan_found = None
     if chan is not None:
         # at a steady speed the waveform's own errors sit at the low multiples of the electrical frequency (a
@@ -517,7 +552,14 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
             chan_found = found[which]
             chan_found = (refine_frequency(chan[which], t, chan_found[0], bin_hz), *chan_found[1:])
             p = min(1.0, 2 * line_p_value(chan_found))
-            if p < P_VALUE:
+            f_v = vibration_sideband(chan, got[1][run], got[2], t, chan_found[0], electrical) \
+                if electrical and p < P_VALUE else None
+            if f_v is not None:
+                notes.append(f"the line at {chan_found[0]:.3f} Hz in the channels is a sideband of a vibration at "
+                             f"{f_v:.3f} Hz (the waveform's slope times a tone in the angle explains it better than "
+                             "an additive tone): not interference")
+                chan_found = None
+            elif p < P_VALUE:
                 out.append(("interference", chan_found[0], p, False))
     angle = find_line(x, fs, known_hz)
     if angle and line_p_value(angle) < P_VALUE:
