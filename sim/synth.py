@@ -396,8 +396,9 @@ def fill_ecp5_initvals(netlist: Path) -> int:
             if c["type"] != "DP16KD" or "fringe_init_file" not in a:
                 continue
             num = {k: int(a[f"fringe_init_{k}"], 2) for k in ("first", "words", "bit", "width")}
-            if a["fringe_init_file"]:
-                words = read_image(Path(a["fringe_init_file"]), cache)
+            file = a["fringe_init_file"].strip()     # Yosys's JSON writes "" as " "
+            if file:
+                words = read_image(Path(file), cache)
                 c["parameters"].update(ecp5_initvals(words, num["first"], num["words"], num["bit"], num["width"]))
                 filled += 1
     netlist.write_text(json.dumps(doc))

@@ -139,7 +139,14 @@ module fringe_split_mul #(
                 localparam integer LO = term_lo(gs, gk);
                 localparam integer HI = term_hi(gs, gk);
 `ifdef FRINGE_TECH_ECP5
-                if (LO < P_W && gs == 0 && L + 1 <= 18) begin : g_dsp
+                // the bits of the two chunks as Yosys reduces them (a chunk below a signed operand's top has a
+                // zero sign bit, dropped unless the product is signed): as with Yosys's mul2dsp, a product
+                // with a 1-bit factor stays in the fabric (an AND)
+                localparam integer SA = (gk / NB == NA - 1 && A_SIGNED != 0) ? 1 : 0;   // a signed chunk
+                localparam integer SB = (gk % NB == NB - 1 && B_SIGNED != 0) ? 1 : 0;
+                localparam integer EA = ((gk / NB < NA - 1) ? L : AS_W - L * (NA - 1) - 1) + ((SA + SB > 0) ? 1 : 0);
+                localparam integer EB = ((gk % NB < NB - 1) ? L : BS_W - L * (NB - 1) - 1) + ((SA + SB > 0) ? 1 : 0);
+                if (LO < P_W && gs == 0 && L + 1 <= 18 && EA >= 2 && EB >= 2) begin : g_dsp
                     // ECP5: the bare partial product registered in the MULT18X18D's output register,
                     // then placed at its weight as g_live's stage 0 does (shaped() keeps the value)
                     localparam integer I = gk / NB;

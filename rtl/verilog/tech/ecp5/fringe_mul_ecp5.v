@@ -1,5 +1,6 @@
-// fringe_mul_ecp5: ECP5 technology layer of a registered product p = a * b (one clock enable), both
-// operands signed and at most 18 bits: a MULT18X18D whose output register (REG_OUTPUT) holds p.
+// fringe_mul_ecp5: ECP5 technology layer of a registered product p = a * b (one clock enable), each
+// operand signed or unsigned and at most 18 bits: a MULT18X18D whose output register (REG_OUTPUT)
+// holds p.
 // Verilog only, read by sim/synth.py for ECP5 (FRINGE_TECH_ECP5); the generic code registers a * b
 // itself. Yosys 0.70's synth_ecp5 maps a product to a bare MULT18X18D and leaves the register in the
 // fabric: register -> DSP -> register paths measured 7.5-8 ns on grade 6.
@@ -7,14 +8,16 @@
 `default_nettype none
 
 module fringe_mul_ecp5 #(
-    parameter integer A_W = 18,  // 1..18, signed
-    parameter integer B_W = 18   // 1..18, signed
+    parameter integer A_W      = 18,  // 1..18
+    parameter integer A_SIGNED = 1,   // 1: a is two's complement, 0: unsigned
+    parameter integer B_W      = 18,  // 1..18
+    parameter integer B_SIGNED = 1
 ) (
     input  wire                   clk,
     input  wire                   ce,
     input  wire [A_W-1:0]         a,
     input  wire [B_W-1:0]         b,
-    output wire [A_W+B_W-1:0]     p     // a * b, registered (one clock enable)
+    output wire [A_W+B_W-1:0]     p     // a * b (signed if either operand is), registered
 );
 
     generate
@@ -23,8 +26,8 @@ module fringe_mul_ecp5 #(
         end
     endgenerate
 
-    wire [17:0] ax = {{(18-A_W){a[A_W-1]}}, a};
-    wire [17:0] bx = {{(18-B_W){b[B_W-1]}}, b};
+    wire [17:0] ax = {{(18-A_W){(A_SIGNED != 0) & a[A_W-1]}}, a};
+    wire [17:0] bx = {{(18-B_W){(B_SIGNED != 0) & b[B_W-1]}}, b};
     wire [35:0] px;
 
     MULT18X18D #(
@@ -41,7 +44,7 @@ module fringe_mul_ecp5 #(
         .B15(bx[15]), .B16(bx[16]), .B17(bx[17]),
         .C0(1'b0), .C1(1'b0), .C2(1'b0), .C3(1'b0), .C4(1'b0), .C5(1'b0), .C6(1'b0), .C7(1'b0), .C8(1'b0),
         .C9(1'b0), .C10(1'b0), .C11(1'b0), .C12(1'b0), .C13(1'b0), .C14(1'b0), .C15(1'b0), .C16(1'b0), .C17(1'b0),
-        .SIGNEDA(1'b1), .SIGNEDB(1'b1), .SOURCEA(1'b0), .SOURCEB(1'b0),
+        .SIGNEDA(A_SIGNED != 0), .SIGNEDB(B_SIGNED != 0), .SOURCEA(1'b0), .SOURCEB(1'b0),
         .CLK0(clk), .CLK1(1'b0), .CLK2(1'b0), .CLK3(1'b0),
         .CE0(ce), .CE1(1'b0), .CE2(1'b0), .CE3(1'b0),
         .RST0(1'b0), .RST1(1'b0), .RST2(1'b0), .RST3(1'b0),

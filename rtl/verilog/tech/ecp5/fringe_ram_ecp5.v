@@ -8,15 +8,15 @@
 // clock-to-out is 5.83 ns on grade 6 against 0.96 ns with the output register.
 //
 // Tiling: 2^AW <= 512 words: DP16KD in its 512 x 36 mode, ceil(DW / 36) blocks; deeper: 1024 x 18,
-// ceil(DW / 18) blocks per 1024 words, the rows' outputs chosen after the output registers by the
-// read address delayed alike. Initial contents: INITVAL_xx stay zero here (Yosys cannot read a file
+// ceil(DW / 18) blocks per 1024 words (a row), the rows' outputs chosen after the output registers by
+// the read address delayed alike. Initial contents: INITVAL_xx stay zero here (Yosys cannot read a file
 // into a parameter); each block names its slice of INIT_FILE in attributes and sim/synth.py writes
 // the INITVALs into the netlist (fill_ecp5_initvals), the layout Yosys's own mapping uses.
 
 `default_nettype none
 
 module fringe_ram_ecp5 #(
-    parameter integer AW         = 9,   // address bits, 1..14
+    parameter integer AW         = 9,   // address bits, >= 1
     parameter integer DW         = 36,  // word width, >= 1
     /* verilator lint_off UNUSEDPARAM */   // read by sim/synth.py through the blocks' attributes
     parameter         INIT_FILE  = "",  // $readmemh image; "" = zeros
@@ -40,8 +40,8 @@ module fringe_ram_ecp5 #(
     localparam integer PDW  = COLS * MODE;
 
     generate
-        if (AW < 1 || AW > 14 || DW < 1) begin : g_bad
-            $error("fringe_ram_ecp5: AW = %0d (1..14), DW = %0d (>= 1) (instance %m)", AW, DW);
+        if (AW < 1 || DW < 1) begin : g_bad
+            $error("fringe_ram_ecp5: AW = %0d, DW = %0d must be >= 1 (instance %m)", AW, DW);
         end
     endgenerate
 
