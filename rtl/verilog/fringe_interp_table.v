@@ -190,19 +190,15 @@ module fringe_interp_table #(
     wire [OUT_W+W-1:0]   value2_e = {{OUT_W{value2[W-1]}}, value2};
     wire [S_W-1:0]       slope2_x = slope2_e[S_W-1:0] << (FB - 1);
     wire [S_W-1:0]       value2_x = {value2_e[OUT_W-1:0], RND};
-    wire signed [W+FB-1:0] prod3;
-    reg  [S_W-1:0]       base3;
-
-    generate
 `ifdef FRINGE_TECH_ECP5
+    wire signed [W+FB-1:0] prod3;
+    generate
         if (W <= 18 && FB <= 18) begin : g_prod_dsp
             // ECP5: the product registered in the MULT18X18D's output register
             fringe_mul_ecp5 #(.A_W(W), .B_W(FB)) u_prod (
                 .clk(clk), .ce(ce), .a(slope2), .b(fcm), .p(prod3)
             );
-        end else
-`endif
-        if (1) begin : g_prod
+        end else begin : g_prod
             reg signed [W+FB-1:0] prod3_r;
             always @(posedge clk) begin
                 if (ce) begin
@@ -212,9 +208,16 @@ module fringe_interp_table #(
             assign prod3 = prod3_r;
         end
     endgenerate
+`else
+    reg  signed [W+FB-1:0] prod3;
+`endif
+    reg  [S_W-1:0]       base3;
 
     always @(posedge clk) begin
         if (ce) begin
+`ifndef FRINGE_TECH_ECP5
+            prod3 <= slope2 * $signed(fcm);
+`endif
             base3 <= value2_x + slope2_x + OFFSET;
         end
     end

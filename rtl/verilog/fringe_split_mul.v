@@ -114,7 +114,9 @@ module fringe_split_mul #(
 
     // ---- stage 1: the partial products, each at its weight, registered bare -------------------------
     wire [NP*P_W-1:0] prod;
+`ifdef FRINGE_TECH_ECP5
     wire [NP*2*(L+1)-1:0] chunks;   // {ca, cb} of each partial product (the ECP5 layer multiplies them)
+`endif
     genvar gk, gs;
     generate
         for (gk = 0; gk < NP; gk = gk + 1) begin : g_prod
@@ -125,7 +127,9 @@ module fringe_split_mul #(
             wire signed [2*L+1:0]   m  = ca * cb;
             wire [P_W+2*L+1:0]      mw = {{P_W{m[2*L+1]}}, m} << (L * (I + J));
             assign prod[gk*P_W +: P_W] = mw[P_W-1:0];
+`ifdef FRINGE_TECH_ECP5
             assign chunks[gk*2*(L+1) +: 2*(L+1)] = {ca, cb};
+`endif
             wire unused_m = &{1'b0, mw[P_W+2*L+1:P_W]};
         end
     endgenerate
@@ -208,7 +212,7 @@ module fringe_split_mul #(
     endgenerate
 
     // Bits that carry nothing: the operands' extension above the top chunk, terms past the last.
-    wire unused = &{1'b0, a_ext, b_ext, stage[NS], chunks};
+    wire unused = &{1'b0, a_ext, b_ext, stage[NS]};
 
 endmodule
 
