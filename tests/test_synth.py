@@ -38,6 +38,10 @@ def test_every_file_a_tool_reads_is_a_copy_in_the_tool_folder(key, tmp_path, mon
         assert (root / "constraints" / pin_file).is_file(), f"{key}: constraints/{pin_file} missing"
         assert "{}" in option
     assert synth.WRAP == root / "synth_wrap.v" and synth.WRAP.is_file()
-    copied = sorted(p.name for p in synth.RTL.iterdir())
-    assert copied == sorted(p.name for p in (REPO / "rtl" / "verilog").iterdir() if p.suffix in (".v", ".vh"))
+    rtl = REPO / "rtl" / "verilog"
+    copied = sorted(str(p.relative_to(synth.RTL)) for p in synth.RTL.rglob("*") if p.is_file())
+    assert copied == sorted(str(p.relative_to(rtl)) for p in rtl.rglob("*") if p.suffix in (".v", ".vh"))
+    # the technology layer (ECP5: rtl/verilog/tech/ecp5) is read from the copies too
+    tech = synth.tech_sources(device)
+    assert bool(tech) == bool(device.tech) and all(p.is_relative_to(root) for p in tech)
     assert synth.RTL.is_relative_to(root) and synth.CONSTRAINTS.is_relative_to(root)

@@ -191,7 +191,33 @@ module fringe_drift #(
     reg  signed [ADC_W-1:0] n1_s, n1_c;
     reg  signed [OW:0]      n2_s, n2_c;
     reg         [GINV_W-1:0] n2_gs, n2_gc;
+`ifdef FRINGE_TECH_ECP5
+    // ECP5: d * GINV registered in the MULT18X18D's output register when OW + 1, GINV_W <= 18
+    wire signed [PW-1:0]    n3_s, n3_c;
+    generate
+        if (OW + 1 <= 18 && GINV_W <= 18) begin : g_n3_dsp
+            wire [OW+GINV_W:0] m3_s, m3_c;
+            fringe_mul_ecp5 #(.A_W(OW + 1), .B_W(GINV_W), .B_SIGNED(0)) u_n3_s (
+                .clk(clk), .ce(ce), .a(n2_s), .b(n2_gs), .p(m3_s));
+            fringe_mul_ecp5 #(.A_W(OW + 1), .B_W(GINV_W), .B_SIGNED(0)) u_n3_c (
+                .clk(clk), .ce(ce), .a(n2_c), .b(n2_gc), .p(m3_c));
+            assign n3_s = {{(PW-OW-GINV_W-1){m3_s[OW+GINV_W]}}, m3_s};
+            assign n3_c = {{(PW-OW-GINV_W-1){m3_c[OW+GINV_W]}}, m3_c};
+        end else begin : g_n3
+            reg signed [PW-1:0] r3_s, r3_c;
+            always @(posedge clk) begin
+                if (ce) begin
+                    r3_s <= n2_s * $signed({1'b0, n2_gs});
+                    r3_c <= n2_c * $signed({1'b0, n2_gc});
+                end
+            end
+            assign n3_s = r3_s;
+            assign n3_c = r3_c;
+        end
+    endgenerate
+`else
     reg  signed [PW-1:0]    n3_s, n3_c;
+`endif
     wire signed [OW:0]      n1_sx = {{(OFS_FRAC+1){n1_s[ADC_W-1]}}, n1_s} <<< OFS_FRAC;
     wire signed [OW:0]      n1_cx = {{(OFS_FRAC+1){n1_c[ADC_W-1]}}, n1_c} <<< OFS_FRAC;
     // (P + 2^(SHN-1)) >>> SHN = (P >>> SHN) + P[SHN-1]
@@ -212,8 +238,10 @@ module fringe_drift #(
             n2_gs <= ginv_sin;
             n2_gc <= ginv_cos;
             // 3: d * GINV
+`ifndef FRINGE_TECH_ECP5
             n3_s <= n2_s * $signed({1'b0, n2_gs});
             n3_c <= n2_c * $signed({1'b0, n2_gc});
+`endif
             // 4: rounded (P[SHN-1] as a carry), >>> SHN, saturate
             y_sin    <= `FRINGE_SATURATE(q_s, QW, ADC_W);
             y_cos    <= `FRINGE_SATURATE(q_c, QW, ADC_W);

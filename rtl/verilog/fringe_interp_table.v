@@ -78,6 +78,16 @@ module fringe_interp_table #(
     genvar gp;
     generate
         if (PIECE_W == 0) begin : g_one
+`ifdef FRINGE_TECH_ECP5
+            // the RAM's read register and the word register in one DP16KD (its output register)
+            fringe_ram_ecp5 #(
+                .AW(ADDR_W + 1), .DW(2 * W), .INIT_FILE(INIT_FILE)
+            ) u_table (
+                .clk(clk),
+                .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),
+                .ce(ce), .rd_addr(rd_addr), .rd_data(wordm)
+            );
+`else
             wire [2*W-1:0] word_q;
             reg  [2*W-1:0] word2;
 
@@ -95,10 +105,15 @@ module fringe_interp_table #(
                 end
             end
             assign wordm = word2;
+`endif
             assign fcm   = fc2;
         end else begin : g_pieces
+`ifdef FRINGE_TECH_ECP5
+            wire [NP*2*W-1:0] piece2;                           // the DP16KDs' output registers
+`else
             wire [NP*2*W-1:0] piece_q;
             reg  [NP*2*W-1:0] piece2;
+`endif
             reg  [FB-1:0]     fc3;
             reg  [2*W-1:0]    word3;
             wire [A_W:0]      wr_hi = {1'b0, wr_addr} >> PW;        // the piece numbers (one bit wider:
@@ -110,6 +125,17 @@ module fringe_interp_table #(
                 localparam integer  FIRST = gp << PW;                // its first word in INIT_FILE
                 wire [A_W:0] wa = (K << PW) | {{(A_W+1-PW){1'b0}}, wr_addr[PW-1:0]};
                 wire [A_W:0] ra = (K << PW) | {{(A_W+1-PW){1'b0}}, rd_addr[PW-1:0]};
+`ifdef FRINGE_TECH_ECP5
+                // the piece's read register and its piece2 register in one DP16KD (output register)
+                fringe_ram_ecp5 #(
+                    .AW(PW), .DW(2 * W), .INIT_FILE(INIT_FILE), .INIT_FIRST(FIRST)
+                ) u_piece (
+                    .clk(clk),
+                    .wr_en(wr_en && wr_hi == K), .wr_addr(wr_addr[PW-1:0]), .wr_data(wr_data),
+                    .ce(ce), .rd_addr(rd_addr[PW-1:0]), .rd_data(piece2[gp*2*W +: 2*W])
+                );
+                wire unused_k = &{1'b0, wa, ra};
+`else
                 reg  [2*W-1:0] q;
 
                 // Only the piece's own 2^PW words, indexed by their image address (as fringe_table_ram,
@@ -135,6 +161,7 @@ module fringe_interp_table #(
                 /* verilator lint_on WIDTH */
                 assign piece_q[gp*2*W +: 2*W] = q;
                 wire unused_k = &{1'b0, wa[A_W], ra[A_W]};
+`endif
             end
             wire unused_hi = &{1'b0, rd_hi};
 
@@ -142,7 +169,9 @@ module fringe_interp_table #(
                 if (ce) begin
                     sel1   <= rd_hi[A_W-PW:0];
                     sel2   <= sel1;
+`ifndef FRINGE_TECH_ECP5
                     piece2 <= piece_q;
+`endif
                     fc3    <= fc2;
                     word3  <= piece2[sel2 * (2 * W) +: 2 * W];
                 end
@@ -161,12 +190,34 @@ module fringe_interp_table #(
     wire [OUT_W+W-1:0]   value2_e = {{OUT_W{value2[W-1]}}, value2};
     wire [S_W-1:0]       slope2_x = slope2_e[S_W-1:0] << (FB - 1);
     wire [S_W-1:0]       value2_x = {value2_e[OUT_W-1:0], RND};
+`ifdef FRINGE_TECH_ECP5
+    wire signed [W+FB-1:0] prod3;
+    generate
+        if (W <= 18 && FB <= 18) begin : g_prod_dsp
+            // ECP5: the product registered in the MULT18X18D's output register
+            fringe_mul_ecp5 #(.A_W(W), .B_W(FB)) u_prod (
+                .clk(clk), .ce(ce), .a(slope2), .b(fcm), .p(prod3)
+            );
+        end else begin : g_prod
+            reg signed [W+FB-1:0] prod3_r;
+            always @(posedge clk) begin
+                if (ce) begin
+                    prod3_r <= slope2 * $signed(fcm);
+                end
+            end
+            assign prod3 = prod3_r;
+        end
+    endgenerate
+`else
     reg  signed [W+FB-1:0] prod3;
+`endif
     reg  [S_W-1:0]       base3;
 
     always @(posedge clk) begin
         if (ce) begin
+`ifndef FRINGE_TECH_ECP5
             prod3 <= slope2 * $signed(fcm);
+`endif
             base3 <= value2_x + slope2_x + OFFSET;
         end
     end

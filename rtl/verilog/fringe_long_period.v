@@ -115,6 +115,17 @@ module fringe_long_period #(
     end
 
     // ---- 2: table read ---------------------------------------------------------------------------------
+`ifdef FRINGE_TECH_ECP5
+    wire [2*LP_W-1:0] word;         // the DP16KD's output register: read register and word in one
+
+    fringe_ram_ecp5 #(
+        .AW(LP_ADDR_W + 1), .DW(2 * LP_W), .INIT_FILE(INIT_FILE)
+    ) u_table (
+        .clk(clk),
+        .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),
+        .ce(ce), .rd_addr({s1_bank, s1_entry}), .rd_data(word)
+    );
+`else
     wire [2*LP_W-1:0] word_ram;
     reg  [2*LP_W-1:0] word;         // the RAM's output register (its clock-to-out then feeds no logic)
 
@@ -125,6 +136,7 @@ module fringe_long_period #(
         .wr_en(wr_en), .wr_addr(wr_addr), .wr_data(wr_data),
         .rd_en(ce), .rd_addr({s1_bank, s1_entry}), .rd_data(word_ram)
     );
+`endif
 
     reg [LP_IF-1:0] s1b_frac;
     reg signed [LP_IF-1:0] s2_fc;   // frac - 2^(LP_IF-1)
@@ -137,7 +149,9 @@ module fringe_long_period #(
             s1b_pos  <= s1_pos;
             s1b_zero <= s1_zero;
             s1b_dir  <= s1_dir;
+`ifndef FRINGE_TECH_ECP5
             word     <= word_ram;
+`endif
             s2_fc    <= s1b_frac ^ RND_IF;
             s2_pos   <= s1b_pos;
             s2_zero  <= s1b_zero;

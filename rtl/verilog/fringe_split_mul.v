@@ -114,6 +114,9 @@ module fringe_split_mul #(
 
     // ---- stage 1: the partial products, each at its weight, registered bare -------------------------
     wire [NP*P_W-1:0] prod;
+`ifdef FRINGE_TECH_ECP5
+    wire [NP*2*(L+1)-1:0] chunks;   // {ca, cb} of each partial product (the ECP5 layer multiplies them)
+`endif
     genvar gk, gs;
     generate
         for (gk = 0; gk < NP; gk = gk + 1) begin : g_prod
@@ -124,6 +127,9 @@ module fringe_split_mul #(
             wire signed [2*L+1:0]   m  = ca * cb;
             wire [P_W+2*L+1:0]      mw = {{P_W{m[2*L+1]}}, m} << (L * (I + J));
             assign prod[gk*P_W +: P_W] = mw[P_W-1:0];
+`ifdef FRINGE_TECH_ECP5
+            assign chunks[gk*2*(L+1) +: 2*(L+1)] = {ca, cb};
+`endif
             wire unused_m = &{1'b0, mw[P_W+2*L+1:P_W]};
         end
     endgenerate
@@ -136,6 +142,29 @@ module fringe_split_mul #(
             for (gk = 0; gk < NP; gk = gk + 1) begin : g_term
                 localparam integer LO = term_lo(gs, gk);
                 localparam integer HI = term_hi(gs, gk);
+`ifdef FRINGE_TECH_ECP5
+                // the bits of the two chunks as Yosys reduces them (a chunk below a signed operand's top has a
+                // zero sign bit, dropped unless the product is signed): as with Yosys's mul2dsp, a product
+                // with a 1-bit factor stays in the fabric (an AND)
+                localparam integer SA = (gk / NB == NA - 1 && A_SIGNED != 0) ? 1 : 0;   // a signed chunk
+                localparam integer SB = (gk % NB == NB - 1 && B_SIGNED != 0) ? 1 : 0;
+                localparam integer EA = ((gk / NB < NA - 1) ? L : AS_W - L * (NA - 1) - 1) + ((SA + SB > 0) ? 1 : 0);
+                localparam integer EB = ((gk % NB < NB - 1) ? L : BS_W - L * (NB - 1) - 1) + ((SA + SB > 0) ? 1 : 0);
+                if (LO < P_W && gs == 0 && L + 1 <= 18 && EA >= 2 && EB >= 2) begin : g_dsp
+                    // ECP5: the bare partial product registered in the MULT18X18D's output register,
+                    // then placed at its weight as g_live's stage 0 does (shaped() keeps the value)
+                    localparam integer I = gk / NB;
+                    localparam integer J = gk % NB;
+                    wire [2*L+1:0]     m;
+                    fringe_mul_ecp5 #(.A_W(L + 1), .B_W(L + 1)) u_mul (
+                        .clk(clk), .ce(ce),
+                        .a(chunks[gk*2*(L+1)+L+1 +: L+1]), .b(chunks[gk*2*(L+1) +: L+1]), .p(m)
+                    );
+                    wire [P_W+2*L+1:0] mw = {{P_W{m[2*L+1]}}, m} << (L * (I + J));
+                    assign q[gk*P_W +: P_W] = mw[P_W-1:0];
+                    wire unused_m = &{1'b0, mw[P_W+2*L+1:P_W]};
+                end else
+`endif
                 if (LO < P_W) begin : g_live
                     // stage 0: the product; after it, the sum of terms G k .. G k + G - 1 of the stage before
                     reg [P_W-1:0] sum;

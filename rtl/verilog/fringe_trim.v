@@ -146,6 +146,22 @@ module fringe_trim #(
 
     // the first sample reads N back (its speed is 0): never the word being written
     wire [SPEED_LOG2:0] back = (fill == {(SPEED_LOG2+1){1'b0}}) ? N_HA : win;
+`ifdef FRINGE_TECH_ECP5
+    // ECP5: the RAM's read register and s2_old in one DP16KD (its output register)
+    wire [POS_W-1:0]    s2_old_ram;
+
+    fringe_ram_ecp5 #(.AW(SPEED_LOG2 + 1), .DW(POS_W)) u_hist (
+        .clk(clk),
+        .wr_en(accept), .wr_addr(wp), .wr_data(pos),
+        .ce(ce), .rd_addr(wp - back), .rd_data(s2_old_ram)
+    );
+
+    always @(posedge clk) begin
+        if (accept) begin
+            wp <= wp + 1'b1;
+        end
+    end
+`else
     (* no_rw_check *)
     reg  [POS_W-1:0]    hist [0:2*N-1];
     reg  [POS_W-1:0]    hist_q;        // the RAM's read register
@@ -169,6 +185,7 @@ module fringe_trim #(
             hist_q <= hist[wp - back];
         end
     end
+`endif
 
     always @(posedge clk) begin
         if (rst) begin
@@ -194,7 +211,12 @@ module fringe_trim #(
     end
 
     // ---- 2: history output register; sector product -----------------------------------------------
-    reg  [POS_W-1:0] s2_pos, s2_old;
+    reg  [POS_W-1:0] s2_pos;
+`ifdef FRINGE_TECH_ECP5
+    wire [POS_W-1:0] s2_old = s2_old_ram;
+`else
+    reg  [POS_W-1:0] s2_old;
+`endif
     reg  [AMP_W-1:0] s2_mag;
     reg              s2_bank;
     reg  [SPEED_LOG2:0] s2_win;
@@ -221,7 +243,9 @@ module fringe_trim #(
     always @(posedge clk) begin
         if (ce) begin
             s2_pos  <= s1_pos;
+`ifndef FRINGE_TECH_ECP5
             s2_old  <= hist_q;
+`endif
             s2_mag  <= s1_mag;
             s2_bank <= s1_bank;
             s2_win  <= s1_win;
