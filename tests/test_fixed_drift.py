@@ -18,6 +18,7 @@ from fringe.fixed.drift import (
     drift_run,
     error_bound,
     kg_for,
+    largest_kg_shift,
     make_fwd_table,
     pack_words,
     unpack_words,
@@ -373,17 +374,6 @@ def _exact_stream(p: DriftParams, n: int, off, gain, step_bins: int = 3):
     return raw[0].astype(np.int64), raw[1].astype(np.int64), phase_of, tables, (0, 0), kg, vals
 
 
-def _largest_kg_shift(p: DriftParams, vals) -> DriftParams:
-    for ks in range(60, 0, -1):
-        q = dataclasses.replace(p, kg_shift=ks)
-        try:
-            [kg_for(v, q) for v in vals]
-            return q
-        except ValueError:
-            continue
-    raise AssertionError("no KG_SHIFT fits")
-
-
 def _core_stream(p: DriftParams, n: int, off, gain, periods: int = 2):
     """A round Lissajous figure (0.3 of full scale, W0 = 0) with constant offsets and gains, rounded to
     codes, noise-free, ``periods`` uniform periods per window; the phase as inside the core: atan2 of the
@@ -507,7 +497,7 @@ def test_startup_is_shorter_than_before():
         vs, w0s = make_fwd_table(lambda ph: enc.w0f[0] + enc.amp * np.sin(2 * np.pi * ph), p)
         vc, w0c = make_fwd_table(lambda ph: enc.w0f[1] + enc.amp * np.cos(2 * np.pi * ph), p)
         tables = np.stack([pack_words(vs, p), pack_words(vc, p)])
-        kp = _largest_kg_shift(dataclasses.replace(p, hold=1) if old else p, (vs, vc))   # old: KG for W = B
+        kp = largest_kg_shift(dataclasses.replace(p, hold=1) if old else p, (vs, vc))   # old: KG for W = B
         p = dataclasses.replace(p, kg_shift=kp.kg_shift)
         kg = (kg_for(vs, kp), kg_for(vc, kp))
         if old:

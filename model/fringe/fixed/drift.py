@@ -35,7 +35,7 @@ are split into 32-bit halves and the update runs on Python integers (SEA * KG ne
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -52,6 +52,7 @@ __all__ = [
     "drift_run",
     "error_bound",
     "kg_for",
+    "largest_kg_shift",
     "make_fwd_table",
     "normalise",
     "observe",
@@ -283,6 +284,20 @@ def kg_for(values, params: DriftParams) -> int:
     if not 0 <= kg < 1 << p.kg_w:
         raise ValueError(f"{NAME}: KG = {kg} does not fit u({p.kg_w}); change KG_SHIFT")
     return kg
+
+
+def largest_kg_shift(params: DriftParams, tables) -> DriftParams:
+    """The parameters with the largest KG_SHIFT (60..1) at which kg_for fits every table's bin values (the finest
+    gain step); ValueError when none does."""
+    for shift in range(60, 0, -1):
+        q = replace(params, kg_shift=shift)
+        try:
+            for values in tables:
+                kg_for(values, q)
+            return q
+        except ValueError:
+            continue
+    raise ValueError(f"{NAME}: no KG_SHIFT in 1..60 fits KG in u({params.kg_w})")
 
 
 # ---------------------------------------------------------------------------- the datapath

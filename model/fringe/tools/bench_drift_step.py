@@ -22,7 +22,16 @@ import dataclasses
 
 import numpy as np
 
-from ..fixed.drift import DriftParams, drift_run, kg_for, make_fwd_table, normalise, observe, pack_words
+from ..fixed.drift import (
+    DriftParams,
+    drift_run,
+    kg_for,
+    largest_kg_shift,
+    make_fwd_table,
+    normalise,
+    observe,
+    pack_words,
+)
 
 
 class OldStep(DriftParams):
@@ -73,17 +82,6 @@ class Figure:
             return np.floor(x * 2.0 ** p.fine_w).astype(np.int64) & ((1 << p.fine_w) - 1)
 
         return phase_of
-
-
-def largest_kg_shift(p: DriftParams, vals) -> DriftParams:
-    for ks in range(60, 0, -1):
-        q = dataclasses.replace(p, kg_shift=ks)
-        try:
-            [kg_for(v, q) for v in vals]
-            return q
-        except ValueError:
-            continue
-    raise ValueError("no KG_SHIFT fits")
 
 
 # ---------------------------------------------------------------------------- what the observer sees
