@@ -42,7 +42,10 @@ from ..errors import FringeInputError
 from ..io.dataio import Measurement
 
 MIN_SAMPLES = 64
-MAX_CLIPPED_FRACTION = 0.005
+# clipped samples are left out of every fit; a recording is refused only where they hide part of the
+# waveform: some electrical phase (one of CLIP_PHASE_BINS) keeps under MIN_UNCLIPPED_SHARE of its samples
+CLIP_PHASE_BINS = 64
+MIN_UNCLIPPED_SHARE = 0.1
 WAVEFORM, PHASE_TABLE = "waveform", "phase_table"   # structures of the reference calibration
 # comparing structures on held-out data: 2..5 folds, as many as keep the calibrated samples per
 # candidate within STRUCTURE_BUDGET (short recordings get more folds, hence steadier scores);
@@ -102,10 +105,18 @@ def check_recording(meas: Measurement, enc: Encoder) -> np.ndarray:
         _fail(meas, "no signal: a channel never changes (sensor unplugged or no motion?)")
     lo, hi = -enc.adc_half_range, enc.adc_half_range - 1
     clipped = (meas.sin <= lo) | (meas.sin >= hi) | (meas.cos <= lo) | (meas.cos >= hi)
-    if clipped.mean() > MAX_CLIPPED_FRACTION:
-        first = int(np.argmax(clipped))
-        _fail(meas, f"{int(clipped.sum())} of {len(meas)} samples are clipped at the ADC limits "
-                    f"(first: data row {first + 1}); reduce the gain: clipped samples hide the waveform")
+    if clipped.any():
+        s, c = meas.sin.astype(float), meas.cos.astype(float)
+        phase = np.arctan2(s - (s.max() + s.min()) / 2, c - (c.max() + c.min()) / 2)
+        bins = ((phase / (2 * np.pi) + 0.5) * CLIP_PHASE_BINS).astype(int) % CLIP_PHASE_BINS
+        total = np.bincount(bins, minlength=CLIP_PHASE_BINS)
+        kept = np.bincount(bins[~clipped], minlength=CLIP_PHASE_BINS)
+        hidden = (total > 0) & (kept < MIN_UNCLIPPED_SHARE * total)
+        if hidden.any():
+            first = int(np.argmax(clipped))
+            _fail(meas, f"{int(clipped.sum())} of {len(meas)} samples are clipped at the ADC limits (first: data "
+                        f"row {first + 1}), all of them near some phases; reduce the gain: clipped samples hide "
+                        "the waveform")
     return ~clipped
 
 
@@ -567,6 +578,9 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
         cal = straight_conic(meas, enc, use, opts)
     else:
         cal = reference_free(meas, enc, use, opts)
+    if not use.all():
+        cal.skipped.append(f"{int(np.count_nonzero(~use))} samples clipped at the ADC limits: left out of the fits "
+                           "(the core flags them CLIP_SIN / CLIP_COS)")
     sync_coarse(cal, meas)
     if not enc.coarse_bits:
         cal.skipped.append("coarse/fine synchronisation: no coarse code (coarse_bits = 0); periods are counted "
