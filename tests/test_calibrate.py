@@ -78,6 +78,28 @@ def test_reference_free_calibration_uses_smooth_motion():
     assert np.ptp(curve) < 1.0
 
 
+def test_an_incremental_encoder_is_fitted_against_its_reference():
+    """No coarse code but a reference: within one recording the fine phase is the reference angle times the
+    lines, so the channels are fitted against it, and the result is as good as the same encoder's with a coarse
+    code (same channel noise; no graduation error, so the long-period table has nothing that repeats). The
+    long-period table itself is left out (it would not repeat after power-up). The reference-free fit of the
+    same 10 periods, from the figure's shape, cannot see this distortion (checked, so the test can fail)."""
+    from fringe.calib.calibrate import CalibrationOptions, check_recording, reference_free
+    cfg = dataclasses.replace(_distorted(16_384), lines_per_rev=6, coarse_bits=0, speed_mean_rev_s=1.07,
+                              speed_swing_rev_s=0.15, graduation_error={}, noise_rms=5e-4)
+    train, val = measurement_of(simulate(cfg, seed=41)), measurement_of(simulate(cfg, seed=42))
+    cal = calibrate(train, cfg.encoder())
+    assert cal.long_period is None and cal.fit["phase_reference"]["method"].startswith("reference angle")
+    ours, _ = figures(cal, val)
+    absolute = dataclasses.replace(cfg, coarse_bits=6)
+    cal_abs = calibrate(measurement_of(simulate(absolute, seed=41)), absolute.encoder())
+    theirs, _ = figures(cal_abs, measurement_of(simulate(absolute, seed=42)))
+    assert ours.rms_arcsec < 1.05 * theirs.rms_arcsec
+    free = reference_free(train, cfg.encoder(), check_recording(train, cfg.encoder()), CalibrationOptions())
+    free.direction, free.zero_deg = cal.direction, cal.zero_deg
+    assert figures(free, val)[0].rms_arcsec > 2 * ours.rms_arcsec
+
+
 def test_too_little_motion_for_the_smooth_motion_reference_is_reported():
     cfg = seed_encoder()
     cfg.samples, cfg.speed_mean_rev_s, cfg.speed_swing_rev_s = 20_000, 0.01, 0.0    # 5 periods in 2 s

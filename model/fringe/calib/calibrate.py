@@ -411,6 +411,26 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     return cal
 
 
+def incremental_reference(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions
+                          ) -> Calibration | None:
+    """An incremental encoder (no coarse code) against a reference. Within one recording the fine phase is the
+    reference angle times the lines plus a constant, so the conic and the channels are fitted against it as for
+    an absolute encoder: a reference sees every waveform error, the figure's shape only those that bend the
+    radius. The long-period table is fitted too, so that the graduation error does not bend the channel fits,
+    and then left out: the place in the revolution is not known after power-up, so it would not repeat in
+    another recording. None where the recording does not cover a revolution (the long period could not be
+    taken out of the reference's phase): the reference-free fit then."""
+    try:
+        cal = reference_calibration(meas, enc, use, opts, opts.structure or WAVEFORM)
+    except FringeInputError:
+        return None
+    cal.long_period = None
+    cal.fit["phase_reference"] = {"method": "reference angle times the lines (the fine phase only: an incremental "
+                                            "encoder's long-period table would not repeat after power-up)",
+                                  "samples_used": int(use.sum()), "fraction_used": float(use.mean())}
+    return cal
+
+
 CENTRE_ITERATIONS = 3
 CENTRE_T_MIN = 3.0        # a centre shift must be this many standard errors from zero
 GAIN_WINDOW_MIN = 16      # samples averaged at least for the slow gain (1/256 of the recording if longer)
@@ -574,6 +594,8 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
         cal = reference_calibration(meas, enc, use, dataclasses.replace(opts, gain_centre=centre), structure)
         if choice:
             cal.fit["model_choice"] = choice
+    elif meas.ref_deg is not None and (cal := incremental_reference(meas, enc, use, opts)) is not None:
+        pass
     elif opts.structure == PHASE_TABLE:
         cal = straight_conic(meas, enc, use, opts)
     else:

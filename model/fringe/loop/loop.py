@@ -954,7 +954,10 @@ def refit_around_interference(cal: Calibration, state: LoopState, meas: Measurem
     w, *_ = np.linalg.lstsq(x, e.T, rcond=None)
     tone = x[:, 1:] @ w[1:]          # the offsets stay in the readings: the waveform fit has its own
     clean = dataclasses.replace(meas, sin=meas.sin - tone[:, 0], cos=meas.cos - tone[:, 1])
-    return carry_loop(recalibrate(clean, cal), plain)
+    fresh = carry_loop(recalibrate(clean, cal), plain)
+    # vibrations already named stay out of the reference the declared model is fitted against
+    vibrations = [a for a in state.artefacts if a.name == "tone"]
+    return refit_around_tone(fresh, vibrations, clean) if vibrations else fresh
 
 
 def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measurement, rounds: int = 3) -> Calibration:
