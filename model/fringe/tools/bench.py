@@ -24,6 +24,7 @@ from ..fixed.core import error_budget
 from ..hardware.rtlsim import engine_speed
 from ..hardware.tables import build_tables, run_model
 from ..io.datasets import RM44_ENCODER, halves, read_rm44
+from .bench_drift_step import startup as drift_startup
 from .bench_io import io_and_memory
 from .bench_real import real_vs_plain_bench, simulated_bench
 from .bench_reference_free import reference_free_bench, reference_free_markdown
@@ -268,7 +269,8 @@ def markdown(results: dict) -> str:
 
 
 OTHER_SECTIONS = {"reference_free": reference_free_markdown, "real_vs_plain_fit": None, "one_line_population": None,
-                  "io_and_memory": None, "loop_population": None, "loop_speed": None, "rtl_engine_speed": None,
+                  "io_and_memory": None, "loop_population": None, "loop_speed": None,
+                  "drift_startup": None, "rtl_engine_speed": None,
                   "synthesis_families": None, "formal": None}
 
 
@@ -292,6 +294,7 @@ def main(argv=None) -> int:
              ("io_and_memory", lambda: io_and_memory(a.quick)),
              ("loop_population", lambda: population_bench(20 if a.quick else 200, 9000, workers=2)),
              ("loop_speed", lambda: loop_speed(200_000 if a.quick else 1_000_000)),
+             ("drift_startup", lambda: drift_startup(10 if a.quick else 30)),
              ("rtl_engine_speed", lambda: engine_speed(samples=100_000 if a.quick else 1_000_000)),
              ("synthesis", lambda: synthesis(a.out)),
              ("synthesis_families", lambda: synthesis_families(a.out)),

@@ -238,15 +238,22 @@ def draw(seed: int, n: int):
     return fig, theta, off, gain, noise
 
 
-def startup(population: int = 30, n: int = 12_000) -> None:
+def startup(population: int = 30, n: int = 12_000) -> dict:
+    """Start-up and steady error, before and after, on the test's stream and on the population; printed, and
+    returned for ``make bench`` (section drift_startup)."""
     amp = 0.3 * 2 ** 13
     fig = Figure.make(amp)
     th = test_stream(n)
+    out = {"test_stream": {}, "population": {"encoders": population, "seeds": [5000, 5000 + population - 1],
+                                             "block": 32, "mu_log2": 2, "fwd_w": 8}}
     print("Start-up (samples to stay within 3x the floor) and steady error (second half, RMS / floor):")
     print("  the test's stream (offsets 200 / -150, gains 1.1 / 0.92, noise 2 codes, circle), HOLD = 1, B = 32:")
     for mu in (0, 1, 2, 3):
         p = dataclasses.replace(P_S, mu_log2=mu)
         res = {old: startup_case(p, fig, th, (200.0, -150.0), (1.1, 0.92), 2.0, 12, old=old) for old in (True, False)}
+        out["test_stream"][f"mu_log2_{mu}"] = {
+            name: {"startup_samples": int(res[old][0]), "steady_over_floor": round(float(res[old][1]), 3)}
+            for name, old in (("before", True), ("after", False))}
         print(f"    MU_LOG2 = {mu}: before {res[True][0]:5d} samples, steady {res[True][1]:.3f}; "
               f"after {res[False][0]:5d} samples, steady {res[False][1]:.3f}")
     # the population's tables with 2^8 bins (the core's default): the 64-bin tables' interpolation error
@@ -263,10 +270,18 @@ def startup(population: int = 30, n: int = 12_000) -> None:
     r = np.array(rows, dtype=float)
     for name, cols in (("before", (0, 1)), ("after", (2, 3))):
         su, st = r[:, cols[0]], r[:, cols[1]]
+        out["population"][name] = {
+            "startup_samples": {"median": float(np.median(su)), "p90": float(np.percentile(su, 90)),
+                                "max": float(su.max())},
+            "steady_over_floor": {"median": round(float(np.median(st)), 3),
+                                  "p90": round(float(np.percentile(st, 90)), 3), "max": round(float(st.max()), 3)}}
         print(f"    {name:6s}: start-up median {np.median(su):.0f}, p90 {np.percentile(su, 90):.0f}, max {su.max():.0f}"
               f" samples; steady error median {np.median(st):.3f}, p90 {np.percentile(st, 90):.3f}, max {st.max():.3f}"
               " floors")
-    print(f"    after < before in {(r[:, 2] < r[:, 0]).sum()} of {population}, equal in {(r[:, 2] == r[:, 0]).sum()}")
+    shorter, equal = int((r[:, 2] < r[:, 0]).sum()), int((r[:, 2] == r[:, 0]).sum())
+    out["population"].update(after_shorter=shorter, equal=equal)
+    print(f"    after < before in {shorter} of {population}, equal in {equal}")
+    return out
 
 
 # ---------------------------------------------------------------------------- tracking a drift
