@@ -400,3 +400,46 @@ def test_a_vibrations_sidebands_in_the_channels_are_not_interference():
         tone = size * np.sqrt(2) * np.stack([np.sin(2 * np.pi * (fe + fv) * t + rng.uniform(0, 2 * np.pi))
                                              for _ in range(2)]) + rng.normal(0, noise, (2, n))
         assert loop.vibration_sideband(tone, phase, waves, t, fe + fv, fe) is None, (fe, fv)
+
+
+def test_a_tone_is_taken_out_only_where_it_holds_over_the_recording():
+    """A vibration's phase holds within a recording: its weights fitted on one half take it out of the other, down
+    to the noise. A line only half the recording holds (what a slowly modulated error at a steady speed looks like)
+    is not credited: fitted on the whole it would take out half of its power, across the halves none."""
+    rng = np.random.default_rng(5)
+    n, fs, f = 16_384, 10_000.0, 123.4
+    t = np.arange(n) / fs
+    x = np.column_stack([np.cos(2 * np.pi * f * t), np.sin(2 * np.pi * f * t)])
+    x -= x.mean(0)
+    noise = rng.normal(0, 1.0, n)
+    stable = 20 * np.sin(2 * np.pi * f * t + 0.7) + noise
+    left = stable - loop.halves_cross_fit(x, stable - stable.mean())
+    assert np.std(left) < 1.02 * np.std(noise)
+    half = np.where(np.arange(n) < n // 2, 20 * np.sin(2 * np.pi * f * t + 0.7), 0.0) + noise
+    whole = half - x @ np.linalg.lstsq(x, half, rcond=None)[0]
+    assert np.std(whole) < 0.8 * np.std(half)           # an in-sample fit would credit it
+    left = half - loop.halves_cross_fit(x, half - half.mean())
+    assert np.std(left) >= np.std(half)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_magnitude_a_channel_skew_moves_is_the_skews(seed):
+    """Sampling the cos channel tau late puts the Lissajous point off the circle by about -(delta/2) sin 2 phi,
+    delta = 2 pi lines speed tau: with a varying speed a magnitude term then corrects the skew, and is named so.
+    A gain that changes over the revolution (an amplitude effect) moves the magnitude without that signature.
+    Random encoders and strengths (seed in the test id)."""
+    from fringe.calib.calibrate import calibrate
+
+    rng = np.random.default_rng(seed)
+    base = dict(lines_per_rev=int(rng.integers(64, 1024)), adc_bits=14, coarse_bits=0, samples=16_384,
+                sample_rate_hz=10_000.0, noise_rms=float(rng.uniform(2e-4, 1e-3)), graduation_error={})
+    base["speed_mean_rev_s"] = 0.1 * 2500 / base["lines_per_rev"]
+    base["speed_swing_rev_s"] = 0.5 * base["speed_mean_rev_s"]
+    # a skew of 0.02..0.1 rad of phase at the mean speed; a gain 3..10 % up and down over the revolution
+    tau = rng.uniform(0.02, 0.1) / (2 * np.pi * base["lines_per_rev"] * base["speed_mean_rev_s"])
+    for fields, skew in ((dict(sampling_skew_s=float(tau)), True),
+                         (dict(rev_gain_mod={1: (float(rng.uniform(0.03, 0.1)), 0.0)}), False)):
+        cfg = SimulationConfig(**base, **fields)
+        meas = measurement_of(simulate(cfg, seed))
+        ev = loop.evaluate(loop.LoopState(calibrate(meas, cfg.encoder()), [], 0.0), meas)
+        assert loop.skew_moves_magnitude(ev) == skew, fields

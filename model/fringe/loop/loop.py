@@ -1213,6 +1213,14 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
                  "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
         cause = magnitude_cause(state, remedy)
+        if cause in ("", "amplitude") and amplitude_like(best) and skew_moves_magnitude(ev_fit):
+            # the correction stays (the magnitude term, or the gain-invariant remedy); the cause is the skew
+            cause = ""
+            entry.update(name="sampling_skew", cause=LIBRARY["sampling_skew"].cause,
+                         signature=describe(best.name)["signature"] + " (the magnitude changes a channel skew makes)")
+            entry["evidence"] += ("; speed x (sin 2 phi, cos 2 phi) explains at least "
+                                  f"{SKEW_MAGNITUDE_SHARE:.0%} of the magnitude's changes: the term corrects the skew "
+                                  "per sample, through the magnitude it moves")
         if cause:
             entry.update(name=cause, **{k: v for k, v in describe(cause).items() if k != "where"})
             if cause != "amplitude":
@@ -1252,6 +1260,24 @@ NORMALISER = "amplitude normaliser"
 NORMALISER_WHERE = "fringe_drift ahead of the tables: the channels' offsets and gains tracked online from the signals"
 PHASE_DOMAIN_WHERE = ("the waveform stage made straight (a common gain change then moves no angle), and the "
                       "phase error of the channels' shape in fringe_trim's fine-phase map after the arctan")
+
+
+SKEW_MAGNITUDE_SHARE = 0.5   # of the magnitude's variance, the skew's signature must explain this much to own it
+
+
+def skew_moves_magnitude(ev: Evaluation) -> bool:
+    """Whether the corrected magnitude changes as a channel skew makes it change: sampling the cos channel tau
+    late puts the Lissajous point off the circle by -(delta / 2) sin 2 phi (to first order), delta = 2 pi lines
+    speed tau, so a magnitude term then corrects the skew per sample (the skew term works on the filtered speed)
+    and is that effect's, not an amplitude's. Only where the speed varies (at a steady speed the conic owns it)."""
+    ctx = ev.ctx
+    v = ctx.speed - ctx.speed.mean()
+    if np.std(v) < 0.05 * np.mean(np.abs(ctx.speed)):
+        return False
+    m = ctx.magnitude - ctx.magnitude.mean()
+    x = np.column_stack([v * np.sin(2 * ctx.phi), v * np.cos(2 * ctx.phi)])
+    w, *_ = np.linalg.lstsq(x, m, rcond=None)
+    return float(np.sum((x @ w) ** 2)) >= SKEW_MAGNITUDE_SHARE * float(m @ m)
 
 
 def magnitude_cause(state: LoopState, remedy: str) -> str:
