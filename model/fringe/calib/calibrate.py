@@ -317,11 +317,19 @@ def lp_error_arcsec(cal: Calibration, meas: Measurement, rev: np.ndarray) -> np.
     return wrap(rev - truth) * ARCSEC_PER_REV
 
 
+class PartialRevolution(FringeInputError):
+    """The recording does not cover the whole revolution: no long-period table can be fitted from it."""
+
+    def __init__(self, problem: str, path: str | None = None):
+        super().__init__(problem, path)
+        self.problem = problem
+
+
 def check_revolution_coverage(meas: Measurement, rev: np.ndarray, bins: int = 64):
     covered = np.unique(np.floor((rev % 1.0) * bins).astype(int))
     if len(covered) < bins:
-        _fail(meas, f"the recording covers only {len(covered)} of {bins} sectors of the revolution; the "
-                    "long-period error needs at least one full revolution (or calibrate without ref_deg)")
+        raise PartialRevolution(f"the recording covers only {len(covered)} of {bins} sectors of the revolution; "
+                                "the long-period error needs at least one full revolution", meas.path)
 
 
 def fit_long_period(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
@@ -418,16 +426,35 @@ def incremental_reference(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     an absolute encoder: a reference sees every waveform error, the figure's shape only those that bend the
     radius. The long-period table is fitted too, so that the graduation error does not bend the channel fits,
     and then left out: the place in the revolution is not known after power-up, so it would not repeat in
-    another recording. None where the recording does not cover a revolution (the long period could not be
-    taken out of the reference's phase): the reference-free fit then."""
+    another recording. Where the recording does not cover a revolution, reference_phase_only."""
     try:
         cal = reference_calibration(meas, enc, use, opts, opts.structure or WAVEFORM)
-    except FringeInputError:
-        return None
+    except PartialRevolution:
+        return reference_phase_only(meas, enc, use, opts)
     cal.long_period = None
     cal.fit["phase_reference"] = {"method": "reference angle times the lines (the fine phase only: an incremental "
                                             "encoder's long-period table would not repeat after power-up)",
                                   "samples_used": int(use.sum()), "fraction_used": float(use.mean())}
+    return cal
+
+
+def reference_phase_only(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions
+                         ) -> Calibration:
+    """The conic and the channels against the reference angle times the lines, without a long-period table: a
+    recording of part of a revolution cannot give one (nor take the graduation error out of the reference's
+    phase, which then stays in it as a slow phase error the channel fits average over), but the reference
+    still sees every waveform error within the periods it covers."""
+    cal = Calibration(encoder=enc)
+    _fit_quadrature(cal, meas, use)
+    sync_coarse(cal, meas)
+    for _ in range(max(1, opts.ref_iterations)):
+        find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
+        _refit_waveforms(cal, meas, use, true_phase(cal, meas, opts.known_error_arcsec), opts)
+        sync_coarse(cal, meas)
+    find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
+    cal.fit["phase_reference"] = {"method": "reference angle times the lines (part of a revolution: no long-period "
+                                            "table)", "samples_used": int(use.sum()),
+                                  "fraction_used": float(use.mean())}
     return cal
 
 
@@ -591,7 +618,12 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
         structure, centre = opts.structure, opts.gain_centre
         if structure is None or (structure == PHASE_TABLE and centre is None):
             structure, centre, choice = choose_structure(meas, enc, use, opts)
-        cal = reference_calibration(meas, enc, use, dataclasses.replace(opts, gain_centre=centre), structure)
+        try:
+            cal = reference_calibration(meas, enc, use, dataclasses.replace(opts, gain_centre=centre), structure)
+        except PartialRevolution as e:
+            cal = reference_phase_only(meas, enc, use, opts)
+            cal.skipped.append(f"long-period correction: {e.problem}")
+            choice = {}
         if choice:
             cal.fit["model_choice"] = choice
     elif meas.ref_deg is not None and (cal := incremental_reference(meas, enc, use, opts)) is not None:
