@@ -149,3 +149,20 @@ def test_peaks_clipped_over_part_of_the_revolution_are_left_out_not_refused():
     ok, _ = held_rms(calibrate(fit_ok, cfg.encoder()), val_ok)
     # angle noise is channel noise over the amplitude: the 0.98 recording's floor is 0.9 / 0.98 of the other's
     assert kept > 0.8 and rms < 1.25 * ok * 0.9 / 0.98, (rms, ok)
+
+
+@pytest.mark.parametrize("coarse_bits", [0, 9])
+def test_part_of_a_revolution_against_a_reference_is_calibrated_without_the_long_period(coarse_bits):
+    """A recording of half a revolution cannot give a long-period table, but its reference still gives the
+    phase for the waveforms: calibrated (it was refused with a coarse code, and fitted from the figure's shape
+    without one), the long period skipped and said so, and within 1.25x of the noise floor on another half
+    revolution (no graduation error simulated: nothing else is there to correct)."""
+    cfg = dataclasses.replace(_distorted(16_384), coarse_bits=coarse_bits, graduation_error={},
+                              speed_mean_rev_s=0.3, speed_swing_rev_s=0.1)    # ~0.5 revolution in 1.6 s
+    fit, val = measurement_of(simulate(cfg, seed=51)), measurement_of(simulate(cfg, seed=52))
+    cal = calibrate(fit, cfg.encoder())
+    assert cal.long_period is None
+    assert cal.fit["phase_reference"]["method"].startswith("reference angle")
+    fig, _ = figures(cal, val)
+    floor = noise_floor_arcsec(cal, cfg, seed=52)
+    assert fig.rms_arcsec < 1.25 * floor, (fig.rms_arcsec, floor)

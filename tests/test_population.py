@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from fringe.dsp.effects import FittedEffect
+from fringe.dsp.effects import AMPLITUDE_ORDERS, FittedEffect
 from fringe.dsp.simulate import max_speed_ok
 from fringe.tools.population import CLASSES, STRENGTH_RANGE, draw_case, population_case, summarise
 
@@ -74,13 +74,20 @@ def test_trim_format_follows_the_fitted_values():
         size = 10 ** rng.uniform(-3, 6)           # arcsec
         cal = dataclasses.replace(cal, angle_terms=[
             FittedEffect("hysteresis", rng.normal(0, size, 9)),
-            FittedEffect("amplitude", rng.normal(0, size, 3)),
+            FittedEffect("amplitude", amplitude_weights(rng.normal(0, size, 3))),
             FittedEffect("sampling_skew", np.concatenate([rng.normal(0, size * 1e-3, 2), rng.normal(0, size, 2)]))],
             adaptive=bool(rng.integers(2)))
         core = core_config(cal)
         tables = build_trim_tables(cal, core)
         grids = grids_for(cal, core)
         assert np.max(np.abs(tables.map / 2.0 ** core.trim_frac - grids.map)) <= 0.5 / 2 ** core.trim_frac + 1e-9
+
+
+def amplitude_weights(order0_cos2_sin2):
+    """The amplitude term's weights (orders 0..AMPLITUDE_ORDERS) with orders 0 and 2 (cos, sin) given, the rest 0."""
+    w = np.zeros(1 + 2 * AMPLITUDE_ORDERS)
+    w[[0, 3, 4]] = order0_cos2_sin2
+    return w
 
 
 # names that the population got wrong before: a large skew beside the magnitude changes it causes (9144: amplitude

@@ -151,9 +151,27 @@ def _accel_cols(ctx):
     return [ctx.accel]
 
 
+# a channel harmonic n that grows or shrinks with the amplitude (or that a waveform table calibrated at one
+# amplitude reads off its curve) moves the phase at fine-phase orders n - 1 and n + 1: harmonics 2 and 3 give 1..4
+AMPLITUDE_ORDERS = 4
+
+
+def amplitude_phase_columns(phi):
+    """The fine-phase shape of the amplitude term per unit of magnitude change: 1, cos k phi, sin k phi."""
+    cols = [np.ones_like(phi)]
+    for k in range(1, AMPLITUDE_ORDERS + 1):
+        cols += [np.cos(k * phi), np.sin(k * phi)]
+    return cols
+
+
+def amplitude_shape(weights, phi):
+    """The amplitude term's fitted fine-phase shape (arcsec per unit of magnitude change) at phi."""
+    return np.column_stack(amplitude_phase_columns(phi)) @ np.asarray(weights)
+
+
 def _amplitude_cols(ctx):
     a = ctx.magnitude - MAG_REF
-    return [a, a * np.cos(2 * ctx.phi), a * np.sin(2 * ctx.phi)]
+    return [a * c for c in amplitude_phase_columns(ctx.phi)]
 
 
 LIBRARY = {
@@ -189,7 +207,7 @@ LIBRARY = {
     "amplitude": Effect(
         "amplitude", "error depending on the signal amplitude (the waveform's shape changes with the air gap, or "
         "the amplitude changes and the waveform tables, calibrated at one amplitude, read off their curve)",
-        "fine-phase order 2 and an offset whose size follows the corrected magnitude",
+        "fine-phase orders 0 to 4 whose size follows the corrected magnitude",
         "hardware", "magnitude-dependent phase correction (the CORDIC magnitude, known online)",
         _amplitude_cols),
 }

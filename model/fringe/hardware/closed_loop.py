@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dsp.calibration import Calibration, static_phase
-from ..dsp.effects import MAG_REF, REV_ORDERS
+from ..dsp.effects import MAG_REF, REV_ORDERS, amplitude_shape
 from ..encoder import ARCSEC_PER_REV
 from ..fixed import trim as trim_mod
 from ..fixed.cordic import cordic_gain
@@ -147,7 +147,7 @@ def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_
             gs += (w[0] * (1 - np.cos(2 * phi)) + w[1] * np.sin(2 * phi)) * counts * per_count   # effects._skew_cols
             grid += ((w[2] * np.cos(2 * phi) + w[3] * np.sin(2 * phi)) * counts)[None, None, :]   # its static part
         elif term.name == "amplitude":
-            h = w[0] + w[1] * np.cos(2 * phi) + w[2] * np.sin(2 * phi)    # effects._amplitude_cols
+            h = amplitude_shape(w, phi)
             ga += h * counts / mag_scale
             grid -= (h * counts * MAG_REF)[None, None, :]
         elif term.name.startswith("generic:"):

@@ -20,6 +20,7 @@ from scipy import ndimage, signal, stats
 from ..calib.calibrate import calibrate
 from ..dsp.calibration import Calibration
 from ..dsp.effects import (
+    AMPLITUDE_ORDERS,
     GENERIC,
     GENERIC_FACTORS,
     GENERIC_PHASE_ORDERS,
@@ -28,6 +29,8 @@ from ..dsp.effects import (
     LIBRARY,
     Context,
     FittedEffect,
+    _legendre_time,
+    amplitude_phase_columns,
     factor_columns,
     generic_design,
     generic_name,
@@ -611,6 +614,67 @@ def strided(ev: Evaluation) -> Evaluation:
                       None if ev.ref_speed is None else ev.ref_speed[sl])
 
 
+SMOOTH_BLOCKS = 64    # interleaved blocks: the magnitude's slow shape is fitted on every other one
+
+
+def smooth_magnitude(ctx: Context) -> np.ndarray:
+    """The magnitude's changes without its per-sample noise: its projection on fine-phase orders 0..AMPLITUDE_ORDERS
+    crossed with slow functions of time and the first revolution harmonics (where a gain over the revolution, a
+    drift or a skew at a changing speed moves it), fitted on every other block of samples and evaluated on the
+    blocks between, so that no sample's own noise is in its value. The static shape of the radius over the fine
+    phase is left out (a change of nothing: it leaves static fine-phase error)."""
+    phase = amplitude_phase_columns(ctx.phi)
+    slow = list(_legendre_time(ctx, 3))
+    if ctx.lines > 1:
+        slow += [f(m * ctx.psi) for m in (1, 2) for f in (np.cos, np.sin)]
+    x = np.column_stack([p * q for p in phase for q in slow])
+    m = ctx.magnitude - ctx.magnitude.mean()
+    fold = (np.arange(len(m)) * SMOOTH_BLOCKS // max(len(m), 1)) % 2
+    out = np.empty(len(m))
+    for f in (0, 1):
+        w, *_ = np.linalg.lstsq(x[fold != f], m[fold != f], rcond=None)
+        out[fold == f] = x[fold == f] @ w
+    return ctx.magnitude.mean() + out
+
+
+def magnitude_follows_time(ctx: Context) -> bool:
+    """Whether the magnitude's changes (fine-phase orders 0..AMPLITUDE_ORDERS times slow shapes, held out on
+    interleaved blocks) follow time better than the place in the revolution: what a drift tracker leaves (it
+    follows the gains late) against a gain tied to the revolution (air gap, eccentricity)."""
+    phase = amplitude_phase_columns(ctx.phi)
+    m = ctx.magnitude - ctx.magnitude.mean()
+    fold = (np.arange(len(m)) * SMOOTH_BLOCKS // max(len(m), 1)) % 2
+
+    def held_out(slow) -> float:
+        x = np.column_stack([p * q for p in phase for q in slow])
+        sq = 0.0
+        for f in (0, 1):
+            w, *_ = np.linalg.lstsq(x[fold != f], m[fold != f], rcond=None)
+            sq += float(np.sum((m[fold == f] - x[fold == f] @ w) ** 2))
+        return sq
+
+    if ctx.lines <= 1:
+        return True
+    rev = [f(k * ctx.psi) for k in (1, 2) for f in (np.cos, np.sin)]
+    return held_out(list(_legendre_time(ctx, 3))) < held_out(rev)
+
+
+NOISE_SHARE = 0.25    # of what the term explains, the noise-free magnitude must explain this much (variance)
+
+
+def magnitude_noise_only(ev: Evaluation, t: Test, sigma: float) -> bool:
+    """Whether an amplitude term explains the residual only through the magnitude's noise: the radial noise of a
+    sample moves its reading along the waveform tables' curve (calibrated at the mean amplitude) and so its angle;
+    the term then corrects noise sample by sample, a small real gain but not an amplitude effect. Judged by the same
+    term on the noise-free magnitude (smooth_magnitude): it must be significant and explain NOISE_SHARE of what the
+    term explains."""
+    if t.explained_rms <= 0:
+        return False
+    quiet = dataclasses.replace(ev, ctx=dataclasses.replace(ev.ctx, magnitude=smooth_magnitude(ev.ctx)))
+    slow = test_library_effect(quiet, LIBRARY["amplitude"], sigma)
+    return slow.p_value >= P_VALUE or slow.explained_rms ** 2 < NOISE_SHARE * t.explained_rms ** 2
+
+
 def reference_context(ev: Evaluation) -> Context | None:
     """The context with the motion (speed, acceleration, direction) of the reference instead of the encoder's own
     estimate. The encoder's speed is a difference of its own positions, so it carries the noise of the sample being
@@ -650,6 +714,13 @@ def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Te
             skipped[name] = why
             continue
         t = test_library_effect(ev, LIBRARY[name], sigma)
+        # (not behind an online correction: what the tracker or the canceller leaves moves the magnitude in time,
+        # outside the slow shapes the check knows, and magnitude_cause names it)
+        online = ev.cal is not None and (ev.cal.adaptive or ev.cal.canceller)
+        if name == "amplitude" and not online and magnitude_noise_only(ev, t, sigma):
+            skipped[name] = ("it follows the magnitude's noise, not its changes: the radial noise of the sample being "
+                             "corrected, read through the waveform tables' curvature, not a change of amplitude")
+            continue
         if in_own_noise(ev, moving, name, t, sigma):
             skipped[name] = ("it shows against the encoder's own speed estimate but not against the reference's "
                              "motion: the noise of the sample being corrected, which a speed term would smooth, "
@@ -1221,9 +1292,14 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
             entry["evidence"] += ("; speed x (sin 2 phi, cos 2 phi) explains at least "
                                   f"{SKEW_MAGNITUDE_SHARE:.0%} of the magnitude's changes: the term corrects the skew "
                                   "per sample, through the magnitude it moves")
+        if cause in ("", "amplitude") and amplitude_like(best) and state.cal.adaptive \
+                and magnitude_follows_time(ev_fit.ctx):
+            cause = "drift"
+            entry["evidence"] += ("; the magnitude changes it follows are the drift tracker's leftovers (slow "
+                                  "functions of time explain them better than the place in the revolution)")
         if cause:
             entry.update(name=cause, **{k: v for k, v in describe(cause).items() if k != "where"})
-            if cause != "amplitude":
+            if cause != "amplitude" and remedy:
                 entry["evidence"] += (f"; the magnitude changes that the {cause} correction leaves, made harmless "
                                       "by a gain-invariant waveform stage")
         if remedy:
@@ -1404,7 +1480,7 @@ def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
         "acceleration": (lambda sl: ctx.accel[sl, None], testable("acceleration", ctx, None, ev.ref_speed), 1),
         "direction": (lambda sl: ctx.direction[sl, None].astype(float),
                       testable("hysteresis", ctx, None, ev.ref_speed), 1),
-        "amplitude": (lambda sl: LIBRARY["amplitude"].design(ctx.rows(sl)), None, 3),
+        "amplitude": (lambda sl: LIBRARY["amplitude"].design(ctx.rows(sl)), None, 1 + 2 * AMPLITUDE_ORDERS),
     }
     out = []
     for domain, (design, why, width) in domains.items():
