@@ -1361,14 +1361,20 @@ def magnitude_cause(state: LoopState, remedy: str) -> str:
 
     An effect already corrected online changes the signals' magnitude by what its correction leaves: the drift
     tracker follows the gains late, the canceller converges from reset and leaves the tone's ripple on the
-    Lissajous radius. The per-channel waveform inverse turns such magnitude changes into angle error, and the
-    straight waveform stage of the phase-domain structure does not: then the remedy is that effect's correction,
-    not a second cause. Gain invariance alone (the phase domain or the normaliser) is amplitude."""
+    Lissajous radius, and the revolution map corrects the angle after the arctan, not the signals, so the
+    per-sector gains reach the waveform tables. The per-channel waveform inverse turns such magnitude changes
+    into angle error, and the straight waveform stage of the phase-domain structure does not: then the remedy is
+    that effect's correction, not a second cause. Gain invariance alone (the phase domain or the normaliser) is
+    amplitude."""
     if remedy.startswith(PHASE_DOMAIN):
         if state.cal.adaptive:
             return "drift"
         if state.cal.canceller:
             return "interference"
+        if state.cal.rev_norm is not None:
+            # the revolution map corrects the angle (fringe_trim), not the signals: the per-sector gains stay in
+            # what the waveform tables read
+            return "rev_offset_gain"
     return "amplitude" if remedy in (PHASE_DOMAIN, NORMALISER) else ""
 
 
