@@ -420,7 +420,7 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
 
 
 def incremental_reference(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions
-                          ) -> Calibration | None:
+                          ) -> Calibration:
     """An incremental encoder (no coarse code) against a reference. Within one recording the fine phase is the
     reference angle times the lines plus a constant, so the conic and the channels are fitted against it as for
     an absolute encoder: a reference sees every waveform error, the figure's shape only those that bend the
@@ -626,8 +626,8 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
             choice = {}
         if choice:
             cal.fit["model_choice"] = choice
-    elif meas.ref_deg is not None and (cal := incremental_reference(meas, enc, use, opts)) is not None:
-        pass
+    elif meas.ref_deg is not None:
+        cal = incremental_reference(meas, enc, use, opts)
     elif opts.structure == PHASE_TABLE:
         cal = straight_conic(meas, enc, use, opts)
     else:
