@@ -217,14 +217,20 @@ def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
     return Evaluation(r, ctx, fig, float(np.sqrt(np.mean(r * r))), meas, state.cal, reference_motion(meas, ctx))
 
 
+def cross_fit(x: np.ndarray, y: np.ndarray, blocks: int) -> np.ndarray:
+    """x @ w for every row with w fitted on the other fold: the rows cut into `blocks` consecutive blocks, the
+    folds every other block (2: two contiguous halves). No row's own value is in its fit."""
+    fold = (np.arange(len(y)) * blocks // max(len(y), 1)) % 2
+    out = np.empty(len(y))
+    for f in (0, 1):
+        w, *_ = np.linalg.lstsq(x[fold != f], y[fold != f], rcond=None)
+        out[fold == f] = x[fold == f] @ w
+    return out
+
+
 def halves_cross_fit(x: np.ndarray, r: np.ndarray) -> np.ndarray:
     """x @ w with w fitted on the other half of the rows (two contiguous halves)."""
-    h = len(r) // 2
-    out = np.empty(len(r))
-    for fit_rows, use_rows in ((slice(h, None), slice(0, h)), (slice(0, h), slice(h, None))):
-        w, *_ = np.linalg.lstsq(x[fit_rows], r[fit_rows], rcond=None)
-        out[use_rows] = x[use_rows] @ w
-    return out
+    return cross_fit(x, r, 2)
 
 
 def _design(name: str, ctx: Context, tone_hz: float = 0.0) -> np.ndarray:
@@ -623,40 +629,36 @@ def smooth_magnitude(ctx: Context) -> np.ndarray:
     drift or a skew at a changing speed moves it), fitted on every other block of samples and evaluated on the
     blocks between, so that no sample's own noise is in its value. The static shape of the radius over the fine
     phase is left out (a change of nothing: it leaves static fine-phase error)."""
-    phase = amplitude_phase_columns(ctx.phi)
-    slow = list(_legendre_time(ctx, 3))
-    if ctx.lines > 1:
-        slow += [f(m * ctx.psi) for m in (1, 2) for f in (np.cos, np.sin)]
-    x = np.column_stack([p * q for p in phase for q in slow])
     m = ctx.magnitude - ctx.magnitude.mean()
-    fold = (np.arange(len(m)) * SMOOTH_BLOCKS // max(len(m), 1)) % 2
-    out = np.empty(len(m))
-    for f in (0, 1):
-        w, *_ = np.linalg.lstsq(x[fold != f], m[fold != f], rcond=None)
-        out[fold == f] = x[fold == f] @ w
-    return ctx.magnitude.mean() + out
+    slow = _slow_time(ctx) + (_slow_revolution(ctx) if ctx.lines > 1 else [])
+    return ctx.magnitude.mean() + cross_fit(_magnitude_shapes(ctx, slow), m, SMOOTH_BLOCKS)
+
+
+def _slow_time(ctx: Context) -> list[np.ndarray]:
+    return list(_legendre_time(ctx, 3))
+
+
+def _slow_revolution(ctx: Context) -> list[np.ndarray]:
+    return [f(k * ctx.psi) for k in (1, 2) for f in (np.cos, np.sin)]
+
+
+def _magnitude_shapes(ctx: Context, slow: list[np.ndarray]) -> np.ndarray:
+    """Fine-phase orders 0..AMPLITUDE_ORDERS (the amplitude term's shape) times each slow function."""
+    return np.column_stack([p * q for p in amplitude_phase_columns(ctx.phi) for q in slow])
 
 
 def magnitude_follows_time(ctx: Context) -> bool:
     """Whether the magnitude's changes (fine-phase orders 0..AMPLITUDE_ORDERS times slow shapes, held out on
     interleaved blocks) follow time better than the place in the revolution: what a drift tracker leaves (it
     follows the gains late) against a gain tied to the revolution (air gap, eccentricity)."""
-    phase = amplitude_phase_columns(ctx.phi)
-    m = ctx.magnitude - ctx.magnitude.mean()
-    fold = (np.arange(len(m)) * SMOOTH_BLOCKS // max(len(m), 1)) % 2
-
-    def held_out(slow) -> float:
-        x = np.column_stack([p * q for p in phase for q in slow])
-        sq = 0.0
-        for f in (0, 1):
-            w, *_ = np.linalg.lstsq(x[fold != f], m[fold != f], rcond=None)
-            sq += float(np.sum((m[fold == f] - x[fold == f] @ w) ** 2))
-        return sq
-
     if ctx.lines <= 1:
         return True
-    rev = [f(k * ctx.psi) for k in (1, 2) for f in (np.cos, np.sin)]
-    return held_out(list(_legendre_time(ctx, 3))) < held_out(rev)
+    m = ctx.magnitude - ctx.magnitude.mean()
+
+    def held_out(slow) -> float:
+        return float(np.sum((m - cross_fit(_magnitude_shapes(ctx, slow), m, SMOOTH_BLOCKS)) ** 2))
+
+    return held_out(_slow_time(ctx)) < held_out(_slow_revolution(ctx))
 
 
 NOISE_SHARE = 0.25    # of what the term explains, the noise-free magnitude must explain this much (variance)
