@@ -10,6 +10,7 @@ import warnings
 import numpy as np
 
 from ..errors import FringeInputError
+from ..io import outputs
 
 ENGINES = ("model", "float", "verilog", "vhdl")
 
@@ -321,6 +322,8 @@ class Interrupted(BaseException):
 
 
 def _interrupted(signum, frame):
+    if outputs.COMMITTED:      # an output is in place: the work is done, the command finishes its last lines
+        return
     raise Interrupted(signum)
 
 
@@ -328,6 +331,7 @@ def main(argv=None) -> int:
     """Every failure is one line on stderr and exit status 2 (130 and up for signals); nothing half-written."""
     import threading
 
+    outputs.COMMITTED.clear()
     if threading.current_thread() is not threading.main_thread():   # only the main thread may set handlers
         return _main(argv)
     previous = {sig: signal.signal(sig, _interrupted) for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}

@@ -8,6 +8,9 @@ first line (CSV `# fringe <kind>...`) or key (JSON `written_by`) that says the s
 Outputs are checked before any work starts (`check_output_dir`, `check_output_file`), built under
 a hidden temporary name beside their target, given the permissions the umask allows, and swapped
 in at the end: the new folder takes the old one's name in one rename, then the old one is removed.
+The rename and its record (`COMMITTED`) happen with SIGINT, SIGTERM and SIGHUP held, so that the
+command line's handler knows which side of the rename a signal came on: before it, nothing was
+written; after it, the output is complete and the command finishes.
 """
 
 import ctypes
@@ -15,6 +18,7 @@ import hashlib
 import json
 import os
 import shutil
+import signal
 import stat
 import tempfile
 from contextlib import contextmanager
@@ -26,6 +30,22 @@ MANIFEST = "fringe-manifest.json"
 FORMAT = "fringe-output"
 VERSION = 1
 TMP_PREFIX = ".fringe-incomplete-"
+
+
+#: the outputs this process has put in place: a signal after the first of them interrupts nothing (the command's
+#: work is done; what is left is writing its last lines)
+COMMITTED: list[str] = []
+HELD_SIGNALS = {signal.SIGINT, signal.SIGTERM, signal.SIGHUP}
+
+
+@contextmanager
+def _signals_held():
+    """Hold the interrupting signals (they wait, then arrive) while an output is put in place and recorded."""
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, HELD_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def current_umask() -> int:
@@ -246,16 +266,20 @@ def atomic_dir(out_dir: str, kind: str, inputs=(), command: str = ""):
         write_manifest(tmp, kind, command or f"fringe {kind}")
         _permissions(tmp, mask)
         check_output_dir(out_dir, kind, inputs)      # again: it may have changed while we worked
-        if os.path.isdir(out_dir) and os.listdir(out_dir):
-            if _exchange(tmp, out_dir):               # tmp now holds the previous output
-                shutil.rmtree(tmp)
+        previous = None
+        with _signals_held():
+            if os.path.isdir(out_dir) and os.listdir(out_dir):
+                if _exchange(tmp, out_dir):           # tmp now holds the previous output
+                    previous = tmp
+                else:
+                    previous = tempfile.mkdtemp(dir=parent, prefix=TMP_PREFIX + "old-")
+                    os.rename(out_dir, os.path.join(previous, "previous"))
+                    os.rename(tmp, out_dir)
             else:
-                old = tempfile.mkdtemp(dir=parent, prefix=TMP_PREFIX + "old-")
-                os.rename(out_dir, os.path.join(old, "previous"))
-                os.rename(tmp, out_dir)
-                shutil.rmtree(old)
-        else:
-            os.replace(tmp, out_dir)                  # onto nothing or an empty folder
+                os.replace(tmp, out_dir)              # onto nothing or an empty folder
+            COMMITTED.append(out_dir)
+        if previous:
+            shutil.rmtree(previous)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
@@ -277,7 +301,9 @@ def atomic_output(path: str, kind: str, inputs=(), mode: str = "w"):
         if os.path.lexists(path) and _form(path) != _form(tmp):   # simulate writes a CSV and a JSON
             _fail(f"holds a {_form(path)} file fringe {kind} wrote; this output is a {_form(tmp)}: refusing to "
                   "replace it (give another name)", path)
-        os.replace(tmp, path)
+        with _signals_held():
+            os.replace(tmp, path)
+            COMMITTED.append(path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
