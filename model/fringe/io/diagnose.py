@@ -83,7 +83,8 @@ def check_recording(meas: Measurement, enc: Encoder, purpose: str = "calibration
     if step > 0.2:    # near the overspeed limit the raw phase cannot be unwrapped: calibration says so
         return
     codes_passed = np.ptp(phase) * (1 << enc.coarse_bits) / enc.lines_per_rev
-    if enc.coarse_bits and meas.coarse is not None and np.ptp(phase) >= 2 and codes_passed >= 4:
+    # a one-bit code steps by half its range either way: its direction, hence its scale, cannot be unwrapped
+    if enc.coarse_bits >= 2 and meas.coarse is not None and np.ptp(phase) >= 2 and codes_passed >= 4:
         _check_coarse(meas, enc, phase)
     if meas.ref_deg is not None and purpose == "calibration":
         _check_reference(meas, enc, phase, step)
