@@ -96,6 +96,24 @@ def test_an_incremental_encoder_gets_no_revolution_terms():
     assert "rev_offset_gain" in skipped and not any("revolution" in t.name for t in tests)
 
 
+def test_terms_over_the_revolution_are_fitted_only_where_the_recording_covers_it():
+    """Reversals over part of the revolution: a direction-dependent error is there, but a series over the
+    revolution fitted on that arc would be extrapolated to the rest (the hysteresis term's validation error was
+    4598" RMS, so it was rejected and the error named ref_lag, a direction term and a skew). The hysteresis is
+    fitted as its direction term alone, and the revolution's own terms are not offered."""
+    cfg = SimulationConfig(lines_per_rev=50, coarse_bits=8, samples=16_384, sample_rate_hz=5000.0,
+                           speed_mean_rev_s=0.05, speed_swing_rev_s=0.3, hysteresis_arcsec=60.0, ref_error_arcsec={})
+    fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
+    _, state, rep = loop.run_loop(fit, cfg.encoder(), val)
+    ev = loop.evaluate(state, fit)
+    assert not ev.ctx.revolution_covered
+    assert "sectors of the revolution" in loop.testable("rev_offset_gain", ev.ctx, state.cal)
+    assert [e["name"] for e in rep["effects_added"]] == ["hysteresis"]
+    hyst = next(t for t in state.cal.angle_terms if t.name == "hysteresis")
+    assert abs(hyst.weights[0]) > 20.0 and not np.any(hyst.weights[1:])
+    assert rep["after"]["rms_arcsec"] < 0.5 * rep["before"]["rms_arcsec"]
+
+
 def test_tracker_constants_are_chosen_stored_and_used(tmp_path):
     """A fast drift wants a faster tracker than the default: the loop measures the choice, calibration.json keeps
     it, and the core configuration built from the folder uses it."""

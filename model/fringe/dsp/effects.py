@@ -43,11 +43,20 @@ class Context:
     magnitude: np.ndarray   # corrected signal magnitude (1 nominal)
     lines: int = 1          # signal periods per revolution
     t_span: tuple | None = None   # (first, last) time of the whole recording when this is a slice of it
+    # False where the recording a term is fitted on does not cover the revolution: columns that are harmonics of
+    # the place in the revolution are then zero (their weights fit to 0: a series over part of the revolution would
+    # be extrapolated to the rest). Predictions take the full columns, with those weights
+    revolution_covered: bool = True
 
     def rows(self, sl: slice) -> Context:
         """The same context for a block of samples (designs are evaluated block by block to bound memory)."""
         return Context(self.phi[sl], self.psi[sl], self.t[sl], self.speed[sl], self.accel[sl], self.direction[sl],
-                       self.magnitude[sl], self.lines, self.t_span or (float(self.t[0]), float(self.t[-1])))
+                       self.magnitude[sl], self.lines, self.t_span or (float(self.t[0]), float(self.t[-1])),
+                       self.revolution_covered)
+
+    def revolution_harmonic(self, m: int, f) -> np.ndarray:
+        """f(m psi), or zeros where the revolution is not covered (revolution_covered)."""
+        return f(m * self.psi) if self.revolution_covered else np.zeros_like(self.psi)
 
 
 def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int) -> np.ndarray:
@@ -86,7 +95,7 @@ def _rev_modulated(orders_phi, ctx: Context, m_orders=REV_ORDERS) -> list[np.nda
     for k in orders_phi:
         ck, sk = np.cos(k * ctx.phi), np.sin(k * ctx.phi)
         for m in range(1, m_orders + 1):
-            cm, sm = np.cos(m * ctx.psi), np.sin(m * ctx.psi)
+            cm, sm = ctx.revolution_harmonic(m, np.cos), ctx.revolution_harmonic(m, np.sin)
             cols += [ck * cm, ck * sm, sk * cm, sk * sm]
     return cols
 
@@ -135,7 +144,7 @@ SKEW_COLUMNS = 4
 def _hyst_cols(ctx):
     cols = [ctx.direction.astype(float)]
     for m in range(1, REV_ORDERS + 1):
-        cols += [ctx.direction * np.cos(m * ctx.psi), ctx.direction * np.sin(m * ctx.psi)]
+        cols += [ctx.direction * ctx.revolution_harmonic(m, np.cos), ctx.direction * ctx.revolution_harmonic(m, np.sin)]
     return cols
 
 
@@ -394,7 +403,7 @@ def factor_columns(factor: str, ctx: Context, m: int) -> list[np.ndarray]:
     if factor == "magnitude2":
         return [a * a]
     if factor == "revolution":
-        return [g(j * ctx.psi) for j in range(1, m + 1) for g in (np.cos, np.sin)]
+        return [ctx.revolution_harmonic(j, g) for j in range(1, m + 1) for g in (np.cos, np.sin)]
     if factor == "time":
         return _legendre_time(ctx)
     raise ValueError(f"unknown generic factor '{factor}'")

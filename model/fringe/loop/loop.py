@@ -193,6 +193,16 @@ def shift_reference(meas: Measurement, lag_s: float) -> Measurement:
     return dataclasses.replace(meas, ref_deg=np.mod(shifted(t, unwrapped, lag_s, span=16), 360.0))
 
 
+REVOLUTION_SECTORS = 64     # a recording covers the revolution when it visits every one of these sectors
+
+
+def covered(ctx: Context) -> Context:
+    """ctx marked with whether the recording covers the revolution (as the long-period fit requires): terms over
+    the revolution are fitted only where it does."""
+    sectors = np.unique(np.floor(np.mod(ctx.psi, 2 * np.pi) / (2 * np.pi) * REVOLUTION_SECTORS).astype(int))
+    return dataclasses.replace(ctx, revolution_covered=len(sectors) >= REVOLUTION_SECTORS)
+
+
 def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
     """The residual of `meas` through state.cal (or `res`, another engine's result for `meas`), with
     the measurement artefacts compensated."""
@@ -200,8 +210,8 @@ def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
     if res is None:
         res = run_float(state.cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
     r = error_arcsec(res.angle_deg, meas.ref_deg)
-    ctx = make_context(res.frac, res.position, state.cal.encoder.lines_per_rev, sample_times(len(r), meas.t_s),
-                       res.magnitude)
+    ctx = covered(make_context(res.frac, res.position, state.cal.encoder.lines_per_rev,
+                               sample_times(len(r), meas.t_s), res.magnitude))
     for art in state.artefacts:
         x = _design(art.name, ctx, art.tone_hz)
         x = x - x.mean(0)
@@ -377,6 +387,9 @@ def testable(name: str, ctx: Context, cal: Calibration | None = None, ref_speed:
     if "periods" in needs and ctx.lines < 4:
         return (f"with {ctx.lines} signal period(s) per revolution the revolution and the fine phase are nearly "
                 "the same angle: a change over the revolution is a waveform error (the tables own it)")
+    if "periods" in needs and not ctx.revolution_covered:
+        return (f"the recording does not visit every one of {REVOLUTION_SECTORS} sectors of the revolution: a "
+                "correction tied to the place in the revolution would be extrapolated to the rest")
     if "periods" in needs and not absolute(cal):
         return ("the encoder has no coarse code, so the place in the revolution is not known and a correction tied "
                 "to it would not repeat in another recording")
@@ -960,11 +973,17 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
 def recalibrate(meas: Measurement, cal: Calibration, known_error_arcsec: np.ndarray | None = None) -> Calibration:
     """The declared model calibrated again, in the structure the loop chose for `cal` (the per-channel waveform
     inverse, or the phase-domain structure of `phase_domain`), with a known error held out of it."""
-    from ..calib.calibrate import PHASE_TABLE, CalibrationOptions
+    from ..calib.calibrate import CANDIDATES, PHASE_TABLE, WAVEFORM, CalibrationOptions
 
-    structure = PHASE_TABLE if cal.fit.get("phase_domain") else None
-    fresh = calibrate(meas, cal.encoder, CalibrationOptions(structure=structure, known_error_arcsec=known_error_arcsec))
-    if structure:
+    if cal.fit.get("phase_domain"):
+        structure, centre = PHASE_TABLE, None
+    else:   # the structure the declared model's calibration chose on held-out data, not chosen again
+        chosen = cal.fit.get("model_choice", {}).get("chosen")
+        # (none chosen: a structure given to calibrate, or the reference-free calibration)
+        structure, centre = CANDIDATES[chosen] if chosen else (cal.fit.get("structure") or WAVEFORM, False)
+    fresh = calibrate(meas, cal.encoder, CalibrationOptions(structure=structure, gain_centre=centre,
+                                                            known_error_arcsec=known_error_arcsec))
+    if cal.fit.get("phase_domain"):
         fresh.fit["phase_domain"] = True
     return fresh
 
@@ -1123,8 +1142,8 @@ def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2) -> C
         # the context as the core sees it: without the float engine's terms
         core_terms = [t for t, c in zip(cal.angle_terms, in_core, strict=True) if c]
         res = run_float(dataclasses.replace(cal, angle_terms=core_terms), meas.sin, meas.cos, meas.coarse, meas.t_s)
-        ctx = make_context(res.frac, res.position, cal.encoder.lines_per_rev, sample_times(len(res.frac), meas.t_s),
-                           res.magnitude)
+        ctx = covered(make_context(res.frac, res.position, cal.encoder.lines_per_rev,
+                                   sample_times(len(res.frac), meas.t_s), res.magnitude))
         # output frame -> encoder frame
         known = cal.direction * sum(t.predict(ctx) for t in core_terms) if core_terms else None
         base = recalibrate(meas, cal, known)
@@ -1285,25 +1304,12 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                              f"p = {best.p_value:.1e} against the {sigma:.3f}\" noise floor)"
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
                  "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
-        cause = magnitude_cause(state, remedy)
-        if cause in ("", "amplitude") and amplitude_like(best) and skew_moves_magnitude(ev_fit):
-            # the correction stays (the magnitude term, or the gain-invariant remedy); the cause is the skew
-            cause = ""
-            entry.update(name="sampling_skew", cause=LIBRARY["sampling_skew"].cause,
-                         signature=describe(best.name)["signature"] + " (the magnitude changes a channel skew makes)")
-            entry["evidence"] += ("; speed x (sin 2 phi, cos 2 phi) explains at least "
-                                  f"{SKEW_MAGNITUDE_SHARE:.0%} of the magnitude's changes: the term corrects the skew "
-                                  "per sample, through the magnitude it moves")
-        if cause in ("", "amplitude") and amplitude_like(best) and state.cal.adaptive \
-                and magnitude_follows_time(ev_fit.ctx):
-            cause = "drift"
-            entry["evidence"] += ("; the magnitude changes it follows are the drift tracker's leftovers (slow "
-                                  "functions of time explain them better than the place in the revolution)")
+        cause, why = magnitude_cause(state, remedy, best, ev_fit)
         if cause:
             entry.update(name=cause, **{k: v for k, v in describe(cause).items() if k != "where"})
-            if cause != "amplitude" and remedy:
-                entry["evidence"] += (f"; the magnitude changes that the {cause} correction leaves, made harmless "
-                                      "by a gain-invariant waveform stage")
+            if cause == "sampling_skew":
+                entry["signature"] = describe(best.name)["signature"] + " (the magnitude changes a channel skew makes)"
+            entry["evidence"] += why
         if remedy:
             entry.update(where=NORMALISER_WHERE if remedy == NORMALISER else PHASE_DOMAIN_WHERE, remedy=remedy,
                          correction="adaptive" if remedy == NORMALISER else "hardware")
@@ -1358,26 +1364,34 @@ def skew_moves_magnitude(ev: Evaluation) -> bool:
     return float(np.sum((x @ w) ** 2)) >= SKEW_MAGNITUDE_SHARE * float(m @ m)
 
 
-def magnitude_cause(state: LoopState, remedy: str) -> str:
-    """The name a gain-invariant remedy of magnitude-dependent error is reported under ("" to keep the term's own).
+def magnitude_cause(state: LoopState, remedy: str, best: Test, ev: Evaluation) -> tuple[str, str]:
+    """The name a magnitude-dependent correction is reported under ("" to keep the term's own), and why.
 
     An effect already corrected online changes the signals' magnitude by what its correction leaves: the drift
     tracker follows the gains late, the canceller converges from reset and leaves the tone's ripple on the
     Lissajous radius, and the revolution map corrects the angle after the arctan, not the signals, so the
     per-sector gains reach the waveform tables. The per-channel waveform inverse turns such magnitude changes
     into angle error, and the straight waveform stage of the phase-domain structure does not: then the remedy is
-    that effect's correction, not a second cause. Gain invariance alone (the phase domain or the normaliser) is
-    amplitude."""
+    that effect's correction, not a second cause. A skew moves the magnitude with the speed, and the drift
+    tracker's leftovers follow time: a magnitude term (or a gain-invariant remedy) there corrects that effect.
+    Gain invariance alone (the phase domain or the normaliser) is amplitude."""
     if remedy.startswith(PHASE_DOMAIN):
-        if state.cal.adaptive:
-            return "drift"
-        if state.cal.canceller:
-            return "interference"
-        if state.cal.rev_norm is not None:
-            # the revolution map corrects the angle (fringe_trim), not the signals: the per-sector gains stay in
-            # what the waveform tables read
-            return "rev_offset_gain"
-    return "amplitude" if remedy in (PHASE_DOMAIN, NORMALISER) else ""
+        carried = ("drift" if state.cal.adaptive else "interference" if state.cal.canceller
+                   # the revolution map corrects the angle (fringe_trim), not the signals: the per-sector gains
+                   # stay in what the waveform tables read
+                   else "rev_offset_gain" if state.cal.rev_norm is not None else "")
+        if carried:
+            return carried, (f"; the magnitude changes that the {carried} correction leaves, made harmless by a "
+                             "gain-invariant waveform stage")
+    if amplitude_like(best) and state.cal.adaptive and magnitude_follows_time(ev.ctx):
+        return "drift", ("; the magnitude changes it follows are the drift tracker's leftovers (slow functions of "
+                         "time explain them better than the place in the revolution)")
+    if amplitude_like(best) and skew_moves_magnitude(ev):
+        # the correction stays (the magnitude term, or the gain-invariant remedy); the cause is the skew
+        return "sampling_skew", ("; speed x (sin 2 phi, cos 2 phi) explains at least "
+                                 f"{SKEW_MAGNITUDE_SHARE:.0%} of the magnitude's changes: the term corrects the "
+                                 "skew per sample, through the magnitude it moves")
+    return ("amplitude" if remedy in (PHASE_DOMAIN, NORMALISER) else ""), ""
 
 
 def engine_rms(state: LoopState, meas: Measurement) -> float | None:
