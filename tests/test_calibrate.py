@@ -166,3 +166,73 @@ def test_part_of_a_revolution_against_a_reference_is_calibrated_without_the_long
     fig, _ = figures(cal, val)
     floor = noise_floor_arcsec(cal, cfg, seed=52)
     assert fig.rms_arcsec < 1.25 * floor, (fig.rms_arcsec, floor)
+
+
+def test_a_waveform_that_dips_at_its_peak_is_met_after_the_arctan():
+    """A flat-topped channel (3rd harmonic +5 %, 5th -3 %) has no per-channel inverse near its peak: the waveform
+    structure keeps an error there. The phase-table structure (the waveform stage straight, the phase error in
+    fringe_trim's fine-phase map) is chosen on held-out data and ends where the undistorted encoder does (the
+    same noise through the same arctan: within 10 %, the two validations' own scatter being a few %)."""
+    from fringe.calib.calibrate import PHASE_TABLE, WAVEFORM, CalibrationOptions
+    from fringe.cli.engines import run_engine
+    from fringe.dsp.metrics import error_arcsec
+    from fringe.dsp.simulate import ChannelConfig, SimulationConfig
+
+    def config(h3, h5):
+        return SimulationConfig(lines_per_rev=860, adc_bits=16, coarse_bits=10, samples=16_384,
+                                sample_rate_hz=8192.0, speed_mean_rev_s=0.6, speed_swing_rev_s=0.3,
+                                sin_channel=ChannelConfig(sin_h={1: 1.0, 3: h3, 5: h5}),
+                                cos_channel=ChannelConfig(cos_h={1: 1.0, 3: -h3, 5: h5}))
+
+    def rms(cfg, opts=None):
+        cal = calibrate(measurement_of(simulate(cfg, seed=31)), cfg.encoder(), opts)
+        return cal, figures(cal, measurement_of(simulate(cfg, seed=32)))[0].rms_arcsec
+
+    clean = rms(config(0.0, 0.0))[1]
+    cal, twin = rms(config(0.05, -0.03))
+    waveform = rms(config(0.05, -0.03), CalibrationOptions(structure=WAVEFORM))[1]
+    assert cal.fit["structure"] == PHASE_TABLE and cal.fit["fine_map_orders"] >= 2
+    assert twin < 1.1 * clean
+    val = measurement_of(simulate(config(0.05, -0.03), seed=32))
+    core = run_engine("model", cal, val, None).angle_deg      # the bit-exact core: the map in fringe_trim
+    e = error_arcsec(core, val.ref_deg)
+    assert np.std(e) < 1.1 * clean
+    assert waveform > 1.5 * clean      # the effect is there: the per-channel inverse cannot hold it
+
+
+def test_a_one_bit_coarse_code_is_taken():
+    """A 2-line encoder whose coarse code tells the half revolution, moving backwards: a one-bit code steps by half
+    its range either way, so its direction cannot be unwrapped to check its scale against the fine phase (that
+    check found it moving 0 times as far as the fine phase and refused the recording)."""
+    from fringe.encoder import Encoder
+    from fringe.io.dataio import Measurement
+    from fringe.io.diagnose import check_recording
+
+    n, rng = 16_384, np.random.default_rng(3)
+    theta = 0.3 - 25.0 * np.arange(n) / 20_000.0          # rev: 25 rev/s backwards, 20 kHz
+    phase = 2 * np.pi * 2 * theta
+    sin = np.round(12_000 * np.sin(phase) + rng.normal(0, 3, n)).astype(np.int64)
+    cos = np.round(12_000 * np.cos(phase) + rng.normal(0, 3, n)).astype(np.int64)
+    meas = Measurement("backwards.csv", sin.astype(float), cos.astype(float), coarse=(np.floor(np.mod(theta, 1.0) * 2).astype(np.int64)),
+                       ref_deg=np.mod(theta * 360.0, 360.0), t_s=np.arange(n) / 20_000.0)
+    check_recording(meas, Encoder(2, 15, 1))       # the command line's checks of a recording
+    cal = calibrate(meas, Encoder(2, 15, 1))
+    assert cal.direction == 1
+
+
+@pytest.mark.parametrize("mean, swing", [(2.0, 1.0), (0.05, 0.1)])
+def test_an_incremental_encoder_whose_amplitude_changes_gets_the_phase_table(mean, swing):
+    """A 64-line incremental encoder whose common gain wanders by 10 %, over three turns and over a few degrees
+    (part of a revolution: no long-period table). The per-channel inverse reads its tables off their curve as
+    the amplitude moves; the held-out folds choose the phase-table structure for it too (they compare the error
+    within the period: an incremental count starts anywhere in each held-out run)."""
+    from fringe.calib.calibrate import PHASE_TABLE, WAVEFORM, CalibrationOptions
+    from fringe.dsp.simulate import SimulationConfig
+
+    cfg = SimulationConfig(lines_per_rev=64, coarse_bits=0, samples=16_384, speed_mean_rev_s=mean,
+                           speed_swing_rev_s=swing, common_gain_rms=0.1, drift_timescale_s=1.0, ref_error_arcsec={})
+    fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
+    cal = calibrate(fit, cfg.encoder())
+    waveform = figures(calibrate(fit, cfg.encoder(), CalibrationOptions(structure=WAVEFORM)), val)[0].rms_arcsec
+    assert cal.fit["structure"] == PHASE_TABLE and cal.fit["model_choice"]["chosen"].startswith(PHASE_TABLE)
+    assert figures(cal, val)[0].rms_arcsec < 0.4 * waveform

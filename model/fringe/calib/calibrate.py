@@ -30,6 +30,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.stats import f as f_dist
 
 from ..dsp.calibration import Calibration
+from ..dsp.effects import FittedEffect, generic_name, parse_generic, phase_columns
 from ..dsp.fourierfit import cv_folds, cv_harmonics, fit_select, paired_gain_t, significant_choice
 from ..dsp.metrics import error_arcsec
 from ..dsp.position import circular_mean, fit_coarse_offset, wrap
@@ -395,9 +396,9 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
                           structure: str) -> Calibration:
     """Conic, long period and (WAVEFORM) the per-channel inverse, all against the reference.
 
-    PHASE_TABLE keeps the waveform stage a straight line and lets the long-period table carry
-    every harmonic; the channel models are still fitted (against the reference's phase) for the
-    reports and the closed loop, but not inverted.
+    PHASE_TABLE keeps the waveform stage a straight line and lets the tables after the arctan carry
+    the phase error (fit_phase_tables); the channel models are still fitted (against the reference's
+    phase) for the reports and the closed loop, but not inverted.
     """
     cal = Calibration(encoder=enc)   # the reference gives the phase: only the conic is needed to start
     cal.fit["structure"] = structure
@@ -406,8 +407,8 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     _fit_quadrature(cal, meas, use)
     sync_coarse(cal, meas)
     check_revolution_coverage(meas, encoder_rev(cal, meas))
-    fit_long_period(cal, meas, use, opts)
     if structure == PHASE_TABLE:
+        fit_phase_tables(cal, meas, use, opts)
         if opts.gain_centre:
             centre_from_gain_changes(cal, meas, use, opts)
         report_amplitude_dependence(cal, meas, use, opts)
@@ -415,8 +416,62 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
                                                               opts.known_error_arcsec), opts)
         cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in cal.waves.items()}
     else:
+        fit_long_period(cal, meas, use, opts)
         refine_with_reference(cal, meas, use, opts)
     return cal
+
+
+FINE_MAP_PREFIX = "generic:1:"   # the fine-phase map is the general dictionary's term of the factor 1
+FINE_MAP_MAX = 32         # fine-phase orders offered to the phase-table structure's fine-phase map
+FINE_MAP_DEFAULT = 16     # its default order (left only for a significant held-out gain, as the LP order)
+
+
+def fine_map_error(cal: Calibration, meas: Measurement) -> np.ndarray:
+    """The declared fine-phase map's error per sample (arcsec, encoder frame; 0 without one)."""
+    terms = [t for t in cal.angle_terms if t.name.startswith(FINE_MAP_PREFIX)]
+    if not terms:
+        return np.zeros(len(meas))
+    frac, _ = fine_phase(cal, meas.sin, meas.cos)
+    k = parse_generic(terms[0].name)[1]
+    return cal.direction * (np.column_stack(phase_columns(2 * np.pi * frac, k, constant=False)) @ terms[0].weights)
+
+
+def fit_fine_map(cal: Calibration, meas: Measurement, use: np.ndarray, known: np.ndarray):
+    """fringe_trim's fine-phase map against the reference (PHASE_TABLE with more than one line, or on part of a
+    revolution): an angle term of the fine phase alone, every harmonic of it the same in every period, its orders
+    chosen on held-out data; fitted on what the long-period table (if any) and the `known` error leave."""
+    frac, _ = fine_phase(cal, meas.sin, meas.cos)
+    rev = encoder_rev(cal, meas)
+    err = lp_error_arcsec(cal, meas, rev) - known
+    if cal.long_period is not None:
+        err = err - cal.long_period(2 * np.pi * (rev % 1.0))
+    phi = 2 * np.pi * frac[use]
+    folds = cv_folds(len(meas), LP_ORDER_FOLDS, min_run=CV_MIN_RUN)[use]
+    k, held_out = cv_harmonics(phi, err[use], FINE_MAP_MAX, folds, default=FINE_MAP_DEFAULT, alpha=CV_ALPHA,
+                               blocks=CV_BATCHES)
+    k = max(k, 1)
+    name = generic_name("1", k)
+    x = np.column_stack(phase_columns(phi, k, constant=False))
+    w, *_ = np.linalg.lstsq(np.column_stack([x, np.ones(len(phi))]), err[use], rcond=None)
+    # encoder frame -> output frame (the terms model the output angle's error)
+    cal.angle_terms = [t for t in cal.angle_terms if not t.name.startswith(FINE_MAP_PREFIX)] + [
+        FittedEffect(name, cal.direction * w[:-1])]
+    cal.fit["fine_map_orders"] = k
+    cal.fit["fine_map_held_out_rms_arcsec"] = float(held_out[k])
+
+
+def fit_phase_tables(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+    """PHASE_TABLE's tables after the arctan, against the reference. With one line a revolution the long-period
+    table is a table over the fine phase and carries the whole phase error. With more, it holds the revolution's
+    harmonics other than multiples of the lines, and the phase error of the channels' shape goes to the fine-phase
+    map (fit_fine_map). The two are fitted in turn, each with the other's error held out."""
+    fit_long_period(cal, meas, use, opts)
+    if cal.encoder.lines_per_rev == 1:
+        return
+    known = np.zeros(len(meas)) if opts.known_error_arcsec is None else opts.known_error_arcsec
+    for _ in range(2):
+        fit_fine_map(cal, meas, use, known)
+        fit_long_period(cal, meas, use, dataclasses.replace(opts, known_error_arcsec=known + fine_map_error(cal, meas)))
 
 
 def incremental_reference(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions
@@ -445,6 +500,17 @@ def reference_phase_only(meas: Measurement, enc: Encoder, use: np.ndarray, opts:
     phase, which then stays in it as a slow phase error the channel fits average over), but the reference
     still sees every waveform error within the periods it covers."""
     cal = Calibration(encoder=enc)
+    if opts.structure == PHASE_TABLE:     # the waveform stage straight, the phase error in the fine-phase map
+        cal.fit["structure"] = PHASE_TABLE
+        straight_inverses(cal, meas, use, opts)
+        _fit_quadrature(cal, meas, use)
+        sync_coarse(cal, meas)
+        find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
+        fit_fine_map(cal, meas, use, np.zeros(len(meas)) if opts.known_error_arcsec is None
+                     else opts.known_error_arcsec)
+        cal.waves = _fit_waveforms(meas, use, true_phase(cal, meas, opts.known_error_arcsec), opts)
+        cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in cal.waves.items()}
+        return _part_of_a_revolution(cal, use)
     _fit_quadrature(cal, meas, use)
     sync_coarse(cal, meas)
     for _ in range(max(1, opts.ref_iterations)):
@@ -452,6 +518,11 @@ def reference_phase_only(meas: Measurement, enc: Encoder, use: np.ndarray, opts:
         _refit_waveforms(cal, meas, use, true_phase(cal, meas, opts.known_error_arcsec), opts)
         sync_coarse(cal, meas)
     find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
+    cal.fit["structure"] = WAVEFORM
+    return _part_of_a_revolution(cal, use)
+
+
+def _part_of_a_revolution(cal: Calibration, use: np.ndarray) -> Calibration:
     cal.fit["phase_reference"] = {"method": "reference angle times the lines (part of a revolution: no long-period "
                                             "table)", "samples_used": int(use.sum()),
                                   "fraction_used": float(use.mean())}
@@ -493,7 +564,7 @@ def centre_from_gain_changes(cal: Calibration, meas: Measurement, use: np.ndarra
         q.ofs_c += dy / q.k_cc
         q.ofs_s += (dx - q.k_sc * dy / q.k_cc) / q.k_ss
         shifts += 1
-        fit_long_period(cal, meas, use, opts)
+        fit_phase_tables(cal, meas, use, opts)
     cal.fit["centre_shifts"] = shifts
 
 
@@ -506,7 +577,8 @@ def _slow_gain_and_residual(cal: Calibration, meas: Measurement, use: np.ndarray
     the used samples: see centre_from_gain_changes."""
     frac, mag = fine_phase(cal, meas.sin, meas.cos)
     rev = encoder_rev(cal, meas)
-    err = (lp_error_arcsec(cal, meas, rev) - cal.long_period(2 * np.pi * (rev % 1.0))) / ARCSEC_PER_REV * 2 * np.pi
+    err = (lp_error_arcsec(cal, meas, rev) - cal.long_period(2 * np.pi * (rev % 1.0))
+           - fine_map_error(cal, meas)) / ARCSEC_PER_REV * 2 * np.pi
     if opts.known_error_arcsec is not None:
         err = err - opts.known_error_arcsec / ARCSEC_PER_REV * 2 * np.pi
     phi = 2 * np.pi * frac[use]
@@ -549,6 +621,11 @@ def held_out_error_arcsec(cal: Calibration, meas: Measurement, known_error_arcse
     err = error_arcsec(res.angle_deg, meas.ref_deg)
     if known_error_arcsec is not None:    # encoder frame -> output frame
         err = err - cal.direction * known_error_arcsec
+    if not cal.encoder.coarse_bits and cal.encoder.lines_per_rev > 1:
+        # an incremental encoder counts periods from wherever a run of held-out rows starts: its error is that
+        # within the period (whole periods are where the count started, not an error of the correction)
+        period = ARCSEC_PER_REV / cal.encoder.lines_per_rev
+        err = wrap(err / period) * period
     return err - np.mean(err)
 
 
@@ -565,8 +642,6 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
     the phase) and the one a common gain change cannot upset; another candidate is taken only where
     its held-out gain over the default is significant (`fourierfit.significant_choice`: paired batch
     means of the per-sample held-out errors in recording order), then the best of those."""
-    if enc.lines_per_rev != 1:
-        return WAVEFORM, False, {}   # the long-period table cannot hold the harmonics of the fine phase
     step = -(-len(meas) // STRUCTURE_SAMPLES)      # ceil: a structure shows at any sampling of the recording
     known = opts.known_error_arcsec
     if step > 1:
@@ -587,7 +662,9 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
                                       known_error_arcsec=None if known is None else known[train])
             try:
                 cal = calibrate(meas.subset(train), enc, sub)
-            except FringeInputError:
+            except (FringeInputError, ValueError, np.linalg.LinAlgError):
+                # a candidate that cannot be calibrated on a fold (a training part that leaves too little of the
+                # revolution or of the phase for its tables) is not compared
                 e2 = None
                 break
             err = held_out_error_arcsec(cal, meas.subset(test), None if known is None else known[test])
@@ -600,7 +677,8 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
         best, tstat = WAVEFORM, {}
     else:
         names = list(sq)
-        ref = names.index(PHASE_TABLE) if PHASE_TABLE in sq else int(np.argmin([scores[n] for n in names]))
+        default = PHASE_TABLE if enc.lines_per_rev == 1 else WAVEFORM
+        ref = names.index(default) if default in sq else int(np.argmin([scores[n] for n in names]))
         e2 = np.vstack([sq[n] for n in names])
         t, batches = paired_gain_t(e2, ref, CV_BATCHES)
         best = names[significant_choice(e2.sum(axis=1), t, ref, CV_ALPHA, batches)]
@@ -621,13 +699,18 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
         try:
             cal = reference_calibration(meas, enc, use, dataclasses.replace(opts, gain_centre=centre), structure)
         except PartialRevolution as e:
-            cal = reference_phase_only(meas, enc, use, opts)
+            cal = reference_phase_only(meas, enc, use, dataclasses.replace(opts, structure=structure))
             cal.skipped.append(f"long-period correction: {e.problem}")
-            choice = {}
         if choice:
             cal.fit["model_choice"] = choice
     elif meas.ref_deg is not None:
+        choice = {}
+        if opts.structure is None or (opts.structure == PHASE_TABLE and opts.gain_centre is None):
+            structure, centre, choice = choose_structure(meas, enc, use, opts)
+            opts = dataclasses.replace(opts, structure=structure, gain_centre=centre)
         cal = incremental_reference(meas, enc, use, opts)
+        if choice:
+            cal.fit["model_choice"] = choice
     elif opts.structure == PHASE_TABLE:
         cal = straight_conic(meas, enc, use, opts)
     else:
@@ -653,6 +736,10 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
                       "encoder": enc.to_dict(), "method": "fringe calibrate"}
     if "phase_reference" in cal.fit:   # reference-free: which phase reference the waveforms rest on, on how much
         cal.provenance["phase_reference"] = cal.fit["phase_reference"]
+    if "fine_map_held_out_rms_arcsec" in cal.fit:
+        # the fine-phase map's bins are sized against what the calibration leaves (hardware.closed_loop's error
+        # budget, a tenth of it), as the closed loop's terms are against its noise floor
+        cal.provenance["noise_floor_arcsec"] = round(cal.fit["fine_map_held_out_rms_arcsec"], 6)
     return cal
 
 
