@@ -236,3 +236,18 @@ def test_an_incremental_encoder_whose_amplitude_changes_gets_the_phase_table(mea
     waveform = figures(calibrate(fit, cfg.encoder(), CalibrationOptions(structure=WAVEFORM)), val)[0].rms_arcsec
     assert cal.fit["structure"] == PHASE_TABLE and cal.fit["model_choice"]["chosen"].startswith(PHASE_TABLE)
     assert figures(cal, val)[0].rms_arcsec < 0.4 * waveform
+
+
+def test_a_fine_map_on_too_little_of_the_period_is_left_out():
+    """A fold of a slow recording can hold too little of the period for any harmonic on every fold: the fine-phase
+    map is then left out (it raised IndexError and aborted the loop on an independent simulator's recording)."""
+    from fringe.calib.calibrate import PHASE_TABLE, CalibrationOptions, fit_fine_map
+    from fringe.dsp.simulate import SimulationConfig
+
+    cfg = SimulationConfig(lines_per_rev=64, coarse_bits=6, samples=16_384, speed_mean_rev_s=2.0, speed_swing_rev_s=1.0)
+    meas = measurement_of(simulate(cfg, 1))
+    cal = calibrate(meas, cfg.encoder(), CalibrationOptions(structure=PHASE_TABLE, gain_centre=False))
+    assert cal.fit["fine_map_orders"] >= 1
+    few = meas.subset(slice(0, 3))
+    fit_fine_map(cal, few, np.ones(len(few), bool), np.zeros(len(few)))
+    assert cal.fit["fine_map_orders"] == 0 and not cal.angle_terms

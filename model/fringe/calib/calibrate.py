@@ -447,15 +447,21 @@ def fit_fine_map(cal: Calibration, meas: Measurement, use: np.ndarray, known: np
         err = err - cal.long_period(2 * np.pi * (rev % 1.0))
     phi = 2 * np.pi * frac[use]
     folds = cv_folds(len(meas), LP_ORDER_FOLDS, min_run=CV_MIN_RUN)[use]
-    k, held_out = cv_harmonics(phi, err[use], FINE_MAP_MAX, folds, default=FINE_MAP_DEFAULT, alpha=CV_ALPHA,
-                               blocks=CV_BATCHES)
+    cal.angle_terms = [t for t in cal.angle_terms if not t.name.startswith(FINE_MAP_PREFIX)]
+    try:
+        k, held_out = cv_harmonics(phi, err[use], FINE_MAP_MAX, folds, default=FINE_MAP_DEFAULT, alpha=CV_ALPHA,
+                                   blocks=CV_BATCHES)
+    except ValueError:
+        held_out = []
+    if len(held_out) < 2:     # the phases seen hold no harmonic on every fold (too little of the period): no map
+        cal.fit["fine_map_orders"] = 0
+        return
     k = max(k, 1)
     name = generic_name("1", k)
     x = np.column_stack(phase_columns(phi, k, constant=False))
     w, *_ = np.linalg.lstsq(np.column_stack([x, np.ones(len(phi))]), err[use], rcond=None)
     # encoder frame -> output frame (the terms model the output angle's error)
-    cal.angle_terms = [t for t in cal.angle_terms if not t.name.startswith(FINE_MAP_PREFIX)] + [
-        FittedEffect(name, cal.direction * w[:-1])]
+    cal.angle_terms = cal.angle_terms + [FittedEffect(name, cal.direction * w[:-1])]
     cal.fit["fine_map_orders"] = k
     cal.fit["fine_map_held_out_rms_arcsec"] = float(held_out[k])
 
