@@ -50,9 +50,10 @@ MIN_UNCLIPPED_SHARE = 0.1
 WAVEFORM, PHASE_TABLE = "waveform", "phase_table"   # structures of the reference calibration
 # comparing structures on held-out data: 2..5 folds, as many as keep the calibrated samples per
 # candidate within STRUCTURE_BUDGET (short recordings get more folds, hence steadier scores);
-# longer recordings than STRUCTURE_SAMPLES are compared on every k-th sample
+# longer recordings than STRUCTURE_SAMPLES are compared on every k-th sample (a structure's held-out
+# gain shows on tens of thousands of samples; the choice is made for every encoder, so it is kept cheap)
 STRUCTURE_BUDGET = 50_000
-STRUCTURE_SAMPLES = 100_000
+STRUCTURE_SAMPLES = 50_000
 LP_ORDER_FOLDS = 10       # folds of the long-period order selection (cheap: binned data)
 LP_SAMPLES_PER_HARMONIC = 16   # held-out order selection offers at most one harmonic per this many samples
 # The long-period order the calibration keeps unless held-out data show a significant gain elsewhere: the
@@ -657,11 +658,19 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
     # single-sample runs: each candidate is calibrated on the other folds, and that calibration refuses a
     # training part that leaves a 64th of the revolution empty (check_revolution_coverage)
     folds = cv_folds(len(meas), k)
-    sq = {}
-    for name, (structure, centre) in CANDIDATES.items():
+    found = {}
+    unmoved = set()     # the centred phase table's structures whose centre never moved: the plain one's results
+    # the centred phase table first: where its centre moves on no fold, it is the plain phase table, not fitted again
+    for name in sorted(CANDIDATES, key=lambda n: not CANDIDATES[n][1]):
+        structure, centre = CANDIDATES[name]
         if opts.structure not in (None, structure) or opts.gain_centre not in (None, centre):
             continue
+        twin = next((m for m in unmoved if CANDIDATES[m][0] == structure), None)
+        if twin is not None:
+            found[name] = found[twin]
+            continue
         e2 = np.zeros(len(meas))      # held-out squared error per sample, in recording order (0: not used)
+        shifts = 0
         for f in range(k):
             train, test = folds != f, folds == f
             sub = dataclasses.replace(opts, structure=structure, gain_centre=centre,
@@ -675,8 +684,12 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
                 break
             err = held_out_error_arcsec(cal, meas.subset(test), None if known is None else known[test])
             e2[np.flatnonzero(test)] = np.where(use[test], err, 0.0) ** 2
+            shifts += cal.fit.get("centre_shifts", 0)
         if e2 is not None:
-            sq[name] = e2
+            found[name] = e2
+            if centre and not shifts:
+                unmoved.add(name)
+    sq = {name: found[name] for name in CANDIDATES if name in found}
     count = max(int(use.sum()), 1)
     scores = {name: float(np.sqrt(e2.sum() / count)) for name, e2 in sq.items()}
     if not sq:

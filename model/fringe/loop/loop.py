@@ -975,10 +975,11 @@ def recalibrate(meas: Measurement, cal: Calibration, known_error_arcsec: np.ndar
     inverse, or the phase-domain structure of `phase_domain`), with a known error held out of it."""
     from ..calib.calibrate import CANDIDATES, PHASE_TABLE, WAVEFORM, CalibrationOptions
 
-    if cal.fit.get("phase_domain"):
-        structure, centre = PHASE_TABLE, None
+    chosen = cal.fit.get("model_choice", {}).get("chosen")
+    if cal.fit.get("phase_domain"):    # whether to centre the phase table is chosen once, then kept
+        structure, centre = (CANDIDATES[chosen] if chosen and CANDIDATES[chosen][0] == PHASE_TABLE
+                             else (PHASE_TABLE, None))
     else:   # the structure the declared model's calibration chose on held-out data, not chosen again
-        chosen = cal.fit.get("model_choice", {}).get("chosen")
         # (none chosen: a structure given to calibrate, or the reference-free calibration)
         structure, centre = CANDIDATES[chosen] if chosen else (cal.fit.get("structure") or WAVEFORM, False)
     fresh = calibrate(meas, cal.encoder, CalibrationOptions(structure=structure, gain_centre=centre,
