@@ -81,7 +81,8 @@ class CalibrationOptions:
     ref_iterations: int = 2
     wave_harmonics_max: int = 31     # general model: BIC chooses up to this many
     lp_harmonics_max: int = 64       # cross-validation chooses up to this many
-    lp_order_selection: str = "cv"   # "cv": held-out error; "bic": in-sample BIC
+    # "cv": held-out error; "bic": in-sample BIC; "default": LP_DEFAULT_HARMONICS (fewer where the samples are few)
+    lp_order_selection: str = "cv"
     # WAVEFORM (per-channel inverse) or PHASE_TABLE (the waveform stage straight: a common gain change
     # then moves no angle; lines_per_rev = 1: the long-period table carries the phase error, else the
     # closed loop's fine-phase map in fringe_trim); None: chosen on held-out data where both apply
@@ -345,6 +346,9 @@ def fit_long_period(cal: Calibration, meas: Measurement, use: np.ndarray, opts: 
     # them, unless the long-period table is itself a table over the fine phase (lines_per_rev = 1)
     skip = 0 if cal.encoder.lines_per_rev == 1 else cal.encoder.lines_per_rev
     n_fixed, n_max = None, opts.lp_harmonics_max
+    if opts.lp_order_selection == "default":
+        n_max = max(1, min(n_max, int(use.sum()) // LP_SAMPLES_PER_HARMONIC))
+        n_fixed = min(LP_DEFAULT_HARMONICS, n_max)
     if opts.lp_order_selection == "cv":
         # at least 16 samples a harmonic, as for the waveforms: held-out folds of a short recording
         # cannot expose a fit to structured noise (a tone at a fixed sample pattern) otherwise
@@ -657,7 +661,10 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
     k = int(np.clip(STRUCTURE_BUDGET // len(meas), 2, 5))
     # single-sample runs: each candidate is calibrated on the other folds, and that calibration refuses a
     # training part that leaves a 64th of the revolution empty (check_revolution_coverage)
-    folds = cv_folds(len(meas), k)
+    # an incremental encoder counts its periods from the fine phase alone, which cannot bridge a hole of many
+    # samples: its folds are dealt sample by sample (holes of a few samples)
+    incremental = not enc.coarse_bits and enc.lines_per_rev > 1
+    folds = cv_folds(len(meas), k, blocks_per_fold=max(1, len(meas) // k) if incremental else 64)
     found = {}
     unmoved = set()     # the centred phase table's structures whose centre never moved: the plain one's results
     # the centred phase table first: where its centre moves on no fold, it is the plain phase table, not fitted again
@@ -673,8 +680,13 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
         shifts = 0
         for f in range(k):
             train, test = folds != f, folds == f
+            # an absolute encoder of more than one line: its long-period table holds none of the fine phase's
+            # harmonics, and the same under either structure; the folds take its default order (its choice is most
+            # of their cost). An incremental encoder's table only keeps the channel fits straight: chosen as ever
             sub = dataclasses.replace(opts, structure=structure, gain_centre=centre,
-                                      known_error_arcsec=None if known is None else known[train])
+                                      known_error_arcsec=None if known is None else known[train],
+                                      lp_order_selection="default" if enc.lines_per_rev > 1 and enc.coarse_bits
+                                      else opts.lp_order_selection)
             try:
                 cal = calibrate(meas.subset(train), enc, sub)
             except (FringeInputError, ValueError, np.linalg.LinAlgError):
@@ -692,11 +704,13 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
     sq = {name: found[name] for name in CANDIDATES if name in found}
     count = max(int(use.sum()), 1)
     scores = {name: float(np.sqrt(e2.sum() / count)) for name, e2 in sq.items()}
-    if not sq:
+    default = PHASE_TABLE if enc.lines_per_rev == 1 else WAVEFORM
+    # with more than one line the per-channel inverse stays where it could not be scored (a fold it cannot be
+    # fitted on): there is nothing to compare the phase table against
+    if not sq or (enc.lines_per_rev > 1 and default not in sq):
         best, tstat = WAVEFORM, {}
     else:
         names = list(sq)
-        default = PHASE_TABLE if enc.lines_per_rev == 1 else WAVEFORM
         ref = names.index(default) if default in sq else int(np.argmin([scores[n] for n in names]))
         e2 = np.vstack([sq[n] for n in names])
         t, batches = paired_gain_t(e2, ref, CV_BATCHES)
