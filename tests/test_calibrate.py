@@ -213,7 +213,8 @@ def test_a_one_bit_coarse_code_is_taken():
     phase = 2 * np.pi * 2 * theta
     sin = np.round(12_000 * np.sin(phase) + rng.normal(0, 3, n)).astype(np.int64)
     cos = np.round(12_000 * np.cos(phase) + rng.normal(0, 3, n)).astype(np.int64)
-    meas = Measurement("backwards.csv", sin.astype(float), cos.astype(float), coarse=(np.floor(np.mod(theta, 1.0) * 2).astype(np.int64)),
+    coarse = np.floor(np.mod(theta, 1.0) * 2).astype(np.int64)
+    meas = Measurement("backwards.csv", sin.astype(float), cos.astype(float), coarse=coarse,
                        ref_deg=np.mod(theta * 360.0, 360.0), t_s=np.arange(n) / 20_000.0)
     check_recording(meas, Encoder(2, 15, 1))       # the command line's checks of a recording
     cal = calibrate(meas, Encoder(2, 15, 1))
