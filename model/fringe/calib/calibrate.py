@@ -54,6 +54,7 @@ WAVEFORM, PHASE_TABLE = "waveform", "phase_table"   # structures of the referenc
 # gain shows on tens of thousands of samples; the choice is made for every encoder, so it is kept cheap)
 STRUCTURE_BUDGET = 50_000
 STRUCTURE_SAMPLES = 50_000
+STRUCTURE_MIN_GAIN = 0.02   # with more than one line, the phase table must lower the held-out RMS this much
 LP_ORDER_FOLDS = 10       # folds of the long-period order selection (cheap: binned data)
 LP_SAMPLES_PER_HARMONIC = 16   # held-out order selection offers at most one harmonic per this many samples
 # The long-period order the calibration keeps unless held-out data show a significant gain elsewhere: the
@@ -715,6 +716,10 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
         e2 = np.vstack([sq[n] for n in names])
         t, batches = paired_gain_t(e2, ref, CV_BATCHES)
         best = names[significant_choice(e2.sum(axis=1), t, ref, CV_ALPHA, batches)]
+        if enc.lines_per_rev > 1 and scores[best] > (1 - STRUCTURE_MIN_GAIN) * scores[default]:
+            # significant but slight: on a residual some other error dominates (a strong interference), a
+            # structure change that gains under STRUCTURE_MIN_GAIN is not the calibration's to make
+            best = default
         tstat = {n: round(float(v), 2) for n, v in zip(names, t, strict=True) if n != names[ref]}
     return (*CANDIDATES[best], {"chosen": best, "held_out_rms_arcsec": {n: round(v, 4) for n, v in scores.items()},
                                 "gain_t_over_default": tstat, "folds": k, "every_nth_sample": step})

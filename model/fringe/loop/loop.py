@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage, signal, stats
 
-from ..calib.calibrate import calibrate
+from ..calib.calibrate import PHASE_TABLE, calibrate
 from ..dsp.calibration import Calibration
 from ..dsp.effects import (
     AMPLITUDE_ORDERS,
@@ -468,7 +468,12 @@ def channel_errors(ev: Evaluation, with_phase: bool = False):
     elif ev.cal.rev_norm is not None:     # as the waveform stage sees them (normalised per sector)
         sin, cos = ev.cal.rev_norm.apply(sin, cos, ev.ctx.psi)
     frac = ev.ctx.phi / (2 * np.pi)
-    dfrac = ev.r * ev.ctx.lines / ARCSEC_PER_REV      # the residual as a fraction of a period
+    # the fine-phase maps (the phase-table structure's, or the general dictionary's term of the phase alone)
+    # correct the inverse's error after the arctan: the channels follow the phase they correct to, as they follow
+    # the phase the residual corrects to (same frame: output-angle error)
+    maps = [t for t in ev.cal.angle_terms if t.name.startswith("generic:1:")]
+    error = ev.r + sum(t.predict(ev.ctx) for t in maps) if maps else ev.r
+    dfrac = error * ev.ctx.lines / ARCSEC_PER_REV      # as a fraction of a period
     best = None
     for sign in (1.0, -1.0):      # the residual's frame against the fine phase's: the sign that explains more
         ref = frac - sign * dfrac
@@ -1376,14 +1381,18 @@ def magnitude_cause(state: LoopState, remedy: str, best: Test, ev: Evaluation) -
     that effect's correction, not a second cause. A skew moves the magnitude with the speed, and the drift
     tracker's leftovers follow time: a magnitude term (or a gain-invariant remedy) there corrects that effect.
     Gain invariance alone (the phase domain or the normaliser) is amplitude."""
-    if remedy.startswith(PHASE_DOMAIN):
+    # the phase table, whether the loop's remedy or the structure calibrate chose, moves no angle with a common gain
+    gain_invariant = remedy.startswith(PHASE_DOMAIN) or (not remedy and amplitude_like(best)
+                                                         and state.cal.fit.get("structure") == PHASE_TABLE)
+    if gain_invariant:
         carried = ("drift" if state.cal.adaptive else "interference" if state.cal.canceller
                    # the revolution map corrects the angle (fringe_trim), not the signals: the per-sector gains
                    # stay in what the waveform tables read
                    else "rev_offset_gain" if state.cal.rev_norm is not None else "")
         if carried:
-            return carried, (f"; the magnitude changes that the {carried} correction leaves, made harmless by a "
-                             "gain-invariant waveform stage")
+            return carried, (f"; the magnitude changes that the {carried} correction leaves" + (
+                ", made harmless by a gain-invariant waveform stage" if remedy else
+                ", read through the phase table's fine-phase map"))
     if amplitude_like(best) and state.cal.adaptive and magnitude_follows_time(ev.ctx):
         return "drift", ("; the magnitude changes it follows are the drift tracker's leftovers (slow functions of "
                          "time explain them better than the place in the revolution)")
