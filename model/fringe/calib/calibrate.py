@@ -14,12 +14,15 @@ With one signal period per revolution (lines_per_rev = 1) the long-period table 
 arctan is itself a table over the fine phase, and can carry the whole phase error instead of
 the per-channel waveform inverse. The per-channel inverse assumes a fixed amplitude: a common
 gain change leaves atan2 untouched but moves every table lookup, so where the amplitude
-changes the phase-domain table holds and the inverse does not. Which of the two structures
-serves is decided on held-out data (cross-validation over interleaved blocks of the recording).
+changes the phase-domain table holds and the inverse does not. With more lines the phase-table
+structure puts the phase error in fringe_trim's fine-phase map (fit_phase_tables). Which structure
+serves is decided on held-out data (cross-validation over interleaved blocks of the recording), for
+every encoder with a reference.
 
-Held-out choices (the structure, the long-period order) start from a default, the phase table and
-LP_DEFAULT_HARMONICS, and leave it only where the held-out gain is significant: near its minimum a
-held-out curve is flat, and on a short recording its argmin follows the folds' noise.
+Held-out choices (the structure, the long-period order) start from a default (the phase table for one
+line, the per-channel inverse for more; LP_DEFAULT_HARMONICS) and leave it only where the held-out gain is
+significant: near its minimum a held-out curve is flat, and on a short recording its argmin follows the
+folds' noise.
 """
 
 import dataclasses
