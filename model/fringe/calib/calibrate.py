@@ -33,7 +33,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.stats import f as f_dist
 
 from ..dsp.calibration import Calibration
-from ..dsp.effects import FittedEffect, generic_name, parse_generic, phase_columns
+from ..dsp.effects import FINE_MAP_PREFIX, FittedEffect, generic_name, parse_generic, phase_columns
 from ..dsp.fourierfit import cv_folds, cv_harmonics, fit_select, paired_gain_t, significant_choice
 from ..dsp.metrics import error_arcsec
 from ..dsp.position import circular_mean, fit_coarse_offset, wrap
@@ -430,7 +430,6 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     return cal
 
 
-FINE_MAP_PREFIX = "generic:1:"   # the fine-phase map is the general dictionary's term of the factor 1
 FINE_MAP_MAX = 32         # fine-phase orders offered to the phase-table structure's fine-phase map
 FINE_MAP_DEFAULT = 16     # its default order (left only for a significant held-out gain, as the LP order)
 
@@ -663,9 +662,9 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
         pick = np.arange(0, len(meas), step)
         meas, use, known = meas.subset(pick), use[pick], None if known is None else known[pick]
     k = int(np.clip(STRUCTURE_BUDGET // len(meas), 2, 5))
-    # single-sample runs: each candidate is calibrated on the other folds, and that calibration refuses a
-    # training part that leaves a 64th of the revolution empty (check_revolution_coverage)
-    # an incremental encoder counts its periods from the fine phase alone, which cannot bridge a hole of many
+    # runs of len / (64 k) samples: each candidate is calibrated on the other folds, and that calibration refuses
+    # a training part that leaves a 64th of the revolution empty (check_revolution_coverage); an incremental
+    # encoder counts its periods from the fine phase alone, which cannot bridge a hole of many
     # samples: its folds are dealt sample by sample (holes of a few samples)
     incremental = not enc.coarse_bits and enc.lines_per_rev > 1
     folds = cv_folds(len(meas), k, blocks_per_fold=max(1, len(meas) // k) if incremental else 64)
@@ -732,30 +731,25 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
     opts = opts or CalibrationOptions()
     use = check_recording(meas, enc)
     has_lp = meas.ref_deg is not None and (enc.coarse_bits > 0 or enc.lines_per_rev == 1)
+    choice = {}
+    if meas.ref_deg is not None and (opts.structure is None or (opts.structure == PHASE_TABLE
+                                                                and opts.gain_centre is None)):
+        structure, centre, choice = choose_structure(meas, enc, use, opts)
+        opts = dataclasses.replace(opts, structure=structure, gain_centre=centre)
     if has_lp:   # the reference gives the phase
-        choice = {}
-        structure, centre = opts.structure, opts.gain_centre
-        if structure is None or (structure == PHASE_TABLE and centre is None):
-            structure, centre, choice = choose_structure(meas, enc, use, opts)
         try:
-            cal = reference_calibration(meas, enc, use, dataclasses.replace(opts, gain_centre=centre), structure)
+            cal = reference_calibration(meas, enc, use, opts, opts.structure)
         except PartialRevolution as e:
-            cal = reference_phase_only(meas, enc, use, dataclasses.replace(opts, structure=structure))
+            cal = reference_phase_only(meas, enc, use, opts)
             cal.skipped.append(f"long-period correction: {e.problem}")
-        if choice:
-            cal.fit["model_choice"] = choice
     elif meas.ref_deg is not None:
-        choice = {}
-        if opts.structure is None or (opts.structure == PHASE_TABLE and opts.gain_centre is None):
-            structure, centre, choice = choose_structure(meas, enc, use, opts)
-            opts = dataclasses.replace(opts, structure=structure, gain_centre=centre)
         cal = incremental_reference(meas, enc, use, opts)
-        if choice:
-            cal.fit["model_choice"] = choice
     elif opts.structure == PHASE_TABLE:
         cal = straight_conic(meas, enc, use, opts)
     else:
         cal = reference_free(meas, enc, use, opts)
+    if choice:
+        cal.fit["model_choice"] = choice
     if not use.all():
         cal.skipped.append(f"{int(np.count_nonzero(~use))} samples clipped at the ADC limits: left out of the fits "
                            "(the core flags them CLIP_SIN / CLIP_COS)")

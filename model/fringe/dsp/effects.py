@@ -372,6 +372,9 @@ GENERIC_PHASE_ORDERS = (1, 2, 3, 4, 6, 8)     # fine-phase orders 0..K offered (
 GENERIC_REV_ORDERS = (1, 2, 4, 8)             # revolution orders 1..M of the "revolution" factor
 
 
+FINE_MAP_PREFIX = "generic:1:"   # a term of the fine phase alone (factor 1): a fine-phase map in fringe_trim
+
+
 def generic_name(factor: str, k: int, m: int = 0) -> str:
     return f"generic:{factor}:{k}:{m}"
 

@@ -21,6 +21,7 @@ from ..calib.calibrate import PHASE_TABLE, calibrate
 from ..dsp.calibration import Calibration
 from ..dsp.effects import (
     AMPLITUDE_ORDERS,
+    FINE_MAP_PREFIX,
     GENERIC,
     GENERIC_FACTORS,
     GENERIC_PHASE_ORDERS,
@@ -471,7 +472,7 @@ def channel_errors(ev: Evaluation, with_phase: bool = False):
     # the fine-phase maps (the phase-table structure's, or the general dictionary's term of the phase alone)
     # correct the inverse's error after the arctan: the channels follow the phase they correct to, as they follow
     # the phase the residual corrects to (same frame: output-angle error)
-    maps = [t for t in ev.cal.angle_terms if t.name.startswith("generic:1:")]
+    maps = [t for t in ev.cal.angle_terms if t.name.startswith(FINE_MAP_PREFIX)]
     error = ev.r + sum(t.predict(ev.ctx) for t in maps) if maps else ev.r
     dfrac = error * ev.ctx.lines / ARCSEC_PER_REV      # as a fraction of a period
     best = None
@@ -1191,7 +1192,7 @@ def phase_domain(state: LoopState, meas: Measurement, keep_amplitude: bool) -> L
     fringe_trim (orders chosen on held-out data). With `keep_amplitude` the magnitude terms stay beside it (a
     waveform whose shape itself changes with the amplitude)."""
     meas = shift_reference(meas, state.ref_lag_s)
-    terms = [t for t in state.cal.angle_terms if not t.name.startswith("generic:1:")
+    terms = [t for t in state.cal.angle_terms if not t.name.startswith(FINE_MAP_PREFIX)
              and (keep_amplitude or not any(t.name.startswith(a) for a in AMPLITUDE_TERMS))]
     marked = dataclasses.replace(state.cal, fit={**state.cal.fit, "phase_domain": True}, angle_terms=terms)
     cal = carry_loop(recalibrate(meas, marked), marked)
@@ -1273,7 +1274,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         # explains half as much: a skew changes the corrected magnitude in proportion to speed, so they stand in
         # for a speed effect as well
         top = max((t.explained_rms for t in good if t.name.startswith("generic:")), default=0.0)
-        plain = max((t.explained_rms for t in good if t.name.startswith("generic:1:")), default=0.0)
+        plain = max((t.explained_rms for t in good if t.name.startswith(FINE_MAP_PREFIX)), default=0.0)
         present = {t.name for t in good if not t.name.startswith("generic:") and not t.ambiguous}
         named = [t for t in good if not t.ambiguous and t.explained_rms ** 2 >= NAMED_SHARE * top ** 2
                  and (not t.name.startswith("generic:")
