@@ -526,3 +526,30 @@ def test_an_amplitude_term_that_follows_only_the_magnitudes_noise_is_not_named(s
         # significant, and it matters, either way: the loop would add it
         assert t.p_value < loop.P_VALUE and t.rms_after < (1 - loop.MIN_GAIN) * ev.rms, (fields, t)
         assert loop.magnitude_noise_only(ev, t, sigma) == noise_only, fields
+
+
+@pytest.mark.parametrize("drift", [0.0, 0.01])
+def test_the_tracker_reads_the_phase_table_structures_channels_at_the_phase_the_cordic_measures(drift):
+    """In the phase-table structure the CORDIC's phase still holds the channels' shape error (the tables after
+    the arctan take it out), so fringe_drift's forward tables must give the readings at that phase, not at the
+    true one the channel models are fitted against: read a phase error away, a shape with even and odd
+    harmonics steered the offsets and gains (820" against 48" static on this 7-line encoder). Without drift the
+    tracker must not add more than its own update noise (1 %, measured 0.6 %); with drift it must take most of
+    it (measured 61" against 384" static)."""
+    from fringe.calib.calibrate import PHASE_TABLE, CalibrationOptions, calibrate
+    from fringe.calib.evaluate import figures
+    from fringe.dsp.simulate import ChannelConfig
+
+    cfg = SimulationConfig(lines_per_rev=7, adc_bits=14, coarse_bits=3, samples=16_384, sample_rate_hz=1000.0,
+                           speed_mean_rev_s=8.0, speed_swing_rev_s=2.0, drift_offset_rms=drift, drift_timescale_s=8.0,
+                           sin_channel=ChannelConfig(sin_h={1: 1.0, 3: 0.05, 5: -0.03}, cos_h={2: 0.03}),
+                           cos_channel=ChannelConfig(cos_h={1: 1.0, 2: -0.02, 3: -0.05, 5: -0.03}, sin_h={3: 0.02}))
+    fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
+    cal = calibrate(fit, cfg.encoder(), CalibrationOptions(structure=PHASE_TABLE, gain_centre=False))
+    static = figures(cal, val)[0].rms_arcsec
+    tracked = figures(dataclasses.replace(cal, adaptive=True, tracker={"drift_block_log2": 5, "drift_mu_log2": 2}),
+                      val)[0].rms_arcsec
+    if drift:
+        assert tracked < 0.25 * static
+    else:
+        assert tracked < 1.01 * static

@@ -378,11 +378,32 @@ def channel_waveforms(cal: Calibration):
     return {k: (lambda ph, w=cal.waves[k]: w(2 * np.pi * np.asarray(ph) - psi_c)) for k in ("sin", "cos")}
 
 
+def tracker_waveforms(cal: Calibration):
+    """The channel readings as functions of the phase fringe_drift's observer is given: the CORDIC's, before
+    the tables after the arctan. With the per-channel inverse that phase is the true one (channel_waveforms).
+    In the phase-table structure the waveform stage is straight, so the CORDIC's phase still carries the
+    channels' shape error that the tables after it take out, while the channel models are fitted against the
+    true phase: each model is read at the true phase theta and placed at the phase the CORDIC measures for
+    those readings. Without this the observer compares the readings with the model a phase error away and
+    steers the offsets and gains by it (a 7-line encoder: 62" static, 240" tracked)."""
+    waves = channel_waveforms(cal)
+    if cal.fit.get("structure") != "phase_table":
+        return waves
+    theta = np.arange(THETA_POINTS) / THETA_POINTS
+    readings = {k: f(theta) for k, f in waves.items()}
+    measured, _ = static_phase(dataclasses.replace(cal, adaptive=False, canceller={}), readings["sin"],
+                               readings["cos"])
+    order = np.argsort(measured)
+    at = measured[order]
+    return {k: (lambda ph, v=readings[k][order]: np.interp(np.mod(np.asarray(ph, float), 1.0), at, v, period=1.0))
+            for k in ("sin", "cos")}
+
+
 def choose_kg_shift(cal: Calibration, cfg) -> int:
     """The largest KG_SHIFT (1..60) that keeps both KG constants below half of u(KG_W)."""
     p = dataclasses.replace(cfg, drift_kg_shift=1).drift_params()
     # the smaller mean square gives the larger KG
-    m2 = min(float(np.mean(make_fwd_table(f, p)[0].astype(float) ** 2)) for f in channel_waveforms(cal).values())
+    m2 = min(float(np.mean(make_fwd_table(f, p)[0].astype(float) ** 2)) for f in tracker_waveforms(cal).values())
     # KG = 4/3 2^(KG_SHIFT + GINV_W - 2 - MU_LOG2) / (W m2) < 2^(KG_W - 1) (kg_for)
     shift = int(np.floor(np.log2(2.0 ** (p.kg_w - 1) * p.w * m2 * 3 / 4))) - (p.ginv_w - 2 - p.mu_log2)
     return int(min(60, max(1, shift)))
@@ -418,7 +439,7 @@ def build_drift_tables(cal: Calibration, cfg, pipe_latency: int = 0) -> DriftTab
     if not cal.waves:
         raise ValueError("fringe_drift needs the calibrated waveform models")
     fwd, w0, kg = [], [], []
-    for f in channel_waveforms(cal).values():
+    for f in tracker_waveforms(cal).values():
         v, w = make_fwd_table(f, p)
         fwd.append(v)
         w0.append(w)
