@@ -37,7 +37,7 @@ from ..dsp.effects import FINE_MAP_PREFIX, FittedEffect, generic_name, parse_gen
 from ..dsp.fourierfit import cv_folds, cv_harmonics, fit_select, paired_gain_t, significant_choice
 from ..dsp.metrics import error_arcsec
 from ..dsp.position import circular_mean, fit_coarse_offset, wrap
-from ..dsp.quadrature import QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
+from ..dsp.quadrature import QuadratureCorrection, QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
 from ..dsp.smoothmotion import MAX_STEP_PERIODS, MotionTooSlow, smooth_motion_phase, times
 from ..dsp.waveform import ChannelWaveform, PaperChannel, WaveformInverse, build_inverse, is_invertible
 from ..encoder import ARCSEC_PER_REV, Encoder
@@ -197,6 +197,33 @@ def linear_inverse(kind: str, peak: float, enc: Encoder, opts: CalibrationOption
 def straight_inverses(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
     cal.inv_sin, cal.inv_cos = (linear_inverse(k, max(float(np.max(np.abs(y[use]))), 1.0), cal.encoder, opts)
                                 for k, y in (("sin", meas.sin), ("cos", meas.cos)))
+
+
+def conic_from_fundamentals(cal: Calibration, waves: dict) -> bool:
+    """The quadrature stage of the straight waveform stage (PHASE_TABLE) from the channels' offsets and
+    fundamentals against the reference, in place of the conic fitted through the figure: True if it changed.
+
+    A conic fitted through a figure that the channels' harmonics bend puts its centre off the channels' offsets
+    (a 10-bit, 50-line encoder with 1 % harmonics: 2.3 codes of 400). The tables after the arctan take the
+    phase error that leaves at the recording's amplitude, but it scales as 1 / amplitude: another amplitude
+    (a gain that follows the revolution, the air gap, temperature) moves the angle. Around the channels' own
+    offsets a common gain change moves no angle, and the harmonics' phase error, which scales with the signal,
+    stays the tables'. The model is the conic's (dsp.quadrature.fit_conic): s = ofs_s + g_s sin(theta - alpha),
+    c = ofs_c + g_c cos(theta), here in the straight stage's units."""
+    unit = {k: float(inv(np.array([1.0]), np.array([0.0]))[0]) for k, inv in (("sin", cal.inv_sin),
+                                                                                 ("cos", cal.inv_cos))}
+    (o_s, a_s, b_s), (o_c, a_c, b_c) = ((w.weights[0], w.coefficients()[1][0], w.coefficients()[2][0])
+                                        for w in (waves["sin"], waves["cos"]))
+    g_s, g_c = np.hypot(a_s, b_s) * unit["sin"], np.hypot(a_c, b_c) * unit["cos"]
+    # sin: g_s sin(theta_ref + gamma), cos: g_c cos(theta_ref + beta); theta = theta_ref + beta, alpha = beta - gamma
+    alpha = float(np.angle(np.exp(1j * (np.arctan2(-b_c, a_c) - np.arctan2(a_s, b_s)))))
+    if not (g_s > 0 and g_c > 0 and abs(alpha) < 1.0):
+        return False
+    cal.quad = QuadratureCorrection(ofs_s=float(o_s * unit["sin"]), ofs_c=float(o_c * unit["cos"]),
+                                    k_ss=float(1 / (g_s * np.cos(alpha))), k_sc=float(np.tan(alpha) / g_c),
+                                    k_cc=float(1 / g_c), alpha_rad=alpha, gain_ratio=float(g_s / g_c))
+    cal.fit["conic"] = "the channels' offsets and fundamentals against the reference"
+    return True
 
 
 def straight_conic(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions) -> Calibration:
@@ -418,6 +445,11 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     check_revolution_coverage(meas, encoder_rev(cal, meas))
     if structure == PHASE_TABLE:
         fit_phase_tables(cal, meas, use, opts)
+        waves = _fit_waveforms(meas, use, reference_phase(cal, meas, encoder_rev(cal, meas), opts.known_error_arcsec),
+                               opts)
+        if conic_from_fundamentals(cal, waves):
+            sync_coarse(cal, meas)
+            fit_phase_tables(cal, meas, use, opts)
         if opts.gain_centre:
             centre_from_gain_changes(cal, meas, use, opts)
         report_amplitude_dependence(cal, meas, use, opts)
@@ -520,8 +552,14 @@ def reference_phase_only(meas: Measurement, enc: Encoder, use: np.ndarray, opts:
         _fit_quadrature(cal, meas, use)
         sync_coarse(cal, meas)
         find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
-        fit_fine_map(cal, meas, use, np.zeros(len(meas)) if opts.known_error_arcsec is None
-                     else opts.known_error_arcsec)
+        known = np.zeros(len(meas)) if opts.known_error_arcsec is None else opts.known_error_arcsec
+        if conic_from_fundamentals(cal, _fit_waveforms(meas, use, true_phase(cal, meas, opts.known_error_arcsec),
+                                                       opts)):
+            sync_coarse(cal, meas)
+            find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
+        fit_fine_map(cal, meas, use, known)
+        if opts.gain_centre:
+            centre_from_gain_changes(cal, meas, use, opts, refit=lambda: fit_fine_map(cal, meas, use, known))
         cal.waves = _fit_waveforms(meas, use, true_phase(cal, meas, opts.known_error_arcsec), opts)
         cal.fit["wave_harmonics"] = {k: w.harmonics for k, w in cal.waves.items()}
         return _part_of_a_revolution(cal, use)
@@ -548,7 +586,8 @@ CENTRE_T_MIN = 3.0        # a centre shift must be this many standard errors fro
 GAIN_WINDOW_MIN = 16      # samples averaged at least for the slow gain (1/256 of the recording if longer)
 
 
-def centre_from_gain_changes(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
+def centre_from_gain_changes(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions,
+                             refit=None):
     """Move the quadrature centre to where a common gain change moves no angle (PHASE_TABLE).
 
     atan2 ignores a common gain only around the true centre. A conic fitted to a family of scaled
@@ -560,7 +599,8 @@ def centre_from_gain_changes(cal: Calibration, meas: Measurement, use: np.ndarra
     along the phase does not explain: the magnitude over that shape, averaged over GAIN_WINDOW
     samples, so that noise and interference (which move magnitude and angle together, sample by
     sample) do not pass for a gain change. Without a gain change the regressors are noise and
-    nothing significant is found (nor needed: the table absorbs a fixed centre error).
+    nothing significant is found (nor needed: the table absorbs a fixed centre error). `refit` fits the
+    tables again after a move (default fit_phase_tables; on part of a revolution the fine-phase map alone).
     """
     q = cal.quad
     shifts = 0
@@ -578,7 +618,10 @@ def centre_from_gain_changes(cal: Calibration, meas: Measurement, use: np.ndarra
         q.ofs_c += dy / q.k_cc
         q.ofs_s += (dx - q.k_sc * dy / q.k_cc) / q.k_ss
         shifts += 1
-        fit_phase_tables(cal, meas, use, opts)
+        if refit is None:
+            fit_phase_tables(cal, meas, use, opts)
+        else:
+            refit()
     cal.fit["centre_shifts"] = shifts
 
 
@@ -591,8 +634,8 @@ def _slow_gain_and_residual(cal: Calibration, meas: Measurement, use: np.ndarray
     the used samples: see centre_from_gain_changes."""
     frac, mag = fine_phase(cal, meas.sin, meas.cos)
     rev = encoder_rev(cal, meas)
-    err = (lp_error_arcsec(cal, meas, rev) - cal.long_period(2 * np.pi * (rev % 1.0))
-           - fine_map_error(cal, meas)) / ARCSEC_PER_REV * 2 * np.pi
+    table = cal.long_period(2 * np.pi * (rev % 1.0)) if cal.long_period is not None else 0.0
+    err = (lp_error_arcsec(cal, meas, rev) - table - fine_map_error(cal, meas)) / ARCSEC_PER_REV * 2 * np.pi
     if opts.known_error_arcsec is not None:
         err = err - opts.known_error_arcsec / ARCSEC_PER_REV * 2 * np.pi
     phi = 2 * np.pi * frac[use]

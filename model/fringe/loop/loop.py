@@ -469,20 +469,20 @@ def channel_errors(ev: Evaluation, with_phase: bool = False):
     elif ev.cal.rev_norm is not None:     # as the waveform stage sees them (normalised per sector)
         sin, cos = ev.cal.rev_norm.apply(sin, cos, ev.ctx.psi)
     frac = ev.ctx.phi / (2 * np.pi)
-    # the fine-phase maps (the phase-table structure's, or the general dictionary's term of the phase alone)
-    # correct the inverse's error after the arctan: the channels follow the phase they correct to, as they follow
-    # the phase the residual corrects to (same frame: output-angle error)
-    maps = [t for t in ev.cal.angle_terms if t.name.startswith(FINE_MAP_PREFIX)]
-    error = ev.r + sum(t.predict(ev.ctx) for t in maps) if maps else ev.r
+    # the terms after the arctan (the phase-table structure's fine-phase map, a skew's or a hysteresis' phase
+    # correction, any shape of the general dictionary) correct the measured phase to the disc's: the channels follow
+    # the phase they correct to, as they follow the phase the residual corrects to (same frame: output-angle
+    # error). Left out, a speed-dependent correction (a skew at a changing speed) spread an additive tone's line
+    # in the channels over the sidebands of the electrical frequency, and the tone went unnamed
+    terms = ev.cal.angle_terms
+    error = ev.r + sum(t.predict(ev.ctx) for t in terms) if terms else ev.r
     dfrac = error * ev.ctx.lines / ARCSEC_PER_REV      # as a fraction of a period
-    best = None
-    for sign in (1.0, -1.0):      # the residual's frame against the fine phase's: the sign that explains more
-        ref = frac - sign * dfrac
-        e = np.stack([sin - waves["sin"](ref), cos - waves["cos"](ref)])
-        power = float(np.sum(e * e))
-        if best is None or power < best[0]:
-            best = (power, e, ref)
-    return (best[1], best[2], waves) if with_phase else best[1]
+    # the residual is in the output's frame, the fine phase in the encoder's: the calibration's direction turns one
+    # into the other (choosing the sign that left the smaller channel errors took the wrong one where the residual
+    # held an additive tone's angle image: the reference phase then carried the image, and the line went unseen)
+    ref = frac - (ev.cal.direction or 1) * dfrac
+    e = np.stack([sin - waves["sin"](ref), cos - waves["cos"](ref)])
+    return (e, ref, waves) if with_phase else e
 
 
 def explained(x: np.ndarray, y: np.ndarray) -> float:
@@ -493,13 +493,14 @@ def explained(x: np.ndarray, y: np.ndarray) -> float:
 
 
 def vibration_sideband(chan: np.ndarray, phase: np.ndarray, waves: dict, t: np.ndarray, f_chan: float,
-                       electrical: float) -> float | None:
+                       electrical: float | None, candidates=None) -> float | None:
     """Whether a line at f_chan in the channels is a vibration's sideband rather than additive interference. A
     vibration v(t) at f_v moves the phase: each channel errs by its waveform's slope times it, W'(theta) v(t),
     lines at f_v +- the electrical frequency; an additive tone adds the same line to a channel at any phase.
     The two models are fitted to both channels' errors (the vibration with two weights shared by the channels,
-    at f_v = |f_chan -+ electrical|; the tone with two per channel): the vibration's frequency (Hz) when it
-    explains more, else None."""
+    at f_v = |f_chan -+ electrical|, or at each of `candidates` (at a changing speed the sidebands wander: the
+    angle's own line is the vibration's frequency to try); the tone with two per channel): the vibration's
+    frequency (Hz) when it explains more, else None."""
     def slope(kind):
         h = 1e-4
         return (waves[kind](phase + h) - waves[kind](phase - h)) / (2 * h)
@@ -510,7 +511,7 @@ def vibration_sideband(chan: np.ndarray, phase: np.ndarray, waves: dict, t: np.n
     ds = np.concatenate([slope("sin"), slope("cos")])
     stacked = np.concatenate(list(y))
     best = None
-    for f_v in (abs(f_chan - electrical), f_chan + electrical):
+    for f_v in (candidates if candidates is not None else (abs(f_chan - electrical), f_chan + electrical)):
         tt = np.concatenate([t, t])
         p = explained(np.column_stack([ds * np.cos(2 * np.pi * f_v * tt), ds * np.sin(2 * np.pi * f_v * tt)]),
                       stacked)
@@ -582,6 +583,9 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
     got = channel_errors(ev, with_phase=True)
     chan = None if got is None else got[0][:, run]
     chan_found = None
+    angle = find_line(x, fs, known_hz)
+    angle = angle if angle and line_p_value(angle) < P_VALUE else None
+    f_angle = refine_frequency(x, t, angle[0], bin_hz) if angle else None
     if chan is not None:
         # at a steady speed the waveform's own errors sit at the low multiples of the electrical frequency (a
         # waveform model's orders); a line at a high multiple is interference
@@ -592,8 +596,9 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
             chan_found = found[which]
             chan_found = (refine_frequency(chan[which], t, chan_found[0], bin_hz), *chan_found[1:])
             p = min(1.0, 2 * line_p_value(chan_found))
-            f_v = vibration_sideband(chan, got[1][run], got[2], t, chan_found[0], electrical) \
-                if electrical and p < P_VALUE else None
+            trial = None if electrical else [f_angle] if f_angle else []
+            f_v = vibration_sideband(chan, got[1][run], got[2], t, chan_found[0], electrical, trial) \
+                if p < P_VALUE else None
             if f_v is not None:
                 notes.append(f"the line at {chan_found[0]:.3f} Hz in the channels is a sideband of a vibration at "
                              f"{f_v:.3f} Hz (the waveform's slope times a tone in the angle explains it better than "
@@ -601,11 +606,14 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
                 chan_found = None
             elif p < P_VALUE:
                 out.append(("interference", chan_found[0], p, False))
-    angle = find_line(x, fs, known_hz)
-    if angle and line_p_value(angle) < P_VALUE:
-        f = refine_frequency(x, t, angle[0], bin_hz)
-        sideband = chan_found is not None and electrical and \
-            min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
+    if angle:
+        f = f_angle
+        if electrical:
+            sideband = chan_found is not None and \
+                min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
+        else:   # a changing speed spreads the sidebands over +- the fastest electrical frequency of the run
+            fastest = float(np.max(np.abs(settled_speed(ev.ctx)))) * ev.ctx.lines
+            sideband = chan_found is not None and abs(f - chan_found[0]) <= fastest + 2 * bin_hz
         order = revolution_order(f, abs(rate), fs, ev.ctx.lines, 1.5 * bin_hz) if rate else 0
         harmonic = order >= 1
         ripple = update_ripple(f, ev.cal, fs, electrical, 1.5 * bin_hz) if electrical else ""
