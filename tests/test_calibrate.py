@@ -276,3 +276,19 @@ def test_the_phase_table_structures_centre_is_where_a_gain_change_moves_no_angle
     low = calibrate(measurement_of(simulate(config(0.56), 1)), config(0.56).encoder(), opts)
     assert high.fit["conic"].startswith("the channels' offsets")
     assert figures(high, val)[0].rms_arcsec < 1.05 * figures(low, val)[0].rms_arcsec
+
+
+def test_a_coarse_code_that_misses_a_period_at_a_runs_start_does_not_choose_the_structure():
+    """The second simulator's draw 155: 2 lines, a 1-bit coarse code whose edges sit at the fine phase's wrap,
+    flat-topped channels, moving back and forth. A held-out run's first samples can take the neighbouring period
+    there; one such sample of 5440 scored the phase table at 8800" against 95" and the per-channel inverse,
+    which cannot invert the flat tops, was kept (25x the floor). Structures are compared within the period."""
+    from fringe.calib.calibrate import PHASE_TABLE
+    from fringe.tools import crosssim
+
+    enc, fit, val = crosssim.measurements(155, ["twin_peak"])
+    _, clean_fit, clean_val = crosssim.measurements(155, [])
+    cal = calibrate(fit, enc)
+    assert cal.fit["structure"] == PHASE_TABLE
+    floor = figures(calibrate(clean_fit, enc), clean_val)[0].rms_arcsec
+    assert figures(cal, val)[0].rms_arcsec < 1.1 * floor

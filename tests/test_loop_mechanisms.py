@@ -555,22 +555,6 @@ def test_the_tracker_reads_the_phase_table_structures_channels_at_the_phase_the_
         assert tracked < 1.01 * static
 
 
-def _crosssim_measurements(seed: int, effects: list[str]):
-    """The second simulator's fit and validation recordings of draw `seed` with `effects`, as measurements."""
-    from fringe.encoder import Encoder
-    from fringe.io.dataio import Measurement
-    from fringe.tools import crosssim
-
-    d = crosssim.draw(seed)
-    enc = Encoder(d["lines"], d["adc_bits"], d["coarse_bits"])
-    out = []
-    for k in (1, 2):
-        c = crosssim.record(d, effects, 2 * seed + k)
-        out.append(Measurement(f"crosssim-{seed}-{k}", c["sin"].astype(float), c["cos"].astype(float),
-                               coarse=c.get("coarse"), ref_deg=c["ref_deg"], t_s=c["t_s"]))
-    return enc, *out
-
-
 def test_an_additive_tone_is_named_beside_a_skew_at_a_changing_speed():
     """The second simulator's draw 131: 64 lines moving back and forth, a channel skew and an additive tone at
     1140 Hz, the reference running the other way. The channel errors are taken at the phase the residual corrects
@@ -578,7 +562,9 @@ def test_an_additive_tone_is_named_beside_a_skew_at_a_changing_speed():
     that left the smaller channel errors put the tone's angle image into that phase, and once the skew's
     correction was in, the line at 1140 Hz was gone from the channels; a vibration 'tone' took its place
     (3.5x the floor). The angle's line is a sideband of the channels' within the fastest electrical frequency."""
-    enc, fit, val = _crosssim_measurements(131, ["interference", "skew"])
+    from fringe.tools import crosssim
+
+    enc, fit, val = crosssim.measurements(131, ["interference", "skew"])
     _, state, rep = loop.run_loop(fit, enc, val)
     names = [e["name"] for e in rep["effects_added"]]
     assert "interference" in names and "tone" not in names, names

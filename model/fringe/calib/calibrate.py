@@ -678,9 +678,11 @@ def held_out_error_arcsec(cal: Calibration, meas: Measurement, known_error_arcse
     err = error_arcsec(res.angle_deg, meas.ref_deg)
     if known_error_arcsec is not None:    # encoder frame -> output frame
         err = err - cal.direction * known_error_arcsec
-    if not cal.encoder.coarse_bits and cal.encoder.lines_per_rev > 1:
-        # an incremental encoder counts periods from wherever a run of held-out rows starts: its error is that
-        # within the period (whole periods are where the count started, not an error of the correction)
+    if cal.encoder.lines_per_rev > 1:
+        # the error within the period: an incremental encoder counts periods from wherever a run of held-out rows
+        # starts, and an absolute one's coarse code can miss by a period at a run's start where its edges sit at
+        # the fine phase's wrap (a 2-line encoder with a 1-bit code: one such sample of 5440 scored the phase
+        # table 8800" against 95"). Whole periods are the combination's, the same under every structure
         period = ARCSEC_PER_REV / cal.encoder.lines_per_rev
         err = wrap(err / period) * period
     return err - np.mean(err)

@@ -113,6 +113,22 @@ def record(d: dict, effects, seed: int) -> dict[str, np.ndarray]:
     return cols
 
 
+def measurements(seed: int, effects=None):
+    """Draw `seed`'s encoder and its fit and validation recordings (with `effects`, else the drawn ones) as
+    in-memory measurements, for tests of the calibration and the loop without the command line."""
+    from ..encoder import Encoder
+    from ..io.dataio import Measurement
+
+    d = draw(seed)
+    enc = Encoder(d["lines"], d["adc_bits"], d["coarse_bits"])
+    out = []
+    for k in (1, 2):
+        c = record(d, d["effects"] if effects is None else effects, 2 * seed + k)
+        out.append(Measurement(f"crosssim-{seed}-{k}", c["sin"].astype(float), c["cos"].astype(float),
+                               coarse=c.get("coarse"), ref_deg=c["ref_deg"], t_s=c["t_s"]))
+    return enc, *out
+
+
 def write_csv(cols: dict[str, np.ndarray], path: str):
     with open(path, "w") as f:
         f.write(",".join(cols) + "\n")
