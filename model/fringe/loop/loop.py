@@ -606,14 +606,22 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
                 chan_found = None
             elif p < P_VALUE:
                 out.append(("interference", chan_found[0], p, False))
+            else:       # no line stands out in the channels: nothing for the angle's line to be a sideband of
+                chan_found = None
     if angle:
         f = f_angle
         if electrical:
             sideband = chan_found is not None and \
                 min(abs(f - chan_found[0] - electrical), abs(f - chan_found[0] + electrical)) <= 2 * bin_hz
-        else:   # a changing speed spreads the sidebands over +- the fastest electrical frequency of the run
-            fastest = float(np.max(np.abs(settled_speed(ev.ctx)))) * ev.ctx.lines
-            sideband = chan_found is not None and abs(f - chan_found[0]) <= fastest + 2 * bin_hz
+        elif chan_found is not None:
+            # a changing speed spreads the interference's sidebands over +- the fastest electrical frequency: the
+            # angle's line is one of them if it is gone once the interference's angle image is taken out
+            img = interference_columns(ev.ctx, chan_found[0])[run]
+            rest = x - img @ np.linalg.lstsq(img, x, rcond=None)[0]
+            left = find_line(rest, fs, known_hz)
+            sideband = not (left and line_p_value(left) < P_VALUE and abs(left[0] - f) <= 2 * bin_hz)
+        else:
+            sideband = False
         order = revolution_order(f, abs(rate), fs, ev.ctx.lines, 1.5 * bin_hz) if rate else 0
         harmonic = order >= 1
         ripple = update_ripple(f, ev.cal, fs, electrical, 1.5 * bin_hz) if electrical else ""
