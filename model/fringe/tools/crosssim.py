@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -165,27 +166,30 @@ def case(seed: int, keep: str | None = None) -> dict:
         json.dump({k: d[k] for k in ("adc_bits", "coarse_bits")} | {"lines_per_rev": d["lines"]}, f)
     p = {name: os.path.join(work, name) for name in ("enc.json", "clean_cal.csv", "clean_val.csv", "cal.csv",
                                                       "val.csv", "floorcal", "floor.csv", "loop", "after.csv")}
-    for tag, effects in (("clean_", []), ("", d["effects"])):
-        write_csv(record(d, effects, 2 * seed + 1), p[tag + "cal.csv"])
-        write_csv(record(d, effects, 2 * seed + 2), p[tag + "val.csv"])
-    steps = [("floor", ("calibrate", p["clean_cal.csv"], "--encoder", p["enc.json"], "--out", p["floorcal"])),
-             ("floor", ("correct", p["clean_val.csv"], "--cal", p["floorcal"], "--out", p["floor.csv"])),
-             ("loop", ("loop", p["cal.csv"], "--encoder", p["enc.json"], "--out", p["loop"], "--validate",
-                       p["val.csv"])),
-             ("correct", ("correct", p["val.csv"], "--cal", os.path.join(p["loop"], "cal"), "--out", p["after.csv"]))]
-    for what, args in steps:
-        err = _fringe(*args)
-        if err:
-            out[f"{what}_error"] = err
-            break
-    else:
-        floor, after = rms_arcsec(p["floor.csv"], p["clean_val.csv"]), rms_arcsec(p["after.csv"], p["val.csv"])
-        with open(os.path.join(p["loop"], "report.json")) as f:
-            report = json.load(f)
-        out.update(floor_arcsec=round(floor, 3), after_arcsec=round(after, 3), ratio=round(after / floor, 3),
-                   names=[e["name"] for e in report["effects_added"]])
-    if keep is None:
-        subprocess.run(["rm", "-rf", work], check=False)
+    try:
+        for tag, effects in (("clean_", []), ("", d["effects"])):
+            write_csv(record(d, effects, 2 * seed + 1), p[tag + "cal.csv"])
+            write_csv(record(d, effects, 2 * seed + 2), p[tag + "val.csv"])
+        steps = [("floor", ("calibrate", p["clean_cal.csv"], "--encoder", p["enc.json"], "--out", p["floorcal"])),
+                 ("floor", ("correct", p["clean_val.csv"], "--cal", p["floorcal"], "--out", p["floor.csv"])),
+                 ("loop", ("loop", p["cal.csv"], "--encoder", p["enc.json"], "--out", p["loop"], "--validate",
+                           p["val.csv"])),
+                 ("correct", ("correct", p["val.csv"], "--cal", os.path.join(p["loop"], "cal"), "--out",
+                              p["after.csv"]))]
+        for what, args in steps:
+            err = _fringe(*args)
+            if err:
+                out[f"{what}_error"] = err
+                break
+        else:
+            floor, after = rms_arcsec(p["floor.csv"], p["clean_val.csv"]), rms_arcsec(p["after.csv"], p["val.csv"])
+            with open(os.path.join(p["loop"], "report.json")) as f:
+                report = json.load(f)
+            out.update(floor_arcsec=round(floor, 3), after_arcsec=round(after, 3), ratio=round(after / floor, 3),
+                       names=[e["name"] for e in report["effects_added"]])
+    finally:     # its own temporary folder, also when interrupted
+        if keep is None:
+            subprocess.run(["rm", "-rf", work], check=False)
     return out
 
 
@@ -195,6 +199,7 @@ def main(argv=None):
     a.add_argument("n", type=int)
     a.add_argument("--keep", help="keep each recording's folder under this folder")
     args = a.parse_args(argv)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(128 + signal.SIGTERM))   # a kill still removes the folder
     for seed in range(args.first, args.first + args.n):
         print(json.dumps(case(seed, args.keep)), flush=True)
 
