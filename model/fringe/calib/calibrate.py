@@ -97,6 +97,10 @@ class CalibrationOptions:
     # closed loop: error already explained by other terms (arcsec, encoder frame, per sample), kept
     # out of the long-period fit and added to the reference phase of the waveform fit
     known_error_arcsec: np.ndarray | None = None
+    # PHASE_TABLE: the conic from the channels' offsets and fundamentals (conic_from_fundamentals); off in the
+    # structure choice's folds, where it costs a second fit of the tables and changes no score within one recording
+    # (it matters at amplitudes the recording does not have)
+    conic_from_fundamentals: bool = True
 
 
 def _fail(meas: Measurement, problem: str):
@@ -443,12 +447,12 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     sync_coarse(cal, meas)
     check_revolution_coverage(meas, encoder_rev(cal, meas))
     if structure == PHASE_TABLE:
+        if opts.conic_from_fundamentals:    # against the reference's phase (the graduation error averages out)
+            find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
+            if conic_from_fundamentals(cal, _fit_waveforms(meas, use, true_phase(cal, meas, opts.known_error_arcsec),
+                                                           opts)):
+                sync_coarse(cal, meas)
         fit_phase_tables(cal, meas, use, opts)
-        waves = _fit_waveforms(meas, use, reference_phase(cal, meas, encoder_rev(cal, meas), opts.known_error_arcsec),
-                               opts)
-        if conic_from_fundamentals(cal, waves):
-            sync_coarse(cal, meas)
-            fit_phase_tables(cal, meas, use, opts)
         if opts.gain_centre:
             centre_from_gain_changes(cal, meas, use, opts)
         report_amplitude_dependence(cal, meas, use, opts)
@@ -552,8 +556,8 @@ def reference_phase_only(meas: Measurement, enc: Encoder, use: np.ndarray, opts:
         sync_coarse(cal, meas)
         find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
         known = np.zeros(len(meas)) if opts.known_error_arcsec is None else opts.known_error_arcsec
-        if conic_from_fundamentals(cal, _fit_waveforms(meas, use, true_phase(cal, meas, opts.known_error_arcsec),
-                                                       opts)):
+        if opts.conic_from_fundamentals and conic_from_fundamentals(
+                cal, _fit_waveforms(meas, use, true_phase(cal, meas, opts.known_error_arcsec), opts)):
             sync_coarse(cal, meas)
             find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
         fit_fine_map(cal, meas, use, known)
@@ -730,7 +734,7 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
             # an absolute encoder of more than one line: its long-period table holds none of the fine phase's
             # harmonics, and the same under either structure; the folds take its default order (its choice is most
             # of their cost). An incremental encoder's table only keeps the channel fits straight: chosen as ever
-            sub = dataclasses.replace(opts, structure=structure, gain_centre=centre,
+            sub = dataclasses.replace(opts, structure=structure, gain_centre=centre, conic_from_fundamentals=False,
                                       known_error_arcsec=None if known is None else known[train],
                                       lp_order_selection="default" if enc.lines_per_rev > 1 and enc.coarse_bits
                                       else opts.lp_order_selection)
