@@ -415,12 +415,12 @@ def test_a_vibrations_sidebands_in_the_channels_are_not_interference():
         v = rng.uniform(1e-3, 2e-2) * np.sin(2 * np.pi * fv * t + rng.uniform(0, 2 * np.pi))      # periods
         slope = np.stack([(waves[k](phase + 1e-6) - waves[k](phase - 1e-6)) / 2e-6 for k in ("sin", "cos")])
         vib = slope * v + rng.normal(0, noise, (2, n))
-        f_v = loop.vibration_sideband(vib, phase, waves, t, fe + fv, fe)
+        f_v = loop.vibration_sideband(vib, phase, waves, t, fe + fv, (fv, 2 * fe + fv))
         assert f_v is not None and abs(f_v - fv) < 1e-6, (fe, fv, f_v)
         size = np.sqrt(np.mean((slope * v) ** 2))
         tone = size * np.sqrt(2) * np.stack([np.sin(2 * np.pi * (fe + fv) * t + rng.uniform(0, 2 * np.pi))
                                              for _ in range(2)]) + rng.normal(0, noise, (2, n))
-        assert loop.vibration_sideband(tone, phase, waves, t, fe + fv, fe) is None, (fe, fv)
+        assert loop.vibration_sideband(tone, phase, waves, t, fe + fv, (fv, 2 * fe + fv)) is None, (fe, fv)
 
 
 def test_a_tone_is_taken_out_only_where_it_holds_over_the_recording():

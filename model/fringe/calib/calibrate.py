@@ -202,9 +202,11 @@ def straight_inverses(cal: Calibration, meas: Measurement, use: np.ndarray, opts
                                 for k, y in (("sin", meas.sin), ("cos", meas.cos)))
 
 
-def conic_from_fundamentals(cal: Calibration, waves: dict) -> bool:
+def conic_from_fundamentals(cal: Calibration, meas: Measurement, use: np.ndarray, opts: CalibrationOptions):
     """The quadrature stage of the straight waveform stage (PHASE_TABLE) from the channels' offsets and
-    fundamentals against the reference, in place of the conic fitted through the figure: True if it changed.
+    fundamentals against the reference's phase (the graduation error averages out), in place of the conic fitted
+    through the figure; then the coarse code, direction and zero again for it. Nothing if
+    opts.conic_from_fundamentals is off.
 
     A conic fitted through a figure that the channels' harmonics bend puts its centre off the channels' offsets
     (a 10-bit, 50-line encoder with 1 % harmonics: 2.3 codes of 400). The tables after the arctan take the
@@ -213,6 +215,10 @@ def conic_from_fundamentals(cal: Calibration, waves: dict) -> bool:
     offsets a common gain change moves no angle, and the harmonics' phase error, which scales with the signal,
     stays the tables'. The model is the conic's (dsp.quadrature.fit_conic): s = ofs_s + g_s sin(theta - alpha),
     c = ofs_c + g_c cos(theta), here in the straight stage's units."""
+    if not opts.conic_from_fundamentals:
+        return
+    find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
+    waves = _fit_waveforms(meas, use, true_phase(cal, meas, opts.known_error_arcsec), opts)
     unit = {k: float(inv(np.array([1.0]), np.array([0.0]))[0]) for k, inv in (("sin", cal.inv_sin),
                                                                                  ("cos", cal.inv_cos))}
     (o_s, a_s, b_s), (o_c, a_c, b_c) = ((w.weights[0], w.coefficients()[1][0], w.coefficients()[2][0])
@@ -221,12 +227,13 @@ def conic_from_fundamentals(cal: Calibration, waves: dict) -> bool:
     # sin: g_s sin(theta_ref + gamma), cos: g_c cos(theta_ref + beta); theta = theta_ref + beta, alpha = beta - gamma
     alpha = float(np.angle(np.exp(1j * (np.arctan2(-b_c, a_c) - np.arctan2(a_s, b_s)))))
     if not (g_s > 0 and g_c > 0 and abs(alpha) < 1.0):
-        return False
+        return
     cal.quad = QuadratureCorrection(ofs_s=float(o_s * unit["sin"]), ofs_c=float(o_c * unit["cos"]),
                                     k_ss=float(1 / (g_s * np.cos(alpha))), k_sc=float(np.tan(alpha) / g_c),
                                     k_cc=float(1 / g_c), alpha_rad=alpha, gain_ratio=float(g_s / g_c))
     cal.fit["conic"] = "the channels' offsets and fundamentals against the reference"
-    return True
+    sync_coarse(cal, meas)
+    find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
 
 
 def straight_conic(meas: Measurement, enc: Encoder, use: np.ndarray, opts: CalibrationOptions) -> Calibration:
@@ -447,11 +454,7 @@ def reference_calibration(meas: Measurement, enc: Encoder, use: np.ndarray, opts
     sync_coarse(cal, meas)
     check_revolution_coverage(meas, encoder_rev(cal, meas))
     if structure == PHASE_TABLE:
-        if opts.conic_from_fundamentals:    # against the reference's phase (the graduation error averages out)
-            find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
-            if conic_from_fundamentals(cal, _fit_waveforms(meas, use, true_phase(cal, meas, opts.known_error_arcsec),
-                                                           opts)):
-                sync_coarse(cal, meas)
+        conic_from_fundamentals(cal, meas, use, opts)
         fit_phase_tables(cal, meas, use, opts)
         if opts.gain_centre:
             centre_from_gain_changes(cal, meas, use, opts)
@@ -556,10 +559,7 @@ def reference_phase_only(meas: Measurement, enc: Encoder, use: np.ndarray, opts:
         sync_coarse(cal, meas)
         find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
         known = np.zeros(len(meas)) if opts.known_error_arcsec is None else opts.known_error_arcsec
-        if opts.conic_from_fundamentals and conic_from_fundamentals(
-                cal, _fit_waveforms(meas, use, true_phase(cal, meas, opts.known_error_arcsec), opts)):
-            sync_coarse(cal, meas)
-            find_direction_and_zero(cal, meas, encoder_rev(cal, meas))
+        conic_from_fundamentals(cal, meas, use, opts)
         fit_fine_map(cal, meas, use, known)
         if opts.gain_centre:
             centre_from_gain_changes(cal, meas, use, opts, refit=lambda: fit_fine_map(cal, meas, use, known))

@@ -493,14 +493,14 @@ def explained(x: np.ndarray, y: np.ndarray) -> float:
 
 
 def vibration_sideband(chan: np.ndarray, phase: np.ndarray, waves: dict, t: np.ndarray, f_chan: float,
-                       electrical: float | None, candidates=None) -> float | None:
+                       candidates) -> float | None:
     """Whether a line at f_chan in the channels is a vibration's sideband rather than additive interference. A
     vibration v(t) at f_v moves the phase: each channel errs by its waveform's slope times it, W'(theta) v(t),
     lines at f_v +- the electrical frequency; an additive tone adds the same line to a channel at any phase.
     The two models are fitted to both channels' errors (the vibration with two weights shared by the channels,
-    at f_v = |f_chan -+ electrical|, or at each of `candidates` (at a changing speed the sidebands wander: the
-    angle's own line is the vibration's frequency to try); the tone with two per channel): the vibration's
-    frequency (Hz) when it explains more, else None."""
+    at each f_v of `candidates`: |f_chan -+ electrical| at a steady speed; at a changing one the sidebands wander,
+    and the angle's own line is the vibration's frequency to try; the tone with two per channel): the
+    vibration's frequency (Hz) when it explains more, else None."""
     def slope(kind):
         h = 1e-4
         return (waves[kind](phase + h) - waves[kind](phase - h)) / (2 * h)
@@ -511,7 +511,7 @@ def vibration_sideband(chan: np.ndarray, phase: np.ndarray, waves: dict, t: np.n
     ds = np.concatenate([slope("sin"), slope("cos")])
     stacked = np.concatenate(list(y))
     best = None
-    for f_v in (candidates if candidates is not None else (abs(f_chan - electrical), f_chan + electrical)):
+    for f_v in candidates:
         tt = np.concatenate([t, t])
         p = explained(np.column_stack([ds * np.cos(2 * np.pi * f_v * tt), ds * np.sin(2 * np.pi * f_v * tt)]),
                       stacked)
@@ -596,9 +596,9 @@ def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float,
             chan_found = found[which]
             chan_found = (refine_frequency(chan[which], t, chan_found[0], bin_hz), *chan_found[1:])
             p = min(1.0, 2 * line_p_value(chan_found))
-            trial = None if electrical else [f_angle] if f_angle else []
-            f_v = vibration_sideband(chan, got[1][run], got[2], t, chan_found[0], electrical, trial) \
-                if p < P_VALUE else None
+            f_c = chan_found[0]
+            trial = (abs(f_c - electrical), f_c + electrical) if electrical else (f_angle,) if f_angle else ()
+            f_v = vibration_sideband(chan, got[1][run], got[2], t, f_c, trial) if p < P_VALUE else None
             if f_v is not None:
                 notes.append(f"the line at {chan_found[0]:.3f} Hz in the channels is a sideband of a vibration at "
                              f"{f_v:.3f} Hz (the waveform's slope times a tone in the angle explains it better than "
