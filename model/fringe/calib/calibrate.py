@@ -356,9 +356,21 @@ def find_direction_and_zero(cal: Calibration, meas: Measurement, rev: np.ndarray
 
 
 def lp_error_arcsec(cal: Calibration, meas: Measurement, rev: np.ndarray) -> np.ndarray:
-    """Encoder error against the reference, in the encoder's own direction (arcsec)."""
+    """Encoder error against the reference, in the encoder's own direction (arcsec), without the whole periods
+    its period count slipped by (more than one line)."""
     truth = cal.direction * (meas.ref_deg / 360.0 - cal.zero_deg / 360.0)
-    return wrap(rev - truth) * ARCSEC_PER_REV
+    err = wrap(rev - truth) * ARCSEC_PER_REV
+    if cal.encoder.lines_per_rev > 1 and len(err) > 1:
+        # an incremental encoder counts periods from the fine phase, which cannot follow a fast motion across the
+        # holes of a fold (every third sample of 0.17 periods a sample: half a period a step), nor a coarse code
+        # that misses a period where its edges sit at the wrap: the count then slips by whole periods, which the
+        # tables over the phase must not fit (a 26-line phase table scored 14375" on such folds against 138"). The
+        # error itself moves far less than half a period between rows
+        period = ARCSEC_PER_REV / cal.encoder.lines_per_rev
+        slips = np.concatenate([[0.0], np.cumsum(np.round(np.diff(err) / period))])
+        err = err - period * slips
+        err = err - period * np.round(np.median(err) / period)
+    return err
 
 
 class PartialRevolution(FringeInputError):
@@ -755,11 +767,12 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
     sq = {name: found[name] for name in CANDIDATES if name in found}
     count = max(int(use.sum()), 1)
     scores = {name: float(np.sqrt(e2.sum() / count)) for name, e2 in sq.items()}
-    default = PHASE_TABLE if enc.lines_per_rev == 1 else WAVEFORM
+    # a structure given (the loop's phase-domain remedy) leaves only its gain centre to choose
+    default = PHASE_TABLE if enc.lines_per_rev == 1 or opts.structure == PHASE_TABLE else WAVEFORM
     # with more than one line the per-channel inverse stays where it could not be scored (a fold it cannot be
     # fitted on): there is nothing to compare the phase table against
     if not sq or (enc.lines_per_rev > 1 and default not in sq):
-        best, tstat = WAVEFORM, {}
+        best, tstat = (PHASE_TABLE if opts.structure == PHASE_TABLE else WAVEFORM), {}
     else:
         names = list(sq)
         ref = names.index(default) if default in sq else int(np.argmin([scores[n] for n in names]))

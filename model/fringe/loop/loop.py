@@ -1401,15 +1401,18 @@ def magnitude_cause(state: LoopState, remedy: str, best: Test, ev: Evaluation) -
     # the phase table, whether the loop's remedy or the structure calibrate chose, moves no angle with a common gain
     gain_invariant = remedy.startswith(PHASE_DOMAIN) or (not remedy and amplitude_like(best)
                                                          and state.cal.fit.get("structure") == PHASE_TABLE)
-    if gain_invariant:
-        carried = ("drift" if state.cal.adaptive else "interference" if state.cal.canceller
+    if gain_invariant or (not remedy and amplitude_like(best)):
+        # (the magnitude term itself, ahead of the per-channel inverse, corrects the same leftovers; the drift
+        # tracker's only where they follow time, below)
+        carried = ("drift" if state.cal.adaptive and gain_invariant else "interference" if state.cal.canceller
                    # the revolution map corrects the angle (fringe_trim), not the signals: the per-sector gains
                    # stay in what the waveform tables read
                    else "rev_offset_gain" if state.cal.rev_norm is not None else "")
         if carried:
             return carried, (f"; the magnitude changes that the {carried} correction leaves" + (
                 ", made harmless by a gain-invariant waveform stage" if remedy else
-                ", read through the phase table's fine-phase map"))
+                ", read through the phase table's fine-phase map" if gain_invariant else
+                ", corrected by the magnitude term where the per-channel inverse reads them"))
     if amplitude_like(best) and state.cal.adaptive and magnitude_follows_time(ev.ctx):
         return "drift", ("; the magnitude changes it follows are the drift tracker's leftovers (slow functions of "
                          "time explain them better than the place in the revolution)")
