@@ -362,7 +362,7 @@ def lp_error_arcsec(cal: Calibration, meas: Measurement, rev: np.ndarray) -> np.
     err = wrap(rev - truth) * ARCSEC_PER_REV
     if cal.encoder.lines_per_rev > 1 and len(err) > 1:
         # an incremental encoder counts periods from the fine phase, which cannot follow a fast motion across the
-        # holes of a fold (every third sample of 0.17 periods a sample: half a period a step), nor a coarse code
+        # holes of a fold (a hole of two samples at 0.17 periods a sample: half a period a step), nor a coarse code
         # that misses a period where its edges sit at the wrap: the count then slips by whole periods, which the
         # tables over the phase must not fit (a 26-line phase table scored 14375" on such folds against 138"). The
         # error itself moves far less than half a period between rows
