@@ -278,19 +278,25 @@ def test_the_phase_table_structures_centre_is_where_a_gain_change_moves_no_angle
     assert figures(high, val)[0].rms_arcsec < 1.05 * figures(low, val)[0].rms_arcsec
 
 
+def second_simulator_calibration(seed: int, effects=None):
+    """The second simulator's draw `seed` (with `effects`, else its own): the calibration of its fit recording, its
+    validation recording, and the floor (the same draw without effects, calibrated and validated alike)."""
+    from fringe.tools import crosssim
+
+    enc, fit, val = crosssim.measurements(seed, effects)
+    _, clean_fit, clean_val = crosssim.measurements(seed, [])
+    return calibrate(fit, enc), val, figures(calibrate(clean_fit, enc), clean_val)[0].rms_arcsec
+
+
 def test_a_coarse_code_that_misses_a_period_at_a_runs_start_does_not_choose_the_structure():
     """The second simulator's draw 155: 2 lines, a 1-bit coarse code whose edges sit at the fine phase's wrap,
     flat-topped channels, moving back and forth. A held-out run's first samples can take the neighbouring period
     there; one such sample of 5440 scored the phase table at 8800" against 95" and the per-channel inverse,
     which cannot invert the flat tops, was kept (25x the floor). Structures are compared within the period."""
     from fringe.calib.calibrate import PHASE_TABLE
-    from fringe.tools import crosssim
 
-    enc, fit, val = crosssim.measurements(155, ["twin_peak"])
-    _, clean_fit, clean_val = crosssim.measurements(155, [])
-    cal = calibrate(fit, enc)
+    cal, val, floor = second_simulator_calibration(155, ["twin_peak"])
     assert cal.fit["structure"] == PHASE_TABLE
-    floor = figures(calibrate(clean_fit, enc), clean_val)[0].rms_arcsec
     assert figures(cal, val)[0].rms_arcsec < 1.1 * floor
 
 
@@ -301,13 +307,9 @@ def test_a_slight_but_significant_gain_of_the_phase_table_is_taken():
     the revolution, at another amplitude, where the per-channel inverse reads its tables off their curve: 7.4"
     against 1.9" for the phase table, the floor 1.5". A 2 % minimum gain kept the inverse."""
     from fringe.calib.calibrate import PHASE_TABLE
-    from fringe.tools import crosssim
 
-    enc, fit, val = crosssim.measurements(152)
-    _, clean_fit, clean_val = crosssim.measurements(152, [])
-    cal = calibrate(fit, enc)
+    cal, val, floor = second_simulator_calibration(152)
     assert cal.fit["structure"] == PHASE_TABLE
-    floor = figures(calibrate(clean_fit, enc), clean_val)[0].rms_arcsec
     assert figures(cal, val)[0].rms_arcsec < 1.35 * floor
 
 

@@ -767,12 +767,13 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
     sq = {name: found[name] for name in CANDIDATES if name in found}
     count = max(int(use.sum()), 1)
     scores = {name: float(np.sqrt(e2.sum() / count)) for name, e2 in sq.items()}
-    # a structure given (the loop's phase-domain remedy) leaves only its gain centre to choose
-    default = PHASE_TABLE if enc.lines_per_rev == 1 or opts.structure == PHASE_TABLE else WAVEFORM
     # with more than one line the per-channel inverse stays where it could not be scored (a fold it cannot be
-    # fitted on): there is nothing to compare the phase table against
+    # fitted on): there is nothing to compare the phase table against; a structure given (the loop's phase-domain
+    # remedy) stays, only its gain centre is chosen
+    kept = PHASE_TABLE if opts.structure == PHASE_TABLE else WAVEFORM
+    default = PHASE_TABLE if enc.lines_per_rev == 1 else kept
     if not sq or (enc.lines_per_rev > 1 and default not in sq):
-        best, tstat = (PHASE_TABLE if opts.structure == PHASE_TABLE else WAVEFORM), {}
+        best, tstat = kept, {}
     else:
         names = list(sq)
         ref = names.index(default) if default in sq else int(np.argmin([scores[n] for n in names]))

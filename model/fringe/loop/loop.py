@@ -1405,7 +1405,7 @@ def magnitude_cause(state: LoopState, remedy: str, best: Test, ev: Evaluation) -
     # the phase table, whether the loop's remedy or the structure calibrate chose, moves no angle with a common gain
     gain_invariant = remedy.startswith(PHASE_DOMAIN) or (not remedy and amplitude_like(best)
                                                          and state.cal.fit.get("structure") == PHASE_TABLE)
-    if gain_invariant or (not remedy and amplitude_like(best)):
+    if remedy.startswith(PHASE_DOMAIN) or (not remedy and amplitude_like(best)):
         # (the magnitude term itself, ahead of the per-channel inverse, corrects the same leftovers; the drift
         # tracker's only where they follow time, below)
         carried = ("drift" if state.cal.adaptive and gain_invariant else "interference" if state.cal.canceller
