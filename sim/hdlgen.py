@@ -78,6 +78,8 @@ def constants() -> list[Const]:
             Const("LONG_PERIOD_LATENCY", long_period.LATENCY, "fringe_long_period"),
             Const("DRIFT_NORM_LATENCY", drift.NORM_LATENCY, "fringe_drift normaliser"),
             Const("DRIFT_OBS_LATENCY", drift.OBS_LATENCY, "fringe_drift observer"),
+            Const("DRIFT_SWEEP_MIN_LOG2", drift.SWEEP_MIN_LOG2,
+                  "fringe_drift: a block that swept 2^-this of a period updates"),
             Const("CANCEL_LATENCY", canceller.LATENCY, "fringe_canceller"),
             Const("CANCEL_ADAPT_LATENCY", canceller.ADAPT_LATENCY,
                   "fringe_canceller: a block's last sample to its update in place")]

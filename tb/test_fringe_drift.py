@@ -18,7 +18,8 @@ state after every accepted input sample, both checked exactly:
    OBS_LATENCY - 1 clocks with in_ready = 0, the first clock the update is resolved), bank 0;
 2. random idle cycles and ce stalls while bank 1 of both tables is rewritten through the write port
    (junk on the bus when wr_en = 0), then a bank flip to the new bank 1, a reset in mid-stream;
-3. a slow section (SWEEP < one period per block: the blocks are skipped, the state holds), then fast;
+3. a slow section (less than a period per block: updates at the final step, the gear holds), a slower one
+   (less than a sixteenth: the blocks are skipped, the state holds), then fast;
 4. full-scale spikes in the raw codes (y saturates: norm_sat); after a reset, KG at its maximum (about
    90 times the nominal): GINV overshoots and saturates (track_sat).
 
@@ -162,7 +163,8 @@ def build_plan(p: DriftParams, user_w: int, seed: int):
     ws = [ws[k] for k in rng.permutation(len(ws))]
     section(max(8 * B, len(ws) + 2 * B), 0.8, 0.75, 0, fast, writes=ws, note="gaps, stalls, bank 1 written")
     section(8 * B, 0.85, 0.8, 2, fast, resets={int(3.3 * B)}, note="bank flip to the new bank 1, reset")
-    section(5 * B, 0.9, 0.9, 2, 0.3 / B, note="slow: blocks skipped")
+    section(5 * B, 0.9, 0.9, 2, 0.3 / B, note="slow: less than a period per block, the final step")
+    section(4 * B, 0.9, 0.9, 2, 0.01 / B, note="slower: blocks skipped")
     section(4 * B, 0.9, 0.9, 0, fast, note="bank 0 again, fast, full-scale spikes", spikes=0.02)
     section(6 * B, 0.9, 0.85, 3, fast, resets={3}, note="reset, KG far too large: GINV saturates")
     for _ in range(NORM_LATENCY + p.pipe_latency + 3):
@@ -406,11 +408,14 @@ def _id(ps) -> str:
 
 @pytest.mark.parametrize("ps", PARAM_SETS, ids=[_id(ps) for ps in PARAM_SETS])
 def test_plan_is_effective(ps):
-    """The plan exercises updates, skipped blocks, both saturations and resets (without a simulator)."""
+    """The plan exercises updates (of whole and of partial periods), skipped blocks, both saturations and resets
+    (without a simulator)."""
     p, user_w = ps
     cycles, feed, results = build_plan(p, user_w, DEFAULT_SEED)
     assert len(results) == 3
-    assert all(r.updated.sum() >= 5 for r in results[:2]) and (~results[1].updated).sum() >= 3   # slow: skipped
+    assert all(r.updated.sum() >= 5 for r in results[:2]) and (~results[1].updated).sum() >= 3   # slower: skipped
+    partial = results[1].updated & (results[1].sweep < 1 << p.fine_w)      # slow: the final step
+    assert partial.sum() >= 3 and (results[1].updated & ~partial).sum() >= 3
     assert results[-1].updated.any()     # KG far too large: GINV saturates in the first updates
     assert results[-1].track_sat.any() and results[1].sat.any()
     assert not results[0].track_sat.any()

@@ -13,6 +13,7 @@ from param_cases import out_of_range
 from fringe.fixed.drift import (
     NORM_LATENCY,
     OBS_LATENCY,
+    SWEEP_MIN_LOG2,
     DriftParams,
     drift_float,
     drift_run,
@@ -36,14 +37,14 @@ class Encoder:
     """A synthetic drifting encoder: W0 + A sin / cos with offsets and gains ramping over time."""
 
     def __init__(self, p: DriftParams, n: int, seed: int = 1, amp_frac: float = 0.3, speed: float = 0.013,
-                 drift: float = 1.0, w0=(30.0, -20.0)):
+                 drift: float = 1.0, w0=(30.0, -20.0), phi: np.ndarray | None = None):
         rng = np.random.default_rng(seed)
         self.p = p
         amp = amp_frac * 2 ** (p.adc_w - 1)
         self.amp = amp
         self.w0f = w0
         t = np.arange(n)
-        self.phi = 2 * np.pi * (t * speed + 0.3 * np.sin(t * 1e-4) + rng.uniform())
+        self.phi = 2 * np.pi * (t * speed + 0.3 * np.sin(t * 1e-4) + rng.uniform()) if phi is None else phi
         sc = 2 ** (p.adc_w - 14)
         self.os = (200 + drift * 100 * t / n) * sc
         self.oc = (-150 + drift * 80 * np.sin(t / n * 3)) * sc
@@ -74,8 +75,8 @@ class Encoder:
 def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg, *, old: bool = False):
     """The contract of docs/blocks/fringe_drift.md as a plain per-sample loop on Python integers.
 
-    old = True: the tracker before HOLD, window and gear shift (D = B/2, every sample of the block
-    accumulated, a fixed step 2^-MU_LOG2), for comparisons of the start-up."""
+    old = True: the tracker before HOLD, window, gear shift and partial sweeps (D = B/2, every sample of the
+    block accumulated, a fixed step 2^-MU_LOG2, only blocks of a whole period), for comparisons of the start-up."""
     B = p.b
     D = B // 2 if old else (0 if p.hold else B // 2)
     W = B if old or p.hold else B // 2
@@ -117,9 +118,11 @@ def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg, *, old: bool = F
         prev = ph
         if n % B == B - 1:
             cur = pending[-1][1] if pending else (off[0], off[1], ginv[0], ginv[1])
-            if sweep >= 1 << p.fine_w:
-                gear = p.mu_log2 if old else min(p.mu_log2, u.bit_length())
-                u += 1
+            full = sweep >= 1 << p.fine_w
+            if full or (not old and sweep >= 1 << (p.fine_w - SWEEP_MIN_LOG2)):
+                # less than a period: the final step, not counted by the gear
+                gear = min(p.mu_log2, u.bit_length()) if full and not old else p.mu_log2
+                u += full
                 no, ng = [], []
                 for k in (0, 1):
                     # the offset step: twice the mean error (the old tracker: once)
@@ -291,12 +294,36 @@ def test_segment_boundaries_do_not_matter():
 
 def test_slow_blocks_are_skipped():
     p = P2
-    enc = Encoder(p, 30 * p.b, seed=5, speed=0.2 / p.b)       # 0.2 period per block: SWEEP < 2^FINE_W
+    enc = Encoder(p, 30 * p.b, seed=5, speed=0.03 / p.w)      # 0.03 period per window: below a sixteenth
     r = enc.run()
-    assert not r.updated.any() and (r.sweep < 1 << p.fine_w).all()
+    assert not r.updated.any() and (r.sweep < 1 << (p.fine_w - SWEEP_MIN_LOG2)).all()
     assert (r.states == r.states[0]).all()
     fast = Encoder(p, 30 * p.b, seed=5, speed=1.5 / p.w).run()     # 1.5 periods per window
     assert fast.updated.all()
+
+
+def test_partial_sweeps_update_at_the_final_gear():
+    """A block that sweeps at least a sixteenth of a period but less than a whole one updates at the final
+    step 2^-MU_LOG2 and leaves the gear where it was (a slow start-up is not stuck with all of its drift until
+    some block sweeps a period); a block that sweeps less is skipped. Four blocks each of 0.5, 0.03, 1.5, 0.2,
+    1.5 periods per block: the offset moves by (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC - 1 + G) with G the
+    gear of the whole-period updates counted so far, or MU_LOG2."""
+    p = dataclasses.replace(P2H1, mu_log2=3)
+    rates = np.repeat([0.5, 0.03, 1.5, 0.2, 1.5], 4 * p.b) / p.b          # periods per sample
+    enc = Encoder(p, rates.size, seed=9, phi=2 * np.pi * (np.cumsum(rates) + 0.1))
+    r = enc.run()
+    full = r.sweep >= 1 << p.fine_w
+    partial = ~full & (r.sweep >= 1 << (p.fine_w - SWEEP_MIN_LOG2))
+    assert full.sum() == 8 and partial.sum() == 8 and (r.updated == (full | partial)).all()
+    assert not r.track_sat.any()
+    gears, u = [], 0
+    for f in full:
+        gears.append(p.gear(u) if f else p.mu_log2)
+        u += int(f)
+    assert gears[8:12] == [0, 1, 2, 2] and gears[16:20] == [3, 3, 3, 3]   # the first whole period: step 1
+    moved = np.diff(r.states[:, :2], axis=0)
+    for j in np.flatnonzero(r.updated):
+        assert tuple(moved[j]) == tuple((se << p.ofs_frac) >> p.off_shift(gears[j]) for se in r.se[j]), j
 
 
 def test_state_and_output_saturation():

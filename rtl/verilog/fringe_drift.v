@@ -70,6 +70,7 @@ module fringe_drift #(
 
     localparam integer NORM_LATENCY = DRIFT_NORM_LATENCY;
     localparam integer OBS_LATENCY  = DRIFT_OBS_LATENCY;
+    localparam integer SWEEP_LO     = FINE_W - DRIFT_SWEEP_MIN_LOG2;   // log2 of the least SWEEP that updates
     localparam integer D        = (HOLD != 0) ? 0 : 1 << (BLOCK_LOG2 - 1);   // application delay
     localparam integer WL       = BLOCK_LOG2 - 1 + ((HOLD != 0) ? 1 : 0);   // log2(W), W samples accumulated
     localparam integer FWD_MAX  = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
@@ -447,14 +448,19 @@ module fringe_drift #(
         end
     endgenerate
 
-    // Gear shift: update number u (updates resolved with SWEEP passed since reset, i.e. applied or about to
-    // be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The gear
-    // changes only at stage 16, after the stages 10 and 14 of the same block read it, and long before the
-    // next block's stage 10 (B >= 16 samples later).
+    // Gear shift: update number u (updates resolved with a whole period swept since reset, i.e. applied or
+    // about to be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The
+    // gear changes only at stage 16, after the stages 10 and 14 of the same block read it, and long before the
+    // next block's stage 10 (B >= 16 samples later). A block that swept less than a period (but at least
+    // 2^SWEEP_LO) updates at the final gear and does not count; the snapshot it is judged on holds until the
+    // next block's end.
     reg  [3:0] gear;
     reg  [8:0] g_left;
-    wire [3:0] g_up = MU_LOG2[3:0] - gear;                 // MU_LOG2 - G: the gain step's left shift
-    wire [5:0] sh_o = SH_B[5:0] + {2'b00, gear};          // log2(W) + TABLE_FRAC - 1 + G
+    wire       snap_full = |snap_sweep[SW_W-1:FINE_W];       // a whole period swept
+    wire       snap_ok   = |snap_sweep[SW_W-1:SWEEP_LO];     // enough to update
+    wire [3:0] g_blk = snap_full ? gear : MU_LOG2[3:0];    // this block's gear G
+    wire [3:0] g_up = MU_LOG2[3:0] - g_blk;                // MU_LOG2 - G: the gain step's left shift
+    wire [5:0] sh_o = SH_B[5:0] + {2'b00, g_blk};         // log2(W) + TABLE_FRAC - 1 + G
 
     // P sign-extended to PR_W bits, times 2^(MU_LOG2 - G) (fits: PR_W > P_W + MU_LOG2 + 1)
     wire signed [PR_W-1:0] px_s = {{(PR_W-P_W){kg_p[P_W-1]}}, kg_p[0 +: P_W]};
@@ -470,7 +476,7 @@ module fringe_drift #(
     reg  signed [OS_W-1:0] u2_os, u2_oc;   // 11: OFF + step
     reg  signed [OW-1:0]   u3_os, u3_oc;   // 12: saturated
     reg                    u3_sat;
-    wire                   u6_valid, u6_ok; // stage 15: valid, the SWEEP test
+    wire                   u6_valid, u6_ok, u6_full; // stage 15: valid, the SWEEP tests
     wire signed [OW-1:0]   u6_os, u6_oc;
     wire                   u6_sat, u6_carry_valid;
     reg  signed [DG_W-1:0] u5_dg_s, u5_dg_c; // 14: (P * 2^(MU_LOG2 - G)) >>> KG_SHIFT
@@ -489,9 +495,9 @@ module fringe_drift #(
     wire gs_high = ~gs_neg & |u6_gs[GS_W-2:GINV_W];
     wire gc_high = ~gc_neg & |u6_gc[GS_W-2:GINV_W];
 
-    fringe_delay #(.WIDTH(1), .DEPTH(6)) u_upd_valid (
-        .clk(clk), .rst(rst), .ce(ce), .in_valid(o9_go), .in_data(|snap_sweep[SW_W-1:FINE_W]),
-        .out_valid(u6_valid), .out_data(u6_ok)
+    fringe_delay #(.WIDTH(2), .DEPTH(6)) u_upd_valid (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(o9_go), .in_data({snap_full, snap_ok}),
+        .out_valid(u6_valid), .out_data({u6_full, u6_ok})
     );
 
     // 13..15: OFF carried along
@@ -533,7 +539,7 @@ module fringe_drift #(
             g_left     <= 9'd1;
         end else if (ce && u6_valid && u6_ok) begin
             pend_valid <= 1'b1;
-            if (gear != MU_LOG2[3:0]) begin
+            if (u6_full && gear != MU_LOG2[3:0]) begin
                 if (g_left == 9'd1) begin
                     gear   <= gear + 4'd1;
                     g_left <= 9'd1 << gear;        // 2^(G_new - 1) updates at the new gear
@@ -559,7 +565,7 @@ module fringe_drift #(
     // Bits that carry nothing: the rounded-off bits of the products and of the offset step; the
     // valid outputs of the delays that carry data only.
     wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], pk_s, pk_c,
-                    snap_sweep[FINE_W-1:0], o8_carry_valid, u6_carry_valid};
+                    snap_sweep[SWEEP_LO-1:0], o8_carry_valid, u6_carry_valid};
 
 endmodule
 

@@ -77,6 +77,7 @@ architecture rtl of fringe_drift is
 
     constant NORM_LATENCY : integer := DRIFT_NORM_LATENCY;
     constant OBS_LATENCY  : integer := DRIFT_OBS_LATENCY;
+    constant SWEEP_LO     : integer := FINE_W - DRIFT_SWEEP_MIN_LOG2;  -- log2 of the least SWEEP that updates
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
@@ -215,9 +216,11 @@ architecture rtl of fringe_drift is
     signal g_left       : integer range 0 to 256;       -- updates left at this gear
     signal u1_ss, u1_sc : signed(XW - 1 downto 0);
     signal u2_os, u2_oc : signed(OS_W - 1 downto 0);
-    signal sweep_ok     : std_logic;                    -- the SWEEP test of the snapshot
+    signal snap_full    : std_logic;                    -- the snapshot swept a whole period
+    signal snap_ok      : std_logic;                    -- enough to update
+    signal g_blk        : integer range 0 to 8;         -- this block's gear G
     signal u6_valid     : std_logic;                    -- stage 15: valid
-    signal u6_ok        : std_logic_vector(0 downto 0); -- stage 15: the SWEEP test
+    signal u6_tests     : std_logic_vector(1 downto 0); -- stage 15: the SWEEP tests (full, ok)
     signal u3_os, u3_oc, u6_os, u6_oc : signed(OW - 1 downto 0);
     signal u3_sat, u6_sat : std_logic;
     signal u6_carry     : std_logic_vector(2 * OW downto 0);
@@ -493,12 +496,16 @@ begin
     px_s <= resize(signed(kg_p(P_W - 1 downto 0)), PR_W);
     px_c <= resize(signed(kg_p(2 * P_W - 1 downto P_W)), PR_W);
 
-    sweep_ok <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
+    -- A block that swept less than a period (but at least 2^SWEEP_LO) updates at the final gear and does not
+    -- count; the snapshot it is judged on holds until the next block's end.
+    snap_full <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
+    snap_ok   <= '1' when snap_sweep(SW_W - 1 downto SWEEP_LO) /= 0 else '0';
+    g_blk     <= gear when snap_full = '1' else MU_LOG2;
 
     u_upd_valid : entity work.fringe_delay
-        generic map (WIDTH => 1, DEPTH => 6)
-        port map (clk => clk, rst => rst, ce => ce, in_valid => o9_go, in_data(0) => sweep_ok,
-                  out_valid => u6_valid, out_data => u6_ok);
+        generic map (WIDTH => 2, DEPTH => 6)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => o9_go, in_data => snap_full & snap_ok,
+                  out_valid => u6_valid, out_data => u6_tests);
 
     -- 13..15: OFF carried along
     u_upd_carry : entity work.fringe_delay
@@ -510,9 +517,9 @@ begin
     u6_oc  <= signed(u6_carry(OW downto 1));
     u6_sat <= u6_carry(0);
 
-    -- Gear shift: update number u (updates resolved with SWEEP passed since reset, i.e. applied or about to
-    -- be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The gear
-    -- changes only at stage 16, after the stages 10 and 14 of the same block read it, and long before the
+    -- Gear shift: update number u (updates resolved with a whole period swept since reset, i.e. applied or
+    -- about to be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The
+    -- gear changes only at stage 16, after the stages 10 and 14 of the same block read it, and long before the
     -- next block's stage 10 (B >= 16 samples later).
     p_upd : process (clk)
         variable sxo_s, sxo_c : signed(XW - 1 downto 0);
@@ -526,8 +533,8 @@ begin
                 -- 10: (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC - 1 + G)
                 sxo_s := shift_left(resize(snap_se_s, XW), OFS_FRAC);
                 sxo_c := shift_left(resize(snap_se_c, XW), OFS_FRAC);
-                u1_ss <= shift_right(sxo_s, SH_B + gear);
-                u1_sc <= shift_right(sxo_c, SH_B + gear);
+                u1_ss <= shift_right(sxo_s, SH_B + g_blk);
+                u1_sc <= shift_right(sxo_c, SH_B + g_blk);
                 -- 11: OFF + step
                 u2_os <= resize(off_s, OS_W) + resize(u1_ss, OS_W);
                 u2_oc <= resize(off_c, OS_W) + resize(u1_sc, OS_W);
@@ -538,8 +545,8 @@ begin
                 u3_oc  <= saturate(u2_oc, OW);
                 u3_sat <= '1' when os_over or oc_over else '0';
                 -- 14: the gain step at the gear, (P * 2^(MU_LOG2 - G) + 2^(KG_SHIFT-1)) >>> KG_SHIFT in two parts
-                pk_s := shift_left(px_s, MU_LOG2 - gear);
-                pk_c := shift_left(px_c, MU_LOG2 - gear);
+                pk_s := shift_left(px_s, MU_LOG2 - g_blk);
+                pk_c := shift_left(px_c, MU_LOG2 - g_blk);
                 u5_dg_s <= pk_s(PR_W - 1 downto KG_SHIFT);
                 u5_dg_c <= pk_c(PR_W - 1 downto KG_SHIFT);
                 u5_rb_s <= pk_s(KG_SHIFT - 1);
@@ -563,9 +570,9 @@ begin
                 pend_valid <= '0';
                 gear       <= 0;
                 g_left     <= 1;
-            elsif ce = '1' and u6_valid = '1' and u6_ok(0) = '1' then
+            elsif ce = '1' and u6_valid = '1' and u6_tests(0) = '1' then
                 pend_valid <= '1';
-                if gear /= MU_LOG2 then
+                if u6_tests(1) = '1' and gear /= MU_LOG2 then
                     if g_left = 1 then
                         gear   <= gear + 1;
                         g_left <= 2 ** gear;         -- 2^(G_new - 1) updates at the new gear
@@ -576,7 +583,7 @@ begin
             elsif take = '1' then
                 pend_valid <= '0';
             end if;
-            if ce = '1' and u6_valid = '1' and u6_ok(0) = '1' then
+            if ce = '1' and u6_valid = '1' and u6_tests(0) = '1' then
                 pend_off_s <= u6_os;
                 pend_off_c <= u6_oc;
                 if gs_neg then

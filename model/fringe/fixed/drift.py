@@ -16,8 +16,9 @@ OBSERVER (each sample's fine phase from downstream with the same sample's y)::
     block j = observer samples [jB, (j+1)B), B = 2^BLOCK_LOG2; its window = the last W of them, those
     normalised with the latest state: W = B with HOLD = 1, W = B/2 with HOLD = 0; over the window
       SE_k = sum e_k;  SEA_k = sum e_k * a_k;  SWEEP = sum |wrap(phase[n] - phase[n-1])| (first sample after reset: 0)
-    at the end of block j, if SWEEP >= 2^FINE_W, update number u (applied updates before it, since reset)
-    with the gear G_u = min(MU_LOG2, bit_length(u)) (steps 1, 1/2, 1/4, 1/4, 1/8 x 4, ... 2^-MU_LOG2):
+    at the end of block j, if SWEEP >= 2^FINE_W, update number u (the whole-period updates before it, since
+    reset) with the gear G_u = min(MU_LOG2, bit_length(u)) (steps 1, 1/2, 1/4, 1/4, 1/8 x 4, ... 2^-MU_LOG2);
+    if 2^(FINE_W - SWEEP_MIN_LOG2) <= SWEEP < 2^FINE_W, the same update at G = MU_LOG2 (not counted in u):
       OFF_k  += (SE_k * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC - 1 + G_u)             saturated to s(ADC_W + OFS_FRAC)
       GINV_k -= (SEA_k * KG_k * 2^(MU_LOG2 - G_u) + 2^(KG_SHIFT-1)) >>> KG_SHIFT     saturated to u(GINV_W)
       track_sat = either of the four saturated (held through skipped blocks, cleared by reset)
@@ -46,6 +47,7 @@ __all__ = [
     "NAME",
     "NORM_LATENCY",
     "OBS_LATENCY",
+    "SWEEP_MIN_LOG2",
     "DriftParams",
     "DriftResult",
     "drift_float",
@@ -66,6 +68,10 @@ NORM_LATENCY = 4
 #: Enabled clocks from obs_valid of a block's last sample (its own clock enable counted) until the
 #: block's update is pending (ready to be applied).
 OBS_LATENCY = 16
+# A block that swept less than a whole period but at least 2^-SWEEP_MIN_LOG2 of one still updates, at the final
+# gear (a small step, which the next blocks' other directions complete): a slow or short-block tracker otherwise
+# waits, with all of the drift in its readings, until some block sweeps a period ("Partial sweeps" in the docs)
+SWEEP_MIN_LOG2 = 4
 
 
 def _check_int(name: str, v) -> None:
@@ -496,10 +502,12 @@ def drift_run(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], np.
             sw = int(dabs[sl].sum())
             se = (int(e[0, sl].sum()), int(e[1, sl].sum()))
             sea = (_sum_exact(ea[0, sl]), _sum_exact(ea[1, sl]))
-            ok = sw >= 1 << p.fine_w
+            ok = sw >= 1 << (p.fine_w - SWEEP_MIN_LOG2)
             if ok:
-                state, flag = update(state, se, sea, kga[bk[(j + 1) * B - 1]], p, p.gear(applied))
-                applied += 1
+                full = sw >= 1 << p.fine_w      # a whole period: the gear's next step; less: the final step
+                state, flag = update(state, se, sea, kga[bk[(j + 1) * B - 1]], p,
+                                     p.gear(applied) if full else p.mu_log2)
+                applied += full
             states.append(state)
             updated.append(ok)
             tsat.append(flag)
@@ -577,11 +585,11 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
             ph_b = phase[max((j + 1) * B - p.w - 1, 0):(j + 1) * B]
             d = np.mod(np.diff(ph_b) + per / 2, per) - per / 2
             sw = float(np.abs(d).sum())
-            ok = sw >= per
+            ok = sw >= per / (1 << SWEEP_MIN_LOG2)
             if ok:
                 kgb = kga[bk[(j + 1) * B - 1]]
-                g = p.gear(applied)
-                applied += 1
+                g = p.gear(applied) if sw >= per else p.mu_log2
+                applied += sw >= per
                 off = off + e[:, sl].mean(axis=1) * 2.0 ** (1 - g)
                 ginv = ginv - (e[:, sl] * a[:, sl]).sum(axis=1) * kgb * gk * 2.0 ** (p.mu_log2 - g)
             states.append((off[0] * 2.0 ** p.ofs_frac, off[1] * 2.0 ** p.ofs_frac,
