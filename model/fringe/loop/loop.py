@@ -195,6 +195,9 @@ def shift_reference(meas: Measurement, lag_s: float) -> Measurement:
 
 
 REVOLUTION_SECTORS = 64     # a recording covers the revolution when it visits every one of these sectors
+# With fewer signal periods per revolution the revolution and the fine phase are nearly the same angle: a change over
+# the revolution cannot be told from a waveform that differs between periods
+REVOLUTION_MIN_LINES = 4
 
 
 def covered(ctx: Context) -> Context:
@@ -385,7 +388,7 @@ def testable(name: str, ctx: Context, cal: Calibration | None = None, ref_speed:
         return "the recording moves in one direction only"
     if "time" in needs and len(ctx.t) < 200:
         return "too few samples in time"
-    if "periods" in needs and ctx.lines < 4:
+    if "periods" in needs and ctx.lines < REVOLUTION_MIN_LINES:
         return (f"with {ctx.lines} signal period(s) per revolution the revolution and the fine phase are nearly "
                 "the same angle: a change over the revolution is a waveform error (the tables own it)")
     if "periods" in needs and not ctx.revolution_covered:
@@ -1193,6 +1196,17 @@ PHASE_DOMAIN_ORDERS = (2, 4, 6, 8, 12, 16, 24, 32)   # fine-phase orders of the 
 AMPLITUDE_TERMS = ("amplitude", "generic:magnitude:", "generic:magnitude2:")
 
 
+def unnamed_amplitude(entry: dict, lines: int) -> dict:
+    """A magnitude-dependent correction on an encoder of fewer than REVOLUTION_MIN_LINES periods: kept, but not
+    named "amplitude". The amplitude changes the population and real encoders show are changes over the revolution,
+    and with so few periods that is a waveform that differs from period to period, as for the revolution's offsets
+    and gains (testable): the correction is reported as structure no name explains."""
+    return {**entry, "name": generic_name("magnitude", AMPLITUDE_ORDERS), "cause": GENERIC["cause"],
+            "signature": f"an error that follows the signal magnitude; unexplained by name (with {lines} signal "
+                         "period(s) per revolution an amplitude change over the revolution cannot be told from a "
+                         "waveform that differs between periods)"}
+
+
 def amplitude_like(t: Test) -> bool:
     return any((t.label or t.name).startswith(a) for a in AMPLITUDE_TERMS)
 
@@ -1340,6 +1354,8 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         if remedy:
             entry.update(where=NORMALISER_WHERE if remedy == NORMALISER else PHASE_DOMAIN_WHERE, remedy=remedy,
                          correction="adaptive" if remedy == NORMALISER else "hardware")
+        if entry["name"] == "amplitude" and state.cal.encoder.lines_per_rev < REVOLUTION_MIN_LINES:
+            entry = unnamed_amplitude(entry, state.cal.encoder.lines_per_rev)
         if val_after.rms < (1 - 0.5 * MIN_GAIN) * ev_val.rms:
             report["effects_added"].append(entry)
             state, ev_val = trial, val_after
