@@ -1024,11 +1024,14 @@ def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
 # fringe_drift's update block and final step (its gear shift starts at 1): together the settled tracker's time
 # constant, 2^(block + mu) samples. Short blocks start up soon after reset (with DRIFT_HOLD = 1 each update applies at
 # the next block's first sample): until the first update the readings carry all of the drift at power-up, which can
-# be most of a recording's excess error (9214: 12" in the first 32 samples against a 0.44" floor); long ones still
-# update on a slow motion (a block must sweep a whole period)
+# be most of a recording's excess error (9214: 12" in the first 32 samples against a 0.44" floor); long ones update
+# with the gear's large first steps on a slower motion (a block of less than a period takes the final step only,
+# and one of less than a sixteenth of a period none)
 TRACKER_BLOCK_LOG2 = (4, 5, 6, 7, 8, 10, 12)
 # The same true loop gains as (0, 1, 2, 4) before the offset step was doubled; MU_LOG2 = 0 keeps a step of 1, whose
-# offset gain reaches 2 on a block that sweeps a short arc back and forth (docs/blocks/fringe_drift.md, "Loop gain")
+# offset gain reaches 2 on a block that sweeps a short arc back and forth (docs/blocks/fringe_drift.md, "Loop gain");
+# blocks of less than a period are stable from MU_LOG2 = 2 ("Partial sweeps": at 1 an arc near a channel's peak
+# can overshoot), which the choice on the fit recording took wherever most blocks were partial
 TRACKER_MU_LOG2 = (1, 2, 3, 5)
 
 
