@@ -80,6 +80,8 @@ def constants() -> list[Const]:
             Const("DRIFT_OBS_LATENCY", drift.OBS_LATENCY, "fringe_drift observer"),
             Const("DRIFT_SWEEP_MIN_LOG2", drift.SWEEP_MIN_LOG2,
                   "fringe_drift: a block that swept 2^-this of a period updates"),
+            Const("DRIFT_PARTIAL_MU_MIN", drift.PARTIAL_MU_MIN,
+                  "fringe_drift: ... if MU_LOG2 is at least this"),
             Const("CANCEL_LATENCY", canceller.LATENCY, "fringe_canceller"),
             Const("CANCEL_ADAPT_LATENCY", canceller.ADAPT_LATENCY,
                   "fringe_canceller: a block's last sample to its update in place")]

@@ -46,6 +46,7 @@ from lib.launch import block_config, block_env, signed
 from fringe.fixed.drift import (
     NORM_LATENCY,
     OBS_LATENCY,
+    PARTIAL_MU_MIN,
     DriftParams,
     drift_run,
     kg_for,
@@ -415,7 +416,7 @@ def test_plan_is_effective(ps):
     assert len(results) == 3
     assert all(r.updated.sum() >= 5 for r in results[:2]) and (~results[1].updated).sum() >= 3   # slower: skipped
     partial = results[1].updated & (results[1].sweep < 1 << p.fine_w)      # slow: the final step
-    assert partial.sum() >= 3 and (results[1].updated & ~partial).sum() >= 3
+    assert (partial.sum() >= 3) == (p.mu_log2 >= PARTIAL_MU_MIN) and (results[1].updated & ~partial).sum() >= 3
     assert results[-1].updated.any()     # KG far too large: GINV saturates in the first updates
     assert results[-1].track_sat.any() and results[1].sat.any()
     assert not results[0].track_sat.any()

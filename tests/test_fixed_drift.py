@@ -13,6 +13,7 @@ from param_cases import out_of_range
 from fringe.fixed.drift import (
     NORM_LATENCY,
     OBS_LATENCY,
+    PARTIAL_MU_MIN,
     SWEEP_MIN_LOG2,
     DriftParams,
     drift_float,
@@ -119,7 +120,8 @@ def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg, *, old: bool = F
         if n % B == B - 1:
             cur = pending[-1][1] if pending else (off[0], off[1], ginv[0], ginv[1])
             full = sweep >= 1 << p.fine_w
-            if full or (not old and sweep >= 1 << (p.fine_w - SWEEP_MIN_LOG2)):
+            partial = sweep >= 1 << (p.fine_w - SWEEP_MIN_LOG2) and p.mu_log2 >= PARTIAL_MU_MIN
+            if full or (not old and partial):
                 # less than a period: the final step, not counted by the gear
                 gear = min(p.mu_log2, u.bit_length()) if full and not old else p.mu_log2
                 u += full
@@ -324,6 +326,23 @@ def test_partial_sweeps_update_at_the_final_gear():
     moved = np.diff(r.states[:, :2], axis=0)
     for j in np.flatnonzero(r.updated):
         assert tuple(moved[j]) == tuple((se << p.ofs_frac) >> p.off_shift(gears[j]) for se in r.se[j]), j
+
+
+def test_partial_sweeps_need_a_small_final_step():
+    """On an arc offset and gain are one direction: a servo dithering a quarter period back and forth near the
+    sine's peak (0.1-0.15 period per block) drove GINV to 0 with a final step of 1/2 (absorbing: y = 0). Partial
+    blocks therefore update only from MU_LOG2 = PARTIAL_MU_MIN (2) on, where the state stays bounded."""
+    for mu in (1, 2):
+        p = dataclasses.replace(P2H1, mu_log2=mu, block_log2=6)
+        t = np.arange(200 * p.b)
+        enc = Encoder(p, t.size, seed=3, phi=2 * np.pi * (0.25 + 0.125 * np.sin(2 * np.pi * t / (4 * p.b))))
+        r = enc.run()
+        assert (r.sweep < 1 << p.fine_w).all() and (r.sweep >= 1 << (p.fine_w - SWEEP_MIN_LOG2)).mean() > 0.9
+        if mu < PARTIAL_MU_MIN:
+            assert not r.updated.any()
+        else:
+            assert r.updated.mean() > 0.9 and not r.track_sat.any()
+            assert r.states[:, 2:].min() > p.unity // 2       # gains 0.92 and 1.1: GINV near 1 / gain
 
 
 def test_state_and_output_saturation():

@@ -71,6 +71,7 @@ module fringe_drift #(
     localparam integer NORM_LATENCY = DRIFT_NORM_LATENCY;
     localparam integer OBS_LATENCY  = DRIFT_OBS_LATENCY;
     localparam integer SWEEP_LO     = FINE_W - DRIFT_SWEEP_MIN_LOG2;   // log2 of the least SWEEP that updates
+    localparam [0:0]   PARTIAL      = (MU_LOG2 >= DRIFT_PARTIAL_MU_MIN) ? 1'b1 : 1'b0;   // blocks < a period update
     localparam integer D        = (HOLD != 0) ? 0 : 1 << (BLOCK_LOG2 - 1);   // application delay
     localparam integer WL       = BLOCK_LOG2 - 1 + ((HOLD != 0) ? 1 : 0);   // log2(W), W samples accumulated
     localparam integer FWD_MAX  = (FINE_W - 1 < 10) ? FINE_W - 1 : 10;
@@ -452,12 +453,12 @@ module fringe_drift #(
     // about to be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The
     // gear changes only at stage 16, after the stages 10 and 14 of the same block read it, and long before the
     // next block's stage 10 (B >= 16 samples later). A block that swept less than a period (but at least
-    // 2^SWEEP_LO) updates at the final gear and does not count; the snapshot it is judged on holds until the
-    // next block's end.
+    // 2^SWEEP_LO) updates at the final gear, if that is 2^-2 or smaller, and does not count; the snapshot it
+    // is judged on holds until the next block's end.
     reg  [3:0] gear;
     reg  [8:0] g_left;
     wire       snap_full = |snap_sweep[SW_W-1:FINE_W];       // a whole period swept
-    wire       snap_ok   = |snap_sweep[SW_W-1:SWEEP_LO];     // enough to update
+    wire       snap_ok   = snap_full | (PARTIAL & |snap_sweep[SW_W-1:SWEEP_LO]);   // enough to update
     wire [3:0] g_blk = snap_full ? gear : MU_LOG2[3:0];    // this block's gear G
     wire [3:0] g_up = MU_LOG2[3:0] - g_blk;                // MU_LOG2 - G: the gain step's left shift
     wire [5:0] sh_o = SH_B[5:0] + {2'b00, g_blk};         // log2(W) + TABLE_FRAC - 1 + G

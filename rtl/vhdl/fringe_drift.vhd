@@ -78,6 +78,7 @@ architecture rtl of fringe_drift is
     constant NORM_LATENCY : integer := DRIFT_NORM_LATENCY;
     constant OBS_LATENCY  : integer := DRIFT_OBS_LATENCY;
     constant SWEEP_LO     : integer := FINE_W - DRIFT_SWEEP_MIN_LOG2;  -- log2 of the least SWEEP that updates
+    constant PARTIAL      : boolean := MU_LOG2 >= DRIFT_PARTIAL_MU_MIN;  -- blocks of less than a period update
 
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
@@ -496,10 +497,10 @@ begin
     px_s <= resize(signed(kg_p(P_W - 1 downto 0)), PR_W);
     px_c <= resize(signed(kg_p(2 * P_W - 1 downto P_W)), PR_W);
 
-    -- A block that swept less than a period (but at least 2^SWEEP_LO) updates at the final gear and does not
-    -- count; the snapshot it is judged on holds until the next block's end.
+    -- A block that swept less than a period (but at least 2^SWEEP_LO) updates at the final gear, if that is
+    -- 2^-2 or smaller, and does not count; the snapshot it is judged on holds until the next block's end.
     snap_full <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
-    snap_ok   <= '1' when snap_sweep(SW_W - 1 downto SWEEP_LO) /= 0 else '0';
+    snap_ok   <= '1' when snap_full = '1' or (PARTIAL and snap_sweep(SW_W - 1 downto SWEEP_LO) /= 0) else '0';
     g_blk     <= gear when snap_full = '1' else MU_LOG2;
 
     u_upd_valid : entity work.fringe_delay

@@ -118,6 +118,7 @@ package fringe_pkg is
     constant DRIFT_NORM_LATENCY      : integer := 4;  -- fringe_drift normaliser
     constant DRIFT_OBS_LATENCY       : integer := 16;  -- fringe_drift observer
     constant DRIFT_SWEEP_MIN_LOG2    : integer := 4;  -- fringe_drift: a block that swept 2^-this of a period updates
+    constant DRIFT_PARTIAL_MU_MIN    : integer := 2;  -- fringe_drift: ... if MU_LOG2 is at least this
     constant CANCEL_LATENCY          : integer := 4;  -- fringe_canceller
     constant CANCEL_ADAPT_LATENCY    : integer := 15;  -- fringe_canceller: a block's last sample to its update in place
     -- END generated constants

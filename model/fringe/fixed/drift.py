@@ -18,7 +18,8 @@ OBSERVER (each sample's fine phase from downstream with the same sample's y)::
       SE_k = sum e_k;  SEA_k = sum e_k * a_k;  SWEEP = sum |wrap(phase[n] - phase[n-1])| (first sample after reset: 0)
     at the end of block j, if SWEEP >= 2^FINE_W, update number u (the whole-period updates before it, since
     reset) with the gear G_u = min(MU_LOG2, bit_length(u)) (steps 1, 1/2, 1/4, 1/4, 1/8 x 4, ... 2^-MU_LOG2);
-    if 2^(FINE_W - SWEEP_MIN_LOG2) <= SWEEP < 2^FINE_W, the same update at G = MU_LOG2 (not counted in u):
+    if 2^(FINE_W - SWEEP_MIN_LOG2) <= SWEEP < 2^FINE_W and MU_LOG2 >= PARTIAL_MU_MIN, the same update at
+    G = MU_LOG2 (not counted in u):
       OFF_k  += (SE_k * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC - 1 + G_u)             saturated to s(ADC_W + OFS_FRAC)
       GINV_k -= (SEA_k * KG_k * 2^(MU_LOG2 - G_u) + 2^(KG_SHIFT-1)) >>> KG_SHIFT     saturated to u(GINV_W)
       track_sat = either of the four saturated (held through skipped blocks, cleared by reset)
@@ -48,6 +49,7 @@ __all__ = [
     "NORM_LATENCY",
     "OBS_LATENCY",
     "SWEEP_MIN_LOG2",
+    "PARTIAL_MU_MIN",
     "DriftParams",
     "DriftResult",
     "drift_float",
@@ -72,6 +74,9 @@ OBS_LATENCY = 16
 # gear (a small step, which the next blocks' other directions complete): a slow or short-block tracker otherwise
 # waits, with all of the drift in its readings, until some block sweeps a period ("Partial sweeps" in the docs)
 SWEEP_MIN_LOG2 = 4
+# ... and only where the final step is 2^-PARTIAL_MU_MIN or smaller: on an arc offset and gain are one direction, and
+# with a final step of 1/2 an arc swept back and forth near a channel's peak drove GINV to 0 (absorbing) in the tests
+PARTIAL_MU_MIN = 2
 
 
 def _check_int(name: str, v) -> None:
@@ -502,9 +507,9 @@ def drift_run(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], np.
             sw = int(dabs[sl].sum())
             se = (int(e[0, sl].sum()), int(e[1, sl].sum()))
             sea = (_sum_exact(ea[0, sl]), _sum_exact(ea[1, sl]))
-            ok = sw >= 1 << (p.fine_w - SWEEP_MIN_LOG2)
+            full = sw >= 1 << p.fine_w      # a whole period: the gear's next step; less: the final step
+            ok = full or (sw >= 1 << (p.fine_w - SWEEP_MIN_LOG2) and p.mu_log2 >= PARTIAL_MU_MIN)
             if ok:
-                full = sw >= 1 << p.fine_w      # a whole period: the gear's next step; less: the final step
                 state, flag = update(state, se, sea, kga[bk[(j + 1) * B - 1]], p,
                                      p.gear(applied) if full else p.mu_log2)
                 applied += full
@@ -585,7 +590,7 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
             ph_b = phase[max((j + 1) * B - p.w - 1, 0):(j + 1) * B]
             d = np.mod(np.diff(ph_b) + per / 2, per) - per / 2
             sw = float(np.abs(d).sum())
-            ok = sw >= per / (1 << SWEEP_MIN_LOG2)
+            ok = sw >= per or (sw >= per / (1 << SWEEP_MIN_LOG2) and p.mu_log2 >= PARTIAL_MU_MIN)
             if ok:
                 kgb = kga[bk[(j + 1) * B - 1]]
                 g = p.gear(applied) if sw >= per else p.mu_log2
