@@ -1201,10 +1201,9 @@ AMPLITUDE_TERMS = ("amplitude", "generic:magnitude:", "generic:magnitude2:")
 
 
 def unnamed_amplitude(entry: dict, lines: int) -> dict:
-    """A magnitude-dependent correction on an encoder of fewer than REVOLUTION_MIN_LINES periods: kept, but not
-    named "amplitude". The amplitude changes the population and real encoders show are changes over the revolution,
-    and with so few periods that is a waveform that differs from period to period, as for the revolution's offsets
-    and gains (testable): the correction is reported as structure no name explains."""
+    """A magnitude-dependent correction on an encoder of fewer than REVOLUTION_MIN_LINES periods: kept, but reported
+    as structure no name explains, not as "amplitude": with so few periods an amplitude change over the revolution
+    is a waveform that differs from period to period, as testable() holds for the revolution's offsets and gains."""
     return {**entry, "name": generic_name("magnitude", AMPLITUDE_ORDERS), "cause": GENERIC["cause"],
             "signature": f"an error that follows the signal magnitude; unexplained by name (with {lines} signal "
                          "period(s) per revolution an amplitude change over the revolution cannot be told from a "
