@@ -155,6 +155,16 @@ class DriftParams:
         """G_u = min(MU_LOG2, bit_length(u)) of update number u (applied updates before it since reset)."""
         return min(self.mu_log2, int(u).bit_length())
 
+    def block_gear(self, sweep: float, u: int) -> int | None:
+        """The gear of a block that swept `sweep` (fine counts; the float twin's may be fractional) after u
+        whole-period updates: G_u for a whole period, MU_LOG2 for at least 2^-SWEEP_MIN_LOG2 of one (from
+        MU_LOG2 = PARTIAL_MU_MIN on), None for a skipped block."""
+        if sweep >= 1 << self.fine_w:
+            return self.gear(u)
+        if sweep >= 1 << (self.fine_w - SWEEP_MIN_LOG2) and self.mu_log2 >= PARTIAL_MU_MIN:
+            return self.mu_log2
+        return None
+
     @property
     def fb(self) -> int:
         """FB: fraction bits of the phase within a bin, FINE_W - FWD_W (>= 1)."""
@@ -507,12 +517,11 @@ def drift_run(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], np.
             sw = int(dabs[sl].sum())
             se = (int(e[0, sl].sum()), int(e[1, sl].sum()))
             sea = (_sum_exact(ea[0, sl]), _sum_exact(ea[1, sl]))
-            full = sw >= 1 << p.fine_w      # a whole period: the gear's next step; less: the final step
-            ok = full or (sw >= 1 << (p.fine_w - SWEEP_MIN_LOG2) and p.mu_log2 >= PARTIAL_MU_MIN)
+            g = p.block_gear(sw, applied)
+            ok = g is not None
             if ok:
-                state, flag = update(state, se, sea, kga[bk[(j + 1) * B - 1]], p,
-                                     p.gear(applied) if full else p.mu_log2)
-                applied += full
+                state, flag = update(state, se, sea, kga[bk[(j + 1) * B - 1]], p, g)
+                applied += sw >= 1 << p.fine_w      # only whole periods advance the gear
             states.append(state)
             updated.append(ok)
             tsat.append(flag)
@@ -590,10 +599,10 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
             ph_b = phase[max((j + 1) * B - p.w - 1, 0):(j + 1) * B]
             d = np.mod(np.diff(ph_b) + per / 2, per) - per / 2
             sw = float(np.abs(d).sum())
-            ok = sw >= per or (sw >= per / (1 << SWEEP_MIN_LOG2) and p.mu_log2 >= PARTIAL_MU_MIN)
+            g = p.block_gear(sw, applied)
+            ok = g is not None
             if ok:
                 kgb = kga[bk[(j + 1) * B - 1]]
-                g = p.gear(applied) if sw >= per else p.mu_log2
                 applied += sw >= per
                 off = off + e[:, sl].mean(axis=1) * 2.0 ** (1 - g)
                 ginv = ginv - (e[:, sl] * a[:, sl]).sum(axis=1) * kgb * gk * 2.0 ** (p.mu_log2 - g)
