@@ -383,7 +383,7 @@ module fringe_drift #(
     // 9: accumulators; the block's last sample goes to the snapshot and clears them
     reg  signed [SE_W-1:0]  se_s, se_c, snap_se_s, snap_se_c;
     reg  signed [SEA_W-1:0] sea_s, sea_c, snap_sea_s, snap_sea_c;
-    reg  [SW_W-1:0]         sweep, snap_sweep;
+    reg  [SW_W-1:0]         sweep;
     reg                     o9_go;
     wire signed [SE_W-1:0]  se_s_n  = se_s + {{WL{o8_es[E_W-1]}}, o8_es};
     wire signed [SE_W-1:0]  se_c_n  = se_c + {{WL{o8_ec[E_W-1]}}, o8_ec};
@@ -417,13 +417,28 @@ module fringe_drift #(
         end
     end
 
+    // The block's SWEEP test and its gear G, decided at the snapshot (registered there, so that stages 10
+    // and 14 shift by a register). A block that swept less than a period (but at least 2^SWEEP_LO) updates
+    // at the final gear, if that is 2^-2 or smaller, and does not count. The gear changes only at stage 16,
+    // long before the next block's end (B >= 16 samples later), so it is the gear stages 10 and 14 saw.
+    reg  [3:0] gear;
+    reg  [8:0] g_left;
+    reg        snap_full, snap_ok;   // a whole period swept; enough to update
+    reg  [3:0] g_up;                 // MU_LOG2 - G: the gain step's left shift
+    reg  [5:0] sh_o;                 // log2(W) + TABLE_FRAC - 1 + G: the offset step's right shift
+    wire       full_n = |sweep_n[SW_W-1:FINE_W];
+    wire [5:0] sh_gear = SH_B[5:0] + {2'b00, gear};
+
     always @(posedge clk) begin
         if (ce && blk_end) begin
             snap_se_s  <= se_s_n;
             snap_se_c  <= se_c_n;
             snap_sea_s <= sea_s_n;
             snap_sea_c <= sea_c_n;
-            snap_sweep <= sweep_n;
+            snap_full  <= full_n;
+            snap_ok    <= full_n | (PARTIAL & |sweep_n[SW_W-1:SWEEP_LO]);
+            g_up       <= full_n ? MU_LOG2[3:0] - gear : 4'd0;
+            sh_o       <= full_n ? sh_gear : SH_B[5:0] + MU_LOG2[5:0];
         end
     end
 
@@ -451,17 +466,8 @@ module fringe_drift #(
 
     // Gear shift: update number u (updates resolved with a whole period swept since reset, i.e. applied or
     // about to be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The
-    // gear changes only at stage 16, after the stages 10 and 14 of the same block read it, and long before the
-    // next block's stage 10 (B >= 16 samples later). A block that swept less than a period (but at least
-    // 2^SWEEP_LO) updates at the final gear, if that is 2^-2 or smaller, and does not count; the snapshot it
-    // is judged on holds until the next block's end.
-    reg  [3:0] gear;
-    reg  [8:0] g_left;
-    wire       snap_full = |snap_sweep[SW_W-1:FINE_W];       // a whole period swept
-    wire       snap_ok   = snap_full | (PARTIAL & |snap_sweep[SW_W-1:SWEEP_LO]);   // enough to update
-    wire [3:0] g_blk = snap_full ? gear : MU_LOG2[3:0];    // this block's gear G
-    wire [3:0] g_up = MU_LOG2[3:0] - g_blk;                // MU_LOG2 - G: the gain step's left shift
-    wire [5:0] sh_o = SH_B[5:0] + {2'b00, g_blk};         // log2(W) + TABLE_FRAC - 1 + G
+    // gear changes only at stage 16, after the stages 10 and 14 of the same block read it (through g_up and
+    // sh_o, registered at the snapshot: they hold until the next block's end).
 
     // P sign-extended to PR_W bits, times 2^(MU_LOG2 - G) (fits: PR_W > P_W + MU_LOG2 + 1)
     wire signed [PR_W-1:0] px_s = {{(PR_W-P_W){kg_p[P_W-1]}}, kg_p[0 +: P_W]};
@@ -566,7 +572,7 @@ module fringe_drift #(
     // Bits that carry nothing: the rounded-off bits of the products and of the offset step; the
     // valid outputs of the delays that carry data only.
     wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0], pk_s, pk_c,
-                    snap_sweep[SWEEP_LO-1:0], o8_carry_valid, u6_carry_valid};
+                    o8_carry_valid, u6_carry_valid};
 
 endmodule
 

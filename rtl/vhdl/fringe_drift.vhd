@@ -201,7 +201,7 @@ architecture rtl of fringe_drift is
     signal o8_eas, o8_eac : signed(EA_W - 1 downto 0);
     signal se_s, se_c, snap_se_s, snap_se_c     : signed(SE_W - 1 downto 0);
     signal sea_s, sea_c, snap_sea_s, snap_sea_c : signed(SEA_W - 1 downto 0);
-    signal sweep, snap_sweep : unsigned(SW_W - 1 downto 0);
+    signal sweep      : unsigned(SW_W - 1 downto 0);
     signal o9_go      : std_logic;
 
     -- e * a and P = SEA * KG (fringe_split_mul), P sign-extended to PR_W bits
@@ -219,7 +219,8 @@ architecture rtl of fringe_drift is
     signal u2_os, u2_oc : signed(OS_W - 1 downto 0);
     signal snap_full    : std_logic;                    -- the snapshot swept a whole period
     signal snap_ok      : std_logic;                    -- enough to update
-    signal g_blk        : integer range 0 to 8;         -- this block's gear G
+    signal g_up         : integer range 0 to 8;         -- MU_LOG2 - G: the gain step's left shift
+    signal sh_o         : integer range 0 to 63;        -- SH_B + G: the offset step's right shift
     signal u6_valid     : std_logic;                    -- stage 15: valid
     signal u6_tests     : std_logic_vector(1 downto 0); -- stage 15: the SWEEP tests (full, ok)
     signal u3_os, u3_oc, u6_os, u6_oc : signed(OW - 1 downto 0);
@@ -437,6 +438,7 @@ begin
         variable sea_s_n, sea_c_n : signed(SEA_W - 1 downto 0);
         variable sweep_n          : unsigned(SW_W - 1 downto 0);
         variable blk_end          : boolean;
+        variable full_n           : boolean;
     begin
         if rising_edge(clk) then
             se_s_n  := se_s + resize(o8_es, SE_W);
@@ -464,12 +466,20 @@ begin
                 sea_c <= sea_c_n;
                 sweep <= sweep_n;
             end if;
+            -- the block's SWEEP test and its gear G, decided at the snapshot (registered there, so that stages
+            -- 10 and 14 shift by a register). A block that swept less than a period (but at least 2^SWEEP_LO)
+            -- updates at the final gear, if that is 2^-2 or smaller, and does not count. The gear changes only
+            -- at stage 16, long before the next block's end (B >= 16 samples later).
             if ce = '1' and blk_end then
+                full_n := sweep_n(SW_W - 1 downto FINE_W) /= 0;
                 snap_se_s  <= se_s_n;
                 snap_se_c  <= se_c_n;
                 snap_sea_s <= sea_s_n;
                 snap_sea_c <= sea_c_n;
-                snap_sweep <= sweep_n;
+                snap_full  <= '1' when full_n else '0';
+                snap_ok    <= '1' when full_n or (PARTIAL and sweep_n(SW_W - 1 downto SWEEP_LO) /= 0) else '0';
+                g_up       <= MU_LOG2 - gear when full_n else 0;
+                sh_o       <= SH_B + gear when full_n else SH_B + MU_LOG2;
             end if;
         end if;
     end process p_acc;
@@ -497,12 +507,6 @@ begin
     px_s <= resize(signed(kg_p(P_W - 1 downto 0)), PR_W);
     px_c <= resize(signed(kg_p(2 * P_W - 1 downto P_W)), PR_W);
 
-    -- A block that swept less than a period (but at least 2^SWEEP_LO) updates at the final gear, if that is
-    -- 2^-2 or smaller, and does not count; the snapshot it is judged on holds until the next block's end.
-    snap_full <= '1' when snap_sweep(SW_W - 1 downto FINE_W) /= 0 else '0';
-    snap_ok   <= '1' when snap_full = '1' or (PARTIAL and snap_sweep(SW_W - 1 downto SWEEP_LO) /= 0) else '0';
-    g_blk     <= gear when snap_full = '1' else MU_LOG2;
-
     u_upd_valid : entity work.fringe_delay
         generic map (WIDTH => 2, DEPTH => 6)
         port map (clk => clk, rst => rst, ce => ce, in_valid => o9_go, in_data => snap_full & snap_ok,
@@ -520,8 +524,8 @@ begin
 
     -- Gear shift: update number u (updates resolved with a whole period swept since reset, i.e. applied or
     -- about to be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The
-    -- gear changes only at stage 16, after the stages 10 and 14 of the same block read it, and long before the
-    -- next block's stage 10 (B >= 16 samples later).
+    -- gear changes only at stage 16, after the stages 10 and 14 of the same block read it (through g_up and
+    -- sh_o, registered at the snapshot: they hold until the next block's end).
     p_upd : process (clk)
         variable sxo_s, sxo_c : signed(XW - 1 downto 0);
         variable pk_s, pk_c   : signed(PR_W - 1 downto 0);
@@ -534,8 +538,8 @@ begin
                 -- 10: (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC - 1 + G)
                 sxo_s := shift_left(resize(snap_se_s, XW), OFS_FRAC);
                 sxo_c := shift_left(resize(snap_se_c, XW), OFS_FRAC);
-                u1_ss <= shift_right(sxo_s, SH_B + g_blk);
-                u1_sc <= shift_right(sxo_c, SH_B + g_blk);
+                u1_ss <= shift_right(sxo_s, sh_o);
+                u1_sc <= shift_right(sxo_c, sh_o);
                 -- 11: OFF + step
                 u2_os <= resize(off_s, OS_W) + resize(u1_ss, OS_W);
                 u2_oc <= resize(off_c, OS_W) + resize(u1_sc, OS_W);
@@ -546,8 +550,8 @@ begin
                 u3_oc  <= saturate(u2_oc, OW);
                 u3_sat <= '1' when os_over or oc_over else '0';
                 -- 14: the gain step at the gear, (P * 2^(MU_LOG2 - G) + 2^(KG_SHIFT-1)) >>> KG_SHIFT in two parts
-                pk_s := shift_left(px_s, MU_LOG2 - g_blk);
-                pk_c := shift_left(px_c, MU_LOG2 - g_blk);
+                pk_s := shift_left(px_s, g_up);
+                pk_c := shift_left(px_c, g_up);
                 u5_dg_s <= pk_s(PR_W - 1 downto KG_SHIFT);
                 u5_dg_c <= pk_c(PR_W - 1 downto KG_SHIFT);
                 u5_rb_s <= pk_s(KG_SHIFT - 1);
