@@ -569,3 +569,22 @@ def test_an_additive_tone_is_named_beside_a_skew_at_a_changing_speed():
     names = [e["name"] for e in rep["effects_added"]]
     assert "interference" in names and "tone" not in names, names
     assert abs(state.cal.canceller["tone_hz"] - 1140.0045) < 0.5
+
+
+def test_a_speed_shape_must_hold_against_the_reference_motion():
+    """Held-out draw 9208: a 5-line encoder on a slow motion whose amplitude (and with it the second harmonic)
+    follows the revolution. Its own speed estimate carries the changes of its large angle error, so a speed shape
+    of the general dictionary fitted to it predicts held-out rows of the same recording (it was offered and kept:
+    13 terms, 35" of a 71" residual, on a motion whose speed hardly changes). Against the reference's motion it
+    predicts nothing, so it is not offered, as the library's speed effects are not."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.tools.population import draw_case, fit_seed
+    case = draw_case(9208)
+    cfg = case["config"]
+    m = loop.decision_rows(measurement_of(simulate(cfg, fit_seed(9208))))
+    ev = loop.evaluate(loop.LoopState(calibrate(m, cfg.encoder())), m)
+    sigma, _ = loop.noise_floor(ev)
+    assert ev.rms > loop.GENERIC_ABOVE_FLOOR * sigma       # the general dictionary is searched
+    offered = {t.name for t in loop.generic_candidates(loop.strided(ev), sigma, set())}
+    assert not [n for n in offered if n.startswith(("generic:speed", "generic:direction"))], offered
+    assert any(n.startswith("generic:") for n in offered), offered      # the other factors still are
