@@ -155,11 +155,15 @@ class DriftParams:
         """G_u = min(MU_LOG2, bit_length(u)) of update number u (applied updates before it since reset)."""
         return min(self.mu_log2, int(u).bit_length())
 
+    def whole_period(self, sweep: float) -> bool:
+        """Whether a block swept a whole period (`sweep` in fine counts): only then does the gear advance."""
+        return sweep >= 1 << self.fine_w
+
     def block_gear(self, sweep: float, u: int) -> int | None:
         """The gear of a block that swept `sweep` (fine counts; the float twin's may be fractional) after u
         whole-period updates: G_u for a whole period, MU_LOG2 for at least 2^-SWEEP_MIN_LOG2 of one (from
         MU_LOG2 = PARTIAL_MU_MIN on), None for a skipped block."""
-        if sweep >= 1 << self.fine_w:
+        if self.whole_period(sweep):
             return self.gear(u)
         if sweep >= 1 << (self.fine_w - SWEEP_MIN_LOG2) and self.mu_log2 >= PARTIAL_MU_MIN:
             return self.mu_log2
@@ -521,7 +525,7 @@ def drift_run(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], np.
             ok = g is not None
             if ok:
                 state, flag = update(state, se, sea, kga[bk[(j + 1) * B - 1]], p, g)
-                applied += sw >= 1 << p.fine_w      # only whole periods advance the gear
+                applied += p.whole_period(sw)      # only whole periods advance the gear
             states.append(state)
             updated.append(ok)
             tsat.append(flag)
@@ -603,7 +607,7 @@ def drift_float(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], n
             ok = g is not None
             if ok:
                 kgb = kga[bk[(j + 1) * B - 1]]
-                applied += sw >= per
+                applied += p.whole_period(sw)
                 off = off + e[:, sl].mean(axis=1) * 2.0 ** (1 - g)
                 ginv = ginv - (e[:, sl] * a[:, sl]).sum(axis=1) * kgb * gk * 2.0 ** (p.mu_log2 - g)
             states.append((off[0] * 2.0 ** p.ofs_frac, off[1] * 2.0 ** p.ofs_frac,
