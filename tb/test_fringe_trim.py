@@ -14,7 +14,7 @@ it reads:
 
 1. both banks from the INIT files (smooth tables in bank 0, arbitrary words with extremes in
    bank 1), the bank chosen per sample: full speed, then random in_valid gaps, ce stalls and
-   resets in mid-stream (the history refills: speed 0 for the first sample, then the start-up
+   resets in mid-stream (the history refills: START_SPEED for the first sample, then the start-up
    windows of 1, 2, 4, ... samples scaled to N), and resets while moving fast both ways (the
    scaled start-up speed saturates at -REV/2 and REV/2 - 1);
 2. bank 1 of all three tables rewritten through the write port (one word per clock, whatever ce
@@ -252,7 +252,8 @@ def params_of(raw: dict) -> TrimParams:
     psi = raw["MAP_PSI_W"]
     return TrimParams(raw["LINES"], raw["FINE_W"], raw["AMP_W"], raw["SPEED_LOG2"], psi, raw["MAP_PHI_W"],
                       raw["TRIM_W"], raw["TRIM_FRAC"], raw["G_SHIFT"],
-                      raw["SECT_RECIP"] if psi else None, raw["SECT_SHIFT"] if psi else None)
+                      raw["SECT_RECIP"] if psi else None, raw["SECT_SHIFT"] if psi else None,
+                      raw.get("START_SPEED", 0))
 
 
 def _config() -> tuple[TrimParams, int, int]:
@@ -299,16 +300,17 @@ if cocotb is not None:
 PARAM_SETS = [
     # (TrimParams, USER_W)
     (TrimParams(lines=256, fine_w=16, amp_w=12, speed_log2=5, map_psi_w=4, map_phi_w=6, trim_w=18, trim_frac=4,
-                g_shift=18), 3),
-    # REV not a power of two (SECT_RECIP 536871, SECT_SHIFT 38), window of one sample, TRIM_FRAC 0
+                g_shift=18, start_speed=123457), 3),
+    # REV not a power of two (SECT_RECIP 536871, SECT_SHIFT 38), window of one sample, TRIM_FRAC 0; the first
+    # sample's speed at -REV/2 (backwards)
     (TrimParams(lines=1000, fine_w=12, amp_w=10, speed_log2=0, map_psi_w=3, map_phi_w=5, trim_w=16, trim_frac=0,
-                g_shift=16), 1),
+                g_shift=16, start_speed=-1000 * 2048), 1),
     # no sectors
     (TrimParams(lines=37, fine_w=10, amp_w=16, speed_log2=2, map_psi_w=0, map_phi_w=4, trim_w=12, trim_frac=2,
                 g_shift=10), 2),
     # the widest words: POS_W 31, AMP_W 32, TRIM_W 24, G_SHIFT 48, TRIM_FRAC 16
     (TrimParams(lines=3, fine_w=29, amp_w=32, speed_log2=3, map_psi_w=2, map_phi_w=10, trim_w=24, trim_frac=16,
-                g_shift=48), 2),
+                g_shift=48, start_speed=3 * (1 << 28) - 1), 2),
 ]
 
 
@@ -330,11 +332,11 @@ def test_plan_is_effective():
         assert set(exp[:, 1].tolist()) == {0, 1}, _id((p, user_w))                         # dir
         segs = accepted_segments(cycles)
         assert len(segs) >= 5 and all(len(s) > p.window for s in segs[1:])
-        # the speed restarts at 0 after every reset, then comes from the start-up windows (saturating
+        # the speed restarts at START_SPEED after every reset, then comes from the start-up windows (saturating
         # both ways when they are scaled up; N = 1 has none)
         half = p.rev // 2
         sp = [speeds(np.array([cycles[i].drive["pos"] for i in s]), p) for s in segs]
-        assert all(x[0] == 0 for x in sp)
+        assert all(x[0] == p.start_speed for x in sp)
         start = np.concatenate([x[1:p.window] for x in sp])
         if p.window > 1:
             assert {-half, half - 1} <= set(start.tolist()), _id((p, user_w))
@@ -372,12 +374,14 @@ ILLEGAL = [
     {"SECT_SHIFT": 128},
     {"SECT_RECIP": 1, "SECT_SHIFT": 19},
     {"LINES": 1000, "FINE_W": 12, "MAP_PSI_W": 3, "MAP_PHI_W": 5, "SECT_RECIP": 536870, "SECT_SHIFT": 38},
+    {"START_SPEED": 1 << 23},          # REV / 2 (REV = 2^24)
+    {"START_SPEED": -(1 << 23) - 1},
 ]
 
 
 def _trim_params(d: dict) -> TrimParams:
     return TrimParams(d["LINES"], d["FINE_W"], d["AMP_W"], d["SPEED_LOG2"], d["MAP_PSI_W"], d["MAP_PHI_W"], d["TRIM_W"],
-                      d["TRIM_FRAC"], d["G_SHIFT"], d["SECT_RECIP"], d["SECT_SHIFT"])
+                      d["TRIM_FRAC"], d["G_SHIFT"], d["SECT_RECIP"], d["SECT_SHIFT"], d.get("START_SPEED", 0))
 
 
 test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration = refusal_tests(

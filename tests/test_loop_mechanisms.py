@@ -588,3 +588,33 @@ def test_a_speed_shape_must_hold_against_the_reference_motion():
     offered = {t.name for t in loop.generic_candidates(loop.strided(ev), sigma, set())}
     assert not [n for n in offered if n.startswith(("generic:speed", "generic:direction"))], offered
     assert any(n.startswith("generic:") for n in offered), offered      # the other factors still are
+
+
+def test_the_first_sample_after_reset_takes_the_calibrations_mean_speed():
+    """A recording that starts in motion: the core has no speed window for its first sample. fringe_trim takes
+    START_SPEED there, the calibration recording's mean speed (loop.start_speed): with 0 (standstill) the first
+    sample of a fast, skewed encoder carries the skew term's whole speed image (held-out 9237: 3154" on one
+    sample of 16384, 1.48x the floor over the recording). Bit-exact engine and float engine alike."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.cli.engines import run_engine
+    from fringe.dsp.effects import FittedEffect
+
+    cfg = SimulationConfig(samples=8192, lines_per_rev=4, coarse_bits=0, sampling_skew_s=1.5e-5, noise_rms=2e-4,
+                           speed_mean_rev_s=300.0, speed_swing_rev_s=10.0, sample_rate_hz=20_000.0)
+    fit, val = measurement_of(simulate(cfg, 11)), measurement_of(simulate(cfg, 12))
+    cal = calibrate(fit, cfg.encoder())
+    mean = loop.start_speed(loop.evaluate(loop.LoopState(cal), fit).ctx)
+    assert mean == pytest.approx(300.0, rel=0.2)
+    skew = FittedEffect("sampling_skew", np.zeros(4))
+    first = {}
+    for start in (0.0, mean):
+        c = loop.refit_angle_terms(dataclasses.replace(cal, angle_terms=[skew], start_speed_rev_s=start), fit)
+        assert c.start_speed_rev_s == start
+        for engine in ("float", "model"):
+            r = loop.evaluate(loop.LoopState(c), val, run_engine(engine, c, val, None)).r
+            first[start, engine] = (abs(r[0]), float(np.sqrt(np.mean(r[1:] ** 2))))
+    for engine in ("float", "model"):
+        at_rest, rest_rms = first[0.0, engine]
+        moving, rms = first[mean, engine]
+        assert at_rest > 20 * rest_rms, first        # the skew's image at 300 rev/s: the test can fail
+        assert moving < 0.1 * at_rest and moving < 4 * rms, first    # what is left: the start speed off the mean

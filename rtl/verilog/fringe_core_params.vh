@@ -28,6 +28,7 @@ parameter integer TRIM_FRAC          = 4,     // fraction bits of the trim (fine
 parameter integer TRIM_G_SHIFT       = 24,    // right shift of the speed and magnitude products, 1..48
 parameter [63:0]  TRIM_SECT_RECIP    = 64'd1, // sector multiplier (trim.sector_mapping; < 2^31 in VHDL)
 parameter integer TRIM_SECT_SHIFT    = 18,    // sector shift (trim.sector_mapping)
+parameter integer TRIM_START_SPEED   = 0,     // speed of the first sample after reset (no window yet), fine counts per 2^TRIM_SPEED_LOG2 samples, -REV/2..REV/2-1
 // fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
 parameter integer DRIFT              = 0,     // 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
 parameter integer DRIFT_BLOCK_LOG2   = 8,     // samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)

@@ -21,6 +21,7 @@ module fringe_trim #(
     parameter integer G_SHIFT    = 20,     // right shift of the gain products into the sum, 1..48
     parameter [63:0]  SECT_RECIP = 64'd1,  // sector multiplier, from sector_mapping() (checked; unused if MAP_PSI_W = 0)
     parameter integer SECT_SHIFT = 20,     // sector shift, 0..127, from sector_mapping() (checked; unused if MAP_PSI_W = 0)
+    parameter integer START_SPEED = 0,     // the first sample's speed after reset (no window yet), -REV/2..REV/2-1
     parameter         MAP_INIT   = "",     // $readmemh image of the map, 2 banks x 2^(1+MAP_PSI_W+MAP_PHI_W) words; "" = zeros
     parameter         SPEED_INIT = "",     // $readmemh image of the speed table, 2 banks x 2^MAP_PHI_W words; "" = zeros
     parameter         AMP_INIT   = "",     // $readmemh image of the amp table, 2 banks x 2^MAP_PHI_W words; "" = zeros
@@ -54,6 +55,8 @@ module fringe_trim #(
     localparam integer POS_W   = FINE_W + $clog2(LINES);      // clog2(REV)
     localparam [63:0]  LINES64 = LINES * 64'd1;
     localparam [63:0]  REV64   = LINES64 << FINE_W;           // < 2^31 when legal
+    localparam [63:0]  HALF_E  = REV64 >> 1;
+    localparam integer HALF_I  = HALF_E[31:0];                // REV/2, the speed's range (< 2^31 when legal)
 
     // ---- parameter checks -------------------------------------------------------------------------
     // the index mapping is exact for every position (check_sector_mapping in the model)
@@ -72,6 +75,10 @@ module fringe_trim #(
         `FRINGE_CHECK_RANGE(g_bad_trim_w, "fringe_trim", "TRIM_W", TRIM_W, 8, 24)
         `FRINGE_CHECK_RANGE(g_bad_trim_frac, "fringe_trim", "TRIM_FRAC", TRIM_FRAC, 0, 16)
         `FRINGE_CHECK_RANGE(g_bad_g_shift, "fringe_trim", "G_SHIFT", G_SHIFT, 1, 48)
+        if (FINE_W + $clog2(LINES) <= 31 && (START_SPEED < -HALF_I || START_SPEED > HALF_I - 1)) begin : g_bad_start_speed
+            $error("fringe_trim: START_SPEED = %0d out of range -REV/2..REV/2-1 = %0d..%0d (instance %m)",
+                   START_SPEED, -HALF_I, HALF_I - 1);
+        end
         if (MAP_PSI_W > 0) begin : g_check_map
             if (SECT_SHIFT < 0 || SECT_SHIFT > 127) begin : g_bad_shift
                 $error("fringe_trim: SECT_SHIFT = %0d out of range 0..127 (instance %m)", SECT_SHIFT);
@@ -116,6 +123,8 @@ module fringe_trim #(
     localparam [63:0]  SAT_LO64 = 64'd0 - HALF64;              // -REV/2
     localparam [POS_W-1:0] SAT_HI = SAT_HI64[POS_W-1:0];
     localparam [POS_W-1:0] SAT_LO = SAT_LO64[POS_W-1:0];
+    localparam [31:0]      START_32 = START_SPEED;
+    localparam [POS_W-1:0] START_P  = START_32[POS_W-1:0];    // START_SPEED in s(POS_W)
     localparam integer MAP_PIECE_W = 11;                       // map RAM pieces of 2048 words (u_map)
 
     // ---- valid (the only reset registers) and sideband, LATENCY stages --------------------------
@@ -127,7 +136,7 @@ module fringe_trim #(
     // ---- speed history: 2N words, written at wp, read at wp - win (win accepted samples earlier): -----
     // win = N (wp ^ N) once N samples came since the reset, before that the longest power-of-two window
     // there is, 2^floor(log2(fill)) (1, 2, 4, ...: a stream that starts in motion has a speed from its
-    // second sample on), 0 for the first sample (no window: speed 0)
+    // second sample on), START_SPEED for the first sample (no window)
     wire accept = ce & in_valid & ~rst;
     reg  [SPEED_LOG2:0] wp;            // write pointer: any start value works (no reset)
     reg  [SPEED_LOG2:0] fill;          // accepted samples since reset, saturating at N (bit SPEED_LOG2)
@@ -144,7 +153,7 @@ module fringe_trim #(
         end
     end
 
-    // the first sample reads N back (its speed is 0): never the word being written
+    // the first sample reads N back (its speed is START_SPEED): never the word being written
     wire [SPEED_LOG2:0] back = (fill == {(SPEED_LOG2+1){1'b0}}) ? N_HA : win;
 `ifdef FRINGE_TECH_ECP5
     // ECP5: the RAM's read register and s2_old in one DP16KD (its output register)
@@ -292,7 +301,8 @@ module fringe_trim #(
         end
     end
 
-    // ---- 4: speed wrapped into [-REV/2, REV/2) (0 for the first sample since reset), dir ------------
+    // ---- 4: speed wrapped into [-REV/2, REV/2), dir; the first sample since reset (no window yet) takes
+    // START_SPEED as if measured over N samples (the generator's guess: the calibration's mean speed) ----
     // 2d >= REV <=> d - REV/2 >= 0;  2d < -REV <=> d + REV/2 < 0 (REV is even); the candidates in parallel.
     wire signed [WW-1:0] d_x    = {s3_d[POS_W], s3_d};
     wire signed [WW-1:0] d_hi   = d_x - $signed(REV_W >> 1);
@@ -300,7 +310,7 @@ module fringe_trim #(
     wire signed [WW-1:0] d_dn   = d_x - $signed(REV_W);
     wire signed [WW-1:0] d_up   = d_x + $signed(REV_W);
     wire signed [WW-1:0] d_wrap = !d_hi[WW-1] ? d_dn : (d_lo[WW-1] ? d_up : d_x);
-    wire signed [POS_W-1:0] speed4 = (|s3_win) ? d_wrap[POS_W-1:0] : {POS_W{1'b0}};
+    wire signed [POS_W-1:0] speed4 = (|s3_win) ? d_wrap[POS_W-1:0] : START_P;
     reg  signed [POS_W-1:0] s4_speed;
     reg  [SPEED_LOG2:0]   s4_win;
     reg                   s4_dir;
@@ -313,7 +323,7 @@ module fringe_trim #(
         if (ce) begin
             s4_speed  <= speed4;
             s4_dir    <= speed4[POS_W-1];   // the scaling and saturation below keep the sign
-            s4_win    <= s3_win;
+            s4_win    <= (|s3_win) ? s3_win : N_HA;
             s4_pos    <= s3_pos;
             s4_mag    <= s3_mag;
             s4_bank   <= s3_bank;

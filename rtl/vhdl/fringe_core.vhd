@@ -51,6 +51,7 @@ entity fringe_core is
         TRIM_G_SHIFT       : integer := 24;  -- right shift of the speed and magnitude products, 1..48
         TRIM_SECT_RECIP    : natural := 1;   -- sector multiplier (trim.sector_mapping; < 2^31 in VHDL)
         TRIM_SECT_SHIFT    : integer := 18;  -- sector shift (trim.sector_mapping)
+        TRIM_START_SPEED   : integer := 0;   -- speed of the first sample after reset (no window yet), fine counts per 2^TRIM_SPEED_LOG2 samples, -REV/2..REV/2-1
         -- fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
         DRIFT              : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
         DRIFT_BLOCK_LOG2   : integer := 8;   -- samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)
@@ -617,7 +618,8 @@ begin
             generic map (LINES => LINES, FINE_W => FINE_W, AMP_W => AMP_W, SPEED_LOG2 => TRIM_SPEED_LOG2,
                          MAP_PSI_W => TRIM_MAP_PSI_W, MAP_PHI_W => TRIM_MAP_PHI_W, TRIM_W => TRIM_W,
                          TRIM_FRAC => TRIM_FRAC, G_SHIFT => TRIM_G_SHIFT, SECT_RECIP => TRIM_SECT_RECIP,
-                         SECT_SHIFT => TRIM_SECT_SHIFT, MAP_INIT => TRIM_MAP_INIT, SPEED_INIT => TRIM_SPEED_INIT,
+                         SECT_SHIFT => TRIM_SECT_SHIFT, START_SPEED => TRIM_START_SPEED, MAP_INIT => TRIM_MAP_INIT,
+                         SPEED_INIT => TRIM_SPEED_INIT,
                          AMP_INIT => TRIM_AMP_INIT, USER_W => U_L)
             port map (
                 clk => clk, rst => rst, ce => ce,

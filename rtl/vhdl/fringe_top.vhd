@@ -45,6 +45,7 @@ entity fringe_top is
         TRIM_G_SHIFT       : integer := 24;  -- right shift of the speed and magnitude products, 1..48
         TRIM_SECT_RECIP    : natural := 1;   -- sector multiplier (trim.sector_mapping; < 2^31 in VHDL)
         TRIM_SECT_SHIFT    : integer := 18;  -- sector shift (trim.sector_mapping)
+        TRIM_START_SPEED   : integer := 0;   -- speed of the first sample after reset (no window yet), fine counts per 2^TRIM_SPEED_LOG2 samples, -REV/2..REV/2-1
         -- fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
         DRIFT              : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
         DRIFT_BLOCK_LOG2   : integer := 8;   -- samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)
@@ -138,16 +139,17 @@ begin
             LP_RECIP => LP_RECIP, LP_SHIFT => LP_SHIFT, TRIM => TRIM, TRIM_SPEED_LOG2 => TRIM_SPEED_LOG2,
             TRIM_MAP_PSI_W => TRIM_MAP_PSI_W, TRIM_MAP_PHI_W => TRIM_MAP_PHI_W, TRIM_W => TRIM_W,
             TRIM_FRAC => TRIM_FRAC, TRIM_G_SHIFT => TRIM_G_SHIFT, TRIM_SECT_RECIP => TRIM_SECT_RECIP,
-            TRIM_SECT_SHIFT => TRIM_SECT_SHIFT, DRIFT => DRIFT, DRIFT_BLOCK_LOG2 => DRIFT_BLOCK_LOG2,
-            DRIFT_MU_LOG2 => DRIFT_MU_LOG2, DRIFT_OFS_FRAC => DRIFT_OFS_FRAC, DRIFT_GINV_W => DRIFT_GINV_W,
-            DRIFT_FWD_W => DRIFT_FWD_W, DRIFT_TABLE_W => DRIFT_TABLE_W, DRIFT_TABLE_FRAC => DRIFT_TABLE_FRAC,
-            DRIFT_KG_W => DRIFT_KG_W, DRIFT_KG_SHIFT => DRIFT_KG_SHIFT, DRIFT_HOLD => DRIFT_HOLD, CANCEL => CANCEL,
-            CANCEL_LUT_W => CANCEL_LUT_W, CANCEL_C_W => CANCEL_C_W, CANCEL_BLOCK_LOG2 => CANCEL_BLOCK_LOG2,
-            CANCEL_MU_LOG2 => CANCEL_MU_LOG2, CANCEL_A_FRAC => CANCEL_A_FRAC, CANCEL_A_W => CANCEL_A_W,
-            REGS_INIT => REGS_INIT, WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT,
-            LP_INIT => LP_INIT, TRIM_MAP_INIT => TRIM_MAP_INIT, TRIM_SPEED_INIT => TRIM_SPEED_INIT,
-            TRIM_AMP_INIT => TRIM_AMP_INIT, DRIFT_FWD_SIN_INIT => DRIFT_FWD_SIN_INIT,
-            DRIFT_FWD_COS_INIT => DRIFT_FWD_COS_INIT, CANCEL_LUT_INIT => CANCEL_LUT_INIT
+            TRIM_SECT_SHIFT => TRIM_SECT_SHIFT, TRIM_START_SPEED => TRIM_START_SPEED, DRIFT => DRIFT,
+            DRIFT_BLOCK_LOG2 => DRIFT_BLOCK_LOG2, DRIFT_MU_LOG2 => DRIFT_MU_LOG2, DRIFT_OFS_FRAC => DRIFT_OFS_FRAC,
+            DRIFT_GINV_W => DRIFT_GINV_W, DRIFT_FWD_W => DRIFT_FWD_W, DRIFT_TABLE_W => DRIFT_TABLE_W,
+            DRIFT_TABLE_FRAC => DRIFT_TABLE_FRAC, DRIFT_KG_W => DRIFT_KG_W, DRIFT_KG_SHIFT => DRIFT_KG_SHIFT,
+            DRIFT_HOLD => DRIFT_HOLD, CANCEL => CANCEL, CANCEL_LUT_W => CANCEL_LUT_W, CANCEL_C_W => CANCEL_C_W,
+            CANCEL_BLOCK_LOG2 => CANCEL_BLOCK_LOG2, CANCEL_MU_LOG2 => CANCEL_MU_LOG2,
+            CANCEL_A_FRAC => CANCEL_A_FRAC, CANCEL_A_W => CANCEL_A_W, REGS_INIT => REGS_INIT,
+            WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT, LP_INIT => LP_INIT,
+            TRIM_MAP_INIT => TRIM_MAP_INIT, TRIM_SPEED_INIT => TRIM_SPEED_INIT, TRIM_AMP_INIT => TRIM_AMP_INIT,
+            DRIFT_FWD_SIN_INIT => DRIFT_FWD_SIN_INIT, DRIFT_FWD_COS_INIT => DRIFT_FWD_COS_INIT,
+            CANCEL_LUT_INIT => CANCEL_LUT_INIT
             -- END generated core map
         )
         port map (

@@ -26,6 +26,7 @@ entity fringe_trim is
         G_SHIFT    : integer := 20;   -- right shift of the gain products into the sum, 1..48
         SECT_RECIP : natural := 1;    -- sector multiplier, from sector_mapping() (checked; < 2^31 in VHDL; unused if MAP_PSI_W = 0)
         SECT_SHIFT : integer := 20;   -- sector shift, 0..127, from sector_mapping() (checked; unused if MAP_PSI_W = 0)
+        START_SPEED : integer := 0;   -- the first sample's speed after reset (no window yet), -REV/2..REV/2-1
         MAP_INIT   : string  := "";   -- hex image of the map, 2 banks x 2^(1+MAP_PSI_W+MAP_PHI_W) words; "" = zeros
         SPEED_INIT : string  := "";   -- hex image of the speed table, 2 banks x 2^MAP_PHI_W words; "" = zeros
         AMP_INIT   : string  := "";   -- hex image of the amp table, 2 banks x 2^MAP_PHI_W words; "" = zeros
@@ -62,8 +63,10 @@ architecture rtl of fringe_trim is
     -- Stops elaboration with a clear message on illegal generics (before anything is sized).
     function generics_ok return boolean is
         constant PHI_MAX : integer := minimum(10, FINE_W - 1);
+        variable half    : integer;   -- REV/2, once the position widths are known to be legal
     begin
         check_position("fringe_trim", FINE_W, LINES, 31);
+        half := LINES * 2**(FINE_W - 1);
         check_range("fringe_trim", "AMP_W", AMP_W, 4, 32);
         check_range("fringe_trim", "SPEED_LOG2", SPEED_LOG2, 0, 8);
         check_range("fringe_trim", "MAP_PSI_W", MAP_PSI_W, 0, 8);
@@ -74,6 +77,10 @@ architecture rtl of fringe_trim is
         check_range("fringe_trim", "TRIM_W", TRIM_W, 8, 24);
         check_range("fringe_trim", "TRIM_FRAC", TRIM_FRAC, 0, 16);
         check_range("fringe_trim", "G_SHIFT", G_SHIFT, 1, 48);
+        assert START_SPEED >= -half and START_SPEED <= half - 1
+            report "fringe_trim: START_SPEED = " & integer'image(START_SPEED) & " out of range -REV/2..REV/2-1 = "
+                   & integer'image(-half) & ".." & integer'image(half - 1)
+            severity failure;
         if MAP_PSI_W > 0 then
             check_range("fringe_trim", "SECT_SHIFT", SECT_SHIFT, 0, 127);
             check_mapping("fringe_trim", "SECT", "MAP_PSI_W", "sector_mapping", SECT_RECIP, SECT_SHIFT, MAP_PSI_W,
@@ -190,7 +197,7 @@ begin
 
     -- ---- speed history: written at wp, read at wp - win (win accepted samples earlier): win = N (wp
     -- xor N) once N samples came since the reset, before that the longest power-of-two window there
-    -- is (1, 2, 4, ...), 0 for the first sample (no window: speed 0) ----------------------------------
+    -- is (1, 2, 4, ...), START_SPEED for the first sample (no window) ---------------------------------
     accept <= ce and in_valid and not rst;
     win    <= top_bit(fill);
 
@@ -203,7 +210,7 @@ begin
                 wp <= wp + 1;
             end if;
             if ce = '1' then
-                -- the first sample reads N back (its speed is 0): never the word being written
+                -- the first sample reads N back (its speed is START_SPEED): never the word being written
                 back := win;
                 if fill = 0 then
                     back := to_unsigned(N, SPEED_LOG2 + 1);
@@ -320,7 +327,7 @@ begin
                 s3_win    <= s2_win;
                 s3_sector <= s2_sector;
 
-                -- 4: speed wrapped into [-REV/2, REV/2), 0 for the first sample since reset; dir
+                -- 4: speed wrapped into [-REV/2, REV/2); dir
                 -- 2d >= REV <=> d - REV/2 >= 0;  2d < -REV <=> d + REV/2 < 0 (REV is even)
                 d_x  := resize(s3_d, WW);
                 d_hi := d_x - HALF_W;
@@ -332,14 +339,16 @@ begin
                 else
                     d_wrap := d_x;
                 end if;
+                -- the first sample since reset (no window yet) takes START_SPEED as if measured over N samples
                 if s3_win /= 0 then
                     speed4 := d_wrap(POS_W - 1 downto 0);
+                    s4_win <= s3_win;
                 else
-                    speed4 := (others => '0');
+                    speed4 := to_signed(START_SPEED, POS_W);
+                    s4_win <= to_unsigned(N, SPEED_LOG2 + 1);
                 end if;
                 s4_speed  <= speed4;
                 s4_dir    <= speed4(POS_W - 1);    -- the scaling and saturation below keep the sign
-                s4_win    <= s3_win;
                 s4_pos    <= s3_pos;
                 s4_mag    <= s3_mag;
                 s4_bank   <= s3_bank;

@@ -27,6 +27,9 @@ class Calibration:
     adaptive: bool = False                       # online offset/gain tracker (closed loop: drift)
     tracker: dict = field(default_factory=dict)  # its constants chosen on the data: drift_block_log2, drift_mu_log2
     canceller: dict = field(default_factory=dict)   # interference canceller: tone_hz, sample_rate_hz, cancel_*
+    # the speed the closed loop's speed terms assume for the first sample after reset, before the core has a
+    # speed window (fringe_trim START_SPEED): the mean speed of the calibration recording, rev/s, encoder frame
+    start_speed_rev_s: float = 0.0
     rev_norm: object | None = None               # offsets/gains over the revolution (effects.RevNormalisation)
     angle_terms: list = field(default_factory=list)   # closed-loop hardware terms (effects.FittedEffect)
     waves: dict = field(default_factory=dict)    # fitted channel models (for reports and plots)

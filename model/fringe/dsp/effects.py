@@ -59,14 +59,16 @@ class Context:
         return f(m * self.psi) if self.revolution_covered else np.zeros_like(self.psi)
 
 
-def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int) -> np.ndarray:
+def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int, start_speed: float = 0.0
+                   ) -> np.ndarray:
     """Causal speed (rev/s): the position change over the last 2^log2_window samples; before that many samples
     came, over the longest power of two of samples there are (1, 2, 4, ...: a start-up has a speed from its
-    second sample on), 0 at the first. What fringe_trim computes in fine counts (model/fringe/fixed/trim.py), with
-    the window the generator gives it (fixed.trim.speed_window_log2), but for its saturation of a start-up window's
-    scaled speed at half a revolution per window (beyond the overspeed limit only)."""
+    second sample on), start_speed (rev/s) at the first (START_SPEED). What fringe_trim computes in fine counts
+    (model/fringe/fixed/trim.py), with the window the generator gives it (fixed.trim.speed_window_log2), but for
+    its saturation of a start-up window's scaled speed at half a revolution per window (beyond the overspeed limit
+    only) and the rounding of START_SPEED."""
     n = len(rev_unwrapped)
-    v = np.zeros(n)
+    v = np.full(n, float(start_speed))
     for k in range(log2_window + 1):
         w = 1 << k                      # samples [w, 2w) take the window w; from the full window on, that one
         end = n if k == log2_window else min(2 * w, n)
@@ -77,11 +79,13 @@ def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int) -
 
 
 def make_context(frac: np.ndarray, position_periods: np.ndarray, lines: int, t: np.ndarray,
-                 magnitude: np.ndarray) -> Context:
+                 magnitude: np.ndarray, start_speed: float = 0.0) -> Context:
+    """The context of a stream from reset; start_speed (rev/s): the speed taken for its first sample, which has
+    no window yet (Calibration.start_speed_rev_s, fringe_trim's START_SPEED)."""
     rev = position_periods / lines
     unwrapped = rev[0] + np.concatenate([[0.0], np.cumsum(wrap(np.diff(rev)))])
     log2_window = speed_window_log2(lines)
-    v = speed_estimate(unwrapped, t, log2_window)
+    v = speed_estimate(unwrapped, t, log2_window, start_speed)
     acc = np.gradient(v, t) if len(t) > 2 else np.zeros_like(v)
     # no acceleration from the start-up's growing windows: their speeds jump from 0 at the first sample and
     # step between window lengths (a spike that would fit whatever error the first samples carry)

@@ -9,7 +9,8 @@ With ``REV = LINES * 2^FINE_W`` fine counts per revolution, ``POS_W = FINE_W + c
     speed  = wrap(pos[n] - pos[n - N])   for n >= N   (n: samples accepted since the reset before this one)
            = sat(wrap(pos[n] - pos[n - 2^k]) * 2^(SPEED_LOG2 - k))   for 1 <= n < N, k = floor(log2(n)):
              the longest power-of-two window there is, scaled to N samples; sat: clipped to [-REV/2, REV/2 - 1]
-           = 0   for n = 0;   dir = speed < 0
+           = START_SPEED   for n = 0 (no window yet: the generator's mean speed of the calibration recording);
+             dir = speed < 0
              wrap: d in (-REV, REV); 2d >= REV: d - REV; 2d < -REV: d + REV  -> speed in [-REV/2, REV/2)
     m      = value + ((slope * frac + 2^(FB-1)) >>> FB)   map word at {bank, dir, sector, bin}
     gs, ga = the same interpolation of the speed table and of the amp table at {bank, bin}
@@ -119,6 +120,7 @@ class TrimParams(PositionWidths):
     g_shift: int        # G_SHIFT: right shift of the gain products, 1..48
     sect_recip: int | None = None   # SECT_RECIP (default: sector_mapping)
     sect_shift: int | None = None   # SECT_SHIFT, 0..127 (default: sector_mapping)
+    start_speed: int = 0    # START_SPEED: the first sample's speed (no window yet), in [-REV/2, REV/2 - 1]
 
     def __post_init__(self) -> None:
         check_integers(NAME, self, ("fine_w", "lines", "amp_w", "speed_log2", "map_psi_w", "map_phi_w", "trim_w",
@@ -132,6 +134,9 @@ class TrimParams(PositionWidths):
         check_range(NAME, "TRIM_W", self.trim_w, 8, 24)
         check_range(NAME, "TRIM_FRAC", self.trim_frac, 0, 16)
         check_range(NAME, "G_SHIFT", self.g_shift, 1, 48)
+        check_int(NAME, "START_SPEED", self.start_speed)
+        half = (self.lines << self.fine_w) >> 1
+        check_range(NAME, "START_SPEED", self.start_speed, -half, half - 1, f"-REV/2..REV/2-1 = {-half}..{half - 1}")
         if (self.sect_recip is None) != (self.sect_shift is None):
             raise ValueError(f"{NAME}: give both SECT_RECIP and SECT_SHIFT, or neither")
         if self.sect_recip is not None:
@@ -209,7 +214,7 @@ class TrimParams(PositionWidths):
         return {"LINES": self.lines, "FINE_W": self.fine_w, "AMP_W": self.amp_w, "SPEED_LOG2": self.speed_log2,
                 "MAP_PSI_W": self.map_psi_w, "MAP_PHI_W": self.map_phi_w, "TRIM_W": self.trim_w,
                 "TRIM_FRAC": self.trim_frac, "G_SHIFT": self.g_shift, "SECT_RECIP": self.recip,
-                "SECT_SHIFT": self.shift}
+                "SECT_SHIFT": self.shift, "START_SPEED": self.start_speed}
 
 
 # ---------------------------------------------------------------------------- tables
@@ -364,10 +369,10 @@ def speeds(pos, params: TrimParams) -> np.ndarray:
     Sample n >= N = 2^SPEED_LOG2: ``wrap(pos[n] - pos[n-N])``. Before the window is full (1 <= n < N) the
     longest power-of-two window there is, 2^k samples with ``k = floor(log2(n))``, scaled to N samples and
     saturated: ``clip(wrap(pos[n] - pos[n-2^k]) * 2^(SPEED_LOG2-k), -REV/2, REV/2 - 1)`` (a recording that
-    starts in motion gets its speed-dependent trim from the second sample on). The first sample: 0."""
+    starts in motion gets its speed-dependent trim from the second sample on). The first sample: START_SPEED."""
     p = params
     a = _as_pos(pos, p)
-    sp = np.zeros(a.size, dtype=np.int64)
+    sp = np.full(a.size, p.start_speed, dtype=np.int64)
     half = p.rev >> 1
     for k in range(p.speed_log2 + 1):
         w = 1 << k                       # samples n in [w, 2w) take the window w; from N on, N

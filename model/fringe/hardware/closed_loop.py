@@ -299,6 +299,15 @@ def choose_map_phi_w(cal: Calibration, cfg) -> int:
 MAX_TABLE_W = 24         # the widest table word the blocks accept (fringe_trim TRIM_W, fringe_drift TABLE_W)
 
 
+def start_speed_counts(cal: Calibration, cfg) -> int:
+    """TRIM_START_SPEED: cal.start_speed_rev_s (encoder frame) in fringe_trim's speed units, fine counts per
+    2^TRIM_SPEED_LOG2 samples at the calibration's sample interval, within [-REV/2, REV/2 - 1]."""
+    dt = cal.provenance.get("sample_interval_s") or 1.0
+    v = float(cal.start_speed_rev_s) * cfg.rev * (1 << cfg.trim_speed_log2) * dt
+    half = cfg.rev >> 1
+    return int(np.clip(round(v), -half, half - 1)) if np.isfinite(v) else 0
+
+
 def trim_config(cal: Calibration, cfg):
     """cfg with fringe_trim switched on and its table format chosen for this calibration (cfg unchanged
     if the calibration has no closed-loop correction).
@@ -310,6 +319,7 @@ def trim_config(cal: Calibration, cfg):
     if not needs_trim(cal):
         return cfg
     on = dataclasses.replace(cfg, trim=1)
+    on = dataclasses.replace(on, trim_start_speed=start_speed_counts(cal, on))
     if not map_changes_over_revolution(cal, on):     # one sector: every word of the map for the phase
         on = dataclasses.replace(on, trim_map_psi_w=0)
     on = dataclasses.replace(on, trim_map_phi_w=choose_map_phi_w(cal, on))

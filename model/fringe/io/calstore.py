@@ -52,6 +52,7 @@ def to_json_dict(cal: Calibration) -> dict:
                        "units": "corrected vector magnitude (1 = unit circle)"},
         },
         "closed_loop": {"adaptive_offset_gain": cal.adaptive, "tracker": cal.tracker, "canceller": cal.canceller,
+                        "start_speed_rev_s": cal.start_speed_rev_s,
                         "rev_normalisation": None if cal.rev_norm is None else cal.rev_norm.to_dict(),
                         "angle_terms": [t.to_dict() for t in cal.angle_terms]},
         "skipped": cal.skipped,
@@ -139,6 +140,10 @@ def load_calibration(cal_dir: str) -> Calibration:
             raise FringeInputError(f"closed_loop.tracker must map {', '.join(TRACKER_KEYS)} to integers", path)
         cal.tracker = dict(tracker)
         cal.canceller = _canceller(loop.get("canceller") or {}, path)
+        start = loop.get("start_speed_rev_s", 0.0)
+        if isinstance(start, bool) or not isinstance(start, (int, float)) or not np.isfinite(start):
+            raise FringeInputError(f"closed_loop.start_speed_rev_s must be a finite number, not {start!r}", path)
+        cal.start_speed_rev_s = float(start)
         if loop.get("rev_normalisation"):
             from ..dsp.effects import RevNormalisation
             cal.rev_norm = RevNormalisation.from_dict(loop["rev_normalisation"])
