@@ -43,14 +43,16 @@ def test_population_subset(seed):
 def test_summary_counts_names_and_aborts():
     rows = [dict(seed=1, classes=["drift"], strengths={}, trajectory="steady", lines=8, adc_bits=12, expected=["drift"],
                  found=["drift", "tone"], named_right=False, float_ratio=1.1, model_ratio=1.3, rise=-0.2, abort=None,
-                 seconds=1.0),
+                 seconds=1.0, model_ratio_settled=1.1),
             dict(seed=2, classes=[], strengths={}, trajectory="fast", lines=8, adc_bits=12, expected=[], found=[],
-                 named_right=True, float_ratio=1.0, model_ratio=1.0, rise=0.01, abort=None, seconds=1.0),
+                 named_right=True, float_ratio=1.0, model_ratio=1.0, rise=0.01, abort=None, seconds=1.0,
+                 model_ratio_settled=1.0),
             dict(seed=3, classes=[], expected=[], found=[], named_right=False, abort="ValueError: x", seconds=1.0)]
     s = summarise(rows)
     assert s["naming"]["precision"] == 0.5 and s["naming"]["recall"] == 1.0
     assert s["aborts"] == [{"seed": 3, "abort": "ValueError: x"}]
     assert s["correctable_model_within_1.25"] == 0.5 and s["clean_rise_within_2pct"] == 1.0
+    assert s["model_over_floor"]["max"] == 1.3 and s["model_over_floor_settled"]["max"] == 1.1
 
 
 def test_trim_format_follows_the_fitted_values():

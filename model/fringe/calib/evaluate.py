@@ -30,12 +30,15 @@ def figures(cal: Calibration, meas: Measurement, engine=float_engine) -> tuple[E
     return error_figures(err, res.frac, res.position / cal.encoder.lines_per_rev), res
 
 
-def noise_floor_arcsec(cal: Calibration, cfg: SimulationConfig, seed: int, engine=float_engine) -> float:
+def noise_floor_arcsec(cal: Calibration, cfg: SimulationConfig, seed: int, engine=float_engine,
+                       skip: tuple[int, ...] = ()) -> float | tuple[float, ...]:
     """The RMS error a perfect correction would leave: the same recording with and without the
     additive noise (same trajectory, same coarse jitter) through the same correction, plus the
-    reference's own quantisation (uniform, q/sqrt(12))."""
+    reference's own quantisation (uniform, q/sqrt(12)). With `skip`, the floor over the rows from each
+    of those on as well (the whole recording's first): (whole, after skip[0], ...)."""
     noisy = engine(cal, measurement_of(simulate(cfg, seed)))
     clean = engine(cal, measurement_of(simulate(dataclasses.replace(cfg, noise_rms=0.0), seed)))
     d = wrap((noisy.angle_deg - clean.angle_deg) / 360.0) * ARCSEC_PER_REV
     ref_q = ARCSEC_PER_REV / (1 << cfg.ref_bits) / np.sqrt(12)
-    return float(np.sqrt(np.mean((d - d.mean()) ** 2) + ref_q ** 2))
+    out = tuple(float(np.sqrt(np.mean((x - x.mean()) ** 2) + ref_q ** 2)) for x in (d, *(d[k:] for k in skip)))
+    return out if skip else out[0]
