@@ -30,15 +30,22 @@ def figures(cal: Calibration, meas: Measurement, engine=float_engine) -> tuple[E
     return error_figures(err, res.frac, res.position / cal.encoder.lines_per_rev), res
 
 
-def noise_floor_arcsec(cal: Calibration, cfg: SimulationConfig, seed: int, engine=float_engine,
-                       skip: tuple[int, ...] = ()) -> float | tuple[float, ...]:
-    """The RMS error a perfect correction would leave: the same recording with and without the
-    additive noise (same trajectory, same coarse jitter) through the same correction, plus the
-    reference's own quantisation (uniform, q/sqrt(12)). With `skip`, the floor over the rows from each
-    of those on as well (the whole recording's first): (whole, after skip[0], ...)."""
+def noise_floor_rows(cal: Calibration, cfg: SimulationConfig, seed: int, engine=float_engine
+                     ) -> tuple[np.ndarray, float]:
+    """What noise alone does to each row: the same recording with and without the additive noise (same
+    trajectory, same coarse jitter) through the same correction (arcsec per row), and the reference's own
+    quantisation RMS (uniform, q/sqrt(12))."""
     noisy = engine(cal, measurement_of(simulate(cfg, seed)))
     clean = engine(cal, measurement_of(simulate(dataclasses.replace(cfg, noise_rms=0.0), seed)))
     d = wrap((noisy.angle_deg - clean.angle_deg) / 360.0) * ARCSEC_PER_REV
-    ref_q = ARCSEC_PER_REV / (1 << cfg.ref_bits) / np.sqrt(12)
-    out = tuple(float(np.sqrt(np.mean((x - x.mean()) ** 2) + ref_q ** 2)) for x in (d, *(d[k:] for k in skip)))
-    return out if skip else out[0]
+    return d, ARCSEC_PER_REV / (1 << cfg.ref_bits) / np.sqrt(12)
+
+
+def floor_rms(d: np.ndarray, ref_q: float) -> float:
+    """The floor over the rows `d` of noise_floor_rows (their mean taken out, as the error's is)."""
+    return float(np.sqrt(np.mean((d - d.mean()) ** 2) + ref_q ** 2))
+
+
+def noise_floor_arcsec(cal: Calibration, cfg: SimulationConfig, seed: int, engine=float_engine) -> float:
+    """The RMS error a perfect correction would leave (noise_floor_rows over the whole recording)."""
+    return floor_rms(*noise_floor_rows(cal, cfg, seed, engine))

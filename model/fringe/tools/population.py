@@ -156,7 +156,7 @@ def population_case(seed: int) -> dict:
     """Fit on one recording, validate on another; the names, and the validation RMS over the floor
     (the same validation recording without its additive noise, through the same correction) for the
     float and the bit-exact engine. Never raises: an abort is a result."""
-    from ..calib.evaluate import measurement_of, noise_floor_arcsec
+    from ..calib.evaluate import floor_rms, measurement_of, noise_floor_arcsec, noise_floor_rows
     from ..cli.engines import run_engine
     from ..dsp.simulate import simulate
     from ..hardware.closed_loop import float_only
@@ -179,9 +179,9 @@ def population_case(seed: int) -> dict:
         out["generic_terms"] = [e["name"] for e in rep["effects_added"] if e["name"].startswith("generic:")]
         floor = noise_floor_arcsec(state.cal, cfg, fit_seed(seed) + 1)
         model = run_engine("model", state.cal, val, None)
-        floor_model, floor_settled = noise_floor_arcsec(state.cal, cfg, fit_seed(seed) + 1,
-                                                        lambda cal, meas: run_engine("model", cal, meas, None),
-                                                        skip=(START_ROWS,))
+        d, ref_q = noise_floor_rows(state.cal, cfg, fit_seed(seed) + 1,
+                                    lambda cal, meas: run_engine("model", cal, meas, None))
+        floor_model, floor_settled = floor_rms(d, ref_q), floor_rms(d[START_ROWS:], ref_q)
         r = evaluate(state, val, model).r
         rms_model = float(np.sqrt(np.mean(r ** 2)))
         settled = r[START_ROWS:] - r[START_ROWS:].mean()
