@@ -391,11 +391,25 @@ def testable(name: str, ctx: Context, cal: Calibration | None = None, ref_speed:
         return "too few samples in time"
     if "periods" in needs and ctx.lines < REVOLUTION_MIN_LINES:
         return (f"with {ctx.lines} signal period(s) per revolution the revolution and the fine phase are nearly "
-                "the same angle: a change over the revolution is a waveform error (the tables own it)")
-    if "periods" in needs and not ctx.revolution_covered:
+                "the same angle: a change over the revolution is a waveform that differs between periods, not "
+                "named as offsets and gains")
+    if "periods" in needs:
+        return revolution_untestable(ctx, cal)
+    return None
+
+
+def revolution_untestable(ctx: Context, cal: Calibration | None) -> str | None:
+    """Why no correction tied to the place in the revolution can be fitted (None if one can). With 2 or 3 periods
+    per revolution a change over the revolution is not named (testable), but what the declared model leaves of it
+    is still corrected, without a name, by the general dictionary's revolution block (fine-phase orders x
+    revolution orders, chosen on held-out data). With one period the revolution is the fine phase: the waveform
+    tables own its errors."""
+    if ctx.lines < 2:
+        return "with 1 signal period per revolution the revolution is the fine phase: the tables own its errors"
+    if not ctx.revolution_covered:
         return (f"the recording does not visit every one of {REVOLUTION_SECTORS} sectors of the revolution: a "
                 "correction tied to the place in the revolution would be extrapolated to the rest")
-    if "periods" in needs and not absolute(cal):
+    if not absolute(cal):
         return ("the encoder has no coarse code, so the place in the revolution is not known and a correction tied "
                 "to it would not repeat in another recording")
     return None
@@ -867,7 +881,9 @@ def generic_candidates(ev: Evaluation, sigma: float, exclude: set) -> list[Test]
     moving = reference_context(ev)
     for factor in GENERIC_FACTORS:
         need = GENERIC_NEEDS.get(factor)
-        if need and testable(GENERIC_PROBE[need], ctx, ev.cal, ev.ref_speed):
+        if need == "periods" and revolution_untestable(ctx, ev.cal):
+            continue
+        if need and need != "periods" and testable(GENERIC_PROBE[need], ctx, ev.cal, ev.ref_speed):
             continue
         if any(e.startswith(f"generic:{factor}:") for e in exclude):
             continue
@@ -1580,7 +1596,7 @@ def unexplained(ev: Evaluation, sigma: float) -> list[dict]:
         "fine phase": ((ctx.phi, range(1, 33)), None, 64),
         "revolution": ((ctx.psi, range(1, 65)), None, 128),
         "fine phase x revolution": (lambda sl: LIBRARY["rev_offset_gain"].design(ctx.rows(sl)),
-                                    testable("rev_offset_gain", ctx, None, ev.ref_speed), 32),
+                                    revolution_untestable(ctx, None), 32),
         "time (trend)": (lambda sl: np.column_stack(_legendre_time(ctx.rows(sl))), None, 3),
         "speed": (lambda sl: np.column_stack([ctx.speed[sl], ctx.speed[sl] ** 2]),
                   testable("ref_lag", ctx, None, ev.ref_speed), 2),
