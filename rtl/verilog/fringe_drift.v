@@ -131,6 +131,7 @@ module fringe_drift #(
     localparam [GINV_W-1:0] UNITY = {{(GINV_W-2){1'b0}}, 2'b01} << (GINV_W - 2);
     localparam [BLOCK_LOG2-1:0] CNT_D    = D[BLOCK_LOG2-1:0];
     localparam [BLOCK_LOG2-1:0] CNT_LAST = {BLOCK_LOG2{1'b1}};
+    localparam [BLOCK_LOG2-1:0] CNT_DM1  = CNT_D - 1'b1;   // (mod B)
 
     // ---- application of the pending update (normaliser input side) ---------------------------------
     wire                   in_take = in_valid & in_ready;
@@ -142,7 +143,9 @@ module fringe_drift #(
     reg  [GINV_W-1:0]      pend_ginv_s, pend_ginv_c;
     reg                    pend_sat;
     reg                    resolved;      // the last complete block's update is known (pending or skipped)
-    wire                   at_apply = npast & (ncnt == CNT_D);   // the next sample is an application sample
+    // the next sample is an application sample: npast & (ncnt == CNT_D), registered with them (no compare
+    // between ncnt and the enables of the state registers)
+    reg                    at_apply;
     wire                   take = acc_n & at_apply & pend_valid;
     wire                   upd_done;      // a block's update resolved (stage 16), below
 
@@ -164,6 +167,7 @@ module fringe_drift #(
         if (rst) begin
             ncnt      <= {BLOCK_LOG2{1'b0}};
             npast     <= 1'b0;
+            at_apply  <= 1'b0;
             off_sin   <= {OW{1'b0}};
             off_cos   <= {OW{1'b0}};
             ginv_sin  <= UNITY;
@@ -174,6 +178,7 @@ module fringe_drift #(
             if (ncnt == CNT_LAST) begin
                 npast <= 1'b1;
             end
+            at_apply <= (npast | (ncnt == CNT_LAST)) & (ncnt == CNT_DM1);
             if (take) begin
                 off_sin   <= pend_off_s;
                 off_cos   <= pend_off_c;
@@ -310,7 +315,6 @@ module fringe_drift #(
 
     // 1
     reg  [FINE_W-1:0]        o1_phase, o1_prev;
-    reg                      o1_nz;
     reg  signed [ADC_W-1:0]  o1_ys, o1_yc;
     reg  signed [YW-2:0]     o1_w0s, o1_w0c;
     // 2
@@ -338,14 +342,15 @@ module fringe_drift #(
         if (ce) begin
             // 1: input registers (the table read is in the RAMs)
             o1_phase <= obs_phase;
-            o1_prev  <= last_phase;
-            o1_nz    <= ohave;
+            // the first sample after reset is its own previous phase (delta 0): a choice of two inputs
+            // here, not a clear of o2_dl (the LSR pin, with ce in front of it)
+            o1_prev  <= ohave ? last_phase : obs_phase;
             o1_ys    <= obs_y_sin;
             o1_yc    <= obs_y_cos;
             o1_w0s   <= w0_sin;
             o1_w0c   <= w0_cos;
             // 2: phase delta; y * 2^TABLE_FRAC - W0
-            o2_dl   <= o1_nz ? delta : {FINE_W{1'b0}};
+            o2_dl   <= delta;
             o2_yws  <= ys_x - {o1_w0s[YW-2], o1_w0s};
             o2_ywc  <= yc_x - {o1_w0c[YW-2], o1_w0c};
             // 3: |delta| (2^(FINE_W-1) fits unsigned)
@@ -380,35 +385,44 @@ module fringe_drift #(
     wire signed [EA_W-1:0] o8_eas = ea_p[0 +: EA_W];
     wire signed [EA_W-1:0] o8_eac = ea_p[EA_W +: EA_W];
 
-    // 9: accumulators; the block's last sample goes to the snapshot and clears them
-    reg  signed [SE_W-1:0]  se_s, se_c, snap_se_s, snap_se_c;
-    reg  signed [SEA_W-1:0] sea_s, sea_c, snap_sea_s, snap_sea_c;
+    // 9: accumulators. The block's last sample is added like the others, so after it the accumulators
+    // hold the block's sums (read by stage 10 at the next clock enable, before a new sample can change
+    // them: no snapshot copies). `fresh` (set by that sample and by a reset) makes the next window sample
+    // start from 0 instead of a clear: a synchronous clear of the wide registers is the LSR pin, which
+    // took the block-end enable (and ce) across the chip to ~170 flip-flops (issue 11). One copy of it per
+    // accumulator (se_s, se_c, sea_s, sea_c, sweep), each written with its own feedback so that synthesis
+    // does not merge them: one register in front of ~170 LUTs was the next critical path.
+    reg  signed [SE_W-1:0]  se_s, se_c;
+    reg  signed [SEA_W-1:0] sea_s, sea_c;
     reg  [SW_W-1:0]         sweep;
+    reg  [4:0]              fresh;        // the accumulators hold a finished block (or nothing): start from 0
     reg                     o9_go;
-    wire signed [SE_W-1:0]  se_s_n  = se_s + {{WL{o8_es[E_W-1]}}, o8_es};
-    wire signed [SE_W-1:0]  se_c_n  = se_c + {{WL{o8_ec[E_W-1]}}, o8_ec};
-    wire signed [SEA_W-1:0] sea_s_n = sea_s + {{WL{o8_eas[EA_W-1]}}, o8_eas};
-    wire signed [SEA_W-1:0] sea_c_n = sea_c + {{WL{o8_eac[EA_W-1]}}, o8_eac};
-    wire [SW_W-1:0]         sweep_n = sweep + {{WL{1'b0}}, o8_abs};
-    wire                    blk_end = o8_valid & o8_last;
+    wire signed [SE_W-1:0]  se_s_b  = fresh[0] ? {SE_W{1'b0}} : se_s;
+    wire signed [SE_W-1:0]  se_c_b  = fresh[1] ? {SE_W{1'b0}} : se_c;
+    wire signed [SEA_W-1:0] sea_s_b = fresh[2] ? {SEA_W{1'b0}} : sea_s;
+    wire signed [SEA_W-1:0] sea_c_b = fresh[3] ? {SEA_W{1'b0}} : sea_c;
+    wire [SW_W-1:0]         sweep_b = fresh[4] ? {SW_W{1'b0}} : sweep;
+    wire signed [SE_W-1:0]  se_s_n  = se_s_b + {{WL{o8_es[E_W-1]}}, o8_es};
+    wire signed [SE_W-1:0]  se_c_n  = se_c_b + {{WL{o8_ec[E_W-1]}}, o8_ec};
+    wire signed [SEA_W-1:0] sea_s_n = sea_s_b + {{WL{o8_eas[EA_W-1]}}, o8_eas};
+    wire signed [SEA_W-1:0] sea_c_n = sea_c_b + {{WL{o8_eac[EA_W-1]}}, o8_eac};
+    wire [SW_W-1:0]         sweep_n = sweep_b + {{WL{1'b0}}, o8_abs};
+    wire                    blk_end = o8_valid & o8_last;   // (in the window: the block's last sample)
+    wire                    acc_w   = o8_valid & o8_win;
 
     always @(posedge clk) begin
         if (rst) begin
             o9_go <= 1'b0;
+            fresh <= 5'b11111;
         end else if (ce) begin
             o9_go <= blk_end;
+            fresh <= {5{blk_end}} | (fresh & ~{5{acc_w}});   // set by the block's end, cleared by a sample
         end
     end
 
-    // cleared by a reset and by the block's last sample (after its snapshot)
+    // data only: no reset, no clear
     always @(posedge clk) begin
-        if (rst || (ce && blk_end)) begin
-            se_s  <= {SE_W{1'b0}};
-            se_c  <= {SE_W{1'b0}};
-            sea_s <= {SEA_W{1'b0}};
-            sea_c <= {SEA_W{1'b0}};
-            sweep <= {SW_W{1'b0}};
-        end else if (ce && o8_valid && o8_win) begin
+        if (ce && acc_w) begin
             se_s  <= se_s_n;
             se_c  <= se_c_n;
             sea_s <= sea_s_n;
@@ -417,29 +431,27 @@ module fringe_drift #(
         end
     end
 
-    // The block's SWEEP test and its gear G, decided at the snapshot (registered there, so that stages 10
-    // and 14 shift by a register). A block that swept less than a period (but at least 2^SWEEP_LO) updates
-    // at the final gear, if that is 2^-2 or smaller, and does not count. The gear changes only at stage 16,
-    // long before the next block's end (B >= 16 samples later), so it is the gear stages 10 and 14 saw.
+    // The block's SWEEP test, registered at its last sample. A block that swept less than a period (but at
+    // least 2^SWEEP_LO) updates at the final gear, if that is 2^-2 or smaller, and does not count. The gear
+    // changes only at stage 16, long before the next block's end (B >= 16 samples later), so stages 10 and 14
+    // see the block's gear G.
     reg  [3:0] gear;
     reg  [8:0] g_left;
     reg        snap_full, snap_ok;   // a whole period swept; enough to update
-    reg  [3:0] g_up;                 // MU_LOG2 - G: the gain step's left shift
-    reg  [5:0] sh_o;                 // log2(W) + TABLE_FRAC - 1 + G: the offset step's right shift
+    reg  [3:0] g_up;                 // MU_LOG2 - G: the gain step's left shift (stage 14)
     wire       full_n = |sweep_n[SW_W-1:FINE_W];
-    wire [5:0] sh_gear = SH_B[5:0] + {2'b00, gear};
 
     always @(posedge clk) begin
         if (ce && blk_end) begin
-            snap_se_s  <= se_s_n;
-            snap_se_c  <= se_c_n;
-            snap_sea_s <= sea_s_n;
-            snap_sea_c <= sea_c_n;
             snap_full  <= full_n;
             snap_ok    <= full_n | (PARTIAL & |sweep_n[SW_W-1:SWEEP_LO]);
-            g_up       <= full_n ? MU_LOG2[3:0] - gear : 4'd0;
-            sh_o       <= full_n ? sh_gear : SH_B[5:0] + MU_LOG2[5:0];
         end
+    end
+
+    // g_up: a function of snap_full and the gear, both constant from stage 10 to 16 (and frozen by ce = 0),
+    // registered every clock: no enable, and no block-end term in front of its flip-flops.
+    always @(posedge clk) begin
+        g_up <= snap_full ? MU_LOG2[3:0] - gear : 4'd0;
     end
 
     // ---- the update (stages 10..16) -------------------------------------------------------------------
@@ -447,7 +459,7 @@ module fringe_drift #(
     // 11 OFF + step, 12 OFF saturated, SWEEP test carried along; 14 P * 2^(MU_LOG2 - G) >>> KG_SHIFT and
     // its rounding bit; 15 GINV - that - the bit (the rounding as a borrow); 16 GINV saturated: resolved.
     localparam integer P_W = SEA_W + KG_W;                  // SEA * KG, exact
-    wire [2*SEA_W-1:0] kg_e = {snap_sea_c, snap_sea_s};   // {cosine, sine}
+    wire [2*SEA_W-1:0] kg_e = {sea_c, sea_s};   // {cosine, sine}: the block's sums at stage 10
     wire [2*KG_W-1:0]  kg_k = {kg_hold_c, kg_hold_s};
     wire [2*P_W-1:0]   kg_p;
 
@@ -466,8 +478,8 @@ module fringe_drift #(
 
     // Gear shift: update number u (updates resolved with a whole period swept since reset, i.e. applied or
     // about to be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The
-    // gear changes only at stage 16, after the stages 10 and 14 of the same block read it (through g_up and
-    // sh_o, registered at the snapshot: they hold until the next block's end).
+    // gear changes only at stage 16, after the stages 10 and 14 of the same block read it (stage 10 directly,
+    // stage 14 through g_up).
 
     // P sign-extended to PR_W bits, times 2^(MU_LOG2 - G) (fits: PR_W > P_W + MU_LOG2 + 1)
     wire signed [PR_W-1:0] px_s = {{(PR_W-P_W){kg_p[P_W-1]}}, kg_p[0 +: P_W]};
@@ -475,15 +487,22 @@ module fringe_drift #(
     wire signed [PR_W-1:0] pk_s = px_s <<< g_up;
     wire signed [PR_W-1:0] pk_c = px_c <<< g_up;
 
-    wire signed [XW-1:0]   sex_s = {{(OFS_FRAC+1){snap_se_s[SE_W-1]}}, snap_se_s};
-    wire signed [XW-1:0]   sex_c = {{(OFS_FRAC+1){snap_se_c[SE_W-1]}}, snap_se_c};
+    wire signed [XW-1:0]   sex_s = {{(OFS_FRAC+1){se_s[SE_W-1]}}, se_s};
+    wire signed [XW-1:0]   sex_c = {{(OFS_FRAC+1){se_c[SE_W-1]}}, se_c};
     wire signed [XW-1:0]   sxo_s = sex_s <<< OFS_FRAC;
     wire signed [XW-1:0]   sxo_c = sex_c <<< OFS_FRAC;
+    // the offset step's shift, log2(W) + TABLE_FRAC - 1 + G at a whole period, else at the final gear
+    // MU_LOG2: a shift by the gear register and a fixed one, chosen by the SWEEP test's register after
+    // them (no test or adder in front of the shift amount)
+    wire signed [XW-1:0]   sxg_s = (sxo_s >>> SH_B) >>> gear;
+    wire signed [XW-1:0]   sxg_c = (sxo_c >>> SH_B) >>> gear;
+    wire signed [XW-1:0]   sxm_s = sxo_s >>> (SH_B + MU_LOG2);
+    wire signed [XW-1:0]   sxm_c = sxo_c >>> (SH_B + MU_LOG2);
     reg  signed [XW-1:0]   u1_ss, u1_sc;   // 10: the offset steps
     reg  signed [OS_W-1:0] u2_os, u2_oc;   // 11: OFF + step
     reg  signed [OW-1:0]   u3_os, u3_oc;   // 12: saturated
     reg                    u3_sat;
-    wire                   u6_valid, u6_ok, u6_full; // stage 15: valid, the SWEEP tests
+    wire                   u5_valid, u5_ok, u5_full; // stage 14: valid, the SWEEP tests
     wire signed [OW-1:0]   u6_os, u6_oc;
     wire                   u6_sat, u6_carry_valid;
     reg  signed [DG_W-1:0] u5_dg_s, u5_dg_c; // 14: (P * 2^(MU_LOG2 - G)) >>> KG_SHIFT
@@ -502,9 +521,9 @@ module fringe_drift #(
     wire gs_high = ~gs_neg & |u6_gs[GS_W-2:GINV_W];
     wire gc_high = ~gc_neg & |u6_gc[GS_W-2:GINV_W];
 
-    fringe_delay #(.WIDTH(2), .DEPTH(6)) u_upd_valid (
+    fringe_delay #(.WIDTH(2), .DEPTH(5)) u_upd_valid (
         .clk(clk), .rst(rst), .ce(ce), .in_valid(o9_go), .in_data({snap_full, snap_ok}),
-        .out_valid(u6_valid), .out_data({u6_full, u6_ok})
+        .out_valid(u5_valid), .out_data({u5_full, u5_ok})
     );
 
     // 13..15: OFF carried along
@@ -516,8 +535,8 @@ module fringe_drift #(
     always @(posedge clk) begin
         if (ce) begin
             // 10: (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC - 1 + G)
-            u1_ss  <= sxo_s >>> sh_o;
-            u1_sc  <= sxo_c >>> sh_o;
+            u1_ss  <= snap_full ? sxg_s : sxm_s;
+            u1_sc  <= snap_full ? sxg_c : sxm_c;
             // 11
             u2_os  <= {{(OS_W-OW){off_sin[OW-1]}}, off_sin} + {u1_ss[XW-1], u1_ss};
             u2_oc  <= {{(OS_W-OW){off_cos[OW-1]}}, off_cos} + {u1_sc[XW-1], u1_sc};
@@ -536,35 +555,60 @@ module fringe_drift #(
         end
     end
 
-    // 16: resolved: the pending update (taken by the normaliser at its application sample) or a skip
+    // 16: resolved: the pending update (taken by the normaliser at its application sample) or a skip.
+    // Its decisions are registered at stage 15 (the gear and g_left cannot change in between: they change
+    // only at a stage 16, and blocks are B >= 16 samples apart), so that ce meets one gate in front of the
+    // enables of the state registers, not the SWEEP tests and the gear compares.
+    reg  u6_valid;   // stage 15: valid (stage 16 resolves)
+    reg  u6_go;      // the block updates (pending)
+    reg  u6_gup;     // and steps to the next gear
+    reg  u6_gdec;    // or counts one update at this gear
+    wire g_more = u5_full & (gear != MU_LOG2[3:0]);
     assign upd_done = u6_valid;
 
     always @(posedge clk) begin
         if (rst) begin
+            u6_valid <= 1'b0;
+            u6_go    <= 1'b0;
+            u6_gup   <= 1'b0;
+            u6_gdec  <= 1'b0;
+        end else if (ce) begin
+            u6_valid <= u5_valid;
+            u6_go    <= u5_valid & u5_ok;
+            u6_gup   <= u5_valid & u5_ok & g_more & (g_left == 9'd1);
+            u6_gdec  <= u5_valid & u5_ok & g_more & (g_left != 9'd1);
+        end
+    end
+
+    always @(posedge clk) begin
+        if (rst) begin
             pend_valid <= 1'b0;
-            gear       <= 4'd0;
-            g_left     <= 9'd1;
-        end else if (ce && u6_valid && u6_ok) begin
+        end else if (ce && u6_go) begin
             pend_valid <= 1'b1;
-            if (u6_full && gear != MU_LOG2[3:0]) begin
-                if (g_left == 9'd1) begin
-                    gear   <= gear + 4'd1;
-                    g_left <= 9'd1 << gear;        // 2^(G_new - 1) updates at the new gear
-                end else begin
-                    g_left <= g_left - 9'd1;
-                end
-            end
         end else if (take) begin
             pend_valid <= 1'b0;
         end
     end
 
     always @(posedge clk) begin
-        if (ce && u6_valid && u6_ok) begin
+        if (rst) begin
+            gear   <= 4'd0;
+            g_left <= 9'd1;
+        end else if (ce && u6_gup) begin
+            gear   <= gear + 4'd1;
+            g_left <= 9'd1 << gear;        // 2^(G_new - 1) updates at the new gear
+        end else if (ce && u6_gdec) begin
+            g_left <= g_left - 9'd1;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (ce && u6_go) begin
             pend_off_s  <= u6_os;
             pend_off_c  <= u6_oc;
-            pend_ginv_s <= gs_neg ? {GINV_W{1'b0}} : (gs_high ? {GINV_W{1'b1}} : u6_gs[GINV_W-1:0]);
-            pend_ginv_c <= gc_neg ? {GINV_W{1'b0}} : (gc_high ? {GINV_W{1'b1}} : u6_gc[GINV_W-1:0]);
+            // saturated with AND / OR, not a choice of constants (which synthesis maps to the LSR pin)
+            pend_ginv_s <= (u6_gs[GINV_W-1:0] | {GINV_W{gs_high}}) & ~{GINV_W{gs_neg}};
+            pend_ginv_c <= (u6_gc[GINV_W-1:0] | {GINV_W{gc_high}}) & ~{GINV_W{gc_neg}};
             pend_sat    <= u6_sat | gs_neg | gs_high | gc_neg | gc_high;
         end
     end

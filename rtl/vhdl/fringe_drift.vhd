@@ -142,13 +142,16 @@ architecture rtl of fringe_drift is
     constant GS_W   : integer := maximum(GINV_W + 1, DG_W) + 1;     -- GINV - step
     constant UNITY  : unsigned(GINV_W - 1 downto 0) := shift_left(to_unsigned(1, GINV_W), GINV_W - 2);
     constant CNT_D  : unsigned(BLOCK_LOG2 - 1 downto 0) := to_unsigned(D, BLOCK_LOG2);
+    constant CNT_DM1 : unsigned(BLOCK_LOG2 - 1 downto 0) := CNT_D - 1;   -- (mod B)
     constant CNT_LAST : unsigned(BLOCK_LOG2 - 1 downto 0) := (others => '1');
 
     -- application
     signal in_take    : std_logic;
     signal in_ready_i : std_logic;
     signal acc_n      : std_logic;
-    signal at_apply   : std_logic;                      -- the next sample is an application sample
+    -- the next sample is an application sample: npast and ncnt = CNT_D, registered with them (no compare
+    -- between ncnt and the enables of the state registers)
+    signal at_apply   : std_logic;
     signal resolved   : std_logic;                      -- the last complete block's update is known
     signal take       : std_logic;
     signal ncnt       : unsigned(BLOCK_LOG2 - 1 downto 0);
@@ -182,7 +185,6 @@ architecture rtl of fringe_drift is
     signal o8_valid, o8_last, o8_win : std_logic;       -- stage 8: valid, the block's last sample, window
     signal o_flags, o8_flags : std_logic_vector(1 downto 0);
     signal o1_phase, o1_prev : unsigned(FINE_W - 1 downto 0);
-    signal o1_nz      : std_logic;
     signal o1_ys, o1_yc   : signed(ADC_W - 1 downto 0);
     signal o1_w0s, o1_w0c : signed(YW - 2 downto 0);
     signal o2_dl      : unsigned(FINE_W - 1 downto 0);
@@ -199,9 +201,10 @@ architecture rtl of fringe_drift is
     signal o8_carry       : std_logic_vector(2 * E_W + FINE_W - 1 downto 0);
     signal o8_carry_valid : std_logic;
     signal o8_eas, o8_eac : signed(EA_W - 1 downto 0);
-    signal se_s, se_c, snap_se_s, snap_se_c     : signed(SE_W - 1 downto 0);
-    signal sea_s, sea_c, snap_sea_s, snap_sea_c : signed(SEA_W - 1 downto 0);
+    signal se_s, se_c   : signed(SE_W - 1 downto 0);
+    signal sea_s, sea_c : signed(SEA_W - 1 downto 0);
     signal sweep      : unsigned(SW_W - 1 downto 0);
+    signal fresh      : std_logic_vector(4 downto 0);   -- the accumulators hold a finished block: start from 0
     signal o9_go      : std_logic;
 
     -- e * a and P = SEA * KG (fringe_split_mul), P sign-extended to PR_W bits
@@ -217,12 +220,15 @@ architecture rtl of fringe_drift is
     signal g_left       : integer range 0 to 256;       -- updates left at this gear
     signal u1_ss, u1_sc : signed(XW - 1 downto 0);
     signal u2_os, u2_oc : signed(OS_W - 1 downto 0);
-    signal snap_full    : std_logic;                    -- the snapshot swept a whole period
+    signal snap_full    : std_logic;                    -- the block swept a whole period
     signal snap_ok      : std_logic;                    -- enough to update
-    signal g_up         : integer range 0 to 8;         -- MU_LOG2 - G: the gain step's left shift
-    signal sh_o         : integer range 0 to 63;        -- SH_B + G: the offset step's right shift
-    signal u6_valid     : std_logic;                    -- stage 15: valid
-    signal u6_tests     : std_logic_vector(1 downto 0); -- stage 15: the SWEEP tests (full, ok)
+    signal g_up         : integer range 0 to 8;         -- MU_LOG2 - G: the gain step's left shift (stage 14)
+    signal u5_valid     : std_logic;                    -- stage 14: valid
+    signal u5_tests     : std_logic_vector(1 downto 0); -- stage 14: the SWEEP tests (full, ok)
+    signal u6_valid     : std_logic;                    -- stage 15: valid (stage 16 resolves)
+    signal u6_go        : std_logic;                    -- the block updates (pending)
+    signal u6_gup       : std_logic;                    -- and steps to the next gear
+    signal u6_gdec      : std_logic;                    -- or counts one update at this gear
     signal u3_os, u3_oc, u6_os, u6_oc : signed(OW - 1 downto 0);
     signal u3_sat, u6_sat : std_logic;
     signal u6_carry     : std_logic_vector(2 * OW downto 0);
@@ -236,7 +242,6 @@ begin
     -- ---- application of the pending update ------------------------------------------------------------
     in_take  <= in_valid and in_ready_i;
     acc_n    <= ce and in_take and not rst;
-    at_apply <= '1' when npast = '1' and ncnt = CNT_D else '0';
     take     <= acc_n and at_apply and pend_valid;
     -- HOLD = 1: the boundary sample waits until its block's update is resolved (at most one block is
     -- outstanding: the next one needs samples past this boundary). HOLD = 0: never waits (the latency check).
@@ -249,6 +254,7 @@ begin
             if rst = '1' then
                 ncnt   <= (others => '0');
                 npast  <= '0';
+                at_apply <= '0';
                 off_s  <= (others => '0');
                 off_c  <= (others => '0');
                 ginv_s <= UNITY;
@@ -258,6 +264,11 @@ begin
                 ncnt <= ncnt + 1;
                 if ncnt = CNT_LAST then
                     npast <= '1';
+                end if;
+                if (npast = '1' or ncnt = CNT_LAST) and ncnt = CNT_DM1 then
+                    at_apply <= '1';
+                else
+                    at_apply <= '0';
                 end if;
                 if take = '1' then
                     off_s  <= pend_off_s;
@@ -377,18 +388,19 @@ begin
             if ce = '1' then
                 -- 1: input registers (the table read is in the RAMs)
                 o1_phase <= unsigned(obs_phase);
-                o1_prev  <= last_phase;
-                o1_nz    <= ohave;
+                -- the first sample after reset is its own previous phase (delta 0): a choice of two inputs
+                -- here, not a clear of o2_dl (the LSR pin, with ce in front of it)
+                if ohave = '1' then
+                    o1_prev <= last_phase;
+                else
+                    o1_prev <= unsigned(obs_phase);
+                end if;
                 o1_ys    <= signed(obs_y_sin);
                 o1_yc    <= signed(obs_y_cos);
                 o1_w0s   <= signed(w0_sin);
                 o1_w0c   <= signed(w0_cos);
                 -- 2: phase delta (wraps); y * 2^TABLE_FRAC - W0
-                if o1_nz = '1' then
-                    o2_dl <= o1_phase - o1_prev;
-                else
-                    o2_dl <= (others => '0');
-                end if;
+                o2_dl <= o1_phase - o1_prev;
                 o2_yws <= shift_left(resize(o1_ys, YW), TABLE_FRAC) - resize(o1_w0s, YW);
                 o2_ywc <= shift_left(resize(o1_yc, YW), TABLE_FRAC) - resize(o1_w0c, YW);
                 -- 3: |delta|
@@ -432,54 +444,67 @@ begin
     o8_ec  <= signed(o8_carry(E_W + FINE_W - 1 downto FINE_W));
     o8_abs <= unsigned(o8_carry(FINE_W - 1 downto 0));
 
-    -- 9: accumulators; the block's last sample goes to the snapshot and clears them
+    -- 9: accumulators. The block's last sample is added like the others, so after it the accumulators
+    -- hold the block's sums (read by stage 10 at the next clock enable, before a new sample can change
+    -- them: no snapshot copies). fresh (set by that sample and by a reset) makes the next window sample
+    -- start from 0 instead of a clear: a synchronous clear of the wide registers is the LSR pin, which
+    -- took the block-end enable (and ce) across the chip to ~170 flip-flops (issue 11). One copy of it per
+    -- accumulator (se_s, se_c, sea_s, sea_c, sweep), each written with its own feedback so that synthesis
+    -- does not merge them: one register in front of ~170 LUTs was the next critical path.
     p_acc : process (clk)
         variable se_s_n, se_c_n   : signed(SE_W - 1 downto 0);
         variable sea_s_n, sea_c_n : signed(SEA_W - 1 downto 0);
         variable sweep_n          : unsigned(SW_W - 1 downto 0);
-        variable blk_end          : boolean;
+        variable blk_end, acc_w   : boolean;
         variable full_n           : boolean;
     begin
         if rising_edge(clk) then
-            se_s_n  := se_s + resize(o8_es, SE_W);
-            se_c_n  := se_c + resize(o8_ec, SE_W);
-            sea_s_n := sea_s + resize(o8_eas, SEA_W);
-            sea_c_n := sea_c + resize(o8_eac, SEA_W);
-            sweep_n := sweep + resize(o8_abs, SW_W);
-            blk_end := o8_valid = '1' and o8_last = '1';
+            se_s_n  := resize(o8_es, SE_W);
+            se_c_n  := resize(o8_ec, SE_W);
+            sea_s_n := resize(o8_eas, SEA_W);
+            sea_c_n := resize(o8_eac, SEA_W);
+            sweep_n := resize(o8_abs, SW_W);
+            if fresh(0) = '0' then se_s_n  := se_s + se_s_n; end if;
+            if fresh(1) = '0' then se_c_n  := se_c + se_c_n; end if;
+            if fresh(2) = '0' then sea_s_n := sea_s + sea_s_n; end if;
+            if fresh(3) = '0' then sea_c_n := sea_c + sea_c_n; end if;
+            if fresh(4) = '0' then sweep_n := sweep + sweep_n; end if;
+            blk_end := o8_valid = '1' and o8_last = '1';   -- (in the window: the block's last sample)
+            acc_w   := o8_valid = '1' and o8_win = '1';
             if rst = '1' then
                 o9_go <= '0';
+                fresh <= (others => '1');
             elsif ce = '1' then
                 o9_go <= '1' when blk_end else '0';
+                if blk_end then
+                    fresh <= (others => '1');
+                elsif acc_w then
+                    fresh <= (others => '0');
+                end if;
             end if;
-            -- cleared by a reset and by the block's last sample (after its snapshot)
-            if rst = '1' or (ce = '1' and blk_end) then
-                se_s  <= (others => '0');
-                se_c  <= (others => '0');
-                sea_s <= (others => '0');
-                sea_c <= (others => '0');
-                sweep <= (others => '0');
-            elsif ce = '1' and o8_valid = '1' and o8_win = '1' then
+            -- data only: no reset, no clear
+            if ce = '1' and acc_w then
                 se_s  <= se_s_n;
                 se_c  <= se_c_n;
                 sea_s <= sea_s_n;
                 sea_c <= sea_c_n;
                 sweep <= sweep_n;
             end if;
-            -- the block's SWEEP test and its gear G, decided at the snapshot (registered there, so that stages
-            -- 10 and 14 shift by a register). A block that swept less than a period (but at least 2^SWEEP_LO)
-            -- updates at the final gear, if that is 2^-2 or smaller, and does not count. The gear changes only
-            -- at stage 16, long before the next block's end (B >= 16 samples later).
+            -- The block's SWEEP test, registered at its last sample. A block that swept less than a period (but
+            -- at least 2^SWEEP_LO) updates at the final gear, if that is 2^-2 or smaller, and does not count. The
+            -- gear changes only at stage 16, long before the next block's end (B >= 16 samples later), so stages
+            -- 10 and 14 see the block's gear G.
             if ce = '1' and blk_end then
                 full_n := sweep_n(SW_W - 1 downto FINE_W) /= 0;
-                snap_se_s  <= se_s_n;
-                snap_se_c  <= se_c_n;
-                snap_sea_s <= sea_s_n;
-                snap_sea_c <= sea_c_n;
                 snap_full  <= '1' when full_n else '0';
                 snap_ok    <= '1' when full_n or (PARTIAL and sweep_n(SW_W - 1 downto SWEEP_LO) /= 0) else '0';
-                g_up       <= MU_LOG2 - gear when full_n else 0;
-                sh_o       <= SH_B + gear when full_n else SH_B + MU_LOG2;
+            end if;
+            -- g_up: a function of snap_full and the gear, both constant from stage 10 to 16 (and frozen by
+            -- ce = 0), registered every clock: no enable, and no block-end term in front of its flip-flops.
+            if snap_full = '1' then
+                g_up <= MU_LOG2 - gear;
+            else
+                g_up <= 0;
             end if;
         end if;
     end process p_acc;
@@ -488,7 +513,7 @@ begin
     -- 10..13 P = SEA * KG: 18x18 partial products (g_ch); 10 the offset step at the gear, 11 OFF + step,
     -- 12 OFF saturated, SWEEP test carried along; 14 P * 2^(MU_LOG2 - G) >>> KG_SHIFT and its rounding bit;
     -- 15 GINV - that - the bit (the rounding as a borrow); 16 GINV saturated: resolved.
-    kg_e <= std_logic_vector(snap_sea_c) & std_logic_vector(snap_sea_s);   -- {cosine, sine}
+    kg_e <= std_logic_vector(sea_c) & std_logic_vector(sea_s);   -- {cosine, sine}: the block's sums at stage 10
     kg_k <= std_logic_vector(kg_hold_c) & std_logic_vector(kg_hold_s);
 
     -- the multipliers of one channel (0 sine, 1 cosine): e * a (stages 6..8), SEA * KG (10..13)
@@ -508,9 +533,9 @@ begin
     px_c <= resize(signed(kg_p(2 * P_W - 1 downto P_W)), PR_W);
 
     u_upd_valid : entity work.fringe_delay
-        generic map (WIDTH => 2, DEPTH => 6)
+        generic map (WIDTH => 2, DEPTH => 5)
         port map (clk => clk, rst => rst, ce => ce, in_valid => o9_go, in_data => snap_full & snap_ok,
-                  out_valid => u6_valid, out_data => u6_tests);
+                  out_valid => u5_valid, out_data => u5_tests);
 
     -- 13..15: OFF carried along
     u_upd_carry : entity work.fringe_delay
@@ -524,22 +549,31 @@ begin
 
     -- Gear shift: update number u (updates resolved with a whole period swept since reset, i.e. applied or
     -- about to be) runs at G_u = min(MU_LOG2, bit_length(u)); g_left counts the updates left at this gear. The
-    -- gear changes only at stage 16, after the stages 10 and 14 of the same block read it (through g_up and
-    -- sh_o, registered at the snapshot: they hold until the next block's end).
+    -- gear changes only at stage 16, after the stages 10 and 14 of the same block read it (stage 10 directly,
+    -- stage 14 through g_up).
     p_upd : process (clk)
         variable sxo_s, sxo_c : signed(XW - 1 downto 0);
         variable pk_s, pk_c   : signed(PR_W - 1 downto 0);
         variable dgn_s, dgn_c : signed(GS_W - 1 downto 0);
         variable rbn_s, rbn_c : signed(GS_W - 1 downto 0);
         variable gs_neg, gc_neg, gs_high, gc_high, os_over, oc_over : boolean;
+        variable hi_s, hi_c, lo_s, lo_c : unsigned(GINV_W - 1 downto 0);   -- the saturation's OR / AND masks
+        variable g_more, u5_go : boolean;
     begin
         if rising_edge(clk) then
             if ce = '1' then
                 -- 10: (SE * 2^OFS_FRAC) >>> (log2(W) + TABLE_FRAC - 1 + G)
-                sxo_s := shift_left(resize(snap_se_s, XW), OFS_FRAC);
-                sxo_c := shift_left(resize(snap_se_c, XW), OFS_FRAC);
-                u1_ss <= shift_right(sxo_s, sh_o);
-                u1_sc <= shift_right(sxo_c, sh_o);
+                -- (log2(W) + TABLE_FRAC - 1 + G at a whole period, else at the final gear MU_LOG2: a shift by
+                -- the gear register and a fixed one, chosen by the SWEEP test's register after them)
+                sxo_s := shift_left(resize(se_s, XW), OFS_FRAC);
+                sxo_c := shift_left(resize(se_c, XW), OFS_FRAC);
+                if snap_full = '1' then
+                    u1_ss <= shift_right(shift_right(sxo_s, SH_B), gear);
+                    u1_sc <= shift_right(shift_right(sxo_c, SH_B), gear);
+                else
+                    u1_ss <= shift_right(sxo_s, SH_B + MU_LOG2);
+                    u1_sc <= shift_right(sxo_c, SH_B + MU_LOG2);
+                end if;
                 -- 11: OFF + step
                 u2_os <= resize(off_s, OS_W) + resize(u1_ss, OS_W);
                 u2_oc <= resize(off_c, OS_W) + resize(u1_sc, OS_W);
@@ -571,40 +605,52 @@ begin
             gc_neg  := u6_gc(GS_W - 1) = '1';
             gs_high := not gs_neg and u6_gs(GS_W - 2 downto GINV_W) /= 0;
             gc_high := not gc_neg and u6_gc(GS_W - 2 downto GINV_W) /= 0;
+            -- Its decisions are registered at stage 15 (the gear and g_left cannot change in between: they
+            -- change only at a stage 16, and blocks are B >= 16 samples apart), so that ce meets one gate in
+            -- front of the enables of the state registers, not the SWEEP tests and the gear compares.
+            g_more := u5_tests(1) = '1' and gear /= MU_LOG2;
+            u5_go  := u5_valid = '1' and u5_tests(0) = '1';
+            if rst = '1' then
+                u6_valid <= '0';
+                u6_go    <= '0';
+                u6_gup   <= '0';
+                u6_gdec  <= '0';
+            elsif ce = '1' then
+                u6_valid <= u5_valid;
+                u6_go    <= '1' when u5_go else '0';
+                u6_gup   <= '1' when u5_go and g_more and g_left = 1 else '0';
+                u6_gdec  <= '1' when u5_go and g_more and g_left /= 1 else '0';
+            end if;
             if rst = '1' then
                 pend_valid <= '0';
-                gear       <= 0;
-                g_left     <= 1;
-            elsif ce = '1' and u6_valid = '1' and u6_tests(0) = '1' then
+            elsif ce = '1' and u6_go = '1' then
                 pend_valid <= '1';
-                if u6_tests(1) = '1' and gear /= MU_LOG2 then
-                    if g_left = 1 then
-                        gear   <= gear + 1;
-                        g_left <= 2 ** gear;         -- 2^(G_new - 1) updates at the new gear
-                    else
-                        g_left <= g_left - 1;
-                    end if;
-                end if;
             elsif take = '1' then
                 pend_valid <= '0';
             end if;
-            if ce = '1' and u6_valid = '1' and u6_tests(0) = '1' then
+            if rst = '1' then
+                gear   <= 0;
+                g_left <= 1;
+            elsif ce = '1' and u6_gup = '1' then
+                gear   <= gear + 1;
+                g_left <= 2 ** gear;         -- 2^(G_new - 1) updates at the new gear
+            elsif ce = '1' and u6_gdec = '1' then
+                g_left <= g_left - 1;
+            end if;
+            if ce = '1' and u6_go = '1' then
                 pend_off_s <= u6_os;
                 pend_off_c <= u6_oc;
-                if gs_neg then
-                    pend_ginv_s <= (others => '0');
-                elsif gs_high then
-                    pend_ginv_s <= (others => '1');
-                else
-                    pend_ginv_s <= unsigned(u6_gs(GINV_W - 1 downto 0));
-                end if;
-                if gc_neg then
-                    pend_ginv_c <= (others => '0');
-                elsif gc_high then
-                    pend_ginv_c <= (others => '1');
-                else
-                    pend_ginv_c <= unsigned(u6_gc(GINV_W - 1 downto 0));
-                end if;
+                -- saturated with AND / OR, not a choice of constants (which synthesis maps to the LSR pin)
+                hi_s := (others => '0');
+                hi_c := (others => '0');
+                lo_s := (others => '1');
+                lo_c := (others => '1');
+                if gs_high then hi_s := (others => '1'); end if;
+                if gc_high then hi_c := (others => '1'); end if;
+                if gs_neg then lo_s := (others => '0'); end if;
+                if gc_neg then lo_c := (others => '0'); end if;
+                pend_ginv_s <= (unsigned(u6_gs(GINV_W - 1 downto 0)) or hi_s) and lo_s;
+                pend_ginv_c <= (unsigned(u6_gc(GINV_W - 1 downto 0)) or hi_c) and lo_c;
                 pend_sat <= '1' when u6_sat = '1' or gs_neg or gs_high or gc_neg or gc_high else '0';
             end if;
             -- the boundary sample's update is known once resolved (HOLD = 1: in_ready)
