@@ -259,26 +259,45 @@ module fringe_drift #(
     // ---- observer: counters --------------------------------------------------------------------------
     wire                  acc_o = ce & obs_valid & ~rst;
     reg  [BLOCK_LOG2-1:0] ocnt;           // accepted observer samples since reset, mod B
+    reg                   o_at_last;      // ocnt == CNT_LAST, registered with ocnt (no compare behind ce)
     reg                   ohave;          // a previous phase exists (not the first sample after reset)
     reg  [FINE_W-1:0]     last_phase;
     reg  [KG_W-1:0]       kg_hold_s, kg_hold_c;
+    // KG taken one clock enable after the block's last sample, from a register of every sample's KG: the
+    // hold's enable is ce and one register (not ce, obs_valid, reset and the count; read at stage 10)
+    reg  [KG_W-1:0]       kg_in_s, kg_in_c;
+    reg                   kg_take;
 
     always @(posedge clk) begin
         if (rst) begin
-            ocnt  <= {BLOCK_LOG2{1'b0}};
-            ohave <= 1'b0;
+            ocnt      <= {BLOCK_LOG2{1'b0}};
+            o_at_last <= 1'b0;
+            ohave     <= 1'b0;
         end else if (acc_o) begin
-            ocnt  <= ocnt + 1'b1;
-            ohave <= 1'b1;
+            ocnt      <= ocnt + 1'b1;
+            o_at_last <= (ocnt == CNT_LAST - 1'b1);
+            ohave     <= 1'b1;
+        end
+    end
+
+    always @(posedge clk) begin
+        if (rst) begin
+            kg_take <= 1'b0;
+        end else if (ce) begin
+            kg_take <= obs_valid & o_at_last;
         end
     end
 
     always @(posedge clk) begin
         if (acc_o) begin
             last_phase <= obs_phase;
-            if (ocnt == CNT_LAST) begin
-                kg_hold_s <= kg_sin;
-                kg_hold_c <= kg_cos;
+        end
+        if (ce) begin
+            kg_in_s <= kg_sin;
+            kg_in_c <= kg_cos;
+            if (kg_take) begin
+                kg_hold_s <= kg_in_s;
+                kg_hold_c <= kg_in_c;
             end
         end
     end
@@ -309,7 +328,7 @@ module fringe_drift #(
     wire obs_win = (HOLD != 0) | ocnt[BLOCK_LOG2-1];
 
     fringe_delay #(.WIDTH(2), .DEPTH(8)) u_obs_valid (
-        .clk(clk), .rst(rst), .ce(ce), .in_valid(obs_valid), .in_data({obs_win, ocnt == CNT_LAST}),
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(obs_valid), .in_data({obs_win, o_at_last}),
         .out_valid(o8_valid), .out_data({o8_win, o8_last})
     );
 

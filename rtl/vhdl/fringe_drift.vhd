@@ -173,9 +173,14 @@ architecture rtl of fringe_drift is
     -- observer
     signal acc_o      : std_logic;
     signal ocnt       : unsigned(BLOCK_LOG2 - 1 downto 0);
+    signal o_at_last  : std_logic;   -- ocnt = CNT_LAST, registered with ocnt (no compare behind ce)
     signal ohave      : std_logic;
     signal last_phase : unsigned(FINE_W - 1 downto 0);
     signal kg_hold_s, kg_hold_c : unsigned(KG_W - 1 downto 0);
+    -- KG taken one clock enable after the block's last sample, from a register of every sample's KG: the
+    -- hold's enable is ce and one register (not ce, obs_valid, reset and the count; read at stage 10)
+    signal kg_in_s, kg_in_c     : unsigned(KG_W - 1 downto 0);
+    signal kg_take              : std_logic;
     signal rd_addr    : std_logic_vector(FWD_W downto 0);
     signal wr_en_s, wr_en_c : std_logic;
     signal obs_frac   : std_logic_vector(FB - 1 downto 0);
@@ -334,17 +339,28 @@ begin
     begin
         if rising_edge(clk) then
             if rst = '1' then
-                ocnt  <= (others => '0');
-                ohave <= '0';
+                ocnt      <= (others => '0');
+                o_at_last <= '0';
+                ohave     <= '0';
             elsif acc_o = '1' then
-                ocnt  <= ocnt + 1;
-                ohave <= '1';
+                ocnt      <= ocnt + 1;
+                o_at_last <= '1' when ocnt = CNT_LAST - 1 else '0';
+                ohave     <= '1';
+            end if;
+            if rst = '1' then
+                kg_take <= '0';
+            elsif ce = '1' then
+                kg_take <= obs_valid and o_at_last;
             end if;
             if acc_o = '1' then
                 last_phase <= unsigned(obs_phase);
-                if ocnt = CNT_LAST then
-                    kg_hold_s <= unsigned(kg_sin);
-                    kg_hold_c <= unsigned(kg_cos);
+            end if;
+            if ce = '1' then
+                kg_in_s <= unsigned(kg_sin);
+                kg_in_c <= unsigned(kg_cos);
+                if kg_take = '1' then
+                    kg_hold_s <= kg_in_s;
+                    kg_hold_c <= kg_in_c;
                 end if;
             end if;
         end if;
@@ -369,7 +385,7 @@ begin
                   rd_addr => rd_addr, frac => obs_frac, result => a_c);
 
     -- ---- observer: pipeline ------------------------------------------------------------------------------
-    o_last <= '1' when ocnt = CNT_LAST else '0';
+    o_last <= o_at_last;
     -- the window: the block's last W samples (HOLD = 0: the second half, normalised with the latest state)
     o_win  <= '1' when HOLD /= 0 or ocnt(BLOCK_LOG2 - 1) = '1' else '0';
     o_flags <= o_win & o_last;
