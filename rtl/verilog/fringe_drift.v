@@ -118,7 +118,6 @@ module fringe_drift #(
     localparam integer EA_W   = E_W + AW;                             // e * a
     localparam integer SE_W   = E_W + WL;
     localparam integer SEA_W  = EA_W + WL;
-    localparam integer SW_W   = FINE_W + WL;                          // SWEEP
     // offset step shift at gear 0 (+ G), 1 less than log2(W) + TABLE_FRAC: the phase comes from the same
     // codes, so the observer sees half of an offset error; the doubled step removes it (>= 2: WL >= 3)
     localparam integer SH_B   = WL + TABLE_FRAC - 1;
@@ -413,19 +412,23 @@ module fringe_drift #(
     // does not merge them: one register in front of ~170 LUTs was the next critical path.
     reg  signed [SE_W-1:0]  se_s, se_c;
     reg  signed [SEA_W-1:0] sea_s, sea_c;
-    reg  [SW_W-1:0]         sweep;
+    // SWEEP as its low FINE_W bits and a flag for the bits above (|delta| >= 0: once set, they stay
+    // nonzero): the period test is the flag or the low sum's carry, not an OR over an adder's top bits
+    reg  [FINE_W-1:0]       sweep;
+    reg                     sweep_hi;
     reg  [4:0]              fresh;        // the accumulators hold a finished block (or nothing): start from 0
     reg                     o9_go;
     wire signed [SE_W-1:0]  se_s_b  = fresh[0] ? {SE_W{1'b0}} : se_s;
     wire signed [SE_W-1:0]  se_c_b  = fresh[1] ? {SE_W{1'b0}} : se_c;
     wire signed [SEA_W-1:0] sea_s_b = fresh[2] ? {SEA_W{1'b0}} : sea_s;
     wire signed [SEA_W-1:0] sea_c_b = fresh[3] ? {SEA_W{1'b0}} : sea_c;
-    wire [SW_W-1:0]         sweep_b = fresh[4] ? {SW_W{1'b0}} : sweep;
+    wire [FINE_W-1:0]       sweep_b = fresh[4] ? {FINE_W{1'b0}} : sweep;
     wire signed [SE_W-1:0]  se_s_n  = se_s_b + {{WL{o8_es[E_W-1]}}, o8_es};
     wire signed [SE_W-1:0]  se_c_n  = se_c_b + {{WL{o8_ec[E_W-1]}}, o8_ec};
     wire signed [SEA_W-1:0] sea_s_n = sea_s_b + {{WL{o8_eas[EA_W-1]}}, o8_eas};
     wire signed [SEA_W-1:0] sea_c_n = sea_c_b + {{WL{o8_eac[EA_W-1]}}, o8_eac};
-    wire [SW_W-1:0]         sweep_n = sweep_b + {{WL{1'b0}}, o8_abs};
+    wire [FINE_W:0]         sweep_n = {1'b0, sweep_b} + {1'b0, o8_abs};   // with its carry
+    wire                    full_n  = (sweep_hi & ~fresh[4]) | sweep_n[FINE_W];   // SWEEP >= a period
     wire                    blk_end = o8_valid & o8_last;   // (in the window: the block's last sample)
     wire                    acc_w   = o8_valid & o8_win;
 
@@ -446,7 +449,8 @@ module fringe_drift #(
             se_c  <= se_c_n;
             sea_s <= sea_s_n;
             sea_c <= sea_c_n;
-            sweep <= sweep_n;
+            sweep    <= sweep_n[FINE_W-1:0];
+            sweep_hi <= full_n;
         end
     end
 
@@ -458,12 +462,11 @@ module fringe_drift #(
     reg  [8:0] g_left;
     reg        snap_full, snap_ok;   // a whole period swept; enough to update
     reg  [3:0] g_up;                 // MU_LOG2 - G: the gain step's left shift (stage 14)
-    wire       full_n = |sweep_n[SW_W-1:FINE_W];
 
     always @(posedge clk) begin
         if (ce && blk_end) begin
             snap_full  <= full_n;
-            snap_ok    <= full_n | (PARTIAL & |sweep_n[SW_W-1:SWEEP_LO]);
+            snap_ok    <= full_n | (PARTIAL & |sweep_n[FINE_W-1:SWEEP_LO]);
         end
     end
 

@@ -130,7 +130,6 @@ architecture rtl of fringe_drift is
     constant EA_W   : integer := E_W + AW;                          -- e * a
     constant SE_W   : integer := E_W + WL;
     constant SEA_W  : integer := EA_W + WL;
-    constant SW_W   : integer := FINE_W + WL;                       -- SWEEP
     -- offset step shift at gear 0 (+ G), 1 less than log2(W) + TABLE_FRAC: the phase comes from the same
     -- codes, so the observer sees half of an offset error; the doubled step removes it (>= 2: WL >= 3)
     constant SH_B   : integer := WL + TABLE_FRAC - 1;
@@ -208,7 +207,10 @@ architecture rtl of fringe_drift is
     signal o8_eas, o8_eac : signed(EA_W - 1 downto 0);
     signal se_s, se_c   : signed(SE_W - 1 downto 0);
     signal sea_s, sea_c : signed(SEA_W - 1 downto 0);
-    signal sweep      : unsigned(SW_W - 1 downto 0);
+    -- SWEEP as its low FINE_W bits and a flag for the bits above (|delta| >= 0: once set, they stay
+    -- nonzero): the period test is the flag or the low sum's carry, not an OR over an adder's top bits
+    signal sweep      : unsigned(FINE_W - 1 downto 0);
+    signal sweep_hi   : std_logic;
     signal fresh      : std_logic_vector(4 downto 0);   -- the accumulators hold a finished block: start from 0
     signal o9_go      : std_logic;
 
@@ -470,7 +472,7 @@ begin
     p_acc : process (clk)
         variable se_s_n, se_c_n   : signed(SE_W - 1 downto 0);
         variable sea_s_n, sea_c_n : signed(SEA_W - 1 downto 0);
-        variable sweep_n          : unsigned(SW_W - 1 downto 0);
+        variable sweep_n          : unsigned(FINE_W downto 0);   -- with its carry
         variable blk_end, acc_w   : boolean;
         variable full_n           : boolean;
     begin
@@ -479,12 +481,13 @@ begin
             se_c_n  := resize(o8_ec, SE_W);
             sea_s_n := resize(o8_eas, SEA_W);
             sea_c_n := resize(o8_eac, SEA_W);
-            sweep_n := resize(o8_abs, SW_W);
+            sweep_n := resize(o8_abs, FINE_W + 1);
             if fresh(0) = '0' then se_s_n  := se_s + se_s_n; end if;
             if fresh(1) = '0' then se_c_n  := se_c + se_c_n; end if;
             if fresh(2) = '0' then sea_s_n := sea_s + sea_s_n; end if;
             if fresh(3) = '0' then sea_c_n := sea_c + sea_c_n; end if;
-            if fresh(4) = '0' then sweep_n := sweep + sweep_n; end if;
+            if fresh(4) = '0' then sweep_n := resize(sweep, FINE_W + 1) + sweep_n; end if;
+            full_n := (sweep_hi = '1' and fresh(4) = '0') or sweep_n(FINE_W) = '1';   -- SWEEP >= a period
             blk_end := o8_valid = '1' and o8_last = '1';   -- (in the window: the block's last sample)
             acc_w   := o8_valid = '1' and o8_win = '1';
             if rst = '1' then
@@ -504,16 +507,16 @@ begin
                 se_c  <= se_c_n;
                 sea_s <= sea_s_n;
                 sea_c <= sea_c_n;
-                sweep <= sweep_n;
+                sweep    <= sweep_n(FINE_W - 1 downto 0);
+                sweep_hi <= '1' when full_n else '0';
             end if;
             -- The block's SWEEP test, registered at its last sample. A block that swept less than a period (but
             -- at least 2^SWEEP_LO) updates at the final gear, if that is 2^-2 or smaller, and does not count. The
             -- gear changes only at stage 16, long before the next block's end (B >= 16 samples later), so stages
             -- 10 and 14 see the block's gear G.
             if ce = '1' and blk_end then
-                full_n := sweep_n(SW_W - 1 downto FINE_W) /= 0;
                 snap_full  <= '1' when full_n else '0';
-                snap_ok    <= '1' when full_n or (PARTIAL and sweep_n(SW_W - 1 downto SWEEP_LO) /= 0) else '0';
+                snap_ok    <= '1' when full_n or (PARTIAL and sweep_n(FINE_W - 1 downto SWEEP_LO) /= 0) else '0';
             end if;
             -- g_up: a function of snap_full and the gear, both constant from stage 10 to 16 (and frozen by
             -- ce = 0), registered every clock: no enable, and no block-end term in front of its flip-flops.
