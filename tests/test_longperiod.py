@@ -40,6 +40,17 @@ def test_series_evaluates_round_trips_and_reports_amplitudes():
     np.testing.assert_allclose(s.amplitudes(), np.hypot(SEED000_WEIGHTS[1:10], SEED000_WEIGHTS[10:]))
 
 
+def test_slope_is_the_series_derivative():
+    """Against a central difference of step h, whose error is the third derivative times h^2 / 6 (below 1e-6
+    of the slope here)."""
+    rng = np.random.default_rng(5)
+    s = FourierSeries(rng.normal(0, 10, 2 * 16 + 1))
+    x = rng.uniform(0, 2 * np.pi, 200)
+    h = 1e-5
+    np.testing.assert_allclose(s.slope(x), (s(x + h) - s(x - h)) / (2 * h), rtol=1e-6, atol=1e-6)
+    assert np.all(FourierSeries(np.array([3.0])).slope(x) == 0.0)
+
+
 @pytest.mark.parametrize("path", ["matrix", "moments"])
 def test_lsq_recovers_weights_within_the_noise_bound(path, monkeypatch):
     """For uniformly spread angles the standard error is sigma/sqrt(N) for w1 = a0/2 and

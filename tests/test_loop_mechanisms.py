@@ -618,3 +618,39 @@ def test_the_first_sample_after_reset_takes_the_calibrations_mean_speed():
         moving, rms = first[mean, engine]
         assert at_rest > 20 * rest_rms, first        # the skew's image at 300 rev/s: the test can fail
         assert moving < 0.1 * at_rest and moving < 4 * rms, first    # what is left: the start speed off the mean
+
+
+def test_a_terms_correction_reaches_the_output_through_the_long_period_tables_slope():
+    """fringe_trim corrects the position before the long-period table, which is read at the corrected position: a
+    correction c comes out as c (1 - LP') to first order (terms_gain), what the terms' joint refit fits. The rest
+    is second order, LP'' c^2 / 2 in the revolution's radians, and a constant the output's zero takes."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.dsp.effects import FittedEffect, make_context
+    from fringe.dsp.longperiod import FourierSeries
+    from fringe.dsp.metrics import error_arcsec
+    from fringe.encoder import ARCSEC_PER_REV
+    from fringe.engine.pipeline import run_float, sample_times
+
+    cfg = SimulationConfig(lines_per_rev=9, coarse_bits=6, samples=8192, speed_mean_rev_s=2.0, ref_error_arcsec={})
+    meas = measurement_of(simulate(cfg, 3))
+    cal = calibrate(meas, cfg.encoder())
+    n = 64
+    rng = np.random.default_rng(9)
+    steep = FourierSeries(np.concatenate([[0.0], rng.normal(0, 60.0, 2 * n) / np.sqrt(np.arange(1, n + 1).repeat(2))]))
+    cal = dataclasses.replace(cal, long_period=steep, angle_terms=[])
+    term = FittedEffect("generic:1:2:0", np.array([400.0, -150.0, 90.0, 60.0]))
+    bare = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
+    ctx = make_context(bare.frac, bare.position, 9, sample_times(len(meas), meas.t_s), bare.magnitude)
+    gain = loop.terms_gain(cal, ctx)
+    x = ctx.psi
+    slope_rad = steep.slope(x) * 2 * np.pi / ARCSEC_PER_REV
+    assert np.std(slope_rad) > 0.01          # steep enough that the first-order gain matters
+    with_term = run_float(dataclasses.replace(cal, angle_terms=[term]), meas.sin, meas.cos, meas.coarse, meas.t_s)
+    applied = error_arcsec(bare.angle_deg, meas.ref_deg) - error_arcsec(with_term.angle_deg, meas.ref_deg)
+    predicted = term.predict(ctx)
+    ls = np.arange(1, n + 1)
+    curvature = np.sum(ls ** 2 * steep.amplitudes()) * (2 * np.pi / ARCSEC_PER_REV) ** 2     # |LP''|, per arcsec
+    bound = 0.5 * curvature * np.max(np.abs(predicted)) ** 2
+    miss = applied - gain * predicted             # (less the constant the zero takes)
+    assert np.max(np.abs(miss - miss.mean())) <= bound
+    assert np.std(applied - predicted) > 10 * np.std(miss)     # without the gain it misses

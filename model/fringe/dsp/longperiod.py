@@ -73,6 +73,12 @@ class FourierSeries:
     def __call__(self, x_rad: np.ndarray) -> np.ndarray:
         return fourier_network(self.weights, x_rad)
 
+    def slope(self, x_rad: np.ndarray) -> np.ndarray:
+        """The series' derivative in x (its units per radian): l b_l cos(l x) - l a_l sin(l x) summed."""
+        n, w = self.n, self.weights
+        l = np.arange(1, n + 1)
+        return fourier_network(np.concatenate([[0.0], l * w[n + 1:], -l * w[1:n + 1]]), x_rad)
+
     def amplitudes(self) -> np.ndarray:
         """sqrt(a_l^2 + b_l^2) for l = 1..n."""
         return np.hypot(self.weights[1:self.n + 1], self.weights[self.n + 1:])
