@@ -1262,8 +1262,7 @@ def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2, as_i
         e = error_arcsec(run_float(c, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
         return float(np.std(e))
 
-    ctx, _ = core_context(cal)
-    candidates = [fitted_on(dataclasses.replace(cal, angle_terms=[]), ctx)] if as_is else []
+    candidates = [fitted_on(dataclasses.replace(cal, angle_terms=[]), core_context(cal)[0])] if as_is else []
     for _ in range(rounds):
         ctx, core = core_context(cal)
         # output frame -> encoder frame
@@ -1272,7 +1271,7 @@ def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2, as_i
         cal = fitted_on(base, ctx)
         terms = list(cal.angle_terms)
         candidates.append(cal)
-    return min(candidates, key=error_rms)
+    return candidates[0] if len(candidates) == 1 else min(candidates, key=error_rms)
 
 
 PHASE_DOMAIN_ORDERS = (2, 4, 6, 8, 12, 16, 24, 32)   # fine-phase orders of the phase-domain map (chosen by CV)
