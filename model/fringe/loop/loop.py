@@ -808,7 +808,8 @@ def candidates(ev_full: Evaluation, sigma: float, exclude: set) -> tuple[list[Te
 
 GENERIC_NEEDS = {"speed": "speed", "speed2": "speed", "direction": "direction", "revolution": "periods",
                  "time": "time"}
-GENERIC_PROBE = {"speed": "ref_lag", "direction": "hysteresis", "periods": "rev_offset_gain", "time": "drift"}
+# the library effect whose conditions gate a factor (the revolution factor has its own: revolution_untestable)
+GENERIC_PROBE = {"speed": "ref_lag", "direction": "hysteresis", "time": "drift"}
 CV_BLOCKS = 200     # interleaved blocks of the two-fold cross-validation
 
 
@@ -881,9 +882,9 @@ def generic_candidates(ev: Evaluation, sigma: float, exclude: set) -> list[Test]
     moving = reference_context(ev)
     for factor in GENERIC_FACTORS:
         need = GENERIC_NEEDS.get(factor)
-        if need == "periods" and revolution_untestable(ctx, ev.cal):
-            continue
-        if need and need != "periods" and testable(GENERIC_PROBE[need], ctx, ev.cal, ev.ref_speed):
+        why = revolution_untestable(ctx, ev.cal) if need == "periods" else \
+            need and testable(GENERIC_PROBE[need], ctx, ev.cal, ev.ref_speed)
+        if why:
             continue
         if any(e.startswith(f"generic:{factor}:") for e in exclude):
             continue
