@@ -654,3 +654,20 @@ def test_a_terms_correction_reaches_the_output_through_the_long_period_tables_sl
     miss = applied - gain * predicted             # (less the constant the zero takes)
     assert np.max(np.abs(miss - miss.mean())) <= bound
     assert np.std(applied - predicted) > 10 * np.std(miss)     # without the gain it misses
+
+
+def test_a_core_term_must_help_with_the_vibration_tones_left_in_the_score():
+    """The score takes vibration tones out (they are the set-up's), the core does not: a change of the core's
+    calibration counts only where it also lowers the error with the tones left in. Without tones the check is
+    moot; with them, a calibration whose sin offset moved is refused and the way back is not."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.dsp.effects import FittedEffect
+
+    cfg = SimulationConfig(lines_per_rev=16, coarse_bits=4, samples=8192, vibration_arcsec=40.0, vibration_hz=183.0)
+    fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
+    good = calibrate(fit, cfg.encoder())
+    worse = dataclasses.replace(good, quad=dataclasses.replace(good.quad, ofs_s=good.quad.ofs_s + 0.003))
+    tone = [FittedEffect("tone", np.zeros(2), tone_hz=183.0)]
+    assert not loop.leans_on_vibrations(loop.LoopState(good), loop.LoopState(worse), val)
+    assert loop.leans_on_vibrations(loop.LoopState(good, tone), loop.LoopState(worse, tone), val)
+    assert not loop.leans_on_vibrations(loop.LoopState(worse, tone), loop.LoopState(good, tone), val)
