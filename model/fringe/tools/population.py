@@ -23,6 +23,7 @@ from ..encoder import ARCSEC_PER_REV
 
 SAMPLES = 16_384
 STRENGTH_RANGE = (0.5, 50.0)      # effect RMS on the angle, in units of the floor's
+TARGET_RATIO = 1.25               # issue 9's target: validation RMS at most this over the floor
 START_ROWS = 1024                 # rows after reset left out of the settled ratio (a diagnostic, not the target)
 CLASSES = ("rev_offset_gain", "sampling_skew", "hysteresis", "ref_lag", "drift", "amplitude", "tone",
            "interference", "common_gain")
@@ -170,14 +171,18 @@ def population_case(seed: int) -> dict:
     try:
         fit, val = measurement_of(simulate(cfg, fit_seed(seed))), measurement_of(simulate(cfg, fit_seed(seed) + 1))
         base, state, rep = run_loop(fit, cfg.encoder(), val)
+        floor = noise_floor_arcsec(state.cal, cfg, fit_seed(seed) + 1)
         if "common_gain" in case["classes"]:
-            shows = common_gain_shows(cfg, base.cal, seed, case["floor_arcsec"])
+            # named where it moves the angle through the declared tables and the declared model leaves more than
+            # the target over the floor: a change the declared model already meets leaves no residual to name
+            # (development 9110, 9135, 9147: declared model at 0.90x the floor)
+            shows = common_gain_shows(cfg, base.cal, seed, case["floor_arcsec"]) and \
+                rep["before"]["rms_arcsec"] > TARGET_RATIO * floor
             expected = set(case["expected"]) | ({"amplitude"} if shows else set())
             out["expected"] = sorted(expected)
         # names only: terms of the general dictionary are corrections without a name, counted apart
         found = {e["name"] for e in rep["effects_added"] if not e["name"].startswith("generic:")}
         out["generic_terms"] = [e["name"] for e in rep["effects_added"] if e["name"].startswith("generic:")]
-        floor = noise_floor_arcsec(state.cal, cfg, fit_seed(seed) + 1)
         model = run_engine("model", state.cal, val, None)
         d, ref_q = noise_floor_rows(state.cal, cfg, fit_seed(seed) + 1,
                                     lambda cal, meas: run_engine("model", cal, meas, None))
@@ -239,7 +244,7 @@ def summarise(cases: list[dict]) -> dict:
     for name in CLASSES:
         rows = [c for c in ok if name in c["classes"]]
         per_class[name] = {"recordings": len(rows), "named_right": _share(c["named_right"] for c in rows),
-                           "model_within_1.25": _share(c["model_ratio"] <= 1.25 for c in rows)}
+                           "model_within_1.25": _share(c["model_ratio"] <= TARGET_RATIO for c in rows)}
     worst = sorted(ok, key=lambda c: -c["model_ratio"])[:8]
     return {
         "recordings": len(cases), "aborts": [{"seed": c["seed"], "abort": c["abort"]} for c in cases if c["abort"]],
@@ -249,7 +254,7 @@ def summarise(cases: list[dict]) -> dict:
         # the same without the first START_ROWS rows after reset: how much of the shortfall is start-up
         "model_over_floor_settled": dist("model_ratio_settled", [c for c in ok if "model_ratio_settled" in c]),
         "start_rows": START_ROWS,
-        "correctable_model_within_1.25": _share(c["model_ratio"] <= 1.25 for c in correctable),
+        "correctable_model_within_1.25": _share(c["model_ratio"] <= TARGET_RATIO for c in correctable),
         "correctable_target": 0.95,
         "clean_rise_within_2pct": _share(c["rise"] <= 0.02 for c in clean), "clean_target": 0.98,
         "clean_recordings": len(clean), "per_class": per_class,
