@@ -15,7 +15,8 @@ from fringe.cli.engines import run_engine
 from fringe.dsp.simulate import simulate
 from fringe.errors import FringeInputError
 from fringe.hardware.closed_loop import unsupported
-from fringe.loop.loop import evaluate, run_loop
+from fringe.loop.evaluation import evaluate
+from fringe.loop.run import run_loop
 from fringe.loop.scenarios import SCENARIOS, scenario
 
 
@@ -83,7 +84,8 @@ def test_loop_on_rm44(shared_data):
     base, state, report = run_loop(train, RM44_ENCODER, val)
     assert report["after"]["rms_arcsec"] <= report["before"]["rms_arcsec"]
     # the speed domain is tested exactly when the speed spreads by SPEED_SPREAD of its mean or more
-    from fringe.loop.loop import SPEED_SPREAD, evaluate, motion_speed
+    from fringe.loop.motion import motion_speed
+    from fringe.loop.significance import SPEED_SPREAD
     v = motion_speed(evaluate(state, train).ctx)
     untested = any(u["domain"] == "speed" and "not tested" in u["description"] for u in report["unexplained"])
     assert untested == bool(np.std(v) < SPEED_SPREAD * np.mean(np.abs(v))), (np.std(v), np.mean(np.abs(v)))

@@ -10,7 +10,24 @@ import pytest
 
 from fringe.calib.evaluate import measurement_of
 from fringe.dsp.simulate import SimulationConfig, simulate
-from fringe.loop import loop
+from fringe.loop import significance  # its test_terms, testable...: imported bare, pytest would collect them
+from fringe.loop.amplitude import skew_moves_magnitude
+from fringe.loop.candidates import GENERIC_ABOVE_FLOOR, candidates, generic_candidates, magnitude_noise_only, strided
+from fringe.loop.evaluation import (
+    Evaluation,
+    LoopState,
+    _figs,
+    evaluate,
+    halves_cross_fit,
+    leans_on_vibrations,
+    validation_figures,
+)
+from fringe.loop.motion import motion_speed
+from fringe.loop.noise import noise_floor, uniform_run
+from fringe.loop.refit import refit_angle_terms, terms_gain
+from fringe.loop.run import decision_rows, run_loop, start_speed
+from fringe.loop.significance import MIN_GAIN, P_VALUE, SPEED_SPREAD
+from fringe.loop.tones import find_line, refine_frequency, update_ripple, vibration_sideband
 
 
 def test_refine_frequency_reaches_the_noise_limit():
@@ -26,8 +43,8 @@ def test_refine_frequency_reaches_the_noise_limit():
     for _ in range(20):
         f = rng.uniform(50, 0.45 * fs)
         x = np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) + rng.normal(0, 0.1, n)
-        found = loop.find_line(x, fs)
-        f_hat = loop.refine_frequency(x, t, found[0], bin_hz)
+        found = find_line(x, fs)
+        f_hat = refine_frequency(x, t, found[0], bin_hz)
         bound = np.sqrt(6) / (np.pi * 10 * np.sqrt(n))
         assert abs(f_hat - f) / bin_hz <= 8 * bound, (f, f_hat)
 
@@ -36,7 +53,7 @@ def test_uniform_run_and_runs_of_a_recording():
     meas = measurement_of(simulate(SimulationConfig(samples=5000, lines_per_rev=64, coarse_bits=0), 1))
     sub = meas.runs(1000, 4)
     assert len(sub) == 1000 and sub.runs(1000, 4) is sub and meas.runs(10_000, 4) is meas
-    run = loop.uniform_run(sub.t_s)
+    run = uniform_run(sub.t_s)
     assert run.stop - run.start == 250
     assert np.allclose(np.diff(sub.t_s[run]), 1 / 10_000.0)
     bare = dataclasses.replace(meas, t_s=None)
@@ -53,17 +70,17 @@ def test_a_long_recording_is_decided_on_runs_and_tones_keep_their_hz(monkeypatch
     """Decided on 4 runs of 2048 rows: the vibration is still found at its frequency in Hz (the line search
     runs on one uniform run), and the error after is measured on every validation row. A slow recording whose
     runs would see less of the revolution is decided whole."""
-    monkeypatch.setattr(loop, "DECISION_ROWS", 8192)
-    monkeypatch.setattr(loop, "DECISION_RUNS", 4)
+    monkeypatch.setattr("fringe.loop.run.DECISION_ROWS", 8192)
+    monkeypatch.setattr("fringe.loop.run.DECISION_RUNS", 4)
     cfg = _two_tone_config(9)
     fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
-    _, state, rep = loop.run_loop(fit, cfg.encoder(), val)
+    _, state, rep = run_loop(fit, cfg.encoder(), val)
     tones = [a for a in state.artefacts if a.name == "tone"]
     assert tones and abs(tones[0].tone_hz - 371.3) < 0.05, rep["effects_added"]
     assert rep["decided_on_rows"] == {"fit": 8192, "validation": 8192, "runs": 4}
     assert rep["after"]["rms_arcsec"] < 0.5 * rep["before"]["rms_arcsec"]
     slow = measurement_of(simulate(dataclasses.replace(cfg, speed_mean_rev_s=0.7, speed_swing_rev_s=0.0), 1))
-    assert loop.decision_rows(slow) is slow and len(loop.decision_rows(fit)) == 8192
+    assert decision_rows(slow) is slow and len(decision_rows(fit)) == 8192
 
 
 def test_several_tones_are_found():
@@ -73,7 +90,7 @@ def test_several_tones_are_found():
     for m in (fit, val):
         t = m.t_s
         m.ref_deg = np.mod(m.ref_deg - 40.0 / 3600 * np.sin(2 * np.pi * 1234.5 * t + 0.3), 360.0)
-    _, state, rep = loop.run_loop(fit, cfg.encoder(), val)
+    _, state, rep = run_loop(fit, cfg.encoder(), val)
     hz = sorted(a.tone_hz for a in state.artefacts if a.name == "tone")
     assert len(hz) == 2 and abs(hz[0] - 371.3) < 0.05 and abs(hz[1] - 1234.5) < 0.05, rep["effects_added"]
 
@@ -87,12 +104,12 @@ def test_an_incremental_encoder_gets_no_revolution_terms():
                            speed_swing_rev_s=1.0, rev_offset_mod_sin={1: (0.01, 0.0)}, ref_error_arcsec={})
     meas = measurement_of(simulate(cfg, 1))
     cal = calibrate(meas, cfg.encoder())
-    ev = loop.evaluate(loop.LoopState(cal), meas)
-    assert "coarse code" in loop.testable("rev_offset_gain", ev.ctx, cal)
+    ev = evaluate(LoopState(cal), meas)
+    assert "coarse code" in significance.testable("rev_offset_gain", ev.ctx, cal)
     absolute = dataclasses.replace(cfg, coarse_bits=8)
     cal_abs = calibrate(measurement_of(simulate(absolute, 1)), absolute.encoder())
-    assert loop.testable("rev_offset_gain", ev.ctx, cal_abs) is None
-    tests, skipped = loop.candidates(ev, 1.0, set())
+    assert significance.testable("rev_offset_gain", ev.ctx, cal_abs) is None
+    tests, skipped = candidates(ev, 1.0, set())
     assert "rev_offset_gain" in skipped and not any("revolution" in t.name for t in tests)
 
 
@@ -104,10 +121,10 @@ def test_terms_over_the_revolution_are_fitted_only_where_the_recording_covers_it
     cfg = SimulationConfig(lines_per_rev=50, coarse_bits=8, samples=16_384, sample_rate_hz=5000.0,
                            speed_mean_rev_s=0.05, speed_swing_rev_s=0.3, hysteresis_arcsec=60.0, ref_error_arcsec={})
     fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
-    _, state, rep = loop.run_loop(fit, cfg.encoder(), val)
-    ev = loop.evaluate(state, fit)
+    _, state, rep = run_loop(fit, cfg.encoder(), val)
+    ev = evaluate(state, fit)
     assert not ev.ctx.revolution_covered
-    assert "sectors of the revolution" in loop.testable("rev_offset_gain", ev.ctx, state.cal)
+    assert "sectors of the revolution" in significance.testable("rev_offset_gain", ev.ctx, state.cal)
     assert [e["name"] for e in rep["effects_added"]] == ["hysteresis"]
     hyst = next(t for t in state.cal.angle_terms if t.name == "hysteresis")
     assert abs(hyst.weights[0]) > 20.0 and not np.any(hyst.weights[1:])
@@ -124,12 +141,12 @@ def test_tracker_constants_are_chosen_stored_and_used(tmp_path):
                            speed_swing_rev_s=1.0, drift_offset_rms=0.02, drift_gain_rms=0.02,
                            drift_timescale_s=0.4, ref_error_arcsec={})
     fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
-    _, state, rep = loop.run_loop(fit, cfg.encoder(), val)
+    _, state, rep = run_loop(fit, cfg.encoder(), val)
     assert state.cal.adaptive, rep["effects_added"]
     chosen = state.cal.tracker
     assert set(chosen) == {"drift_block_log2", "drift_mu_log2"}
     default = dataclasses.replace(state.cal, tracker={})
-    assert loop.evaluate(state, fit).rms <= loop.evaluate(loop.LoopState(default, state.artefacts), fit).rms
+    assert evaluate(state, fit).rms <= evaluate(LoopState(default, state.artefacts), fit).rms
     save_calibration(state.cal, str(tmp_path / "cal"))
     back = load_calibration(str(tmp_path / "cal"))
     assert back.tracker == chosen
@@ -188,14 +205,14 @@ def test_a_common_gain_change_is_met_in_the_phase_domain(draw):
                            rev_gain_mod={2: (float(rng.uniform(0.04, 0.1)), 0.0)}, ref_error_arcsec={})
     print("seed", seed, "lines", lines, "adc", cfg.adc_bits, "gain swing", cfg.rev_gain_mod)
     fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
-    _, state, rep = loop.run_loop(fit, cfg.encoder(), val)
+    _, state, rep = run_loop(fit, cfg.encoder(), val)
     remedies = [e.get("remedy", "") for e in rep["effects_added"]]
     declared = state.cal.fit.get("model_choice", {}).get("chosen", "").startswith(PHASE_TABLE)
     assert declared or any(r.startswith("phase-domain") for r in remedies), rep["effects_added"]
     assert state.cal.fit.get("phase_domain") or state.cal.fit.get("structure") == PHASE_TABLE
     quiet = measurement_of(simulate(dataclasses.replace(cfg, rev_gain_mod={}, noise_rms=cfg.noise_rms), 2))
-    floor = loop.evaluate(state, quiet, run_engine("model", state.cal, quiet, None)).rms
-    model = loop.evaluate(state, val, run_engine("model", state.cal, val, None)).rms
+    floor = evaluate(state, quiet, run_engine("model", state.cal, quiet, None)).rms
+    model = evaluate(state, val, run_engine("model", state.cal, val, None)).rms
     assert model <= 1.25 * floor, (model, floor)
 
 
@@ -235,11 +252,11 @@ def test_validation_figures_in_blocks_equal_the_whole(monkeypatch, coarse_bits, 
     cal = calibrate(meas, cfg.encoder())
     if drift:
         cal = dataclasses.replace(cal, adaptive=True, tracker={"drift_block_log2": 7, "drift_mu_log2": 1})
-    state = loop.LoopState(cal)
-    whole = loop._figs(loop.evaluate(state, meas))
-    monkeypatch.setattr(loop, "EVAL_ROWS", 8192)
-    monkeypatch.setattr(loop, "EVAL_LEAD", 2048)
-    blocks = loop.validation_figures(state, meas)
+    state = LoopState(cal)
+    whole = _figs(evaluate(state, meas))
+    monkeypatch.setattr("fringe.loop.evaluation.EVAL_ROWS", 8192)
+    monkeypatch.setattr("fringe.loop.evaluation.EVAL_LEAD", 2048)
+    blocks = validation_figures(state, meas)
     assert blocks["rms_arcsec"] == pytest.approx(whole["rms_arcsec"], rel=1e-3), (blocks, whole)
     assert blocks["pp_arcsec"] == pytest.approx(whole["pp_arcsec"], rel=1e-2), (blocks, whole)
 
@@ -257,8 +274,8 @@ def test_a_float_only_term_leaves_the_core_terms_as_they_were():
     cal = calibrate(meas, cfg.encoder())
     core = [FittedEffect(generic_name("speed", 2), np.zeros(5)), FittedEffect(generic_name("1", 2), np.zeros(4))]
     flo = FittedEffect(generic_name("speed2", 2), np.zeros(5), engine="float")
-    alone = loop.refit_angle_terms(dataclasses.replace(cal, angle_terms=list(core)), meas)
-    both = loop.refit_angle_terms(dataclasses.replace(cal, angle_terms=[core[0], flo, core[1]]), meas)
+    alone = refit_angle_terms(dataclasses.replace(cal, angle_terms=list(core)), meas)
+    both = refit_angle_terms(dataclasses.replace(cal, angle_terms=[core[0], flo, core[1]]), meas)
     assert [t.name for t in both.angle_terms] == [core[0].name, flo.name, core[1].name]
     for a, b in zip(alone.angle_terms, (both.angle_terms[0], both.angle_terms[2]), strict=True):
         np.testing.assert_allclose(b.weights, a.weights, rtol=1e-9, atol=1e-12)
@@ -287,7 +304,7 @@ def test_the_noise_floor_is_not_inflated_by_a_fast_electrical_rate():
         r = r + rng.normal(0, sigma, n)
         ones = np.ones(n)
         ctx = Context(phi, np.zeros(n), t, ones, 0 * ones, ones, ones, 1000)
-        used, info = loop.noise_floor(loop.Evaluation(r, ctx, {}, float(np.std(r))))
+        used, info = noise_floor(Evaluation(r, ctx, {}, float(np.std(r))))
         assert abs(used / sigma - 1) <= 0.1, (sigma, info)
 
 
@@ -299,17 +316,17 @@ def test_a_line_the_online_blocks_make_is_not_a_tone():
     fs, fe, tol = 10_000.0, 54.31, 0.9
     cal = SimpleNamespace(adaptive=True, tracker={"drift_block_log2": 8}, canceller={})
     rate = fs / 256
-    assert "drift tracker" in loop.update_ripple(7 * fe - rate, cal, fs, fe, tol)
-    assert "drift tracker" in loop.update_ripple(fe, cal, fs, fe, tol)
-    assert loop.update_ripple(7 * fe - rate + 3 * tol, cal, fs, fe, tol) == ""
-    assert loop.update_ripple(1234.5, cal, fs, fe, tol) == ""
+    assert "drift tracker" in update_ripple(7 * fe - rate, cal, fs, fe, tol)
+    assert "drift tracker" in update_ripple(fe, cal, fs, fe, tol)
+    assert update_ripple(7 * fe - rate + 3 * tol, cal, fs, fe, tol) == ""
+    assert update_ripple(1234.5, cal, fs, fe, tol) == ""
     # folded by the sampling: 2 x fe + 4 x rate past Nyquist comes back below it
     high = 0.45 * fs
     cal_c = SimpleNamespace(adaptive=False, tracker={}, canceller={"cancel_block_log2": 4})
     f = abs((2 * high + 4 * fs / 16 + fs / 2) % fs - fs / 2)
-    assert "canceller" in loop.update_ripple(f, cal_c, fs, high, tol)
+    assert "canceller" in update_ripple(f, cal_c, fs, high, tol)
     # nothing online: nothing is ripple, not even the electrical frequency
-    assert loop.update_ripple(fe, SimpleNamespace(adaptive=False, tracker={}, canceller={}), fs, fe, tol) == ""
+    assert update_ripple(fe, SimpleNamespace(adaptive=False, tracker={}, canceller={}), fs, fe, tol) == ""
 
 
 def test_speed_effects_are_tested_only_where_the_reference_speed_changes():
@@ -327,10 +344,10 @@ def test_speed_effects_are_tested_only_where_the_reference_speed_changes():
                                speed_swing_rev_s=swing * mean, rev_offset_mod_sin={1: (o, 0.0)},
                                rev_offset_mod_cos={1: (0.0, o)})
         m = measurement_of(simulate(cfg, int(rng.integers(1, 1000))))
-        ev = loop.evaluate(loop.LoopState(calibrate(m, cfg.encoder())), m)
-        v = loop.motion_speed(ev.ctx)
-        assert np.std(v) > loop.SPEED_SPREAD * np.mean(np.abs(v))     # the encoder's speed seems to change
-        _, skipped = loop.candidates(ev, 1.0, set())
+        ev = evaluate(LoopState(calibrate(m, cfg.encoder())), m)
+        v = motion_speed(ev.ctx)
+        assert np.std(v) > SPEED_SPREAD * np.mean(np.abs(v))     # the encoder's speed seems to change
+        _, skipped = candidates(ev, 1.0, set())
         # with the swing they are offered (then tested against the reference's motion: the encoder has no skew)
         assert ("hardly changes" in skipped.get("sampling_skew", "")) == (swing == 0.0), skipped
 
@@ -348,12 +365,12 @@ def test_a_noisy_encoders_own_speed_is_not_a_speed_effect():
         cfg = SimulationConfig(lines_per_rev=6, coarse_bits=0, samples=16_384, speed_mean_rev_s=1.07,
                                speed_swing_rev_s=0.15, noise_rms=2e-3, ref_error_arcsec={}, sampling_skew_s=skew_s)
         m = measurement_of(simulate(cfg, seed))
-        ev = loop.evaluate(loop.LoopState(calibrate(m, cfg.encoder())), m)
-        sigma, _ = loop.noise_floor(ev)
-        own = loop.test_library_effect(ev, LIBRARY["sampling_skew"], sigma)
-        assert own.p_value < loop.P_VALUE and own.rms_after < (1 - loop.MIN_GAIN) * ev.rms
-        tests, skipped = loop.candidates(ev, sigma, set())
-        named = {t.name for t in tests if t.p_value < loop.P_VALUE}
+        ev = evaluate(LoopState(calibrate(m, cfg.encoder())), m)
+        sigma, _ = noise_floor(ev)
+        own = significance.test_library_effect(ev, LIBRARY["sampling_skew"], sigma)
+        assert own.p_value < P_VALUE and own.rms_after < (1 - MIN_GAIN) * ev.rms
+        tests, skipped = candidates(ev, sigma, set())
+        named = {t.name for t in tests if t.p_value < P_VALUE}
         if skew_s:
             assert "sampling_skew" in named, skipped
         else:
@@ -415,12 +432,12 @@ def test_a_vibrations_sidebands_in_the_channels_are_not_interference():
         v = rng.uniform(1e-3, 2e-2) * np.sin(2 * np.pi * fv * t + rng.uniform(0, 2 * np.pi))      # periods
         slope = np.stack([(waves[k](phase + 1e-6) - waves[k](phase - 1e-6)) / 2e-6 for k in ("sin", "cos")])
         vib = slope * v + rng.normal(0, noise, (2, n))
-        f_v = loop.vibration_sideband(vib, phase, waves, t, fe + fv, (fv, 2 * fe + fv))
+        f_v = vibration_sideband(vib, phase, waves, t, fe + fv, (fv, 2 * fe + fv))
         assert f_v is not None and abs(f_v - fv) < 1e-6, (fe, fv, f_v)
         size = np.sqrt(np.mean((slope * v) ** 2))
         tone = size * np.sqrt(2) * np.stack([np.sin(2 * np.pi * (fe + fv) * t + rng.uniform(0, 2 * np.pi))
                                              for _ in range(2)]) + rng.normal(0, noise, (2, n))
-        assert loop.vibration_sideband(tone, phase, waves, t, fe + fv, (fv, 2 * fe + fv)) is None, (fe, fv)
+        assert vibration_sideband(tone, phase, waves, t, fe + fv, (fv, 2 * fe + fv)) is None, (fe, fv)
 
 
 def test_a_tone_is_taken_out_only_where_it_holds_over_the_recording():
@@ -434,12 +451,12 @@ def test_a_tone_is_taken_out_only_where_it_holds_over_the_recording():
     x -= x.mean(0)
     noise = rng.normal(0, 1.0, n)
     stable = 20 * np.sin(2 * np.pi * f * t + 0.7) + noise
-    left = stable - loop.halves_cross_fit(x, stable - stable.mean())
+    left = stable - halves_cross_fit(x, stable - stable.mean())
     assert np.std(left) < 1.02 * np.std(noise)
     half = np.where(np.arange(n) < n // 2, 20 * np.sin(2 * np.pi * f * t + 0.7), 0.0) + noise
     whole = half - x @ np.linalg.lstsq(x, half, rcond=None)[0]
     assert np.std(whole) < 0.8 * np.std(half)           # an in-sample fit would credit it
-    left = half - loop.halves_cross_fit(x, half - half.mean())
+    left = half - halves_cross_fit(x, half - half.mean())
     assert np.std(left) >= np.std(half)
 
 
@@ -462,8 +479,8 @@ def test_the_magnitude_a_channel_skew_moves_is_the_skews(seed):
                          (dict(rev_gain_mod={1: (float(rng.uniform(0.03, 0.1)), 0.0)}), False)):
         cfg = SimulationConfig(**base, **fields)
         meas = measurement_of(simulate(cfg, seed))
-        ev = loop.evaluate(loop.LoopState(calibrate(meas, cfg.encoder()), [], 0.0), meas)
-        assert loop.skew_moves_magnitude(ev) == skew, fields
+        ev = evaluate(LoopState(calibrate(meas, cfg.encoder()), [], 0.0), meas)
+        assert skew_moves_magnitude(ev) == skew, fields
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])
@@ -485,12 +502,12 @@ def test_the_amplitude_term_holds_a_waveform_that_changes_with_the_amplitude(see
                            speed_swing_rev_s=0.05 * 2500 / lines, rev_gain_mod={1: (gm, 0.0)},
                            harmonic2_per_gain=float(rng.uniform(0.1, 0.5)))
     meas = measurement_of(simulate(cfg, seed))
-    ev = loop.evaluate(loop.LoopState(calibrate(meas, cfg.encoder()), [], 0.0), meas)
-    sigma, _ = loop.noise_floor(ev)
-    wide = loop.test_library_effect(ev, LIBRARY["amplitude"], sigma)
+    ev = evaluate(LoopState(calibrate(meas, cfg.encoder()), [], 0.0), meas)
+    sigma, _ = noise_floor(ev)
+    wide = significance.test_library_effect(ev, LIBRARY["amplitude"], sigma)
     assert wide.explained_rms ** 2 > 0.6 * (ev.rms ** 2 - sigma ** 2), (wide.explained_rms, ev.rms, sigma)
-    old = loop.test_terms(ev.r, lambda sl: np.column_stack(_amplitude_cols(ev.ctx.rows(sl)))[:, [0, 3, 4]], sigma,
-                          "amplitude")
+    old = significance.test_terms(ev.r, lambda sl: np.column_stack(_amplitude_cols(ev.ctx.rows(sl)))[:, [0, 3, 4]],
+                                  sigma, "amplitude")
     assert old.explained_rms ** 2 < 0.5 * wide.explained_rms ** 2
 
 
@@ -520,12 +537,12 @@ def test_an_amplitude_term_that_follows_only_the_magnitudes_noise_is_not_named(s
         cfg = SimulationConfig(**base, **fields)
         meas = measurement_of(simulate(cfg, seed))
         cal = calibrate(meas, cfg.encoder(), CalibrationOptions(structure=WAVEFORM))
-        ev = loop.evaluate(loop.LoopState(cal, [], 0.0), meas)
-        sigma, _ = loop.noise_floor(ev)
-        t = loop.test_library_effect(ev, LIBRARY["amplitude"], sigma)
+        ev = evaluate(LoopState(cal, [], 0.0), meas)
+        sigma, _ = noise_floor(ev)
+        t = significance.test_library_effect(ev, LIBRARY["amplitude"], sigma)
         # significant, and it matters, either way: the loop would add it
-        assert t.p_value < loop.P_VALUE and t.rms_after < (1 - loop.MIN_GAIN) * ev.rms, (fields, t)
-        assert loop.magnitude_noise_only(ev, t, sigma) == noise_only, fields
+        assert t.p_value < P_VALUE and t.rms_after < (1 - MIN_GAIN) * ev.rms, (fields, t)
+        assert magnitude_noise_only(ev, t, sigma) == noise_only, fields
 
 
 @pytest.mark.parametrize("drift", [0.0, 0.01])
@@ -565,7 +582,7 @@ def test_an_additive_tone_is_named_beside_a_skew_at_a_changing_speed():
     from fringe.tools import crosssim
 
     enc, fit, val = crosssim.measurements(131, ["interference", "skew"])
-    _, state, rep = loop.run_loop(fit, enc, val)
+    _, state, rep = run_loop(fit, enc, val)
     names = [e["name"] for e in rep["effects_added"]]
     assert "interference" in names and "tone" not in names, names
     assert abs(state.cal.canceller["tone_hz"] - 1140.0045) < 0.5
@@ -581,18 +598,18 @@ def test_a_speed_shape_must_hold_against_the_reference_motion():
     from fringe.tools.population import draw_case, fit_seed
     case = draw_case(9208)
     cfg = case["config"]
-    m = loop.decision_rows(measurement_of(simulate(cfg, fit_seed(9208))))
-    ev = loop.evaluate(loop.LoopState(calibrate(m, cfg.encoder())), m)
-    sigma, _ = loop.noise_floor(ev)
-    assert ev.rms > loop.GENERIC_ABOVE_FLOOR * sigma       # the general dictionary is searched
-    offered = {t.name for t in loop.generic_candidates(loop.strided(ev), sigma, set())}
+    m = decision_rows(measurement_of(simulate(cfg, fit_seed(9208))))
+    ev = evaluate(LoopState(calibrate(m, cfg.encoder())), m)
+    sigma, _ = noise_floor(ev)
+    assert ev.rms > GENERIC_ABOVE_FLOOR * sigma       # the general dictionary is searched
+    offered = {t.name for t in generic_candidates(strided(ev), sigma, set())}
     assert not [n for n in offered if n.startswith(("generic:speed", "generic:direction"))], offered
     assert any(n.startswith("generic:") for n in offered), offered      # the other factors still are
 
 
 def test_the_first_sample_after_reset_takes_the_calibrations_mean_speed():
     """A recording that starts in motion: the core has no speed window for its first sample. fringe_trim takes
-    START_SPEED there, the calibration recording's mean speed (loop.start_speed): with 0 (standstill) the first
+    START_SPEED there, the calibration recording's mean speed (start_speed): with 0 (standstill) the first
     sample of a fast, skewed encoder carries the skew term's whole speed image (held-out 9237: 3154" on one
     sample of 16384, 1.48x the floor over the recording). Bit-exact engine and float engine alike."""
     from fringe.calib.calibrate import calibrate
@@ -603,15 +620,15 @@ def test_the_first_sample_after_reset_takes_the_calibrations_mean_speed():
                            speed_mean_rev_s=300.0, speed_swing_rev_s=10.0, sample_rate_hz=20_000.0)
     fit, val = measurement_of(simulate(cfg, 11)), measurement_of(simulate(cfg, 12))
     cal = calibrate(fit, cfg.encoder())
-    mean = loop.start_speed(loop.evaluate(loop.LoopState(cal), fit).ctx)
+    mean = start_speed(evaluate(LoopState(cal), fit).ctx)
     assert mean == pytest.approx(300.0, rel=0.2)
     skew = FittedEffect("sampling_skew", np.zeros(4))
     first = {}
     for start in (0.0, mean):
-        c = loop.refit_angle_terms(dataclasses.replace(cal, angle_terms=[skew], start_speed_rev_s=start), fit)
+        c = refit_angle_terms(dataclasses.replace(cal, angle_terms=[skew], start_speed_rev_s=start), fit)
         assert c.start_speed_rev_s == start
         for engine in ("float", "model"):
-            r = loop.evaluate(loop.LoopState(c), val, run_engine(engine, c, val, None)).r
+            r = evaluate(LoopState(c), val, run_engine(engine, c, val, None)).r
             first[start, engine] = (abs(r[0]), float(np.sqrt(np.mean(r[1:] ** 2))))
     for engine in ("float", "model"):
         at_rest, rest_rms = first[0.0, engine]
@@ -641,7 +658,7 @@ def test_a_terms_correction_reaches_the_output_through_the_long_period_tables_sl
     term = FittedEffect("generic:1:2:0", np.array([400.0, -150.0, 90.0, 60.0]))
     bare = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
     ctx = make_context(bare.frac, bare.position, 9, sample_times(len(meas), meas.t_s), bare.magnitude)
-    gain = loop.terms_gain(cal, ctx)
+    gain = terms_gain(cal, ctx)
     x = ctx.psi
     slope_rad = steep.slope(x) * 2 * np.pi / ARCSEC_PER_REV
     assert np.std(slope_rad) > 0.01          # steep enough that the first-order gain matters
@@ -668,6 +685,6 @@ def test_a_core_term_must_help_with_the_vibration_tones_left_in_the_score():
     good = calibrate(fit, cfg.encoder())
     worse = dataclasses.replace(good, quad=dataclasses.replace(good.quad, ofs_s=good.quad.ofs_s + 0.003))
     tone = [FittedEffect("tone", np.zeros(2), tone_hz=183.0)]
-    assert not loop.leans_on_vibrations(loop.LoopState(good), loop.LoopState(worse), val)
-    assert loop.leans_on_vibrations(loop.LoopState(good, tone), loop.LoopState(worse, tone), val)
-    assert not loop.leans_on_vibrations(loop.LoopState(worse, tone), loop.LoopState(good, tone), val)
+    assert not leans_on_vibrations(LoopState(good), LoopState(worse), val)
+    assert leans_on_vibrations(LoopState(good, tone), LoopState(worse, tone), val)
+    assert not leans_on_vibrations(LoopState(worse, tone), LoopState(good, tone), val)

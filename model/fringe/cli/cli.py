@@ -265,7 +265,7 @@ class CorrectSummary:
 def cmd_loop(a) -> int:
     from ..encoder import load_encoder
     from ..io.outputs import check_output_dir
-    from ..loop.loop import run_loop
+    from ..loop.run import run_loop
 
     check_output_dir(a.out, "loop", (a.data, a.encoder, a.validate))
     enc = load_encoder(a.encoder)

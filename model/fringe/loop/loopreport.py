@@ -13,7 +13,9 @@ import numpy as np  # noqa: E402
 
 from ..calib.report import error_plot, lissajous_plot  # noqa: E402
 from ..io.dataio import Measurement  # noqa: E402
-from .loop import DECISION_ROWS, DECISION_RUNS, LoopState, evaluate, uniform_run  # noqa: E402
+from .evaluation import LoopState, evaluate  # noqa: E402
+from .noise import uniform_run  # noqa: E402
+from .run import DECISION_ROWS, DECISION_RUNS  # noqa: E402
 
 PLOT_POINTS = 20_000     # points per scatter plot (the spectra and the map use every sample)
 

@@ -131,7 +131,7 @@ def _model_rms(state, val) -> float | str:
     added corrections), or which correction keeps it in the float engine."""
     from ..cli.engines import run_engine
     from ..hardware.closed_loop import unsupported
-    from ..loop.loop import evaluate
+    from ..loop.evaluation import evaluate
 
     if unsupported(state.cal):
         return "float only: " + ", ".join(unsupported(state.cal))
@@ -139,7 +139,7 @@ def _model_rms(state, val) -> float | str:
 
 
 def loop_scenarios(samples: int = 100_000) -> dict:
-    from ..loop.loop import run_loop
+    from ..loop.run import run_loop
     from ..loop.scenarios import SCENARIOS, scenario
 
     rows = {}
@@ -157,7 +157,7 @@ def loop_scenarios(samples: int = 100_000) -> dict:
 
 
 def loop_rm44(folder: str) -> dict | str:
-    from ..loop.loop import run_loop
+    from ..loop.run import run_loop
 
     def one(train, val) -> dict:
         _, state, rep = run_loop(train, RM44_ENCODER, val)

@@ -161,7 +161,8 @@ def population_case(seed: int) -> dict:
     from ..cli.engines import run_engine
     from ..dsp.simulate import simulate
     from ..hardware.closed_loop import float_only
-    from ..loop.loop import evaluate, run_loop
+    from ..loop.evaluation import evaluate
+    from ..loop.run import run_loop
 
     case = draw_case(seed)
     cfg = case["config"]

@@ -1,0 +1,314 @@
+"""Adding an effect to the loop's state (`apply`) and the re-calibrations that takes: the declared model calibrated
+again with the added terms, tones or interference held out of it, the angle terms refitted jointly, the revolution's
+offsets and gains fitted on the signals, and the online blocks' constants (drift tracker, canceller) chosen on the fit
+data."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..calib.calibrate import calibrate
+from ..dsp.calibration import Calibration
+from ..dsp.effects import LIBRARY, Context, FittedEffect, make_context
+from ..dsp.metrics import error_arcsec
+from ..encoder import ARCSEC_PER_REV
+from ..engine.pipeline import run_float, sample_times, tracked_readings
+from ..io.dataio import Measurement
+from .candidates import describe
+from .evaluation import LoopState, _design, covered, evaluate, shift_reference
+from .noise import noise_sigma, sample_rate, uniform_run
+from .significance import Test, test_terms
+from .tones import channel_errors
+
+
+def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
+    new = LoopState(dataclasses.replace(state.cal, angle_terms=list(state.cal.angle_terms)), list(state.artefacts),
+                    state.ref_lag_s)
+    kind = {"tone": "artefact", "interference": "canceller"}.get(t.name) or \
+        (describe(t.name)["correction"] if t.name.startswith("generic:") else LIBRARY[t.name].correction)
+    fitted = FittedEffect(t.name, t.weights, t.tone_hz, "float" if kind == "float engine" else "core")
+    if t.name == "ref_lag":
+        # r = direction * speed * lag: shift the reference, calibrate again without the lag in it, and
+        # repeat (the first calibration absorbed part of the lag into its long-period table)
+        w = float(t.weights[0])
+        for _ in range(8):     # each round leaves a fraction of the lag: iterate until it is negligible
+            new.ref_lag_s += w * state.cal.direction / ARCSEC_PER_REV
+            fresh = recalibrate(shift_reference(fit_data, new.ref_lag_s), state.cal)
+            new.cal = carry_loop(fresh, state.cal)
+            ev = evaluate(LoopState(new.cal, [], new.ref_lag_s), fit_data)
+            w = float(test_terms(ev.r, LIBRARY["ref_lag"].design(ev.ctx), 1.0, "ref_lag").weights[0])
+            if abs(w) * np.std(ev.ctx.speed) < 0.01 * noise_sigma(ev.r):
+                break
+    elif t.name == "rev_offset_gain":
+        new.cal = fit_rev_offset_gain(new.cal, shift_reference(fit_data, state.ref_lag_s))
+    elif kind in ("hardware", "float engine"):
+        new.cal.angle_terms.append(fitted)
+        meas = shift_reference(fit_data, state.ref_lag_s)
+        tones = [a for a in new.artefacts if a.name == "tone"]
+        # with tones found before, the declared model is calibrated again without them (as when they were
+        # found): calibrated on readings that hold them, its long-period table would take part of them back
+        new.cal = refit_around_tone(new.cal, tones, meas) if tones else refit_angle_terms(new.cal, meas, as_is=True)
+    elif kind == "adaptive":
+        new.cal = choose_tracker(dataclasses.replace(new.cal, adaptive=True), new, fit_data)
+    elif kind == "canceller":
+        meas = shift_reference(fit_data, state.ref_lag_s)
+        new.cal = choose_canceller(refit_around_interference(new.cal, new, meas, t.tone_hz), new, meas, t.tone_hz)
+    else:
+        new.artefacts.append(fitted)
+        if t.name == "tone":     # the declared model was fitted with the tone in its residual: fit it without
+            new.cal = refit_around_tone(new.cal, [a for a in new.artefacts if a.name == "tone"],
+                                        shift_reference(fit_data, state.ref_lag_s))
+    return new
+
+
+def recalibrate(meas: Measurement, cal: Calibration, known_error_arcsec: np.ndarray | None = None) -> Calibration:
+    """The declared model calibrated again, in the structure the loop chose for `cal` (the per-channel waveform
+    inverse, or the phase-domain structure of `phase_domain`), with a known error held out of it."""
+    from ..calib.calibrate import CANDIDATES, PHASE_TABLE, WAVEFORM, CalibrationOptions
+
+    chosen = cal.fit.get("model_choice", {}).get("chosen")
+    if cal.fit.get("phase_domain"):    # whether to centre the phase table is chosen once, then kept
+        structure, centre = (CANDIDATES[chosen] if chosen and CANDIDATES[chosen][0] == PHASE_TABLE
+                             else (PHASE_TABLE, None))
+    else:   # the structure the declared model's calibration chose on held-out data, not chosen again
+        # (none chosen: a structure given to calibrate, or the reference-free calibration)
+        structure, centre = CANDIDATES[chosen] if chosen else (cal.fit.get("structure") or WAVEFORM, False)
+    fresh = calibrate(meas, cal.encoder, CalibrationOptions(structure=structure, gain_centre=centre,
+                                                            known_error_arcsec=known_error_arcsec))
+    if cal.fit.get("phase_domain"):
+        fresh.fit["phase_domain"] = True
+    return fresh
+
+
+def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
+    """A fresh calibration of the declared model with the closed loop's additions of `cal` carried over."""
+    kept = dict(rev_norm=cal.rev_norm, adaptive=cal.adaptive, tracker=dict(cal.tracker),
+                canceller=dict(cal.canceller), angle_terms=list(cal.angle_terms),
+                start_speed_rev_s=cal.start_speed_rev_s)
+    return dataclasses.replace(fresh, **{**kept, **changes})
+
+
+# fringe_drift's update block and final step (its gear shift starts at 1): together the settled tracker's time
+# constant, 2^(block + mu) samples. Short blocks start up soon after reset (with DRIFT_HOLD = 1 each update applies at
+# the next block's first sample): until the first update the readings carry all of the drift at power-up, which can
+# be most of a recording's excess error (9214: 12" in the first 32 samples against a 0.44" floor); long ones update
+# with the gear's large first steps on a slower motion (a block of less than a period takes the final step only,
+# and one of less than a sixteenth of a period none)
+TRACKER_BLOCK_LOG2 = (4, 5, 6, 7, 8, 10, 12)
+# The same true loop gains as (0, 1, 2, 4) before the offset step was doubled; MU_LOG2 = 0 keeps a step of 1, whose
+# offset gain reaches 2 on a block that sweeps a short arc back and forth (docs/blocks/fringe_drift.md, "Loop gain");
+# blocks of less than a period update only from MU_LOG2 = 2 on ("Partial sweeps": at 1 an arc swept back and forth
+# near a channel's peak drove the gain to 0), which the choice on the fit recording took wherever most blocks were
+# partial
+TRACKER_MU_LOG2 = (1, 2, 3, 5)
+
+
+def choose_tracker(cal: Calibration, state: LoopState, meas: Measurement) -> Calibration:
+    """The drift tracker's constants that leave the least error on the fit data: a fast tracker follows a fast
+    drift but passes more noise into the phase, a slow one the reverse; the best trade-off depends on the drift
+    and the noise of this encoder, so it is measured, not fixed. (The tracker has no fitted weights: its
+    in-sample error is a fair score.)"""
+    best = None
+    for block in TRACKER_BLOCK_LOG2:
+        for mu in TRACKER_MU_LOG2:
+            trial = dataclasses.replace(cal, tracker={"drift_block_log2": block, "drift_mu_log2": mu})
+            rms = evaluate(LoopState(trial, state.artefacts, state.ref_lag_s), meas).rms
+            if best is None or rms < best[0]:
+                best = (rms, trial)
+    return best[1]
+
+
+CANCEL_BLOCK_LOG2 = (4, 5, 6)          # fringe_canceller's update block
+CANCEL_MU_LOG2 = (4, 6, 8, 10)         # and its final step (the gear shift starts every run at 1/2)
+
+
+def choose_canceller(cal: Calibration, state: LoopState, meas: Measurement, tone_hz: float) -> Calibration:
+    """The interference canceller (fringe_canceller, ahead of the CORDIC) at the named tone, with the constants
+    that leave the least error on the fit data: a fast canceller converges sooner after reset and follows a
+    tone that wanders, a slow one passes less noise into the phase. Like the drift tracker it has no fitted
+    weights (it estimates the tone from the signals on every run), so its in-sample error is a fair score.
+    The tone's frequency is in the recording's time units (cycles per sample without time stamps)."""
+    t = sample_times(len(meas), meas.t_s)
+    fs = sample_rate(t[uniform_run(t)])
+    best = None
+    for block in CANCEL_BLOCK_LOG2:
+        for mu in CANCEL_MU_LOG2:
+            trial = dataclasses.replace(cal, canceller={"tone_hz": float(tone_hz), "sample_rate_hz": float(fs),
+                                                        "cancel_block_log2": block, "cancel_mu_log2": mu})
+            rms = evaluate(LoopState(trial, state.artefacts, state.ref_lag_s), meas).rms
+            if best is None or rms < best[0]:
+                best = (rms, trial)
+    return best[1]
+
+
+def refit_around_interference(cal: Calibration, state: LoopState, meas: Measurement, tone_hz: float) -> Calibration:
+    """Re-calibrate the declared model on readings with the tone taken out: the first calibration fitted its
+    waveforms and long-period table to readings that held it (a strong tone bends both), and the canceller only
+    removes it from the signals the core sees. The tone (cos, sin at its frequency) is fitted to each channel's
+    reading minus the calibrated waveform at the reference's phase, and the model calibrated again on the
+    readings without it. (One round: the channel errors of a calibration made without the tone are taken in
+    a frame that no longer shows it whole.)"""
+    t = sample_times(len(meas), meas.t_s)
+    x = np.column_stack([np.ones_like(t), np.cos(2 * np.pi * tone_hz * t), np.sin(2 * np.pi * tone_hz * t)])
+    plain = dataclasses.replace(cal, canceller={})
+    e = channel_errors(evaluate(LoopState(plain, state.artefacts, state.ref_lag_s), meas))
+    if e is None:
+        return plain
+    w, *_ = np.linalg.lstsq(x, e.T, rcond=None)
+    tone = x[:, 1:] @ w[1:]          # the offsets stay in the readings: the waveform fit has its own
+    clean = dataclasses.replace(meas, sin=meas.sin - tone[:, 0], cos=meas.cos - tone[:, 1])
+    fresh = carry_loop(recalibrate(clean, cal), plain)
+    # vibrations already named stay out of the reference the declared model is fitted against; the angle terms
+    # found before are refitted with it (a declared model calibrated again without their error held out takes
+    # part of it, and they would correct it twice: held-out 9230, a skew found first, 1606" against 447")
+    vibrations = [a for a in state.artefacts if a.name == "tone"]
+    if vibrations:
+        return refit_around_tone(fresh, vibrations, clean)
+    return refit_angle_terms(fresh, clean) if fresh.angle_terms else fresh
+
+
+def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measurement, rounds: int = 3) -> Calibration:
+    """Re-calibrate the declared model, and refit the closed loop's angle terms, with the tones (in time, fitted on
+    this recording) taken out of the reference. The first calibration absorbed part of the tones (its long-period
+    table): each round fits them on the residual of the previous round's calibration, which held the previous
+    estimate out, until neither takes the other's error. The angle terms are refitted with it
+    (refit_angle_terms): a declared model calibrated again without their error held out would take part of it,
+    and the terms would then correct it twice."""
+    t = sample_times(len(meas), meas.t_s)
+    x = np.column_stack([np.cos(2 * np.pi * tone.tone_hz * t) for tone in tones]
+                        + [np.sin(2 * np.pi * tone.tone_hz * t) for tone in tones])
+    x = x - x.mean(0)
+    current = cal
+    for _ in range(rounds):
+        r = error_arcsec(run_float(current, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
+        w, *_ = np.linalg.lstsq(x, r - r.mean(), rcond=None)
+        # r = angle - reference: the reference plus the tone leaves the residual without it
+        quiet = dataclasses.replace(meas, ref_deg=np.mod(meas.ref_deg + (x @ w) / 3600.0, 360.0))
+        if cal.angle_terms:
+            current = refit_angle_terms(current, quiet, rounds=1)
+        else:
+            current = carry_loop(recalibrate(quiet, cal), cal)
+    return current
+
+
+def fit_rev_offset_gain(cal: Calibration, meas: Measurement, rounds: int = 2) -> Calibration:
+    """Signal-domain fit: offsets and gains over the revolution against the reference's phase, then the
+    declared model re-calibrated on the normalised signals (its waveform was biased by the effect)."""
+    from ..calib.calibrate import reference_phase
+    from ..dsp.effects import fit_rev_normalisation
+
+    new = cal
+    for _ in range(rounds):
+        res = run_float(new, meas.sin, meas.cos, meas.coarse, meas.t_s)
+        rev = res.position / cal.encoder.lines_per_rev
+        raw_norm = new.rev_norm
+        # without a long-period table (calibrate found none) the reference's phase needs no correction
+        phi = reference_phase(new if new.long_period is not None else
+                              dataclasses.replace(new, long_period=np.zeros_like), meas, rev)
+        psi = 2 * np.pi * (rev % 1.0)
+        if cal.adaptive:
+            # the core's drift tracker sits in front and follows part of them: the map takes out what it leaves
+            # (pipeline.fine_phase); the declared model stays, the tracker's forward tables are made from it
+            ys, yc = tracked_readings(new, meas.sin, meas.cos)
+            norm = fit_rev_normalisation(new.waves, ys, yc, phi, psi) if raw_norm is None else \
+                _compose(raw_norm, fit_rev_normalisation(new.waves, *raw_norm.apply(ys, yc, psi), phi, psi))
+            new = dataclasses.replace(new, rev_norm=norm)
+            continue
+        norm = fit_rev_normalisation(new.waves, meas.sin, meas.cos, phi, psi) if raw_norm is None else \
+            _compose(raw_norm, fit_rev_normalisation(new.waves, *raw_norm.apply(meas.sin, meas.cos, psi), phi, psi))
+        s, c = norm.apply(meas.sin, meas.cos, psi)
+        fresh = recalibrate(dataclasses.replace(meas, sin=s, cos=c), cal)
+        new = carry_loop(fresh, cal, rev_norm=norm)
+    return new
+
+
+def joint_fit(r: np.ndarray, ctx: Context, terms: list[FittedEffect], gain: np.ndarray | None = None
+              ) -> np.ndarray:
+    """Least squares of r on the terms' columns together (test_terms: blockwise normal equations, no design matrix
+    of the whole recording held), each column times `gain` (per sample: how much of a correction reaches the
+    output, terms_gain) where given."""
+    def design(sl):
+        x = np.column_stack([_design(t.name, ctx.rows(sl), t.tone_hz) for t in terms])
+        return x if gain is None else x * gain[sl, None]
+    return test_terms(r, design, 1.0, "joint").weights
+
+
+def terms_gain(cal: Calibration, ctx: Context) -> np.ndarray | None:
+    """How much of an angle term's correction reaches the output angle, per sample: fringe_trim corrects the
+    position before the long-period table, which is then read where the corrected position lies, so a
+    correction c comes out as c (1 - LP'(psi)) to first order (LP' its slope in arcsec per arcsec of the
+    revolution). A long-period table fitted with many orders on a slow recording can be steep: 4 % there made
+    the terms' joint refit on the fit data miss by 4.4" RMS on 9252 (held out), more than the term it added
+    explains. None without a table."""
+    if cal.long_period is None:
+        return None
+    return 1.0 - cal.long_period.slope(ctx.psi) * (2 * np.pi / ARCSEC_PER_REV)
+
+
+def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2, as_is: bool = False) -> Calibration:
+    """Re-calibrate the declared model with the terms' error held out of it, then refit the terms
+    jointly on what the declared model leaves: neither absorbs the other's error.
+
+    The core's terms come first: the declared model holds out only their error, and they are fitted together;
+    the terms only the float engine runs are then fitted on what is left. Fitted all together, a float-only
+    term (speed^2 over a narrow speed range is nearly a constant plus a speed term) would trade weight with the
+    core's terms, and the core, which runs without it, would be left with the other half of the trade.
+
+    The rounds alternate between two fits that do not minimise the same error (the phase table's conic comes
+    from the channels' fundamentals, its centre from the gain changes), so they need not converge: on a gain
+    that changes over the revolution (held-out 9252) each round grew the fine-phase map and the error on the
+    fit data with it. Of the terms refitted after each round, the one with the least error on the fit data is
+    kept; with `as_is`, also the terms refitted on cal's declared model as it is, where that is the loop's state
+    (itself calibrated on these readings with the earlier terms held out). Not a fresh calibration that held no
+    terms out (it took part of their error, and they would correct it twice: on held-out 9248, a canceller's
+    re-calibration, it fitted the data better and validated 3.78x -> 4.71x the floor)."""
+    terms = list(cal.angle_terms)
+    in_core = [t.engine != "float" for t in terms]
+
+    def fitted_on(base: Calibration, ctx) -> Calibration:
+        """base with the terms refitted on what it leaves (core terms first, then the float engine's)."""
+        new = list(terms)
+        r = error_arcsec(run_float(base, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
+        gain = terms_gain(base, ctx)
+        for group in (True, False):
+            idx = [k for k, c in enumerate(in_core) if c == group]
+            if not idx:
+                continue
+            w = joint_fit(r, ctx, [new[k] for k in idx], gain)
+            widths = [len(new[k].weights) for k in idx]
+            for k, ww in zip(idx, np.split(w, np.cumsum(widths)[:-1]), strict=True):
+                new[k] = dataclasses.replace(new[k], weights=ww)
+            r = r - sum(new[k].predict(ctx) for k in idx) * (1.0 if gain is None else gain)
+        return dataclasses.replace(base, angle_terms=new)
+
+    def core_context(c: Calibration):
+        # the context as the core sees it: without the float engine's terms
+        core = [t for t, k in zip(c.angle_terms, in_core, strict=True) if k]
+        res = run_float(dataclasses.replace(c, angle_terms=core), meas.sin, meas.cos, meas.coarse, meas.t_s)
+        ctx = covered(make_context(res.frac, res.position, c.encoder.lines_per_rev,
+                                   sample_times(len(res.frac), meas.t_s), res.magnitude, c.start_speed_rev_s))
+        return ctx, core
+
+    def error_rms(c: Calibration) -> float:
+        e = error_arcsec(run_float(c, meas.sin, meas.cos, meas.coarse, meas.t_s).angle_deg, meas.ref_deg)
+        return float(np.std(e))
+
+    candidates = [fitted_on(dataclasses.replace(cal, angle_terms=[]), core_context(cal)[0])] if as_is else []
+    for _ in range(rounds):
+        ctx, core = core_context(cal)
+        # output frame -> encoder frame
+        known = cal.direction * sum(t.predict(ctx) for t in core) if core else None
+        base = carry_loop(recalibrate(meas, cal, known), cal, angle_terms=[])
+        cal = fitted_on(base, ctx)
+        terms = list(cal.angle_terms)
+        candidates.append(cal)
+    return candidates[0] if len(candidates) == 1 else min(candidates, key=error_rms)
+
+
+def _compose(first, second):
+    """Normalisations applied one after the other, to first order in the (small) weights."""
+    from ..dsp.effects import RevNormalisation
+    return RevNormalisation({k: (first.weights[k][0] + second.weights[k][0], first.weights[k][1] + second.weights[k][1])
+                             for k in ("sin", "cos")})
