@@ -273,7 +273,7 @@ def cmd_loop(a) -> int:
     shown = []    # the plots need no more rows than the decision; no reference to the recordings is kept here
     base, state, report = run_loop(_read_for_calibration(a.data, enc), enc, val, shown)
     del val
-    from ..loop.loopreport import write_outputs  # matplotlib only now: its memory does not add to the loop's peak
+    from ..loop.report import write_outputs  # matplotlib only now: its memory does not add to the loop's peak
     write_outputs(base, state, report, shown[0], None, a.out)
     b, f = report["before"], report["after"]
     print(f"declared model: RMS {b['rms_arcsec']:.3f}\"; with the added effects: RMS {f['rms_arcsec']:.3f}\" "
