@@ -41,6 +41,11 @@ LAYERS = [
 #: what the bit-exact models may import from outside fringe.fixed
 FIXED_MAY_IMPORT = {"fringe.encoder", "fringe.result"}
 
+#: the closed loop's modules, lowest first: each imports only the ones before it (the scenarios stand alone)
+LOOP_ORDER = ["fringe.loop.scenarios", "fringe.loop.motion", "fringe.loop.evaluation", "fringe.loop.noise",
+              "fringe.loop.significance", "fringe.loop.tones", "fringe.loop.candidates", "fringe.loop.refit",
+              "fringe.loop.amplitude", "fringe.loop.run", "fringe.loop.report"]
+
 
 def modules(root: Path = PACKAGE_ROOT) -> dict[str, tuple[Path, bool]]:
     """Dotted name -> (file, is a package) for every module under root/fringe."""
@@ -183,6 +188,14 @@ def test_fixed_is_a_leaf(graph):
     outside = [f"{m} imports {t}" for m, targets in sorted(graph.items()) if m.startswith("fringe.fixed")
                for t in sorted(targets) if not t.startswith("fringe.fixed") and t not in FIXED_MAY_IMPORT]
     assert not outside, "the bit-exact models import outside fringe.fixed:\n" + "\n".join(outside)
+
+
+def test_the_loop_imports_down(graph):
+    assert sorted(m for m in graph if m.startswith("fringe.loop.")) == sorted(LOOP_ORDER), \
+        "place the loop's modules in LOOP_ORDER"
+    upward = [f"{m} imports {t}" for m in LOOP_ORDER for t in sorted(graph[m])
+              if t in LOOP_ORDER and LOOP_ORDER.index(t) > LOOP_ORDER.index(m)]
+    assert not upward, "the loop's modules import against LOOP_ORDER:\n" + "\n".join(upward)
 
 
 def test_names_come_from_where_they_are_defined():
