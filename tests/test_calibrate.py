@@ -13,7 +13,7 @@ import pytest
 from fringe.calib.calibrate import calibrate, seed_method
 from fringe.calib.evaluate import figures, measurement_of, noise_floor_arcsec
 from fringe.dsp.metrics import binned_mean
-from fringe.dsp.simulate import seed_encoder, simulate
+from fringe.dsp.simulate import SimulationConfig, seed_encoder, simulate
 
 
 def test_seed_encoder_reaches_the_noise_floor(seed_recordings):
@@ -334,3 +334,19 @@ def test_a_phase_table_fitted_where_the_period_count_slips_keeps_its_periods():
     part = np.sqrt(np.mean(held_out_error_arcsec(calibrate(fit.subset(train), enc, opts), val) ** 2))
     assert part < 1.02 * whole
     assert calibrate(fit, enc, CalibrationOptions(structure=PHASE_TABLE)).fit["structure"] == PHASE_TABLE
+
+
+def test_a_recording_whose_phases_repeat_is_refused_with_a_clear_message():
+    """At a steady 400 Hz electrical (2 rev/s x 200 lines) sampled at 10 kHz the phases repeat every 25 samples: the
+    waveform's harmonics between them are not determined. The calibration says so (FringeInputError: the CLI's one
+    line and status 2) instead of an internal error, or a fit between the phases it never saw."""
+    from fringe.errors import FringeInputError
+
+    cfg = SimulationConfig(lines_per_rev=200, coarse_bits=8, samples=16384, speed_mean_rev_s=2.0, speed_swing_rev_s=0.0,
+                           rev_offset_mod_sin={1: (4e-3, 1e-3)}, rev_offset_mod_cos={1: (-2e-3, 3e-3)})
+    meas = measurement_of(simulate(cfg, 1))
+    with pytest.raises(FringeInputError, match="too few distinct places in the signal period"):
+        calibrate(meas, cfg.encoder())
+    # the same motion a little off the sample rate's fractions calibrates
+    moving = measurement_of(simulate(dataclasses.replace(cfg, speed_mean_rev_s=2.0013), 1))
+    assert calibrate(moving, cfg.encoder()).quad is not None

@@ -34,7 +34,7 @@ from scipy.stats import f as f_dist
 
 from ..dsp.calibration import Calibration
 from ..dsp.effects import FINE_MAP_PREFIX, FittedEffect, generic_name, parse_generic, phase_columns
-from ..dsp.fourierfit import cv_folds, cv_harmonics, fit_select, paired_gain_t, significant_choice
+from ..dsp.fourierfit import CoverageError, cv_folds, cv_harmonics, fit_select, paired_gain_t, significant_choice
 from ..dsp.metrics import error_arcsec
 from ..dsp.position import circular_mean, fit_coarse_offset, wrap
 from ..dsp.quadrature import QuadratureCorrection, QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
@@ -792,6 +792,29 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
 def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None = None) -> Calibration:
     opts = opts or CalibrationOptions()
     use = check_recording(meas, enc)
+    try:
+        return _calibrate(meas, enc, opts, use)
+    except CoverageError:
+        # a recording whose phases repeat (a steady speed locked to the sample rate: 400 Hz electrical at 10 kHz
+        # visits 25 phases) cannot determine the waveform's harmonics between them: say so, not a fit between them
+        phases = distinct_phases(meas, enc, use)
+        _fail(meas, f"the samples fall on too few distinct places in the signal period to fit the correction (they "
+                    f"fill {phases} of its {PHASE_PARTS} parts: a steady speed that is a simple fraction of the sample "
+                    "rate?); record with the speed changing, or at a speed the sample rate does not divide")
+
+
+PHASE_PARTS = 256
+
+
+def distinct_phases(meas: Measurement, enc: Encoder, use: np.ndarray, bins: int = PHASE_PARTS) -> int:
+    """How many of `bins` equal parts of the signal period the ellipse-corrected phase visits."""
+    s, c = meas.sin[use].astype(float), meas.cos[use].astype(float)
+    ys, yc = fit_conic(s, c).apply(s, c)
+    phase = np.arctan2(ys, yc)
+    return int(np.unique(np.floor(np.mod(phase / (2 * np.pi), 1.0) * bins)).size)
+
+
+def _calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions, use: np.ndarray) -> Calibration:
     has_lp = meas.ref_deg is not None and (enc.coarse_bits > 0 or enc.lines_per_rev == 1)
     choice = {}
     if meas.ref_deg is not None and (opts.structure is None or (opts.structure == PHASE_TABLE

@@ -57,6 +57,10 @@ def _orders(top: int, skip_multiples_of: int) -> list[int]:
     return [l for l in range(1, top + 1) if not (skip_multiples_of and l % skip_multiples_of == 0)]
 
 
+class CoverageError(ValueError):
+    """The angles a series is fitted on do not determine its weights (too few distinct angles)."""
+
+
 def _coverage_cap(n_bins_with_data: int) -> int:
     """At least about twice as many distinct angles as weights."""
     return max(0, (n_bins_with_data - 1) // 2 - 1)
@@ -83,7 +87,7 @@ def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
     try:
         lower = cholesky(g, lower=True)
     except LinAlgError:
-        raise ValueError("the angles do not determine the Fourier series (too little coverage)") from None
+        raise CoverageError("the angles do not determine the Fourier series (too little coverage)") from None
     u = solve_triangular(lower, b, lower=True)
     ks = np.arange(1, m.shape[1] + 1, 2) if n_fixed is None else np.array([m.shape[1]])
     rss = np.maximum(yy - np.cumsum(u * u)[ks - 1], 0.0) + within
@@ -192,7 +196,7 @@ def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bi
         try:
             lower = cholesky(g_all - g_fold[f], lower=True)
         except LinAlgError:
-            raise ValueError("the angles do not determine the Fourier series (too little coverage)") from None
+            raise CoverageError("the angles do not determine the Fourier series (too little coverage)") from None
         u = solve_triangular(lower, b_all - b_fold[f], lower=True)
         w = np.zeros((m.shape[1], len(ks)))               # candidate j's weights in column j
         for j, k in enumerate(ks):
