@@ -3,7 +3,8 @@ ECP5): the same words, clock for clock, as the generic code.
 
 - Simulation (Verilator): fringe_interp_table and fringe_split_mul built with FRINGE_TECH_ECP5, the
   technology layer and behavioural models of the two primitives it instantiates (tb/ecp5/DP16KD.v, MULT18X18D.v:
-  DP16KD with its output register, MULT18X18D with its output register), run through the blocks' own
+  DP16KD with its output register, MULT18X18D with its output register and, for fringe_mul_ecp5's REG_IN
+  mode, its input registers), run through the blocks' own
   cocotb tests against the bit-exact model. The table starts at zero (the models leave INITVAL out),
   every other word comes through the write port; the shapes cover the DP16KD's 512 x 36 mode, its
   1024 x 18 mode with two rows, and RAM pieces of both.
@@ -45,6 +46,8 @@ SPLIT_MUL_PARAMS = [
     {"A_W": 20, "A_SIGNED": 1, "B_W": 19, "B_SIGNED": 1, "LATENCY": 1, "LO_W": 17},
     {"A_W": 45, "A_SIGNED": 0, "B_W": 7, "B_SIGNED": 1, "LATENCY": 1, "LO_W": 6},
     {"A_W": 40, "A_SIGNED": 1, "B_W": 33, "B_SIGNED": 0, "LATENCY": 3, "LO_W": 15},
+    {"A_W": 20, "A_SIGNED": 1, "B_W": 19, "B_SIGNED": 1, "LATENCY": 3, "LO_W": 17},   # e * a: a 3 x 2 term
+    {"A_W": 47, "A_SIGNED": 1, "B_W": 18, "B_SIGNED": 0, "LATENCY": 4, "LO_W": 17},   # SEA * KG: 1-bit terms
 ]
 
 
@@ -98,7 +101,7 @@ if cocotb is not None:
     @cocotb.test()
     async def mul_ecp5_products(dut):
         """fringe_mul_ecp5 alone (fringe_drift's d * GINV: an unsigned operand): p is the product of the
-        pair of the last clock enable, held while ce = 0."""
+        pair of the last clock enable (REG_IN = 1: of the one before), held while ce = 0."""
         prm = json.loads(os.environ["FRINGE_MUL_PARAMS"])
         rng = np.random.default_rng(prm["A_W"] * 100 + prm["B_W"])
 
@@ -109,13 +112,15 @@ if cocotb is not None:
             return v - (1 << w) if signed and v >> (w - 1) else v
 
         await start_clock(dut)
-        want, checked = None, 0
+        stages = [None] * (1 + prm.get("REG_IN", 0))   # the products in the DSP's registers, oldest last
+        checked = 0
         for _ in range(1000):
             a, b, ce = draw(prm["A_W"], prm["A_SIGNED"]), draw(prm["B_W"], prm["B_SIGNED"]), int(rng.random() < 0.7)
             dut.a.value, dut.b.value, dut.ce.value = a & ((1 << prm["A_W"]) - 1), b & ((1 << prm["B_W"]) - 1), ce
             await FallingEdge(dut.clk)
             if ce:
-                want = a * b
+                stages = [a * b, *stages[:-1]]
+            want = stages[-1]
             if want is not None:
                 got = dut.p.value.to_signed() if prm["A_SIGNED"] or prm["B_SIGNED"] else int(dut.p.value)
                 assert got == want, f"{prm}: p = {got}, want {want}"
@@ -125,8 +130,11 @@ if cocotb is not None:
 
 @pytest.mark.parametrize("params", [{"A_W": 17, "A_SIGNED": 1, "B_W": 18, "B_SIGNED": 0},
                                     {"A_W": 18, "A_SIGNED": 1, "B_W": 18, "B_SIGNED": 1},
-                                    {"A_W": 5, "A_SIGNED": 0, "B_W": 18, "B_SIGNED": 0}],
-                         ids=lambda p: f"{'us'[p['A_SIGNED']]}{p['A_W']}x{'us'[p['B_SIGNED']]}{p['B_W']}")
+                                    {"A_W": 5, "A_SIGNED": 0, "B_W": 18, "B_SIGNED": 0},
+                                    {"A_W": 17, "A_SIGNED": 1, "B_W": 18, "B_SIGNED": 0, "REG_IN": 1},
+                                    {"A_W": 18, "A_SIGNED": 1, "B_W": 4, "B_SIGNED": 1, "REG_IN": 1}],
+                         ids=lambda p: f"{'us'[p['A_SIGNED']]}{p['A_W']}x{'us'[p['B_SIGNED']]}{p['B_W']}"
+                                       f"{'-in' if p.get('REG_IN') else ''}")
 def test_ecp5_mul(params):
     from cocotb_runner import available_simulators, run_block
 

@@ -1,6 +1,8 @@
-// fringe_mul_ecp5: ECP5 technology layer of a registered product p = a * b (one clock enable), each
-// operand signed or unsigned and at most 18 bits: a MULT18X18D whose output register (REG_OUTPUT)
-// holds p.
+// fringe_mul_ecp5: ECP5 technology layer of a registered product p = a * b (one clock enable; two with
+// REG_IN = 1), each operand signed or unsigned and at most 18 bits: a MULT18X18D whose output register
+// (REG_OUTPUT) holds p. REG_IN = 1: its input registers (REG_INPUTA/B) hold a and b first, taking the
+// place of the caller's operand registers (the caller hands their D): nextpnr-ecp5 then times the
+// multiply inside the DSP instead of as a 3.49 ns setup (grade 6) on its inputs.
 // Verilog only, read by sim/synth.py for ECP5 (FRINGE_TECH_ECP5); the generic code registers a * b
 // itself. Yosys 0.70's synth_ecp5 maps a product to a bare MULT18X18D and leaves the register in the
 // fabric: register -> DSP -> register paths measured 7.5-8 ns on grade 6.
@@ -11,27 +13,36 @@ module fringe_mul_ecp5 #(
     parameter integer A_W      = 18,  // 1..18
     parameter integer A_SIGNED = 1,   // 1: a is two's complement, 0: unsigned
     parameter integer B_W      = 18,  // 1..18
-    parameter integer B_SIGNED = 1
+    parameter integer B_SIGNED = 1,
+    parameter integer REG_IN   = 0    // 1: a, b registered in the DSP first (p two clock enables later)
 ) (
     input  wire                   clk,
     input  wire                   ce,
     input  wire [A_W-1:0]         a,
     input  wire [B_W-1:0]         b,
-    output wire [A_W+B_W-1:0]     p     // a * b (signed if either operand is), registered
+    output wire [A_W+B_W-1:0]     p     // a * b (signed if either operand is), registered (REG_IN = 1: twice)
 );
 
     generate
         if (A_W < 1 || A_W > 18 || B_W < 1 || B_W > 18) begin : g_bad
             $error("fringe_mul_ecp5: A_W = %0d, B_W = %0d must be 1..18 (instance %m)", A_W, B_W);
         end
+        if (REG_IN != 0 && REG_IN != 1) begin : g_bad_reg_in
+            $error("fringe_mul_ecp5: REG_IN = %0d must be 0 or 1 (instance %m)", REG_IN);
+        end
     endgenerate
+
+    // both operands or neither: with one input register nextpnr-ecp5 times the DSP as unregistered
+    localparam REG_INPUT_CLK = (REG_IN != 0) ? "CLK0" : "NONE";
 
     wire [17:0] ax = {{(18-A_W){(A_SIGNED != 0) & a[A_W-1]}}, a};
     wire [17:0] bx = {{(18-B_W){(B_SIGNED != 0) & b[B_W-1]}}, b};
     wire [35:0] px;
 
     MULT18X18D #(
-        .REG_INPUTA_CLK("NONE"), .REG_INPUTB_CLK("NONE"), .REG_INPUTC_CLK("NONE"),
+        .REG_INPUTA_CLK(REG_INPUT_CLK), .REG_INPUTA_CE("CE0"), .REG_INPUTA_RST("RST0"),
+        .REG_INPUTB_CLK(REG_INPUT_CLK), .REG_INPUTB_CE("CE0"), .REG_INPUTB_RST("RST0"),
+        .REG_INPUTC_CLK("NONE"),
         .REG_PIPELINE_CLK("NONE"),
         .REG_OUTPUT_CLK("CLK0"), .REG_OUTPUT_CE("CE0"), .REG_OUTPUT_RST("RST0"),
         .GSR("DISABLED"), .RESETMODE("SYNC")
