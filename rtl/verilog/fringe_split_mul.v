@@ -143,18 +143,22 @@ module fringe_split_mul #(
                 localparam integer LO = term_lo(gs, gk);
                 localparam integer HI = term_hi(gs, gk);
 `ifdef FRINGE_TECH_ECP5
-                // the bits of the two chunks as Yosys reduces them (a chunk below a signed operand's top has a
-                // zero sign bit, dropped unless the product is signed): as with Yosys's mul2dsp, a product
-                // with a 1-bit factor stays in the fabric (an AND)
-                localparam integer SA = (gk / NB == NA - 1 && A_SIGNED != 0) ? 1 : 0;   // a signed chunk
-                localparam integer SB = (gk % NB == NB - 1 && B_SIGNED != 0) ? 1 : 0;
-                localparam integer EA = ((gk / NB < NA - 1) ? L : AS_W - L * (NA - 1) - 1) + ((SA + SB > 0) ? 1 : 0);
-                localparam integer EB = ((gk % NB < NB - 1) ? L : BS_W - L * (NB - 1) - 1) + ((SA + SB > 0) ? 1 : 0);
-                if (LO < P_W && gs == 0 && L + 1 <= 18 && EA >= 2 && EB >= 2) begin : g_dsp
-                    // ECP5: the bare partial product registered in the MULT18X18D's output register,
-                    // then placed at its weight as g_live's stage 0 does (shaped() keeps the value)
-                    localparam integer I = gk / NB;
-                    localparam integer J = gk % NB;
+                // ECP5: the live bits of the two chunks (a chunk below the top: L; the top chunk of a signed
+                // operand: its bits with the sign; of an unsigned one: without its zero sign bit). A product
+                // of two factors of 2 bits or more, one of them 6 or more, takes a MULT18X18D; a narrower one
+                // (a factor of 1 to 3 bits) is added up in the fabric from shifted copies of the wide factor,
+                // keeping DSPs free (Yosys would put a 2-bit signed factor in a DSP of its own)
+                localparam integer I  = gk / NB;
+                localparam integer J  = gk % NB;
+                localparam integer LA = (I < NA - 1) ? L : AS_W - L * (NA - 1) - ((A_SIGNED != 0) ? 0 : 1);
+                localparam integer LB = (J < NB - 1) ? L : BS_W - L * (NB - 1) - ((B_SIGNED != 0) ? 0 : 1);
+                localparam integer NSIG = (LA <= LB) ? ((I == NA - 1 && A_SIGNED != 0) ? 1 : 0)
+                                                     : ((J == NB - 1 && B_SIGNED != 0) ? 1 : 0);
+                localparam integer NW = (LA <= LB) ? LA : LB;   // the narrow factor's live bits
+                localparam integer WW = (LA <= LB) ? LB : LA;
+                if (LO < P_W && gs == 0 && L + 1 <= 18 && NW >= 2 && WW >= 6) begin : g_dsp
+                    // the bare partial product registered in the MULT18X18D's output register, then
+                    // placed at its weight as g_live's stage 0 does (shaped() keeps the value)
                     wire [2*L+1:0]     m;
                     fringe_mul_ecp5 #(.A_W(L + 1), .B_W(L + 1)) u_mul (
                         .clk(clk), .ce(ce),
@@ -162,6 +166,32 @@ module fringe_split_mul #(
                     );
                     wire [P_W+2*L+1:0] mw = {{P_W{m[2*L+1]}}, m} << (L * (I + J));
                     assign q[gk*P_W +: P_W] = mw[P_W-1:0];
+                    wire unused_m = &{1'b0, mw[P_W+2*L+1:P_W]};
+                end else if (LO < P_W && gs == 0 && NW <= 3) begin : g_narrow
+                    // the wide factor times each live bit of the narrow one (the top bit negative if it
+                    // is a sign), summed: NW - 1 adders at most, no multiplier
+                    wire signed [L:0] cn = (LA <= LB) ? chunks[gk*2*(L+1)+L+1 +: L+1] : chunks[gk*2*(L+1) +: L+1];
+                    wire signed [L:0] cw = (LA <= LB) ? chunks[gk*2*(L+1) +: L+1] : chunks[gk*2*(L+1)+L+1 +: L+1];
+                    reg signed [2*L+1:0] mn;
+                    reg        [P_W+2*L+1:0] mw;
+                    reg        [P_W-1:0] r;
+                    integer c;
+                    always @* begin
+                        mn = {(2*L+2){1'b0}};
+                        for (c = 0; c < NW; c = c + 1) begin
+                            if (cn[c]) begin
+                                if (c == NW - 1 && NSIG != 0) mn = mn - ({{(L+1){cw[L]}}, cw} <<< c);
+                                else                          mn = mn + ({{(L+1){cw[L]}}, cw} <<< c);
+                            end
+                        end
+                        mw = {{P_W{mn[2*L+1]}}, mn} << (L * (I + J));
+                    end
+                    always @(posedge clk) begin
+                        if (ce) begin
+                            r <= shaped(mw[P_W-1:0], LO, HI);
+                        end
+                    end
+                    assign q[gk*P_W +: P_W] = r;
                     wire unused_m = &{1'b0, mw[P_W+2*L+1:P_W]};
                 end else
 `endif
