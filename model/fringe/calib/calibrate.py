@@ -797,16 +797,19 @@ def calibrate(meas: Measurement, enc: Encoder, opts: CalibrationOptions | None =
     except CoverageError:
         # a recording whose phases repeat (a steady speed locked to the sample rate: 400 Hz electrical at 10 kHz
         # visits 25 phases) cannot determine the waveform's harmonics between them: say so, not a fit between them
-        phases = distinct_phases(meas, enc, use)
-        _fail(meas, f"the samples fall on too few distinct places in the signal period to fit the correction (they "
-                    f"fill {phases} of its {PHASE_PARTS} parts: a steady speed that is a simple fraction of the sample "
-                    "rate?); record with the speed changing, or at a speed the sample rate does not divide")
+        try:
+            fill = f"they fill {distinct_phases(meas, use)} of its {PHASE_PARTS} parts: "
+        except QuadratureFitError:
+            fill = ""
+        _fail(meas, f"the samples fall on too few distinct places in the signal period to fit the correction ({fill}"
+                    "a steady speed that is a simple fraction of the sample rate?); record with the speed changing, "
+                    "or at a speed the sample rate does not divide")
 
 
 PHASE_PARTS = 256
 
 
-def distinct_phases(meas: Measurement, enc: Encoder, use: np.ndarray, bins: int = PHASE_PARTS) -> int:
+def distinct_phases(meas: Measurement, use: np.ndarray, bins: int = PHASE_PARTS) -> int:
     """How many of `bins` equal parts of the signal period the ellipse-corrected phase visits."""
     s, c = meas.sin[use].astype(float), meas.cos[use].astype(float)
     ys, yc = fit_conic(s, c).apply(s, c)
