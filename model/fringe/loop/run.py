@@ -1,12 +1,12 @@
 """The closed loop (`fringe loop`): calibrate the declared model, find what its residual still
 holds, name the physical effect, add it, and report the error before and after.
 
-Every test is against the noise floor estimated from the data itself (successive differences
-of the residual: the systematic parts change slowly from one sample to the next, the noise
-does not). An effect is added only when it is significant (chi-square of the explained sum of
-squares against that noise, p < 1e-6), matters (it removes at least 1 % of the residual RMS),
-and lowers the error on validation data (the --validate recording, or, without one, the
-interleaved half of the recording that was not used to fit).
+Every test is against the noise floor estimated from the data itself (noise.noise_floor: the lowest of
+the residual's spectral level away from lines, its successive differences and the spread of neighbours in
+fine phase within short runs, with the Lissajous figure's radial scatter reported beside them). An effect is
+added only when it is significant (chi-square of the explained sum of squares against that noise,
+p < 1e-6), matters (it removes at least 1 % of the residual RMS), and lowers the error on validation data
+(the --validate recording, or, without one, the interleaved half of the recording that was not used to fit).
 """
 
 from __future__ import annotations
