@@ -32,6 +32,7 @@ Replay a failure: ``FRINGE_SEED=<seed in the message> pytest tb/test_fringe_trim
 
 from __future__ import annotations
 
+import dataclasses
 import tempfile
 from pathlib import Path
 
@@ -45,6 +46,7 @@ from lib.launch import block_config, block_env
 from fringe.fixed.trim import (
     LATENCY,
     TrimParams,
+    magnitudes,
     make_gain_table,
     make_map_table,
     pack_words,
@@ -227,19 +229,22 @@ def build_plan(p: TrimParams, user_w: int, seed: int):
     section(600, 1.0, 0.9, resets={333}, note="new bank 0 and bank 1")
     idle_cycles(cycles, LATENCY + 2, write_bus, "drain")
 
-    # expected words: speeds per reset segment, outputs per table version
-    idx, sp = [], []
+    # expected words: speeds and magnitude averages per reset segment, outputs per table version
+    idx, sp, avg = [], [], []
     for seg in accepted_segments(cycles):
         idx += seg
         sp.append(speeds(np.array([taken[i][0] for i in seg], dtype=np.int64), p))
+        avg.append(magnitudes(np.array([taken[i][1] for i in seg], dtype=np.int64), p))
     sp_of = dict(zip(idx, np.concatenate(sp).tolist(), strict=True))
+    avg_of = dict(zip(idx, np.concatenate(avg).tolist(), strict=True))
     for ver, tabs in enumerate(versions):
         sel = [i for i in idx if taken[i][4] == ver]
         if not sel:
             continue
         pos, mag, bank, user = (np.array([taken[i][k] for i in sel], dtype=np.int64) for k in range(4))
         out, d, sat = trim_words(pos, mag, tabs["map"], tabs["speed"], tabs["amp"], p, bank=bank,
-                                 speed=np.array([sp_of[i] for i in sel], dtype=np.int64))
+                                 speed=np.array([sp_of[i] for i in sel], dtype=np.int64),
+                                 avg=np.array([avg_of[i] for i in sel], dtype=np.int64))
         for j, i in enumerate(sel):
             cycles[i].expect = (int(out[j]), int(d[j]), int(sat[j]), int(user[j]))
     return cycles
@@ -253,7 +258,7 @@ def params_of(raw: dict) -> TrimParams:
     return TrimParams(raw["LINES"], raw["FINE_W"], raw["AMP_W"], raw["SPEED_LOG2"], psi, raw["MAP_PHI_W"],
                       raw["TRIM_W"], raw["TRIM_FRAC"], raw["G_SHIFT"],
                       raw["SECT_RECIP"] if psi else None, raw["SECT_SHIFT"] if psi else None,
-                      raw.get("START_SPEED", 0))
+                      raw.get("START_SPEED", 0), raw.get("MAG_SMOOTH_LOG2", 0))
 
 
 def _config() -> tuple[TrimParams, int, int]:
@@ -299,15 +304,16 @@ if cocotb is not None:
 
 PARAM_SETS = [
     # (TrimParams, USER_W)
+    # the magnitude averaged over ~8 samples
     (TrimParams(lines=256, fine_w=16, amp_w=12, speed_log2=5, map_psi_w=4, map_phi_w=6, trim_w=18, trim_frac=4,
-                g_shift=18, start_speed=123457), 3),
+                g_shift=18, start_speed=123457, mag_smooth_log2=3), 3),
     # REV not a power of two (SECT_RECIP 536871, SECT_SHIFT 38), window of one sample, TRIM_FRAC 0; the first
     # sample's speed at -REV/2 (backwards)
     (TrimParams(lines=1000, fine_w=12, amp_w=10, speed_log2=0, map_psi_w=3, map_phi_w=5, trim_w=16, trim_frac=0,
                 g_shift=16, start_speed=-1000 * 2048), 1),
-    # no sectors
+    # no sectors; the magnitude's average the longest (its accumulator 28 bits)
     (TrimParams(lines=37, fine_w=10, amp_w=16, speed_log2=2, map_psi_w=0, map_phi_w=4, trim_w=12, trim_frac=2,
-                g_shift=10), 2),
+                g_shift=10, mag_smooth_log2=12), 2),
     # the widest words: POS_W 31, AMP_W 32, TRIM_W 24, G_SHIFT 48, TRIM_FRAC 16
     (TrimParams(lines=3, fine_w=29, amp_w=32, speed_log2=3, map_psi_w=2, map_phi_w=10, trim_w=24, trim_frac=16,
                 g_shift=48, start_speed=3 * (1 << 28) - 1), 2),
@@ -317,7 +323,7 @@ PARAM_SETS = [
 def _id(ps) -> str:
     p, user_w = ps
     return (f"L{p.lines}-F{p.fine_w}-A{p.amp_w}-S{p.speed_log2}-PSI{p.map_psi_w}-PHI{p.map_phi_w}-W{p.trim_w}"
-            f"-FR{p.trim_frac}-G{p.g_shift}-U{user_w}")
+            f"-FR{p.trim_frac}-G{p.g_shift}-U{user_w}" + (f"-M{p.mag_smooth_log2}" if p.mag_smooth_log2 else ""))
 
 
 def test_plan_is_effective():
@@ -343,6 +349,13 @@ def test_plan_is_effective():
             assert ((start > -half) & (start < half - 1) & (start != 0)).sum() >= 3, _id((p, user_w))
         writes = [c for c in cycles if c.drive.get("wr_en")]
         assert any(not c.ce for c in writes) and {c.drive["wr_sel"] for c in writes} == {0, 1, 2, 3}
+        if p.mag_smooth_log2:
+            # the same stimulus trimmed with the sample's own magnitude gives other words: the average shows
+            own = accepted_positions(build_plan(dataclasses.replace(p, mag_smooth_log2=0), user_w, DEFAULT_SEED),
+                                     p.rev, _id((p, user_w)))
+            assert [c.drive for c in own] == [c.drive for c in acc]
+            differ = np.mean([a.expect != b.expect for a, b in zip(own, acc, strict=True)])
+            assert differ > 0.2, (_id((p, user_w)), differ)
         # the saturation goes both ways (not reachable with G_SHIFT 48 and TRIM_FRAC 16)
         if p.g_shift < 48:
             half = p.corr_max
@@ -376,12 +389,15 @@ ILLEGAL = [
     {"LINES": 1000, "FINE_W": 12, "MAP_PSI_W": 3, "MAP_PHI_W": 5, "SECT_RECIP": 536870, "SECT_SHIFT": 38},
     {"START_SPEED": 1 << 23},          # REV / 2 (REV = 2^24)
     {"START_SPEED": -(1 << 23) - 1},
+    {"MAG_SMOOTH_LOG2": -1},
+    {"MAG_SMOOTH_LOG2": 13},
 ]
 
 
 def _trim_params(d: dict) -> TrimParams:
     return TrimParams(d["LINES"], d["FINE_W"], d["AMP_W"], d["SPEED_LOG2"], d["MAP_PSI_W"], d["MAP_PHI_W"], d["TRIM_W"],
-                      d["TRIM_FRAC"], d["G_SHIFT"], d["SECT_RECIP"], d["SECT_SHIFT"], d.get("START_SPEED", 0))
+                      d["TRIM_FRAC"], d["G_SHIFT"], d["SECT_RECIP"], d["SECT_SHIFT"], d.get("START_SPEED", 0),
+                      d.get("MAG_SMOOTH_LOG2", 0))
 
 
 test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration = refusal_tests(

@@ -17,6 +17,7 @@ from fringe.fixed.trim import (
     check_sector_mapping,
     error_budget,
     error_terms,
+    magnitudes,
     make_gain_table,
     make_map_table,
     pack_words,
@@ -37,6 +38,8 @@ P2 = TrimParams(lines=1000, fine_w=12, amp_w=10, speed_log2=0, map_psi_w=3, map_
                 g_shift=12)
 P3 = TrimParams(lines=37, fine_w=10, amp_w=8, speed_log2=2, map_psi_w=0, map_phi_w=4, trim_w=12, trim_frac=2,
                 g_shift=8)
+P4 = TrimParams(lines=256, fine_w=16, amp_w=12, speed_log2=5, map_psi_w=4, map_phi_w=6, trim_w=18, trim_frac=4,
+                g_shift=14, mag_smooth_log2=4)
 
 
 def zeros_tables(p: TrimParams):
@@ -86,6 +89,7 @@ BASE = dict(lines=256, fine_w=16, amp_w=12, speed_log2=5, map_psi_w=4, map_phi_w
         *out_of_range("fringe_trim", "trim_w", 8, 24),
         *out_of_range("fringe_trim", "trim_frac", 0, 16, values=(17,)),
         *out_of_range("fringe_trim", "g_shift", 1, 48),
+        *out_of_range("fringe_trim", "mag_smooth_log2", 0, 12),
         ({"sect_recip": 1, "sect_shift": 128}, "fringe_trim: SECT_SHIFT = 128 out of range 0..127"),
         ({"sect_recip": 1, "sect_shift": 19}, "fringe_trim: SECT_RECIP = 1, SECT_SHIFT = 19 do not map every "
                                               "position to floor(pos * 2^MAP_PSI_W / REV); take them from "
@@ -104,7 +108,7 @@ def test_hdl_messages_match_model():
     v, h = block_texts("fringe_trim")
     ranges = (("FINE_W", "8..30"), ("LINES", "1..2^20"), ("AMP_W", "4..32"), ("SPEED_LOG2", "0..8"),
               ("MAP_PSI_W", "0..8"), ("TRIM_W", "8..24"), ("TRIM_FRAC", "0..16"), ("G_SHIFT", "1..48"),
-              ("SECT_SHIFT", "0..127"))
+              ("SECT_SHIFT", "0..127"), ("MAG_SMOOTH_LOG2", "0..12"))
     assert not missing_checks("fringe_trim", ranges, pos_w_max=31)
     for frag in ("out of range 2..min(10, FINE_W-1) = ", "take them from "):
         assert frag in v and frag in h, frag
@@ -255,7 +259,10 @@ def reference(pos, mag, mw, sw, aw, bank, p: TrimParams):
     """Sample by sample on Python integers, straight from the contract."""
     out = []
     hist: list[int] = []
+    k, acc = p.mag_smooth_log2, None
     for q, mg, b in zip(pos.tolist(), mag.tolist(), bank.tolist(), strict=True):
+        acc = mg << k if acc is None else acc + mg - (acc >> k)     # the magnitude's running average
+        mg = acc >> k
         d = 0
         if hist:    # the longest power-of-two window there is, up to N, scaled to N samples and clipped
             w = min(1 << (len(hist).bit_length() - 1), p.window)
@@ -285,7 +292,7 @@ def reference(pos, mag, mw, sw, aw, bank, p: TrimParams):
     return out
 
 
-@pytest.mark.parametrize("p", [P1, P2, P3], ids=["P1", "P2", "P3"])
+@pytest.mark.parametrize("p", [P1, P2, P3, P4], ids=["P1", "P2", "P3", "P4"])
 def test_against_reference_with_arbitrary_words(p):
     rng = np.random.default_rng(p.lines)
     n = 3000
@@ -307,6 +314,26 @@ def test_against_reference_with_arbitrary_words(p):
     np.testing.assert_array_equal(np.stack([out, d, sat], axis=1), np.array(want))
     assert sat.any() and not sat.all()
     assert out.min() >= 0 and out.max() < p.rev
+
+
+@pytest.mark.parametrize("k", [1, 4, 12])
+def test_magnitude_average_stays_in_range_and_within_a_step_of_the_float_average(k):
+    """The running average (MAG_SMOOTH_LOG2 = k) stays in u(AMP_W) for any input, the extremes included, equals
+    a steady input exactly, and is within 1 LSB of the float average of the same integers: with e = acc -
+    2^k y (y the float average), e' = e (1 - 2^-k) + frac(acc / 2^k) stays in [0, 2^k) from e = 0, so acc / 2^k
+    - y is in [0, 1) and its floor within (-1, 1) of y."""
+    from fringe.dsp.effects import magnitude_average
+
+    p = TrimParams(**{**BASE, "mag_smooth_log2": k})
+    top = (1 << p.amp_w) - 1
+    rng = np.random.default_rng(k)
+    mag = np.concatenate([np.full(200, top), np.zeros(300, np.int64), rng.integers(0, top + 1, 3000),
+                          np.full(60 << k, 1234)])
+    avg = magnitudes(mag, p)
+    assert avg.min() >= 0 and avg.max() <= top and avg[0] == mag[0]
+    assert avg[-1] == 1234
+    np.testing.assert_array_less(np.abs(avg - magnitude_average(mag, k)), 1.0)
+    np.testing.assert_array_equal(magnitudes(mag, TrimParams(**BASE)), mag)
 
 
 def test_speed_can_be_given_for_a_continued_stream():

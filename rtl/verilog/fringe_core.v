@@ -489,7 +489,7 @@ module fringe_core #(
                 .LINES(LINES), .FINE_W(FINE_W), .AMP_W(AMP_W), .SPEED_LOG2(TRIM_SPEED_LOG2),
                 .MAP_PSI_W(TRIM_MAP_PSI_W), .MAP_PHI_W(TRIM_MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC),
                 .G_SHIFT(TRIM_G_SHIFT), .SECT_RECIP(TRIM_SECT_RECIP), .SECT_SHIFT(TRIM_SECT_SHIFT),
-                .START_SPEED(TRIM_START_SPEED),
+                .START_SPEED(TRIM_START_SPEED), .MAG_SMOOTH_LOG2(TRIM_MAG_SMOOTH_LOG2),
                 .MAP_INIT(TRIM_MAP_INIT), .SPEED_INIT(TRIM_SPEED_INIT), .AMP_INIT(TRIM_AMP_INIT), .USER_W(U_L)
             ) u_trim (
                 .clk(clk), .rst(rst), .ce(ce),

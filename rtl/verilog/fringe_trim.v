@@ -22,6 +22,7 @@ module fringe_trim #(
     parameter [63:0]  SECT_RECIP = 64'd1,  // sector multiplier, from sector_mapping() (checked; unused if MAP_PSI_W = 0)
     parameter integer SECT_SHIFT = 20,     // sector shift, 0..127, from sector_mapping() (checked; unused if MAP_PSI_W = 0)
     parameter integer START_SPEED = 0,     // the first sample's speed after reset (no window yet), -REV/2..REV/2-1
+    parameter integer MAG_SMOOTH_LOG2 = 0, // the magnitude terms take mag's running average over ~2^K samples, 0 (off)..12
     parameter         MAP_INIT   = "",     // $readmemh image of the map, 2 banks x 2^(1+MAP_PSI_W+MAP_PHI_W) words; "" = zeros
     parameter         SPEED_INIT = "",     // $readmemh image of the speed table, 2 banks x 2^MAP_PHI_W words; "" = zeros
     parameter         AMP_INIT   = "",     // $readmemh image of the amp table, 2 banks x 2^MAP_PHI_W words; "" = zeros
@@ -75,6 +76,7 @@ module fringe_trim #(
         `FRINGE_CHECK_RANGE(g_bad_trim_w, "fringe_trim", "TRIM_W", TRIM_W, 8, 24)
         `FRINGE_CHECK_RANGE(g_bad_trim_frac, "fringe_trim", "TRIM_FRAC", TRIM_FRAC, 0, 16)
         `FRINGE_CHECK_RANGE(g_bad_g_shift, "fringe_trim", "G_SHIFT", G_SHIFT, 1, 48)
+        `FRINGE_CHECK_RANGE(g_bad_mag_smooth, "fringe_trim", "MAG_SMOOTH_LOG2", MAG_SMOOTH_LOG2, 0, 12)
         if (FINE_W + $clog2(LINES) <= 31 && (START_SPEED < -HALF_I || START_SPEED > HALF_I - 1)) begin : g_bad_start_speed
             $error("fringe_trim: START_SPEED = %0d out of range -REV/2..REV/2-1 = %0d..%0d (instance %m)",
                    START_SPEED, -HALF_I, HALF_I - 1);
@@ -204,6 +206,39 @@ module fringe_trim #(
         end
     end
 
+    // ---- the magnitude the terms take: mag itself, or its running average (MAG_SMOOTH_LOG2 = K > 0):
+    // acc = mag << K at the first sample since reset, then acc + mag - (acc >> K); avg = acc >> K. acc
+    // stays in u(AMP_W + K) (model: trim.magnitudes). A one-sample recursion: it cannot be pipelined. ----
+    wire [AMP_W-1:0] avg;
+
+    generate
+        if (MAG_SMOOTH_LOG2 > 0) begin : g_mag_avg
+            localparam integer K = MAG_SMOOTH_LOG2;
+            reg  [AMP_W+K-1:0] acc;
+            reg                acc_started;   // a sample came since reset
+            wire [AMP_W+K-1:0] mag_x    = {{K{1'b0}}, mag};
+            wire [AMP_W+K-1:0] acc_next = acc_started ? acc + mag_x - (acc >> K) : mag_x << K;
+
+            always @(posedge clk) begin
+                if (rst) begin
+                    acc_started <= 1'b0;
+                end else if (accept) begin
+                    acc_started <= 1'b1;
+                end
+            end
+
+            always @(posedge clk) begin
+                if (accept) begin
+                    acc <= acc_next;
+                end
+            end
+
+            assign avg = acc_next[AMP_W+K-1:K];
+        end else begin : g_mag_direct
+            assign avg = mag;
+        end
+    endgenerate
+
     // ---- 1: input registers ---------------------------------------------------------------------------
     reg  [POS_W-1:0] s1_pos;
     reg  [AMP_W-1:0] s1_mag;
@@ -213,7 +248,7 @@ module fringe_trim #(
     always @(posedge clk) begin
         if (ce) begin
             s1_pos  <= pos;
-            s1_mag  <= mag;
+            s1_mag  <= avg;
             s1_bank <= bank;
             s1_win  <= win;
         end

@@ -19,64 +19,65 @@ use work.fringe_pkg.all;
 entity fringe_top is
     generic (
         -- BEGIN generated generics (written by python sim/hdlgen.py; do not edit)
-        ADC_W              : integer := 12;  -- ADC code width (signed), 4..24
-        LINES              : integer := 256; -- signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
-        COARSE_W           : integer := 9;   -- coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
-        WAVE_ADDR_W        : integer := 8;   -- waveform table address bits per branch, 2..min(ADC_W-1, 15)
-        WAVE_W             : integer := 18;  -- waveform table / quadrature data width, 8..31
-        COEF_W             : integer := 18;  -- quadrature gain width (COEF_W-2 fraction bits), 8..27
-        FINE_W             : integer := 16;  -- fine phase bits per signal period, 8..30
-        CORDIC_STAGES      : integer := 18;  -- CORDIC micro-rotations, 4..32
-        CORDIC_GUARD       : integer := 3;   -- extra fraction bits inside the CORDIC, 0..8
-        COMPACT            : integer := 0;   -- 1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)
-        LP_ADDR_W          : integer := 8;   -- long-period table entries per revolution = 2^LP_ADDR_W, <= 16
-        LP_W               : integer := 18;  -- long-period table value/slope width, <= 32
-        LP_FRAC            : integer := 4;   -- fraction bits of the long-period correction (fine counts)
-        LP_IF              : integer := 8;   -- interpolation fraction bits of the long-period table
-        LP_RECIP           : natural := 1;   -- long-period index multiplier (long_period.index_mapping; < 2^31 in VHDL)
-        LP_SHIFT           : integer := 16;  -- long-period index shift (long_period.index_mapping)
+        ADC_W                : integer := 12;  -- ADC code width (signed), 4..24
+        LINES                : integer := 256; -- signal periods per revolution, 1..2^20 (POS_W = clog2(LINES) + FINE_W <= 31)
+        COARSE_W             : integer := 9;   -- coarse code bits, 0 = none (periods are counted); else 2^COARSE_W >= LINES, <= FINE_W-2
+        WAVE_ADDR_W          : integer := 8;   -- waveform table address bits per branch, 2..min(ADC_W-1, 15)
+        WAVE_W               : integer := 18;  -- waveform table / quadrature data width, 8..31
+        COEF_W               : integer := 18;  -- quadrature gain width (COEF_W-2 fraction bits), 8..27
+        FINE_W               : integer := 16;  -- fine phase bits per signal period, 8..30
+        CORDIC_STAGES        : integer := 18;  -- CORDIC micro-rotations, 4..32
+        CORDIC_GUARD         : integer := 3;   -- extra fraction bits inside the CORDIC, 0..8
+        COMPACT              : integer := 0;   -- 1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)
+        LP_ADDR_W            : integer := 8;   -- long-period table entries per revolution = 2^LP_ADDR_W, <= 16
+        LP_W                 : integer := 18;  -- long-period table value/slope width, <= 32
+        LP_FRAC              : integer := 4;   -- fraction bits of the long-period correction (fine counts)
+        LP_IF                : integer := 8;   -- interpolation fraction bits of the long-period table
+        LP_RECIP             : natural := 1;   -- long-period index multiplier (long_period.index_mapping; < 2^31 in VHDL)
+        LP_SHIFT             : integer := 16;  -- long-period index shift (long_period.index_mapping)
         -- fringe_trim (closed-loop corrections): built only with TRIM = 1
-        TRIM               : integer := 0;   -- 1 = fringe_trim between the period count and the long-period table (docs/blocks/fringe_trim.md)
-        TRIM_SPEED_LOG2    : integer := 5;   -- speed window 2^TRIM_SPEED_LOG2 samples, 0..8
-        TRIM_MAP_PSI_W     : integer := 6;   -- 2^TRIM_MAP_PSI_W error-map sectors per revolution, 0..8
-        TRIM_MAP_PHI_W     : integer := 5;   -- 2^TRIM_MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); TRIM_MAP_PSI_W + TRIM_MAP_PHI_W <= 15
-        TRIM_W             : integer := 18;  -- trim table value/slope width, 8..24
-        TRIM_FRAC          : integer := 4;   -- fraction bits of the trim (fine counts), 0..16
-        TRIM_G_SHIFT       : integer := 24;  -- right shift of the speed and magnitude products, 1..48
-        TRIM_SECT_RECIP    : natural := 1;   -- sector multiplier (trim.sector_mapping; < 2^31 in VHDL)
-        TRIM_SECT_SHIFT    : integer := 18;  -- sector shift (trim.sector_mapping)
-        TRIM_START_SPEED   : integer := 0;   -- speed of the first sample after reset (no window yet), fine counts per 2^TRIM_SPEED_LOG2 samples, -REV/2..REV/2-1
+        TRIM                 : integer := 0;   -- 1 = fringe_trim between the period count and the long-period table (docs/blocks/fringe_trim.md)
+        TRIM_SPEED_LOG2      : integer := 5;   -- speed window 2^TRIM_SPEED_LOG2 samples, 0..8
+        TRIM_MAP_PSI_W       : integer := 6;   -- 2^TRIM_MAP_PSI_W error-map sectors per revolution, 0..8
+        TRIM_MAP_PHI_W       : integer := 5;   -- 2^TRIM_MAP_PHI_W error-map bins per period, 2..min(10, FINE_W-1); TRIM_MAP_PSI_W + TRIM_MAP_PHI_W <= 15
+        TRIM_W               : integer := 18;  -- trim table value/slope width, 8..24
+        TRIM_FRAC            : integer := 4;   -- fraction bits of the trim (fine counts), 0..16
+        TRIM_G_SHIFT         : integer := 24;  -- right shift of the speed and magnitude products, 1..48
+        TRIM_SECT_RECIP      : natural := 1;   -- sector multiplier (trim.sector_mapping; < 2^31 in VHDL)
+        TRIM_SECT_SHIFT      : integer := 18;  -- sector shift (trim.sector_mapping)
+        TRIM_START_SPEED     : integer := 0;   -- speed of the first sample after reset (no window yet), fine counts per 2^TRIM_SPEED_LOG2 samples, -REV/2..REV/2-1
+        TRIM_MAG_SMOOTH_LOG2 : integer := 0;   -- the magnitude terms take the magnitude's running average over ~2^TRIM_MAG_SMOOTH_LOG2 samples, 0 (the sample's own)..12
         -- fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
-        DRIFT              : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
-        DRIFT_BLOCK_LOG2   : integer := 8;   -- samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)
-        DRIFT_MU_LOG2      : integer := 1;   -- final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8
-        DRIFT_OFS_FRAC     : integer := 4;   -- fraction bits of the tracked offsets, 0..8
-        DRIFT_GINV_W       : integer := 18;  -- tracked inverse gains u(DRIFT_GINV_W), 8..24
-        DRIFT_FWD_W        : integer := 8;   -- 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
-        DRIFT_TABLE_W      : integer := 18;  -- forward table value/slope width, 8..24
-        DRIFT_TABLE_FRAC   : integer := 4;   -- fraction bits of the forward tables and W0_S/W0_C, 0..12
-        DRIFT_KG_W         : integer := 18;  -- KG_S/KG_C width, 8..24
-        DRIFT_KG_SHIFT     : integer := 40;  -- right shift of the gain-loop product, 1..60
-        DRIFT_HOLD         : integer := 1;   -- 1 = tracker updates apply at the block boundary, in_ready holds the input until ready; 0 = half a block later, no hold
+        DRIFT                : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
+        DRIFT_BLOCK_LOG2     : integer := 8;   -- samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)
+        DRIFT_MU_LOG2        : integer := 1;   -- final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8
+        DRIFT_OFS_FRAC       : integer := 4;   -- fraction bits of the tracked offsets, 0..8
+        DRIFT_GINV_W         : integer := 18;  -- tracked inverse gains u(DRIFT_GINV_W), 8..24
+        DRIFT_FWD_W          : integer := 8;   -- 2^DRIFT_FWD_W bins of the forward waveform tables, 2..10
+        DRIFT_TABLE_W        : integer := 18;  -- forward table value/slope width, 8..24
+        DRIFT_TABLE_FRAC     : integer := 4;   -- fraction bits of the forward tables and W0_S/W0_C, 0..12
+        DRIFT_KG_W           : integer := 18;  -- KG_S/KG_C width, 8..24
+        DRIFT_KG_SHIFT       : integer := 40;  -- right shift of the gain-loop product, 1..60
+        DRIFT_HOLD           : integer := 1;   -- 1 = tracker updates apply at the block boundary, in_ready holds the input until ready; 0 = half a block later, no hold
         -- fringe_canceller (the adaptive interference canceller): built only with CANCEL = 1
-        CANCEL             : integer := 0;   -- 1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)
-        CANCEL_LUT_W       : integer := 10;  -- 2^CANCEL_LUT_W entries of the canceller's sine table, 4..12
-        CANCEL_C_W         : integer := 16;  -- canceller sine table value width, 8..18
-        CANCEL_BLOCK_LOG2  : integer := 4;   -- samples per canceller update = 2^CANCEL_BLOCK_LOG2, 4..12
-        CANCEL_MU_LOG2     : integer := 6;   -- final canceller step 2^-CANCEL_MU_LOG2 per block, 1..12
-        CANCEL_A_FRAC      : integer := 4;   -- fraction bits of the canceller coefficients, 0..12
-        CANCEL_A_W         : integer := 20;  -- canceller coefficient width, 8..min(32, WAVE_W + CANCEL_A_FRAC)
+        CANCEL               : integer := 0;   -- 1 = fringe_canceller between the quadrature and the CORDIC (docs/blocks/fringe_canceller.md)
+        CANCEL_LUT_W         : integer := 10;  -- 2^CANCEL_LUT_W entries of the canceller's sine table, 4..12
+        CANCEL_C_W           : integer := 16;  -- canceller sine table value width, 8..18
+        CANCEL_BLOCK_LOG2    : integer := 4;   -- samples per canceller update = 2^CANCEL_BLOCK_LOG2, 4..12
+        CANCEL_MU_LOG2       : integer := 6;   -- final canceller step 2^-CANCEL_MU_LOG2 per block, 1..12
+        CANCEL_A_FRAC        : integer := 4;   -- fraction bits of the canceller coefficients, 0..12
+        CANCEL_A_W           : integer := 20;  -- canceller coefficient width, 8..min(32, WAVE_W + CANCEL_A_FRAC)
         -- initial contents: $readmemh images, "" = zeros
-        REGS_INIT          : string  := "";  -- $readmemh image of the registers, 2 x 32 words of 32 bits
-        WAVE_SIN_INIT      : string  := "";  -- $readmemh image of the sine table, both banks
-        WAVE_COS_INIT      : string  := "";  -- $readmemh image of the cosine table, both banks
-        LP_INIT            : string  := "";  -- $readmemh image of the long-period table, both banks
-        TRIM_MAP_INIT      : string  := "";  -- $readmemh image of the trim map, both banks (TRIM = 1)
-        TRIM_SPEED_INIT    : string  := "";  -- $readmemh image of the trim speed table, both banks (TRIM = 1)
-        TRIM_AMP_INIT      : string  := "";  -- $readmemh image of the trim magnitude table, both banks (TRIM = 1)
-        DRIFT_FWD_SIN_INIT : string  := "";  -- $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
-        DRIFT_FWD_COS_INIT : string  := "";  -- $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
-        CANCEL_LUT_INIT    : string  := ""   -- $readmemh image of the canceller's sine table (CANCEL = 1; canceller.sine_table)
+        REGS_INIT            : string  := "";  -- $readmemh image of the registers, 2 x 32 words of 32 bits
+        WAVE_SIN_INIT        : string  := "";  -- $readmemh image of the sine table, both banks
+        WAVE_COS_INIT        : string  := "";  -- $readmemh image of the cosine table, both banks
+        LP_INIT              : string  := "";  -- $readmemh image of the long-period table, both banks
+        TRIM_MAP_INIT        : string  := "";  -- $readmemh image of the trim map, both banks (TRIM = 1)
+        TRIM_SPEED_INIT      : string  := "";  -- $readmemh image of the trim speed table, both banks (TRIM = 1)
+        TRIM_AMP_INIT        : string  := "";  -- $readmemh image of the trim magnitude table, both banks (TRIM = 1)
+        DRIFT_FWD_SIN_INIT   : string  := "";  -- $readmemh image of the drift sine forward table, both banks (DRIFT = 1)
+        DRIFT_FWD_COS_INIT   : string  := "";  -- $readmemh image of the drift cosine forward table, both banks (DRIFT = 1)
+        CANCEL_LUT_INIT      : string  := ""   -- $readmemh image of the canceller's sine table (CANCEL = 1; canceller.sine_table)
         -- END generated generics
     );
     port (
@@ -139,17 +140,17 @@ begin
             LP_RECIP => LP_RECIP, LP_SHIFT => LP_SHIFT, TRIM => TRIM, TRIM_SPEED_LOG2 => TRIM_SPEED_LOG2,
             TRIM_MAP_PSI_W => TRIM_MAP_PSI_W, TRIM_MAP_PHI_W => TRIM_MAP_PHI_W, TRIM_W => TRIM_W,
             TRIM_FRAC => TRIM_FRAC, TRIM_G_SHIFT => TRIM_G_SHIFT, TRIM_SECT_RECIP => TRIM_SECT_RECIP,
-            TRIM_SECT_SHIFT => TRIM_SECT_SHIFT, TRIM_START_SPEED => TRIM_START_SPEED, DRIFT => DRIFT,
-            DRIFT_BLOCK_LOG2 => DRIFT_BLOCK_LOG2, DRIFT_MU_LOG2 => DRIFT_MU_LOG2, DRIFT_OFS_FRAC => DRIFT_OFS_FRAC,
-            DRIFT_GINV_W => DRIFT_GINV_W, DRIFT_FWD_W => DRIFT_FWD_W, DRIFT_TABLE_W => DRIFT_TABLE_W,
-            DRIFT_TABLE_FRAC => DRIFT_TABLE_FRAC, DRIFT_KG_W => DRIFT_KG_W, DRIFT_KG_SHIFT => DRIFT_KG_SHIFT,
-            DRIFT_HOLD => DRIFT_HOLD, CANCEL => CANCEL, CANCEL_LUT_W => CANCEL_LUT_W, CANCEL_C_W => CANCEL_C_W,
-            CANCEL_BLOCK_LOG2 => CANCEL_BLOCK_LOG2, CANCEL_MU_LOG2 => CANCEL_MU_LOG2,
-            CANCEL_A_FRAC => CANCEL_A_FRAC, CANCEL_A_W => CANCEL_A_W, REGS_INIT => REGS_INIT,
-            WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT, LP_INIT => LP_INIT,
-            TRIM_MAP_INIT => TRIM_MAP_INIT, TRIM_SPEED_INIT => TRIM_SPEED_INIT, TRIM_AMP_INIT => TRIM_AMP_INIT,
-            DRIFT_FWD_SIN_INIT => DRIFT_FWD_SIN_INIT, DRIFT_FWD_COS_INIT => DRIFT_FWD_COS_INIT,
-            CANCEL_LUT_INIT => CANCEL_LUT_INIT
+            TRIM_SECT_SHIFT => TRIM_SECT_SHIFT, TRIM_START_SPEED => TRIM_START_SPEED,
+            TRIM_MAG_SMOOTH_LOG2 => TRIM_MAG_SMOOTH_LOG2, DRIFT => DRIFT, DRIFT_BLOCK_LOG2 => DRIFT_BLOCK_LOG2,
+            DRIFT_MU_LOG2 => DRIFT_MU_LOG2, DRIFT_OFS_FRAC => DRIFT_OFS_FRAC, DRIFT_GINV_W => DRIFT_GINV_W,
+            DRIFT_FWD_W => DRIFT_FWD_W, DRIFT_TABLE_W => DRIFT_TABLE_W, DRIFT_TABLE_FRAC => DRIFT_TABLE_FRAC,
+            DRIFT_KG_W => DRIFT_KG_W, DRIFT_KG_SHIFT => DRIFT_KG_SHIFT, DRIFT_HOLD => DRIFT_HOLD, CANCEL => CANCEL,
+            CANCEL_LUT_W => CANCEL_LUT_W, CANCEL_C_W => CANCEL_C_W, CANCEL_BLOCK_LOG2 => CANCEL_BLOCK_LOG2,
+            CANCEL_MU_LOG2 => CANCEL_MU_LOG2, CANCEL_A_FRAC => CANCEL_A_FRAC, CANCEL_A_W => CANCEL_A_W,
+            REGS_INIT => REGS_INIT, WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT,
+            LP_INIT => LP_INIT, TRIM_MAP_INIT => TRIM_MAP_INIT, TRIM_SPEED_INIT => TRIM_SPEED_INIT,
+            TRIM_AMP_INIT => TRIM_AMP_INIT, DRIFT_FWD_SIN_INIT => DRIFT_FWD_SIN_INIT,
+            DRIFT_FWD_COS_INIT => DRIFT_FWD_COS_INIT, CANCEL_LUT_INIT => CANCEL_LUT_INIT
             -- END generated core map
         )
         port map (

@@ -27,6 +27,7 @@ entity fringe_trim is
         SECT_RECIP : natural := 1;    -- sector multiplier, from sector_mapping() (checked; < 2^31 in VHDL; unused if MAP_PSI_W = 0)
         SECT_SHIFT : integer := 20;   -- sector shift, 0..127, from sector_mapping() (checked; unused if MAP_PSI_W = 0)
         START_SPEED : integer := 0;   -- the first sample's speed after reset (no window yet), -REV/2..REV/2-1
+        MAG_SMOOTH_LOG2 : integer := 0;   -- the magnitude terms take mag's running average over ~2^K samples, 0 (off)..12
         MAP_INIT   : string  := "";   -- hex image of the map, 2 banks x 2^(1+MAP_PSI_W+MAP_PHI_W) words; "" = zeros
         SPEED_INIT : string  := "";   -- hex image of the speed table, 2 banks x 2^MAP_PHI_W words; "" = zeros
         AMP_INIT   : string  := "";   -- hex image of the amp table, 2 banks x 2^MAP_PHI_W words; "" = zeros
@@ -77,6 +78,7 @@ architecture rtl of fringe_trim is
         check_range("fringe_trim", "TRIM_W", TRIM_W, 8, 24);
         check_range("fringe_trim", "TRIM_FRAC", TRIM_FRAC, 0, 16);
         check_range("fringe_trim", "G_SHIFT", G_SHIFT, 1, 48);
+        check_range("fringe_trim", "MAG_SMOOTH_LOG2", MAG_SMOOTH_LOG2, 0, 12);
         assert START_SPEED >= -half and START_SPEED <= half - 1
             report "fringe_trim: START_SPEED = " & integer'image(START_SPEED) & " out of range -REV/2..REV/2-1 = "
                    & integer'image(-half) & ".." & integer'image(half - 1)
@@ -156,6 +158,7 @@ architecture rtl of fringe_trim is
     signal fill     : unsigned(SPEED_LOG2 downto 0);   -- accepted samples since reset, saturating at N
     signal win      : unsigned(SPEED_LOG2 downto 0);   -- the window: N when full, else top_bit(fill)
     signal accept   : std_logic;
+    signal avg      : unsigned(AMP_W - 1 downto 0);    -- the magnitude the terms take
 
     signal s1_pos, s2_pos, s2_old, s3_pos, s4_pos, s11_pos
                     : unsigned(POS_W - 1 downto 0);
@@ -194,6 +197,38 @@ begin
         generic map (WIDTH => USER_W, DEPTH => LATENCY)
         port map (clk => clk, rst => rst, ce => ce, in_valid => in_valid, in_data => in_user,
                   out_valid => out_valid, out_data => out_user);
+
+    -- ---- the magnitude the terms take: mag itself, or its running average (MAG_SMOOTH_LOG2 = K > 0):
+    -- acc = mag << K at the first sample since reset, then acc + mag - (acc >> K); avg = acc >> K. acc
+    -- stays in u(AMP_W + K) (model: trim.magnitudes). A one-sample recursion: it cannot be pipelined. ----
+    g_mag_avg : if MAG_SMOOTH_LOG2 > 0 generate
+        constant K : natural := MAG_SMOOTH_LOG2;
+        signal acc         : unsigned(AMP_W + K - 1 downto 0) := (others => '0');
+        signal acc_started : std_logic;     -- a sample came since reset
+        signal acc_next    : unsigned(AMP_W + K - 1 downto 0);
+    begin
+        acc_next <= acc + resize(unsigned(mag), AMP_W + K) - shift_right(acc, K) when acc_started = '1' else
+                    shift_left(resize(unsigned(mag), AMP_W + K), K);
+        avg      <= acc_next(AMP_W + K - 1 downto K);
+
+        p_acc : process(clk)
+        begin
+            if rising_edge(clk) then
+                if rst = '1' then
+                    acc_started <= '0';
+                elsif accept = '1' then
+                    acc_started <= '1';
+                end if;
+                if accept = '1' then
+                    acc <= acc_next;
+                end if;
+            end if;
+        end process p_acc;
+    end generate g_mag_avg;
+
+    g_mag_direct : if MAG_SMOOTH_LOG2 = 0 generate
+        avg <= unsigned(mag);
+    end generate g_mag_direct;
 
     -- ---- speed history: written at wp, read at wp - win (win accepted samples earlier): win = N (wp
     -- xor N) once N samples came since the reset, before that the longest power-of-two window there
@@ -302,7 +337,7 @@ begin
             if ce = '1' then
                 -- 1: input registers (the history read is in p_hist)
                 s1_pos  <= unsigned(pos);
-                s1_mag  <= unsigned(mag);
+                s1_mag  <= avg;
                 s1_bank <= bank;
                 s1_win  <= win;
 

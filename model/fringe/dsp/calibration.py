@@ -30,6 +30,9 @@ class Calibration:
     # the speed the closed loop's speed terms assume for the first sample after reset, before the core has a
     # speed window (fringe_trim START_SPEED): the mean speed of the calibration recording, rev/s, encoder frame
     start_speed_rev_s: float = 0.0
+    # the magnitude the closed loop's magnitude terms read: its running average over ~2^k samples (fringe_trim's
+    # MAG_SMOOTH_LOG2; 0: the sample's own), chosen on held-out data where a magnitude term is added
+    magnitude_smooth_log2: int = 0
     rev_norm: object | None = None               # offsets/gains over the revolution (effects.RevNormalisation)
     angle_terms: list = field(default_factory=list)   # closed-loop hardware terms (effects.FittedEffect)
     waves: dict = field(default_factory=dict)    # fitted channel models (for reports and plots)

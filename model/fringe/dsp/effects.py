@@ -21,6 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.signal import lfilter
 
 from ..fixed.trim import speed_window_log2
 from .position import wrap
@@ -78,10 +79,24 @@ def speed_estimate(rev_unwrapped: np.ndarray, t: np.ndarray, log2_window: int, s
     return v
 
 
+def magnitude_average(magnitude: np.ndarray, log2_samples: int) -> np.ndarray:
+    """The magnitude's running average over about 2^log2_samples samples, from the first sample of a stream
+    (fringe_trim's MAG_SMOOTH_LOG2 = K, float): a[0] = m[0], a[n] = a[n-1] + (m[n] - a[n-1]) / 2^K; m itself
+    for K = 0. What an amplitude that changes is read by: the sample's own magnitude also carries its noise
+    and the fine-phase ripple that a waveform changing with the amplitude puts on the radius, which a term in
+    the magnitude would otherwise take for the amplitude."""
+    m = np.asarray(magnitude, dtype=float)
+    if not log2_samples or m.size == 0:
+        return m
+    a = 2.0 ** -int(log2_samples)
+    return lfilter([a], [1.0, a - 1.0], m, zi=[(1.0 - a) * m[0]])[0]
+
+
 def make_context(frac: np.ndarray, position_periods: np.ndarray, lines: int, t: np.ndarray,
-                 magnitude: np.ndarray, start_speed: float = 0.0) -> Context:
+                 magnitude: np.ndarray, start_speed: float = 0.0, magnitude_smooth_log2: int = 0) -> Context:
     """The context of a stream from reset; start_speed (rev/s): the speed taken for its first sample, which has
-    no window yet (Calibration.start_speed_rev_s, fringe_trim's START_SPEED)."""
+    no window yet (Calibration.start_speed_rev_s, fringe_trim's START_SPEED); the magnitude averaged over
+    ~2^magnitude_smooth_log2 samples (Calibration.magnitude_smooth_log2, fringe_trim's MAG_SMOOTH_LOG2)."""
     rev = position_periods / lines
     unwrapped = rev[0] + np.concatenate([[0.0], np.cumsum(wrap(np.diff(rev)))])
     log2_window = speed_window_log2(lines)
@@ -91,7 +106,8 @@ def make_context(frac: np.ndarray, position_periods: np.ndarray, lines: int, t: 
     # step between window lengths (a spike that would fit whatever error the first samples carry)
     acc[:(1 << log2_window) + 1] = 0.0
     d = np.where(v >= 0, 1, -1)     # standstill counts as forward (fringe_trim: dir = speed < 0)
-    return Context(2 * np.pi * frac, 2 * np.pi * (rev % 1.0), t, v, acc, d, magnitude, lines)
+    return Context(2 * np.pi * frac, 2 * np.pi * (rev % 1.0), t, v, acc, d,
+                   magnitude_average(magnitude, magnitude_smooth_log2), lines)
 
 
 def _rev_modulated(orders_phi, ctx: Context, m_orders=REV_ORDERS) -> list[np.ndarray]:

@@ -26,7 +26,7 @@ from .wave_lut import WaveLutParams
 
 WAVE_LSB_ARCSEC = 2.0   # default table width: one LSB of a waveform table moves the angle by at most this
 TRIM_FIELDS = ("trim", "trim_speed_log2", "trim_map_psi_w", "trim_map_phi_w", "trim_w", "trim_frac", "trim_g_shift",
-               "trim_start_speed")
+               "trim_start_speed", "trim_mag_smooth_log2")
 DRIFT_FIELDS = ("drift", "drift_block_log2", "drift_mu_log2", "drift_ofs_frac", "drift_ginv_w", "drift_fwd_w",
                 "drift_table_w", "drift_table_frac", "drift_kg_w", "drift_kg_shift", "drift_hold")
 CANCEL_FIELDS = ("cancel", "cancel_lut_w", "cancel_c_w", "cancel_block_log2", "cancel_mu_log2", "cancel_a_frac",
@@ -65,6 +65,8 @@ HDL_PARAMETER_DOCS = {
     "TRIM_SECT_SHIFT": "sector shift (trim.sector_mapping)",
     "TRIM_START_SPEED": "speed of the first sample after reset (no window yet), fine counts per "
                         "2^TRIM_SPEED_LOG2 samples, -REV/2..REV/2-1",
+    "TRIM_MAG_SMOOTH_LOG2": "the magnitude terms take the magnitude's running average over ~2^TRIM_MAG_SMOOTH_LOG2 "
+                            "samples, 0 (the sample's own)..12",
     "DRIFT": "1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)",
     "DRIFT_BLOCK_LOG2": "samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)",
     "DRIFT_MU_LOG2": "final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8",
@@ -143,6 +145,7 @@ class CoreConfig(PositionWidths):
     trim_frac: int = 4         # TRIM_FRAC: fraction bits of the trim (fine counts)
     trim_g_shift: int = 24     # TRIM_G_SHIFT: right shift of the speed and magnitude products
     trim_start_speed: int = 0  # TRIM_START_SPEED: the first sample's speed after reset (the calibration's mean speed)
+    trim_mag_smooth_log2: int = 0   # TRIM_MAG_SMOOTH_LOG2: magnitude averaged over ~2^k samples for the magnitude terms
     # fringe_drift (the closed loop's online offset/gain tracker, docs/blocks/fringe_drift.md); DRIFT = 0: not built
     drift: int = 0             # DRIFT: 1 = fringe_drift normalises the ADC codes in front of everything
     drift_block_log2: int = 8  # DRIFT_BLOCK_LOG2: samples per tracker update = 2^DRIFT_BLOCK_LOG2 (>= 7 in the core)
@@ -245,7 +248,8 @@ class CoreConfig(PositionWidths):
         return TrimParams(lines=self.lines, fine_w=self.fine_w, amp_w=self.wave_w + 1,
                           speed_log2=self.trim_speed_log2, map_psi_w=self.trim_map_psi_w,
                           map_phi_w=self.trim_map_phi_w, trim_w=self.trim_w, trim_frac=self.trim_frac,
-                          g_shift=self.trim_g_shift, start_speed=self.trim_start_speed)
+                          g_shift=self.trim_g_shift, start_speed=self.trim_start_speed,
+                          mag_smooth_log2=self.trim_mag_smooth_log2)
 
     def drift_params(self, pipe_latency: int = 0) -> DriftParams:
         """fringe_drift's parameters; pipe_latency: clock enables from its normaliser outputs to its

@@ -12,9 +12,13 @@ With ``REV = LINES * 2^FINE_W`` fine counts per revolution, ``POS_W = FINE_W + c
            = START_SPEED   for n = 0 (no window yet: the generator's mean speed of the calibration recording);
              dir = speed < 0
              wrap: d in (-REV, REV); 2d >= REV: d - REV; 2d < -REV: d + REV  -> speed in [-REV/2, REV/2)
+    avg    = mag   for n = 0, and K = MAG_SMOOTH_LOG2 = 0 (no average);  otherwise, with acc u(AMP_W + K):
+             acc = mag << K for n = 0,  acc = acc + mag - (acc >> K) after;  avg = acc >> K
+             (the magnitude's running average over about 2^K samples: the amplitude without the per-sample
+             noise and the fine-phase ripple a waveform that changes with the amplitude puts on the radius)
     m      = value + ((slope * frac + 2^(FB-1)) >>> FB)   map word at {bank, dir, sector, bin}
     gs, ga = the same interpolation of the speed table and of the amp table at {bank, bin}
-    total  = m + ((speed * gs + mag * ga + 2^(G_SHIFT-1)) >>> G_SHIFT)
+    total  = m + ((speed * gs + avg * ga + 2^(G_SHIFT-1)) >>> G_SHIFT)
     corr   = (total + 2^(TRIM_FRAC-1)) >>> TRIM_FRAC   (TRIM_FRAC = 0: corr = total)
     corr   clipped to [-2^(FINE_W-1), 2^(FINE_W-1) - 1]; sat = it was clipped
     pos_out = (pos - corr) mod REV
@@ -60,6 +64,7 @@ __all__ = [
     "trim_detail",
     "trim_words",
     "unpack_words",
+    "magnitudes",
 ]
 
 #: Enabled clocks from ``in_valid`` to ``out_valid`` in the RTL.
@@ -68,6 +73,8 @@ LATENCY = 13
 SECT_SHIFT_MAX = 127
 NAME = "fringe_trim"
 POS_W_MAX = 31
+#: Longest magnitude average, 2^12 samples (the accumulator is AMP_W + MAG_SMOOTH_LOG2 <= 44 bits wide).
+MAG_SMOOTH_LOG2_MAX = 12
 
 
 # ---------------------------------------------------------------------------- sector mapping
@@ -121,6 +128,7 @@ class TrimParams(PositionWidths):
     sect_recip: int | None = None   # SECT_RECIP (default: sector_mapping)
     sect_shift: int | None = None   # SECT_SHIFT, 0..127 (default: sector_mapping)
     start_speed: int = 0    # START_SPEED: the first sample's speed (no window yet), in [-REV/2, REV/2 - 1]
+    mag_smooth_log2: int = 0    # MAG_SMOOTH_LOG2: the magnitude's running average over ~2^K samples, 0 (off)..12
 
     def __post_init__(self) -> None:
         check_integers(NAME, self, ("fine_w", "lines", "amp_w", "speed_log2", "map_psi_w", "map_phi_w", "trim_w",
@@ -135,6 +143,8 @@ class TrimParams(PositionWidths):
         check_range(NAME, "TRIM_FRAC", self.trim_frac, 0, 16)
         check_range(NAME, "G_SHIFT", self.g_shift, 1, 48)
         check_int(NAME, "START_SPEED", self.start_speed)
+        check_int(NAME, "MAG_SMOOTH_LOG2", self.mag_smooth_log2)
+        check_range(NAME, "MAG_SMOOTH_LOG2", self.mag_smooth_log2, 0, MAG_SMOOTH_LOG2_MAX)
         half = (self.lines << self.fine_w) >> 1
         check_range(NAME, "START_SPEED", self.start_speed, -half, half - 1, f"-REV/2..REV/2-1 = {-half}..{half - 1}")
         if (self.sect_recip is None) != (self.sect_shift is None):
@@ -214,7 +224,7 @@ class TrimParams(PositionWidths):
         return {"LINES": self.lines, "FINE_W": self.fine_w, "AMP_W": self.amp_w, "SPEED_LOG2": self.speed_log2,
                 "MAP_PSI_W": self.map_psi_w, "MAP_PHI_W": self.map_phi_w, "TRIM_W": self.trim_w,
                 "TRIM_FRAC": self.trim_frac, "G_SHIFT": self.g_shift, "SECT_RECIP": self.recip,
-                "SECT_SHIFT": self.shift, "START_SPEED": self.start_speed}
+                "SECT_SHIFT": self.shift, "START_SPEED": self.start_speed, "MAG_SMOOTH_LOG2": self.mag_smooth_log2}
 
 
 # ---------------------------------------------------------------------------- tables
@@ -383,6 +393,25 @@ def speeds(pos, params: TrimParams) -> np.ndarray:
     return sp
 
 
+def magnitudes(mag, params: TrimParams) -> np.ndarray:
+    """The magnitude each sample of a stream that starts after a reset is trimmed with, int64 u(AMP_W): mag itself
+    when MAG_SMOOTH_LOG2 = K = 0, else its running average ``acc >> K`` with ``acc = mag[0] << K`` at the first
+    sample and ``acc = acc + mag - (acc >> K)`` at each one after. acc stays below 2^(AMP_W + K): its largest
+    value, 2^(AMP_W + K) - 1, maps to 2^(AMP_W + K) - 2^AMP_W + mag at most."""
+    p = params
+    mg = np.asarray(mag).astype(np.int64).reshape(-1)
+    k = p.mag_smooth_log2
+    if k == 0 or mg.size == 0:
+        return mg
+    out = np.empty(mg.size, dtype=np.int64)
+    acc = int(mg[0]) << k
+    out[0] = mg[0]
+    for n, x in enumerate(mg[1:].tolist(), 1):      # a recursion: sample by sample (Python integers)
+        acc += x - (acc >> k)
+        out[n] = acc >> k
+    return out
+
+
 def sectors_of(pos, params: TrimParams) -> np.ndarray:
     """``(pos * SECT_RECIP) >> SECT_SHIFT`` (0 when MAP_PSI_W = 0), exact in int64 (POS_W <= 31)."""
     p = params
@@ -416,8 +445,8 @@ def _interp(word: np.ndarray, frac: np.ndarray, p: TrimParams) -> np.ndarray:
 
 
 def trim_detail(pos, mag, map_words, speed_words, amp_words, params: TrimParams, bank=None,
-                speed=None) -> dict[str, np.ndarray]:
-    """Every intermediate of `trim_words` (int64 arrays): speed, dir, sector, bin, frac, m, gs, ga,
+                speed=None, avg=None) -> dict[str, np.ndarray]:
+    """Every intermediate of `trim_words` (int64 arrays): speed, avg, dir, sector, bin, frac, m, gs, ga,
     total, corr (clipped), sat, pos_out."""
     p = params
     a = _as_pos(pos, p)
@@ -433,6 +462,12 @@ def trim_detail(pos, mag, map_words, speed_words, amp_words, params: TrimParams,
         sp = np.asarray(speed).astype(np.int64).reshape(-1)
         if sp.shape != a.shape:
             raise ValueError(f"{NAME}: speed must have one value per sample, got {sp.shape} for {a.shape}")
+    if avg is None:
+        mg = magnitudes(mg, p) if p.mag_smooth_log2 else mg
+    else:
+        mg = np.asarray(avg).astype(np.int64).reshape(-1)
+        if mg.shape != a.shape:
+            raise ValueError(f"{NAME}: avg must have one value per sample, got {mg.shape} for {a.shape}")
     d = (sp < 0).astype(np.int64)
     phase = a & ((1 << p.fine_w) - 1)
     b = phase >> p.fb
@@ -455,12 +490,12 @@ def trim_detail(pos, mag, map_words, speed_words, amp_words, params: TrimParams,
     corr = np.clip(corr, lo, hi)
     out = a - corr
     out += np.where(out < 0, p.rev, 0) - np.where(out >= p.rev, p.rev, 0)
-    return {"speed": sp, "dir": d, "sector": sector, "bin": b, "frac": frac, "m": m, "gs": gs, "ga": ga,
+    return {"speed": sp, "avg": mg, "dir": d, "sector": sector, "bin": b, "frac": frac, "m": m, "gs": gs, "ga": ga,
             "total": total, "corr": corr, "sat": sat.astype(np.int64), "pos_out": out}
 
 
 def trim_words(pos, mag, map_words, speed_words, amp_words, params: TrimParams, bank=None,
-               speed=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+               speed=None, avg=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Bit-exact ``(pos_out, dir, sat)`` of ``fringe_trim`` for a stream of samples taken after a reset.
 
     Args:
@@ -472,11 +507,13 @@ def trim_words(pos, mag, map_words, speed_words, amp_words, params: TrimParams, 
         bank: the table bank of each sample (with banked words).
         speed: the speeds, when the stream does not start at a reset (from `speeds` over the whole
             stream since the reset); default `speeds(pos)`.
+        avg: the magnitudes trimmed with, likewise (`magnitudes` over the stream since the reset); default
+            `magnitudes(mag)`.
 
     Returns:
         int64 arrays: pos_out in [0, REV), dir (0/1), sat (0/1).
     """
-    r = trim_detail(pos, mag, map_words, speed_words, amp_words, params, bank, speed)
+    r = trim_detail(pos, mag, map_words, speed_words, amp_words, params, bank, speed, avg)
     return r["pos_out"], r["dir"], r["sat"]
 
 

@@ -318,7 +318,8 @@ def trim_config(cal: Calibration, cfg):
     Every choice is checked by building the tables. ValueError (what does not fit) when nothing does."""
     if not needs_trim(cal):
         return cfg
-    on = dataclasses.replace(cfg, trim=1, trim_start_speed=start_speed_counts(cal, cfg))
+    on = dataclasses.replace(cfg, trim=1, trim_start_speed=start_speed_counts(cal, cfg),
+                             trim_mag_smooth_log2=int(cal.magnitude_smooth_log2))
     if not map_changes_over_revolution(cal, on):     # one sector: every word of the map for the phase
         on = dataclasses.replace(on, trim_map_psi_w=0)
     on = dataclasses.replace(on, trim_map_phi_w=choose_map_phi_w(cal, on))

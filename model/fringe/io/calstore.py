@@ -13,6 +13,7 @@ from ..dsp.quadrature import QuadratureCorrection
 from ..dsp.waveform import ChannelWaveform, WaveformInverse
 from ..encoder import encoder_from_dict
 from ..errors import FringeInputError
+from ..fixed.trim import MAG_SMOOTH_LOG2_MAX
 from .outputs import atomic_dir, verify_dir
 
 TRACKER_KEYS = ("drift_block_log2", "drift_mu_log2")     # the drift tracker constants a calibration may choose
@@ -53,6 +54,7 @@ def to_json_dict(cal: Calibration) -> dict:
         },
         "closed_loop": {"adaptive_offset_gain": cal.adaptive, "tracker": cal.tracker, "canceller": cal.canceller,
                         "start_speed_rev_s": cal.start_speed_rev_s,
+                        "magnitude_smooth_log2": cal.magnitude_smooth_log2,
                         "rev_normalisation": None if cal.rev_norm is None else cal.rev_norm.to_dict(),
                         "angle_terms": [t.to_dict() for t in cal.angle_terms]},
         "skipped": cal.skipped,
@@ -144,6 +146,11 @@ def load_calibration(cal_dir: str) -> Calibration:
         if isinstance(start, bool) or not isinstance(start, (int, float)) or not np.isfinite(start):
             raise FringeInputError(f"closed_loop.start_speed_rev_s must be a finite number, not {start!r}", path)
         cal.start_speed_rev_s = float(start)
+        smooth = loop.get("magnitude_smooth_log2", 0)
+        if isinstance(smooth, bool) or not isinstance(smooth, int) or not 0 <= smooth <= MAG_SMOOTH_LOG2_MAX:
+            raise FringeInputError(f"closed_loop.magnitude_smooth_log2 must be an integer 0..{MAG_SMOOTH_LOG2_MAX}, "
+                                   f"not {smooth!r}", path)
+        cal.magnitude_smooth_log2 = smooth
         if loop.get("rev_normalisation"):
             from ..dsp.effects import RevNormalisation
             cal.rev_norm = RevNormalisation.from_dict(loop["rev_normalisation"])

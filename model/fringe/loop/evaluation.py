@@ -71,7 +71,8 @@ def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
         res = run_float(state.cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
     r = error_arcsec(res.angle_deg, meas.ref_deg)
     ctx = covered(make_context(res.frac, res.position, state.cal.encoder.lines_per_rev,
-                               sample_times(len(r), meas.t_s), res.magnitude, state.cal.start_speed_rev_s))
+                               sample_times(len(r), meas.t_s), res.magnitude, state.cal.start_speed_rev_s,
+                               state.cal.magnitude_smooth_log2))
     for art in state.artefacts:
         x = _design(art.name, ctx, art.tone_hz)
         x = x - x.mean(0)

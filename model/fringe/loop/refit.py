@@ -86,7 +86,7 @@ def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
     """A fresh calibration of the declared model with the closed loop's additions of `cal` carried over."""
     kept = dict(rev_norm=cal.rev_norm, adaptive=cal.adaptive, tracker=dict(cal.tracker),
                 canceller=dict(cal.canceller), angle_terms=list(cal.angle_terms),
-                start_speed_rev_s=cal.start_speed_rev_s)
+                start_speed_rev_s=cal.start_speed_rev_s, magnitude_smooth_log2=cal.magnitude_smooth_log2)
     return dataclasses.replace(fresh, **{**kept, **changes})
 
 
@@ -288,7 +288,8 @@ def refit_angle_terms(cal: Calibration, meas: Measurement, rounds: int = 2, as_i
         core = [t for t, k in zip(c.angle_terms, in_core, strict=True) if k]
         res = run_float(dataclasses.replace(c, angle_terms=core), meas.sin, meas.cos, meas.coarse, meas.t_s)
         ctx = covered(make_context(res.frac, res.position, c.encoder.lines_per_rev,
-                                   sample_times(len(res.frac), meas.t_s), res.magnitude, c.start_speed_rev_s))
+                                   sample_times(len(res.frac), meas.t_s), res.magnitude, c.start_speed_rev_s,
+                                   c.magnitude_smooth_log2))
         return ctx, core
 
     def error_rms(c: Calibration) -> float:

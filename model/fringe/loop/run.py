@@ -26,6 +26,7 @@ from .amplitude import (
     PHASE_DOMAIN_WHERE,
     amplitude_like,
     best_amplitude_remedy,
+    choose_magnitude_average,
     magnitude_cause,
     unnamed_amplitude,
 )
@@ -150,7 +151,9 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         excluded.update({f"{best.name}@{best.tone_hz!r}"} if best.tone_hz else {best.name, best.label} - {""})
         remedy = ""
         try:
-            trial = apply(state, best, fit_data)
+            # the magnitude the first magnitude term reads (the state carries it, from this term on)
+            state_m, best = choose_magnitude_average(state, best, ev_fit, sigma)
+            trial = apply(state_m, best, fit_data)
             val_after = evaluate(trial, val_data)
             if amplitude_like(best) and not state.cal.fit.get("phase_domain"):
                 trial, val_after, remedy = best_amplitude_remedy(state, trial, val_after, fit_data, val_data)
@@ -166,6 +169,11 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                              f"p = {best.p_value:.1e} against the {sigma:.3f}\" noise floor)"
                              + (f"; tone at {best.tone_hz:.3f} Hz" if best.tone_hz else ""),
                  "rms_before_arcsec": round(ev_val.rms, 4), "rms_after_arcsec": round(val_after.rms, 4)}
+        k = trial.cal.magnitude_smooth_log2
+        if k != state.cal.magnitude_smooth_log2:
+            entry["evidence"] += (f"; on the magnitude's running average over ~{1 << k} samples (fringe_trim "
+                                  f"MAG_SMOOTH_LOG2 = {k}): it predicts held-out data better than the sample's own")
+            entry["magnitude_smooth_log2"] = k
         cause, why = magnitude_cause(state, remedy, best, ev_fit)
         if cause:
             entry.update(name=cause, **{k: v for k, v in describe(cause).items() if k != "where"})
