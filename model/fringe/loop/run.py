@@ -26,8 +26,8 @@ from .amplitude import (
     PHASE_DOMAIN_WHERE,
     amplitude_like,
     best_amplitude_remedy,
-    choose_magnitude_average,
     magnitude_cause,
+    read_on_the_better_magnitude,
     unnamed_amplitude,
 )
 from .candidates import candidates, describe, family_holds, generic_effect, named_shape, speed_holds, strided, widen
@@ -151,10 +151,11 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         excluded.update({f"{best.name}@{best.tone_hz!r}"} if best.tone_hz else {best.name, best.label} - {""})
         remedy = ""
         try:
-            # the magnitude the first magnitude term reads (the state carries it, from this term on)
-            state_m, best = choose_magnitude_average(state, best, ev_fit, sigma)
-            trial = apply(state_m, best, fit_data)
+            trial = apply(state, best, fit_data)
             val_after = evaluate(trial, val_data)
+            # the magnitude the first magnitude term reads (the state carries it, from this term on)
+            trial, val_after, best = read_on_the_better_magnitude(state, best, trial, val_after, ev_fit, sigma,
+                                                                  fit_data, val_data)
             if amplitude_like(best) and not state.cal.fit.get("phase_domain"):
                 trial, val_after, remedy = best_amplitude_remedy(state, trial, val_after, fit_data, val_data)
         except (FringeInputError, ValueError, TypeError, KeyError, np.linalg.LinAlgError) as e:
