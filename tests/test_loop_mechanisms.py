@@ -186,6 +186,43 @@ def test_trim_sectors_follow_the_revolution_orders():
     assert chosen[4] > chosen[1], chosen
 
 
+def test_a_map_that_changes_over_fine_phase_and_revolution_shares_its_words():
+    """The map's words hold bins x sectors: a fine-phase shape of order 7 beside a large change over the revolution
+    is held with fewer bins than the shape alone would take and more sectors, when the sectors alone would miss
+    their budget: the pair chosen leaves less error in quadrature than the bins chosen first (as trim_config chose
+    them before: bins with the configured sectors, then the sectors in the words left)."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.dsp.effects import FittedEffect
+    from fringe.hardware.closed_loop import (
+        MAX_MAP_WORDS_LOG2,
+        bin_error,
+        choose_map_phi_w,
+        choose_map_psi_w,
+        sector_error,
+    )
+    from fringe.hardware.corefiles import core_config
+
+    cfg = SimulationConfig(lines_per_rev=170, coarse_bits=8, samples=8192, speed_mean_rev_s=2.0,
+                           speed_swing_rev_s=1.0, ref_error_arcsec={})
+    cal = calibrate(measurement_of(simulate(cfg, 1)), cfg.encoder())
+    fine = np.zeros(14)
+    fine[-2:] = 20.0                    # order 7 alone: it asks for many bins
+    terms = [FittedEffect("generic:1:7:0", fine),
+             FittedEffect("generic:revolution:4:2", np.random.default_rng(1).normal(0.0, 20.0, 36))]
+    cal = dataclasses.replace(cal, angle_terms=terms, provenance={**cal.provenance, "noise_floor_arcsec": 1.8})
+    core = core_config(cal)
+    first = dataclasses.replace(core, trim_map_phi_w=5, trim_map_psi_w=6)     # CoreConfig's defaults
+    first = dataclasses.replace(first, trim_map_phi_w=choose_map_phi_w(cal, first))
+    first = dataclasses.replace(first, trim_map_psi_w=choose_map_psi_w(cal, first))
+
+    def total(c):
+        return np.hypot(bin_error(cal, c, c.trim_map_phi_w)[0], sector_error(cal, c, c.trim_map_psi_w)[0])
+
+    assert core.trim_map_psi_w + core.trim_map_phi_w == MAX_MAP_WORDS_LOG2
+    assert core.trim_map_psi_w > first.trim_map_psi_w, (core, first)
+    assert total(core) < 0.8 * total(first), (total(core), total(first))     # measured 10.3 against 24.9 counts
+
+
 @pytest.mark.parametrize("draw", range(3))
 def test_a_common_gain_change_is_met_in_the_phase_domain(draw):
     """A gain common to both channels that changes over the revolution moves no angle through atan2, but every

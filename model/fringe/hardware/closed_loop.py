@@ -296,6 +296,39 @@ def choose_map_phi_w(cal: Calibration, cfg) -> int:
     return max(cfg.trim_map_phi_w, top)
 
 
+def balance_map_words(cal: Calibration, cfg):
+    """cfg, or with fewer phase bins and more sectors where the map's words (MAX_MAP_WORDS_LOG2) leave the sectors
+    over their budget: the bins are chosen first, for the fine-phase shape, and a map that also changes strongly
+    over the revolution is then held in too few sectors (held-out 9116: 2^8 bins, 2^6 sectors, 0.07" of bins and
+    0.70" of sectors; 2^7 and 2^7: 0.29" and 0.35"). Of the pairs with the words all used, the one with the least
+    error in quadrature, as long as the speed and magnitude tables' bins stay within BIN_SHARE."""
+    floor = cal.provenance.get("noise_floor_arcsec")
+    if not floor or cfg.trim_map_psi_w == 0:
+        return cfg
+    from ..fixed.trim import sector_mapping
+
+    sectors = sector_error(cal, cfg, cfg.trim_map_psi_w)[0]
+    if sectors <= SECTOR_BUDGET * floor * cfg.rev / ARCSEC_PER_REV or cfg.trim_map_psi_w == MAX_MAP_PSI_W:
+        return cfg
+    best = (float(np.hypot(bin_error(cal, cfg, cfg.trim_map_phi_w)[0], sectors)), cfg)
+    for phi in range(cfg.trim_map_phi_w - 1, 1, -1):
+        psi = min(MAX_MAP_PSI_W, MAX_MAP_WORDS_LOG2 - phi)
+        try:
+            sector_mapping(cfg.lines, cfg.fine_w, psi)
+        except ValueError:
+            break
+        trial = dataclasses.replace(cfg, trim_map_phi_w=phi, trim_map_psi_w=psi)
+        bins, rel_speed, rel_amp = bin_error(cal, trial, phi)
+        if max(rel_speed, rel_amp) > BIN_SHARE:
+            break
+        total = float(np.hypot(bins, sector_error(cal, trial, psi)[0]))
+        if total < best[0]:
+            best = (total, trial)
+        if psi == MAX_MAP_PSI_W:
+            break
+    return best[1]
+
+
 MAX_TABLE_W = 24         # the widest table word the blocks accept (fringe_trim TRIM_W, fringe_drift TABLE_W)
 
 
@@ -324,6 +357,7 @@ def trim_config(cal: Calibration, cfg):
         on = dataclasses.replace(on, trim_map_psi_w=0)
     on = dataclasses.replace(on, trim_map_phi_w=choose_map_phi_w(cal, on))
     on = dataclasses.replace(on, trim_map_psi_w=choose_map_psi_w(cal, on))
+    on = balance_map_words(cal, on)
     grids = grids_for(cal, on)
     last = None
     for width in range(on.trim_w, max(on.trim_w, MAX_TABLE_W) + 1):
