@@ -568,8 +568,9 @@ def other_channels(sc):
 CONFIGS = {
     "adc12-L256-c9": (lambda: CoreConfig(), seed_sim, 1),
     "adc16-L1-c0": (lambda: CoreConfig.for_encoder(Encoder(1, 16, 0)), one_line_sim, 8),
-    "adc12-L256-c9-trim": (lambda: CoreConfig(trim=1, trim_map_psi_w=4, trim_map_phi_w=5, trim_g_shift=20),
-                           seed_sim, 1),
+    # (the magnitude terms on the magnitude's average over ~4 samples: TRIM_MAG_SMOOTH_LOG2 through core and top)
+    "adc12-L256-c9-trim": (lambda: CoreConfig(trim=1, trim_map_psi_w=4, trim_map_phi_w=5, trim_g_shift=20,
+                                              trim_mag_smooth_log2=2), seed_sim, 1),
     "adc12-L256-c9-drift": (lambda: CoreConfig(drift=1, drift_block_log2=7, drift_fwd_w=6), seed_sim, 1),
     "adc12-L256-c9-cancel": (lambda: CoreConfig(cancel=1), seed_sim, 1),
 }
