@@ -7,6 +7,7 @@ import sys
 
 import numpy as np
 import pytest
+from cli_runs import simulate_pair
 
 from fringe.cli.cli import main
 
@@ -15,12 +16,7 @@ HEADER = "t_s,sin,cos,coarse,ref_deg"
 
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory):
-    d = tmp_path_factory.mktemp("cli")
-    assert main(["simulate", "--preset", "seed-encoder", "--out", str(d / "a.csv"), "--encoder-out",
-                 str(d / "enc.json"), "--samples", "30000", "--seed", "1"]) == 0
-    assert main(["simulate", "--preset", "seed-encoder", "--out", str(d / "b.csv"), "--samples", "30000",
-                 "--seed", "2"]) == 0
-    return d
+    return simulate_pair(tmp_path_factory.mktemp("cli"), 30000, 30000)
 
 
 def test_simulate_calibrate_correct(workdir, capsys):

@@ -10,6 +10,7 @@ import json
 import os
 
 import pytest
+from cli_runs import simulate_pair
 
 from fringe.cli.cli import main
 from fringe.fixed.config import RENAMED_FIELDS, CoreConfig, current_field_names
@@ -24,13 +25,7 @@ OLD_VALUES = {"speed_log2": 3, "map_psi_w": 4, "map_phi_w": 6, "g_shift": 20}
 
 @pytest.fixture(scope="module")
 def work(tmp_path_factory):
-    d = tmp_path_factory.mktemp("core_json")
-    assert main(["simulate", "--preset", "seed-encoder", "--out", str(d / "a.csv"), "--encoder-out",
-                 str(d / "enc.json"), "--samples", "20000", "--seed", "1"]) == 0
-    assert main(["simulate", "--preset", "seed-encoder", "--out", str(d / "b.csv"), "--samples", "3000",
-                 "--seed", "2"]) == 0
-    assert main(["calibrate", str(d / "a.csv"), "--encoder", str(d / "enc.json"), "--out", str(d / "cal")]) == 0
-    return d
+    return simulate_pair(tmp_path_factory.mktemp("core_json"), 20000, 3000, calibrate=True)
 
 
 def _rewrite(folder, edit_config):

@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 import pytest
+from cli_runs import simulate_pair
 
 from fringe.cli.cli import main
 from fringe.io.outputs import MANIFEST, TMP_PREFIX
@@ -18,13 +19,7 @@ from fringe.io.outputs import MANIFEST, TMP_PREFIX
 
 @pytest.fixture(scope="module")
 def work(tmp_path_factory):
-    d = tmp_path_factory.mktemp("safety")
-    for name, seed in (("a", 1), ("b", 2)):
-        extra = ["--encoder-out", str(d / "enc.json")] if name == "a" else []
-        assert main(["simulate", "--preset", "seed-encoder", "--out", str(d / f"{name}.csv"), "--samples", "20000",
-                     "--seed", str(seed)] + extra) == 0
-    assert main(["calibrate", str(d / "a.csv"), "--encoder", str(d / "enc.json"), "--out", str(d / "cal")]) == 0
-    return d
+    return simulate_pair(tmp_path_factory.mktemp("safety"), 20000, 20000, calibrate=True)
 
 
 def run(argv, capsys):
