@@ -38,22 +38,16 @@ module fringe_delay #(
             integer k;
 
             always @(posedge clk) begin
-                if (rst) begin
-                    valid_sr <= {DEPTH{1'b0}};
-                end else if (ce) begin
-                    valid_sr[0] <= in_valid;
-                    for (k = 1; k < DEPTH; k = k + 1) begin
-                        valid_sr[k] <= valid_sr[k-1];
-                    end
-                end
-            end
-
-            always @(posedge clk) begin
                 if (ce) begin
+                    valid_sr[0]         <= in_valid;
                     data_sr[0 +: WIDTH] <= in_data;
                     for (k = 1; k < DEPTH; k = k + 1) begin
+                        valid_sr[k]               <= valid_sr[k-1];
                         data_sr[k*WIDTH +: WIDTH] <= data_sr[(k-1)*WIDTH +: WIDTH];
                     end
+                end
+                if (rst) begin              // wins over ce; the data stages are never cleared
+                    valid_sr <= {DEPTH{1'b0}};
                 end
             end
 

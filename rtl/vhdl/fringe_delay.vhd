@@ -49,25 +49,18 @@ begin
         signal valid_sr : std_logic_vector(1 to DEPTH);
         signal data_sr  : data_sr_t;
     begin
-        p_valid : process (clk)
-        begin
-            if rising_edge(clk) then
-                if rst = '1' then
-                    valid_sr <= (others => '0');
-                elsif ce = '1' then
-                    valid_sr <= in_valid & valid_sr(1 to DEPTH - 1);
-                end if;
-            end if;
-        end process p_valid;
-
-        p_data : process (clk)
+        p_stages : process (clk)
         begin
             if rising_edge(clk) then
                 if ce = '1' then
-                    data_sr <= in_data & data_sr(1 to DEPTH - 1);
+                    valid_sr <= in_valid & valid_sr(1 to DEPTH - 1);
+                    data_sr  <= in_data & data_sr(1 to DEPTH - 1);
+                end if;
+                if rst = '1' then           -- wins over ce; the data stages are never cleared
+                    valid_sr <= (others => '0');
                 end if;
             end if;
-        end process p_data;
+        end process p_stages;
 
         out_valid <= valid_sr(DEPTH);
         out_data  <= data_sr(DEPTH);
