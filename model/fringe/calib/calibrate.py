@@ -38,7 +38,7 @@ from ..dsp.fourierfit import CoverageError, cv_folds, cv_harmonics, fit_select, 
 from ..dsp.metrics import error_arcsec
 from ..dsp.position import circular_mean, fit_coarse_offset, wrap
 from ..dsp.quadrature import QuadratureCorrection, QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
-from ..dsp.smoothmotion import MAX_STEP_PERIODS, MotionTooSlow, smooth_motion_phase, times
+from ..dsp.smoothmotion import MotionTooSlow, interruptions, smooth_motion_phase
 from ..dsp.waveform import ChannelWaveform, PaperChannel, WaveformInverse, build_inverse, is_invertible
 from ..encoder import ARCSEC_PER_REV, Encoder
 from ..engine.pipeline import encoder_position, fine_phase, run_float
@@ -279,14 +279,7 @@ def reference_free(meas: Measurement, enc: Encoder, use: np.ndarray, opts: Calib
 
 def motion_usage_text(info: dict, n: int) -> str:
     """What the smooth-motion reference left out of the waveform fit, and why."""
-    why = []
-    if info["pauses"]:
-        why.append(f"the recording pauses {times(info['pauses'])}")
-    if info["time_not_advancing"]:
-        why.append(f"its time stamps stand still or go back {times(info['time_not_advancing'])}")
-    if info["phase_jumps"]:
-        why.append(f"the phase jumps by more than {MAX_STEP_PERIODS} of a period between samples "
-                   f"{times(info['phase_jumps'])}")
+    why = interruptions(info)
     rough = info["runs_not_smooth"]
     short = info["runs"] - info["runs_used"] - rough
     if short:

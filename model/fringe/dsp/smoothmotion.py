@@ -88,7 +88,8 @@ def times(n: int) -> str:
     return {1: "once", 2: "twice"}.get(n, f"{n} times")
 
 
-def _interruptions(counts: dict) -> str:
+def interruptions(counts: dict) -> list[str]:
+    """Where the recording breaks into gap-free runs, one phrase a kind (calibrate's report says them too)."""
     parts = []
     if counts["pauses"]:
         parts.append(f"the recording pauses {times(counts['pauses'])}")
@@ -97,6 +98,11 @@ def _interruptions(counts: dict) -> str:
     if counts["phase_jumps"]:
         parts.append(f"the phase jumps by more than {MAX_STEP_PERIODS} of a period between two samples "
                      f"{times(counts['phase_jumps'])} (too fast for the sample rate)")
+    return parts
+
+
+def _interruptions(counts: dict) -> str:
+    parts = interruptions(counts)
     return "; ".join(parts) + "; " if parts else ""
 
 
