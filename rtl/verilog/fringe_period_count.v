@@ -96,21 +96,17 @@ module fringe_period_count #(
     reg               s2_over;
 
     always @(posedge clk) begin
-        if (rst) begin
-            have_prev <= 1'b0;
-        end else if (take) begin
-            have_prev <= 1'b1;
-        end
-    end
-
-    always @(posedge clk) begin
         if (take) begin
             phase_prev <= phase;
+            have_prev  <= 1'b1;
         end
         if (ce) begin
             s1_phase <= phase;
             s1_delta <= phase - phase_prev;
             s1_first <= ~have_prev;
+        end
+        if (rst) begin                  // the state only, after the stage: rst wins
+            have_prev <= 1'b0;
         end
     end
 
@@ -233,18 +229,16 @@ module fringe_period_count #(
             wire lost     = track_lost | s2_over;
 
             always @(posedge clk) begin
-                if (rst) begin
-                    trusted_seen <= 1'b0;
-                    track_lost   <= 1'b0;
-                end else if (step) begin
+                if (step) begin
                     trusted_seen <= trusted_seen | trusted;
                     track_lost   <= ~absolute & lost;
                 end
-            end
-
-            always @(posedge clk) begin
                 if (step & start_up) begin
                     anchor_m <= s2_m;
+                end
+                if (rst) begin              // the state only, after the stage: rst wins
+                    trusted_seen <= 1'b0;
+                    track_lost   <= 1'b0;
                 end
             end
 

@@ -168,17 +168,6 @@ begin
     step <= ce and s2_valid;       -- stage 3 takes a sample: the track's loop and the state it reads
     done <= ce and s3_valid;       -- stage 4 produces an output
 
-    p_state : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                have_prev <= '0';
-            elsif take = '1' then
-                have_prev <= '1';
-            end if;
-        end if;
-    end process p_state;
-
     -- ---- stage 1: delta to the previous valid sample, coarse centre --------------------------
     p_stage1 : process (clk)
         variable cpos : unsigned(W - 1 downto 0);
@@ -186,6 +175,7 @@ begin
         if rising_edge(clk) then
             if take = '1' then
                 phase_prev <= unsigned(phase);
+                have_prev  <= '1';
             end if;
             if ce = '1' then
                 s1_phase <= unsigned(phase);
@@ -194,6 +184,9 @@ begin
                 -- centre = (coarse * LINES << (FINE_W - COARSE_W)) + coarse_ofs (< REV + 2^POS_W)
                 cpos := shift_left(resize(resize(unsigned(coarse), W) * LINES_W, W), SH);
                 s1_centre <= cpos + unsigned(resize(signed(coarse_ofs), W));
+            end if;
+            if rst = '1' then           -- the state only, after the stage: rst wins
+                have_prev <= '0';
             end if;
         end if;
     end process p_stage1;
@@ -243,19 +236,6 @@ begin
     absolute <= trusted or (not trusted_seen and start_up);
     lost     <= track_lost or s2_over;
 
-    p_track : process (clk)
-    begin
-        if rising_edge(clk) then
-            if rst = '1' then
-                trusted_seen <= '0';
-                track_lost   <= '0';
-            elsif step = '1' then
-                trusted_seen <= trusted_seen or trusted;
-                track_lost   <= not absolute and lost;
-            end if;
-        end if;
-    end process p_track;
-
     -- the track: (pos_prev + delta) mod REV, the three sums in parallel, chosen by sign bits; n mod
     -- LINES (n in [-2, LINES+1]), both candidates in parallel, chosen by sign bits
     p_comb : process (all)
@@ -280,6 +260,8 @@ begin
     begin
         if rising_edge(clk) then
             if step = '1' then
+                trusted_seen <= trusted_seen or trusted;
+                track_lost   <= not absolute and lost;
                 if COARSE_W > 0 then
                     if start_up = '1' then
                         anchor_m <= s2_m;
@@ -313,6 +295,10 @@ begin
                 s3_checked  <= trusted and trusted_seen and not lost;
                 s3_n        <= resize(n_wrap, s3_n'length);
                 s3_trk_n    <= resize(trk(SW - 1 downto FINE_W), s3_trk_n'length);
+            end if;
+            if rst = '1' then           -- the state only, after the stage: rst wins
+                trusted_seen <= '0';
+                track_lost   <= '0';
             end if;
         end if;
     end process p_stage3;
