@@ -166,6 +166,15 @@ module fringe_period_count #(
     wire [SW-1:0] trk      = sum[SW-1] ? sum_up : (sum_down[SW-1] ? sum : sum_down);
 
     generate
+        if (N_W == 0) begin : g_one_line
+            // LINES = 1: n mod 1 = 0, the position is the phase in either mode (the track's too)
+            always @(posedge clk) begin
+                if (step) begin
+                    s3_pos <= s2_phase;
+                end
+            end
+        end
+
         if (COARSE_W > 0) begin : g_coarse
             // ---- absolute position from the coarse code -----------------------------------------
             localparam integer W  = POS_W + 3;      // signed: centre and d for any s(POS_W+1) offset
@@ -295,16 +304,9 @@ module fringe_period_count #(
 
                 // n_wrap < LINES <= 2^N_W: its upper bits are zero
                 wire unused_n = &{1'b0, n_wrap[NR-1:N_W]};
-            end else begin : g_one_line
-                // LINES = 1: n mod 1 = 0, the position is the phase (the track's too)
+            end else begin : g_one_line_code
+                // LINES = 1: one period number, the code's and the track's (s3_pos: g_one_line)
                 assign differs = 1'b0;
-
-                always @(posedge clk) begin
-                    if (step) begin
-                        s3_pos <= s2_phase;
-                    end
-                end
-
                 wire unused_n = &{1'b0, s2_n};
             end
 
@@ -319,13 +321,7 @@ module fringe_period_count #(
                     end
                 end
             end else begin : g_count_one_line
-                // LINES = 1: the position is the phase, first sample or not
-                always @(posedge clk) begin
-                    if (step) begin
-                        s3_pos <= s2_phase;
-                    end
-                end
-
+                // LINES = 1: the position is the phase, first sample or not (s3_pos: g_one_line)
                 wire unused_f = &{1'b0, s2_first};
             end
 
