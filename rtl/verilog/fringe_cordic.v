@@ -210,19 +210,11 @@ module fringe_cordic #(
 
             assign ready = !busy || done;
 
-            always @(posedge clk) begin
-                if (rst) begin
-                    busy    <= 1'b0;
-                    valid_o <= 1'b0;
-                end else if (ce) begin
-                    busy    <= take || (busy && !done);
-                    valid_o <= done;
-                end
-            end
-
             // the micro-rotation as in the pipeline: one adder with carry-in per value
             always @(posedge clk) begin
                 if (ce) begin
+                    busy    <= take || (busy && !done);
+                    valid_o <= done;
                     if (take) begin
                         xr     <= x_abs <<< GUARD;
                         yr     <= y_pre <<< GUARD;
@@ -236,6 +228,10 @@ module fringe_cordic #(
                         step <= {step[STAGES-1:0], 1'b0};
                     end
                     user_o <= user_r;   // with the output registers below
+                end
+                if (rst) begin          // the control only, after the step: rst wins over ce
+                    busy    <= 1'b0;
+                    valid_o <= 1'b0;
                 end
             end
 

@@ -203,23 +203,12 @@ begin
         take  <= in_valid and (not busy or done);
         ready <= not busy or done;
 
-        p_ctrl : process (clk)
-        begin
-            if rising_edge(clk) then
-                if rst = '1' then
-                    busy    <= '0';
-                    valid_o <= '0';
-                elsif ce = '1' then
-                    busy    <= take or (busy and not done);
-                    valid_o <= done;
-                end if;
-            end if;
-        end process p_ctrl;
-
         p_iter : process (clk)
         begin
             if rising_edge(clk) then
                 if ce = '1' then
+                    busy    <= take or (busy and not done);
+                    valid_o <= done;
                     if take = '1' then
                         xr     <= x_pre;
                         yr     <= y_pre;
@@ -239,6 +228,10 @@ begin
                         step <= step + 1;
                     end if;
                     user_o <= user_r;   -- with the output registers
+                end if;
+                if rst = '1' then       -- the control only, after the step: rst wins over ce
+                    busy    <= '0';
+                    valid_o <= '0';
                 end if;
             end if;
         end process p_iter;
