@@ -173,11 +173,7 @@ begin
                 end if;
                 -- track_sat beside the coefficients: latest (lat), the one before (prv), the input block's (act)
                 if blk_first = '1' then
-                    if inflight = '1' then
-                        act_sat <= lat_sat;
-                    else
-                        act_sat <= prv_sat;
-                    end if;
+                    act_sat <= lat_sat when inflight = '1' else prv_sat;
                 end if;
                 if upd_wr = '1' then
                     prv_sat <= lat_sat;
@@ -332,7 +328,8 @@ begin
         nx       <= resize(lat_r, N_W) + resize(stp14, N_W) + resize(signed'('0' & rb14), N_W);
         sat_k(k) <= '1' when not is_x(nx) and outside(nx, A_W) else '0';
 
-        p_sum : process (clk)
+        -- the block sum, the step, and the coefficient in its three places
+        p_coef : process (clk)
             variable acc_n : signed(S_W - 1 downto 0);
             variable v14   : signed(S_W - 1 downto 0);
             variable r14   : signed(XR_W - 1 downto 0);
@@ -358,29 +355,18 @@ begin
                 elsif ce = '1' and a12_valid = '1' then
                     acc <= acc_n;
                 end if;
-            end if;
-        end process p_sum;
-
-        p_coef : process (clk)
-        begin
-            if rising_edge(clk) then
-                if rst = '1' then
+                -- block b begins: coefs[b] is the latest unless the update of block b - 1 is in place
+                if blk_first = '1' then
+                    act_r <= lat_r when inflight = '1' else prv_r;
+                end if;
+                if upd_wr = '1' then                                               -- 15
+                    prv_r <= lat_r;
+                    lat_r <= saturate(nx, A_W);
+                end if;
+                if rst = '1' then           -- after the update: rst wins
                     act_r <= (others => '0');
                     lat_r <= (others => '0');
                     prv_r <= (others => '0');
-                else
-                    -- block b begins: coefs[b] is the latest unless the update of block b - 1 is in place
-                    if blk_first = '1' then
-                        if inflight = '1' then
-                            act_r <= lat_r;
-                        else
-                            act_r <= prv_r;
-                        end if;
-                    end if;
-                    if upd_wr = '1' then                                           -- 15
-                        prv_r <= lat_r;
-                        lat_r <= saturate(nx, A_W);
-                    end if;
                 end if;
             end if;
         end process p_coef;
