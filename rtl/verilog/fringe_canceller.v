@@ -32,7 +32,7 @@ module fringe_canceller #(
     output reg  signed [WAVE_W-1:0] c_out,      // c - n_c, saturated to s(WAVE_W)
     output reg  signed [WAVE_W-1:0] s_out,
     output reg                      sat,        // this sample's subtraction saturated (either channel)
-    output reg                      track_sat,  // this sample's coefficients came from a saturated update (held)
+    output wire                     track_sat,  // this sample's coefficients came from a saturated update (held)
     output wire [USER_W-1:0]        out_user
 );
 
@@ -145,8 +145,7 @@ module fringe_canceller #(
     wire [LUT_W-1:0]      idx_s = nco[31 -: LUT_W];
     wire [LUT_W-1:0]      idx_c = idx_s + QUARTER;
     reg  signed [C_W-1:0] sw1, cw1, sw2, cw2;
-    reg  signed [W-1:0]   c1, s1, c2, s2, c3, s3;
-    reg                   ts2, ts3;
+    wire signed [W-1:0]   c3, s3;
     wire [2*C_W-1:0]      lut2 = {sw2, cw2};         // coefficient k multiplies lut2 word k % 2 (cw, sw)
     wire [4*PW-1:0]       prod3;                     // stage 3: A_C cw, B_C sw, A_S cw, B_S sw
 
@@ -168,25 +167,25 @@ module fringe_canceller #(
             // 1: table reads at the sample's phase (the block RAM's register), input registers
             sw1 <= rom[idx_s];
             cw1 <= rom[idx_c];
-            c1  <= c;
-            s1  <= s;
             // 2: the table words registered (no logic after the RAM), the block's coefficients (g_coef)
             sw2 <= sw1;
             cw2 <= cw1;
-            c2  <= c1;
-            s2  <= s1;
-            ts2 <= act_sat;
-            // 3: the products (g_coef)
-            c3  <= c2;
-            s3  <= s2;
-            ts3 <= ts2;
+            // 3: the products (g_coef); c, s and track_sat wait in u_x_carry
             // 4: c - n, saturated
             c_out     <= `FRINGE_SATURATE(dc, DW, W);
             s_out     <= `FRINGE_SATURATE(ds, DW, W);
             sat       <= dc_over | ds_over;
-            track_sat <= ts3;
         end
     end
+
+    // stages 1..3: the sample, and (from stage 2) its block's track_sat, wait for the products; track_sat is
+    // stage 4's: act_sat was taken a stage after the sample
+    wire unused_v3;
+
+    fringe_delay #(.WIDTH(2 * W + 1), .DEPTH(3)) u_x_carry (
+        .clk(clk), .rst(rst), .ce(ce), .in_valid(1'b0), .in_data({act_sat, s, c}),
+        .out_valid(unused_v3), .out_data({track_sat, s3, c3})
+    );
 
     fringe_delay #(.WIDTH(USER_W), .DEPTH(LATENCY)) u_valid (
         .clk(clk), .rst(rst), .ce(ce), .in_valid(in_valid), .in_data(in_user),
@@ -343,7 +342,7 @@ module fringe_canceller #(
     // c - n, t and e * c_out, the data-only delays' valid outputs.
     wire unused = &{1'b0, sum_c[EW-1:NSH+DW], sum_s[EW-1:NSH+DW], sum_c[NSH-1:0], sum_s[NSH-1:0], t7[W-3:0],
                     pe_c[2*W-1], pe_s[2*W-1], pe_c[W-3:0],
-                    pe_s[W-3:0], unused_v1, unused_v2};
+                    pe_s[W-3:0], unused_v1, unused_v2, unused_v3};
 
 endmodule
 

@@ -116,14 +116,14 @@ architecture rtl of fringe_canceller is
 
     -- output path
     signal sw1, cw1, sw2, cw2 : signed(C_W - 1 downto 0);
-    signal c1, s1, c2, s2, c3, s3 : signed(W - 1 downto 0);
-    signal ts2, ts3  : std_logic;
+    signal c3, s3    : signed(W - 1 downto 0);
+    signal x3        : std_logic_vector(2 * W downto 0);          -- {act_sat, s, c} 3 clock enables on
     signal prod3     : prod_t;
     signal c4, s4    : signed(W - 1 downto 0);
     signal lut2      : std_logic_vector(2 * C_W - 1 downto 0);      -- {sw, cw} at stage 2
 
     -- adaptation
-    signal a12_valid, a12_last, unused_v1, unused_v2 : std_logic;
+    signal a12_valid, a12_last, unused_v1, unused_v2, unused_v3 : std_logic;
     signal lut10     : std_logic_vector(2 * C_W - 1 downto 0);
     signal y4, y8    : std_logic_vector(2 * W - 1 downto 0);        -- {s_out, c_out}
     signal sq_c, sq_s, pe_c, pe_s : std_logic_vector(SQ_W - 1 downto 0);
@@ -198,18 +198,10 @@ begin
                 idx_c := idx_s + to_unsigned(2 ** (LUT_W - 2), LUT_W);
                 sw1 <= signed(rom(to_integer(idx_s)));
                 cw1 <= signed(rom(to_integer(idx_c)));
-                c1  <= signed(c);
-                s1  <= signed(s);
                 -- 2: the table words registered (no logic after the RAM), the block's coefficients (g_coef)
                 sw2 <= sw1;
                 cw2 <= cw1;
-                c2  <= c1;
-                s2  <= s1;
-                ts2 <= act_sat;
-                -- 3: the products (g_coef)
-                c3  <= c2;
-                s3  <= s2;
-                ts3 <= ts2;
+                -- 3: the products (g_coef); c, s and track_sat wait in u_x_carry
                 -- 4: c - n = c - ((A cw + B sw + 2^(NSH-1)) >>> NSH) = (c 2^NSH + 2^(NSH-1) - 1 - A cw - B sw) >>> NSH
                 -- (one sum: the rounding and the subtraction in one carry chain), saturated to s(W)
                 sum_c := resize(c3 & K_LOW, EW) - resize(prod3(0), EW) - resize(prod3(1), EW);
@@ -223,10 +215,18 @@ begin
                 else
                     sat <= '0';
                 end if;
-                track_sat <= ts3;
             end if;
         end if;
     end process p_out;
+
+    -- stages 1..3: the sample, and (from stage 2) its block's track_sat, wait for the products
+    u_x_carry : entity work.fringe_delay
+        generic map (WIDTH => 2 * W + 1, DEPTH => 3)
+        port map (clk => clk, rst => rst, ce => ce, in_valid => '0', in_data => act_sat & s & c,
+                  out_valid => unused_v3, out_data => x3);
+    c3        <= signed(x3(W - 1 downto 0));
+    s3        <= signed(x3(2 * W - 1 downto W));
+    track_sat <= x3(2 * W);     -- stage 4: act_sat was taken a stage after the sample
 
     c_out <= std_logic_vector(c4);
     s_out <= std_logic_vector(s4);
