@@ -299,7 +299,7 @@ def choose_map_phi_w(cal: Calibration, cfg) -> int:
 def balance_map_words(cal: Calibration, cfg):
     """cfg, or with fewer phase bins and more sectors where the map's words (MAX_MAP_WORDS_LOG2) leave the sectors
     over their budget: the bins are chosen first, for the fine-phase shape, and a map that also changes strongly
-    over the revolution is then held in too few sectors (held-out 9116: 2^8 bins, 2^6 sectors, 0.07" of bins and
+    over the revolution is then held in too few sectors (development case 9116: 2^8 bins, 2^6 sectors, 0.07" of bins and
     0.70" of sectors; 2^7 and 2^7: 0.29" and 0.35"). Of the pairs with the words all used, the one with the least
     error in quadrature, as long as the speed and magnitude tables' bins stay within BIN_SHARE."""
     floor = cal.provenance.get("noise_floor_arcsec")

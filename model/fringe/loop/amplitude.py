@@ -72,8 +72,9 @@ def choose_magnitude_average(state: LoopState, best: Test, ev_fit: Evaluation, s
     (Calibration.magnitude_smooth_log2, fringe_trim's MAG_SMOOTH_LOG2), whichever predicts held-out data best
     (two-fold cross-validation on interleaved blocks of the fit data, by MIN_GAIN over the sample's own). The
     sample's magnitude carries its noise, and a waveform whose shape changes with the amplitude puts a ripple
-    over the fine phase on it that grows with the amplitude: a term in it then fits neither (9111, held out from
-    the choice: the term on the sample's magnitude left 11.2" of 26.1", on an average over 4 samples 1.5").
+    over the fine phase on it that grows with the amplitude: a term in it then fits neither (development case 9111,
+    fitted on one recording and scored on another: the term on the sample's magnitude left 11.2" of 26.1", on an
+    average over 4 samples 1.5").
     What a skew does to the magnitude is itself a ripple over the fine phase, corrected per sample: there the
     sample's own wins. Chosen once, with the first magnitude term; the state and the term re-tested with it."""
     if not amplitude_like(best) or state.cal.magnitude_smooth_log2 or \
