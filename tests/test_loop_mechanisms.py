@@ -586,7 +586,7 @@ def test_the_magnitude_average_is_stored_checked_and_given_to_the_core(tmp_path)
     from fringe.errors import FringeInputError
     from fringe.hardware.corefiles import core_config
     from fringe.io.calstore import load_calibration, save_calibration
-    from fringe.io.outputs import MANIFEST, sha256
+    from fringe.io.outputs import write_manifest
 
     cfg = SimulationConfig(lines_per_rev=64, coarse_bits=8, samples=8192, speed_mean_rev_s=2.0, speed_swing_rev_s=1.0)
     meas = measurement_of(simulate(cfg, 1))
@@ -607,10 +607,7 @@ def test_the_magnitude_average_is_stored_checked_and_given_to_the_core(tmp_path)
         for f in (tmp_path / "cal").iterdir():
             (folder / f.name).write_bytes(f.read_bytes())
         (folder / "calibration.json").write_text(json.dumps(data))
-        manifest = json.loads((folder / MANIFEST).read_text())     # an edit the manifest knows of: the value is read
-        manifest["files"]["calibration.json"] = {"sha256": sha256(str(folder / "calibration.json")),
-                                                 "bytes": (folder / "calibration.json").stat().st_size}
-        (folder / MANIFEST).write_text(json.dumps(manifest))
+        write_manifest(str(folder), "calibration", "test")     # an edit the manifest knows of: the value is read
         with pytest.raises(FringeInputError, match="magnitude_smooth_log2 must be an integer 0..12"):
             load_calibration(str(folder))
 
