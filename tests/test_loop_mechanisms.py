@@ -345,6 +345,36 @@ def test_the_noise_floor_is_not_inflated_by_a_fast_electrical_rate():
         assert abs(used / sigma - 1) <= 0.1, (sigma, info)
 
 
+def test_a_tone_on_both_channels_is_found_where_neither_channel_alone_shows_it():
+    """An additive tone on both channels, at a bin's centre, A^2 N / (6 sigma^2) = 18 times the noise's level
+    under the Hann window: a channel's bin is then (1/2) noncentral chi-square(2, 36), mean 19, sd 6.1, and the
+    test (8000 bins, p < 1e-6) needs 22.8 alone, so one channel shows it 27 % of the time; both together (mean
+    38, sd 8.6) need 27.6 (Gamma(2) tail), 88 % of the time. Over 40 draws (binomial sd 0.05) the joint rate
+    stays above 0.75 and the single one below 0.45; white noise alone passes neither."""
+    from fringe.loop.tones import line_p_value
+
+    seed = 23
+    print("seed", seed)
+    rng = np.random.default_rng(seed)
+    n, fs, sigma, draws = 16_384, 10_000.0, 1.0, 40
+    t = np.arange(n) / fs
+    amp = sigma * np.sqrt(6 * 18 / n)
+    joint_hits = single_hits = 0
+    for _ in range(draws):
+        f = rng.integers(200, 4000) * fs / n
+        x = np.stack([amp * np.cos(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) + rng.normal(0, sigma, n)
+                      for _ in range(2)])
+        joint = find_line(x, fs)
+        if line_p_value(joint) < P_VALUE:
+            joint_hits += 1
+            assert abs(refine_frequency(x, t, joint[0], fs / n) - f) < 0.5 * fs / n
+        single_hits += sum(line_p_value(find_line(row, fs)) < P_VALUE for row in x)
+    print("joint", joint_hits / draws, "single", single_hits / (2 * draws))
+    assert joint_hits / draws >= 0.75 and single_hits / (2 * draws) <= 0.45, (joint_hits, single_hits)
+    for _ in range(30):
+        assert line_p_value(find_line(rng.normal(0, sigma, (2, n)), fs)) > P_VALUE
+
+
 def test_a_line_the_online_blocks_make_is_not_a_tone():
     """At a steady speed the drift tracker's block updates mix with the fine phase's harmonics, and its lag leaves
     the orders it tracks: such lines are the core's own (update_ripple names them); a line elsewhere is not."""
