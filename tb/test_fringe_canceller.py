@@ -121,7 +121,9 @@ def build_plan(p: CancelParams, user_w: int, seed: int):
     section(n2, 0.8, 0.75, "gaps, stalls, pauses, bank swaps", resets={int(15.3 * B)}, freq=fq, pauses=True)
     section(16 * B, 1.0, 1.0, "full speed after the reset")
     section(6 * B, 0.9, 0.9, "near full scale: the subtraction saturates", radius=1.97, tone=0.05)
-    section(40 * B, 0.9, 0.9, "reset, a tone beyond the coefficients' range", tone=min(1.5 * a_range, 0.7),
+    # (a gear shift that starts lower takes about 2^MU_LOG2 blocks more to reach the range)
+    blocks = 40 + (3 << p.mu_log2 if p.gear_offset else 0)
+    section(blocks * B, 0.9, 0.9, "reset, a tone beyond the coefficients' range", tone=min(1.5 * a_range, 0.7),
             resets={2})
     for _ in range(LATENCY + 3):
         cycles.append(idle(1, 0, "drain"))
@@ -142,7 +144,7 @@ def build_plan(p: CancelParams, user_w: int, seed: int):
 
 def params_of(raw: dict) -> CancelParams:
     return CancelParams(raw["WAVE_W"], raw["LUT_W"], raw["C_W"], raw["BLOCK_LOG2"], raw["MU_LOG2"], raw["A_FRAC"],
-                        raw["A_W"])
+                        raw["A_W"], raw.get("GEAR_OFFSET", 0))
 
 
 def _config():
@@ -195,12 +197,14 @@ PARAM_SETS = [
     (CancelParams(), 1),                                                                  # the default
     (CancelParams(wave_w=10, lut_w=4, c_w=8, block_log2=4, mu_log2=1, a_frac=2, a_w=10), 2),   # small
     (CancelParams(wave_w=31, lut_w=12, c_w=18, block_log2=6, mu_log2=12, a_frac=4, a_w=32), 3),  # wide
+    (CancelParams(block_log2=5, mu_log2=6, a_frac=2, a_w=14, gear_offset=4), 1),    # the gear shift from 2^-5
+    (CancelParams(wave_w=12, lut_w=8, c_w=12, mu_log2=3, a_frac=2, a_w=10, gear_offset=2), 1),   # one step (last gear)
 ]
 
 
 def _id(ps) -> str:
     p, u = ps
-    return f"W{p.wave_w}-L{p.lut_w}-C{p.c_w}-B{p.block_log2}-M{p.mu_log2}-F{p.a_frac}-A{p.a_w}-U{u}"
+    return f"W{p.wave_w}-L{p.lut_w}-C{p.c_w}-B{p.block_log2}-M{p.mu_log2}-F{p.a_frac}-A{p.a_w}-G{p.gear_offset}-U{u}"
 
 
 @pytest.mark.parametrize("ps", PARAM_SETS, ids=[_id(ps) for ps in PARAM_SETS])
@@ -241,6 +245,7 @@ ILLEGAL = [
     {"BLOCK_LOG2": 3}, {"BLOCK_LOG2": 13}, {"MU_LOG2": 0}, {"MU_LOG2": 13}, {"A_FRAC": -1}, {"A_FRAC": 13},
     {"A_W": 7}, {"A_W": 23}, {"WAVE_W": 31, "A_W": 33}, {"WAVE_W": 31, "A_W": 32},
     {"BLOCK_LOG2": 4, "C_W": 8, "A_FRAC": 11, "A_W": 20},
+    {"GEAR_OFFSET": -1}, {"GEAR_OFFSET": 6}, {"MU_LOG2": 3, "GEAR_OFFSET": 3},
 ]
 
 

@@ -2,6 +2,7 @@
 gear-shift timing, saturation flags, convergence within its error budget, the float twin, and the core with
 CANCEL = 1 (the RTL is compared word for word in tb/test_fringe_canceller.py)."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -30,6 +31,8 @@ def circle(p: cm.CancelParams, n: int, tone: tuple[float, float], cycles: float 
     (dict(wave_w=12, a_w=17), "A_W = 17 out of range 8..min(32, WAVE_W + A_FRAC) = 16"),
     (dict(block_log2=4, c_w=8, a_frac=12), "BLOCK_LOG2 + C_W - 2 - A_FRAC = -2 must be >= 0"),
     (dict(lut_w=True), "LUT_W must be an integer"),
+    (dict(mu_log2=3, gear_offset=3), "GEAR_OFFSET = 3 out of range 0..MU_LOG2-1 = 2"),
+    (dict(gear_offset=-1), "GEAR_OFFSET = -1 out of range 0..MU_LOG2-1 = 5"),
 ])
 def test_limits(kw, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)").replace("+", r"\+")):
@@ -68,6 +71,9 @@ def test_block_timing_and_gear():
     assert np.array_equal(r.c[:2 * p.b], c[:2 * p.b]) and np.array_equal(r.s[:2 * p.b], s[:2 * p.b])
     assert np.any(r.c[2 * p.b:3 * p.b] != c[2 * p.b:3 * p.b])
     assert [p.gear(j) for j in range(9)] == [1, 2, 2, 3, 3, 3, 3, 3, 3]
+    # GEAR_OFFSET starts the same sequence lower, down to the same last gear
+    assert [dataclasses.replace(p, mu_log2=6, gear_offset=3).gear(j) for j in range(9)] == [4, 5, 5, 6, 6, 6, 6, 6, 6]
+    assert [dataclasses.replace(p, gear_offset=2).gear(j) for j in range(4)] == [3, 3, 3, 3]
     assert np.array_equal(r.coefs[0], r.coefs[1]) and not np.any(r.coefs[1])
     # the partial last block changes nothing: the state after it is the one before
     assert np.array_equal(r.coefs[-1], r.coefs[-2])
@@ -94,15 +100,15 @@ def test_converges_within_budget():
 
 def test_float_twin_agrees():
     """The float twin (unit circle) against the bit-exact model: the same budget as above, relative to R."""
-    p = cm.CancelParams(wave_w=20, mu_log2=4)
-    a = p.radius / 30
-    c, s, phi, word = circle(p, 300 * p.b, (a, a), noise=3.0, seed=5)
-    r = cm.cancel(c, s, word, p)
-    fc, fs = cm.CancelFloat(word, p.block_log2, p.mu_log2).run(c / p.radius, s / p.radius)
-    tail = slice(200 * p.b, None)
-    d = np.abs(r.c - fc * p.radius)[tail]
-    budget = a * 2 * math.pi / (1 << p.lut_w) + a * 2.0 ** -(p.c_w - 2) + 2.0 + 4 * 3.0 * 2.0 ** -(p.mu_log2 / 2)
-    assert d.max() <= budget, (d.max(), budget)
+    for p in (cm.CancelParams(wave_w=20, mu_log2=4), cm.CancelParams(wave_w=20, mu_log2=4, gear_offset=2)):
+        a = p.radius / 30
+        c, s, phi, word = circle(p, 300 * p.b, (a, a), noise=3.0, seed=5)
+        r = cm.cancel(c, s, word, p)
+        fc, fs = cm.CancelFloat(word, p.block_log2, p.mu_log2, p.gear_offset).run(c / p.radius, s / p.radius)
+        tail = slice(200 * p.b, None)
+        d = np.abs(r.c - fc * p.radius)[tail]
+        budget = a * 2 * math.pi / (1 << p.lut_w) + a * 2.0 ** -(p.c_w - 2) + 2.0 + 4 * 3.0 * 2.0 ** -(p.mu_log2 / 2)
+        assert d.max() <= budget, (d.max(), budget)
 
 
 def test_saturation_flags():

@@ -17,6 +17,7 @@ module fringe_canceller #(
     parameter integer MU_LOG2    = 6,   // final update step 2^-MU_LOG2 per block, 1..12
     parameter integer A_FRAC     = 4,   // fraction bits of the coefficients, 0..12
     parameter integer A_W        = 20,  // coefficient width, 8..min(32, WAVE_W + A_FRAC)
+    parameter integer GEAR_OFFSET = 0,  // the gear shift starts this many gears lower, 0..MU_LOG2-1
     parameter         LUT_INIT   = "",  // $readmemh image of the sine table, 2^LUT_W words of C_W bits ("" = zeros: no cancellation)
     parameter integer USER_W     = 1    // sideband width, >= 1
 ) (
@@ -51,6 +52,10 @@ module fringe_canceller #(
         `FRINGE_CHECK_RANGE(g_bad_block_log2, "fringe_canceller", "BLOCK_LOG2", BLOCK_LOG2, 4, 12)
         `FRINGE_CHECK_RANGE(g_bad_mu_log2, "fringe_canceller", "MU_LOG2", MU_LOG2, 1, 12)
         `FRINGE_CHECK_RANGE(g_bad_a_frac, "fringe_canceller", "A_FRAC", A_FRAC, 0, 12)
+        if (GEAR_OFFSET < 0 || GEAR_OFFSET > MU_LOG2 - 1) begin : g_bad_gear_offset
+            $error("fringe_canceller: GEAR_OFFSET = %0d out of range 0..MU_LOG2-1 = %0d (instance %m)",
+                   GEAR_OFFSET, MU_LOG2 - 1);
+        end
         if (A_W < 8 || A_W > A_W_MAX) begin : g_bad_a_w
             $error("fringe_canceller: A_W = %0d out of range 8..min(32, WAVE_W + A_FRAC) = %0d (instance %m)",
                    A_W, A_W_MAX);
@@ -86,8 +91,11 @@ module fringe_canceller #(
     localparam [BLOCK_LOG2-1:0] CNT_LAST = {BLOCK_LOG2{1'b1}};
     localparam [NSH-1:0]        K_LOW    = {1'b0, {(NSH-1){1'b1}}};                 // 2^(NSH-1) - 1
     localparam [5:0]            SH0_6    = SH0[5:0];
-    localparam integer          KW       = (MU_LOG2 > 1) ? MU_LOG2 : 1;              // gear counter width
-    localparam integer          CAP_I    = (MU_LOG2 > 1) ? 1 << (MU_LOG2 - 1) : 1;
+    localparam integer          GEARS    = MU_LOG2 - GEAR_OFFSET;                    // gears from the first to MU_LOG2
+    localparam integer          KW       = (GEARS > 1) ? GEARS : 1;                  // gear counter width
+    localparam integer          CAP_I    = (GEARS > 1) ? 1 << (GEARS - 1) : 1;
+    localparam integer          GEAR0_I  = GEAR_OFFSET + 1;
+    localparam [3:0]            GEAR0    = GEAR0_I[3:0];                             // G_0 (at most 12)
     localparam [KW-1:0]         CAP      = CAP_I[KW-1:0];                            // gear counter top
 
     // ---- input side: NCO, sample counter, the coefficients of the current block -----------------------
@@ -246,7 +254,7 @@ module fringe_canceller #(
     // ---- stage 13: sums; 14: step = round(S >>> SH) clipped; 15: X + step saturated, in place ----------
     reg              a13_go, a14_go;
     reg  [KW-1:0]    kp1;                   // j + 1 of the block being updated, saturating at CAP
-    reg  [3:0]       gear;                  // G_j = min(MU_LOG2, bit_length(j + 1))
+    reg  [3:0]       gear;                  // G_j = min(MU_LOG2, GEAR_OFFSET + bit_length(j + 1))
     wire [5:0]       sh_m1 = SH0_6 + {2'b00, gear} - 6'd1;    // SH_j - 1
     wire [3:0]       sat_k;
 
@@ -258,7 +266,7 @@ module fringe_canceller #(
             a13_go <= 1'b0;
             a14_go <= 1'b0;
             kp1    <= {{(KW-1){1'b0}}, 1'b1};
-            gear   <= 4'd1;
+            gear   <= GEAR0;
         end else if (ce) begin
             a13_go <= a12_valid & a12_last;
             a14_go <= a13_go;

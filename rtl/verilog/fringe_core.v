@@ -408,8 +408,8 @@ module fringe_core #(
 
             fringe_canceller #(
                 .WAVE_W(WAVE_W), .LUT_W(CANCEL_LUT_W), .C_W(CANCEL_C_W), .BLOCK_LOG2(CANCEL_BLOCK_LOG2),
-                .MU_LOG2(CANCEL_MU_LOG2), .A_FRAC(CANCEL_A_FRAC), .A_W(CANCEL_A_W), .LUT_INIT(CANCEL_LUT_INIT),
-                .USER_W(U_Q + 1)
+                .MU_LOG2(CANCEL_MU_LOG2), .A_FRAC(CANCEL_A_FRAC), .A_W(CANCEL_A_W), .GEAR_OFFSET(CANCEL_GEAR_OFFSET),
+                .LUT_INIT(CANCEL_LUT_INIT), .USER_W(U_Q + 1)
             ) u_cancel (
                 .clk(clk), .rst(rst), .ce(ce),
                 .in_valid(q_valid), .c(qc), .s(qs), .freq(freq_r), .in_user({q_any, q_user}),

@@ -50,6 +50,7 @@ parameter integer CANCEL_BLOCK_LOG2    = 4,     // samples per canceller update 
 parameter integer CANCEL_MU_LOG2       = 6,     // final canceller step 2^-CANCEL_MU_LOG2 per block, 1..12
 parameter integer CANCEL_A_FRAC        = 4,     // fraction bits of the canceller coefficients, 0..12
 parameter integer CANCEL_A_W           = 20,    // canceller coefficient width, 8..min(32, WAVE_W + CANCEL_A_FRAC)
+parameter integer CANCEL_GEAR_OFFSET   = 0,     // the canceller's gear shift starts this many gears lower, 0..CANCEL_MU_LOG2-1
 // initial contents: $readmemh images, "" = zeros
 parameter         REGS_INIT            = "",    // $readmemh image of the registers, 2 x 32 words of 32 bits
 parameter         WAVE_SIN_INIT        = "",    // $readmemh image of the sine table, both banks

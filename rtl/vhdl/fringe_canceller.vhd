@@ -22,6 +22,7 @@ entity fringe_canceller is
         MU_LOG2    : integer := 6;    -- final update step 2^-MU_LOG2 per block, 1..12
         A_FRAC     : integer := 4;    -- fraction bits of the coefficients, 0..12
         A_W        : integer := 20;   -- coefficient width, 8..min(32, WAVE_W + A_FRAC)
+        GEAR_OFFSET : integer := 0;   -- the gear shift starts this many gears lower, 0..MU_LOG2-1
         LUT_INIT   : string  := "";   -- hex image of the sine table, 2^LUT_W words of C_W bits ("" = zeros: no cancellation)
         USER_W     : integer := 1     -- sideband width, >= 1
     );
@@ -59,6 +60,8 @@ architecture rtl of fringe_canceller is
         check_range("fringe_canceller", "BLOCK_LOG2", BLOCK_LOG2, 4, 12);
         check_range("fringe_canceller", "MU_LOG2", MU_LOG2, 1, 12);
         check_range("fringe_canceller", "A_FRAC", A_FRAC, 0, 12);
+        check_range("fringe_canceller", "GEAR_OFFSET", GEAR_OFFSET, 0, MU_LOG2 - 1,
+                    "MU_LOG2-1 = " & integer'image(MU_LOG2 - 1));
         check_range("fringe_canceller", "A_W", A_W, 8, A_W_MAX,
                     "min(32, WAVE_W + A_FRAC) = " & integer'image(A_W_MAX));
         assert SH0 >= 0
@@ -91,7 +94,7 @@ architecture rtl of fringe_canceller is
     constant XR_W : integer := maximum(S_W, R_W) + 1;
     constant N_W  : integer := A_W + 3;                             -- X + step
     constant N_LUT : integer := 2 ** LUT_W;
-    constant CAP  : integer := 2 ** (MU_LOG2 - 1);                  -- gear counter top
+    constant CAP  : integer := 2 ** (MU_LOG2 - GEAR_OFFSET - 1);    -- gear counter top (gears from the first to MU_LOG2)
     constant CNT_LAST : unsigned(BLOCK_LOG2 - 1 downto 0) := (others => '1');
     constant K_LOW : signed(NSH - 1 downto 0) := '0' & (NSH - 2 downto 0 => '1');   -- 2^(NSH-1) - 1
     constant R2K  : signed(T_W - 1 downto 0) := shift_left(to_signed(1, T_W), 2 * W - 4);   -- R 2^(W-2)
@@ -133,7 +136,7 @@ architecture rtl of fringe_canceller is
     signal term12    : term_t;
     signal a13_go, a14_go : std_logic;
     signal kp1       : integer range 1 to CAP;                      -- j + 1 of the block being updated
-    signal gear      : integer range 1 to 12;                       -- G_j = min(MU_LOG2, bit_length(j + 1))
+    signal gear      : integer range 1 to 12;                       -- G_j = min(MU_LOG2, GEAR_OFFSET + bit_length(j + 1))
     signal sat_k     : std_logic_vector(3 downto 0);
 
     function is_pow2(v : integer) return boolean is
@@ -293,7 +296,7 @@ begin
                 a13_go <= '0';
                 a14_go <= '0';
                 kp1    <= 1;
-                gear   <= 1;
+                gear   <= GEAR_OFFSET + 1;
             elsif ce = '1' then
                 a13_go <= a12_valid and a12_last;
                 a14_go <= a13_go;

@@ -73,6 +73,7 @@ entity fringe_core is
         CANCEL_MU_LOG2       : integer := 6;   -- final canceller step 2^-CANCEL_MU_LOG2 per block, 1..12
         CANCEL_A_FRAC        : integer := 4;   -- fraction bits of the canceller coefficients, 0..12
         CANCEL_A_W           : integer := 20;  -- canceller coefficient width, 8..min(32, WAVE_W + CANCEL_A_FRAC)
+        CANCEL_GEAR_OFFSET   : integer := 0;   -- the canceller's gear shift starts this many gears lower, 0..CANCEL_MU_LOG2-1
         -- initial contents: $readmemh images, "" = zeros
         REGS_INIT            : string  := "";  -- $readmemh image of the registers, 2 x 32 words of 32 bits
         WAVE_SIN_INIT        : string  := "";  -- $readmemh image of the sine table, both banks
@@ -557,7 +558,7 @@ begin
         u_cancel : entity work.fringe_canceller
             generic map (WAVE_W => WAVE_W, LUT_W => CANCEL_LUT_W, C_W => CANCEL_C_W, BLOCK_LOG2 => CANCEL_BLOCK_LOG2,
                          MU_LOG2 => CANCEL_MU_LOG2, A_FRAC => CANCEL_A_FRAC, A_W => CANCEL_A_W,
-                         LUT_INIT => CANCEL_LUT_INIT, USER_W => U_Q + 1)
+                         GEAR_OFFSET => CANCEL_GEAR_OFFSET, LUT_INIT => CANCEL_LUT_INIT, USER_W => U_Q + 1)
             port map (
                 clk => clk, rst => rst, ce => ce,
                 in_valid => q_valid, c => qc, s => qs, freq => freq_r, in_user => xu_in,

@@ -67,6 +67,7 @@ entity fringe_top is
         CANCEL_MU_LOG2       : integer := 6;   -- final canceller step 2^-CANCEL_MU_LOG2 per block, 1..12
         CANCEL_A_FRAC        : integer := 4;   -- fraction bits of the canceller coefficients, 0..12
         CANCEL_A_W           : integer := 20;  -- canceller coefficient width, 8..min(32, WAVE_W + CANCEL_A_FRAC)
+        CANCEL_GEAR_OFFSET   : integer := 0;   -- the canceller's gear shift starts this many gears lower, 0..CANCEL_MU_LOG2-1
         -- initial contents: $readmemh images, "" = zeros
         REGS_INIT            : string  := "";  -- $readmemh image of the registers, 2 x 32 words of 32 bits
         WAVE_SIN_INIT        : string  := "";  -- $readmemh image of the sine table, both banks
@@ -147,10 +148,11 @@ begin
             DRIFT_KG_W => DRIFT_KG_W, DRIFT_KG_SHIFT => DRIFT_KG_SHIFT, DRIFT_HOLD => DRIFT_HOLD, CANCEL => CANCEL,
             CANCEL_LUT_W => CANCEL_LUT_W, CANCEL_C_W => CANCEL_C_W, CANCEL_BLOCK_LOG2 => CANCEL_BLOCK_LOG2,
             CANCEL_MU_LOG2 => CANCEL_MU_LOG2, CANCEL_A_FRAC => CANCEL_A_FRAC, CANCEL_A_W => CANCEL_A_W,
-            REGS_INIT => REGS_INIT, WAVE_SIN_INIT => WAVE_SIN_INIT, WAVE_COS_INIT => WAVE_COS_INIT,
-            LP_INIT => LP_INIT, TRIM_MAP_INIT => TRIM_MAP_INIT, TRIM_SPEED_INIT => TRIM_SPEED_INIT,
-            TRIM_AMP_INIT => TRIM_AMP_INIT, DRIFT_FWD_SIN_INIT => DRIFT_FWD_SIN_INIT,
-            DRIFT_FWD_COS_INIT => DRIFT_FWD_COS_INIT, CANCEL_LUT_INIT => CANCEL_LUT_INIT
+            CANCEL_GEAR_OFFSET => CANCEL_GEAR_OFFSET, REGS_INIT => REGS_INIT, WAVE_SIN_INIT => WAVE_SIN_INIT,
+            WAVE_COS_INIT => WAVE_COS_INIT, LP_INIT => LP_INIT, TRIM_MAP_INIT => TRIM_MAP_INIT,
+            TRIM_SPEED_INIT => TRIM_SPEED_INIT, TRIM_AMP_INIT => TRIM_AMP_INIT,
+            DRIFT_FWD_SIN_INIT => DRIFT_FWD_SIN_INIT, DRIFT_FWD_COS_INIT => DRIFT_FWD_COS_INIT,
+            CANCEL_LUT_INIT => CANCEL_LUT_INIT
             -- END generated core map
         )
         port map (

@@ -54,6 +54,7 @@ def static_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray, canceller=N
     return (np.arctan2(s, c) / (2 * np.pi)) % 1.0, np.hypot(s, c)
 
 
+# and cancel_gear_offset, 0 where a calibration written before it has none
 CANCELLER_KEYS = ("tone_hz", "sample_rate_hz", "cancel_block_log2", "cancel_mu_log2")
 
 
@@ -61,4 +62,5 @@ def float_canceller(cal: Calibration):
     """The float twin of fringe_canceller for cal.canceller, from reset (fixed/canceller.py, CancelFloat)."""
     from ..fixed.canceller import CancelFloat, freq_word
     k = cal.canceller
-    return CancelFloat(freq_word(k["tone_hz"], k["sample_rate_hz"]), k["cancel_block_log2"], k["cancel_mu_log2"])
+    return CancelFloat(freq_word(k["tone_hz"], k["sample_rate_hz"]), k["cancel_block_log2"], k["cancel_mu_log2"],
+                       k.get("cancel_gear_offset", 0))

@@ -19,9 +19,11 @@ With ``i`` the top LUT_W bits of the NCO phase, ``cw = LUT[(i + 2^(LUT_W-2)) mod
     at its end: X += (S_X + 2^(SH_j-1)) >>> SH_j  for X in (A_C, B_C, A_S, B_S), saturated to s(A_W)
                 (track_sat, held until reset); the new values apply from the first sample of block j + 2 on
                 (block j + 1 still runs on the old ones);
-                SH_j = BLOCK_LOG2 + C_W - 2 - A_FRAC + G_j,  G_j = min(MU_LOG2, bit_length(j + 1))
+                SH_j = BLOCK_LOG2 + C_W - 2 - A_FRAC + G_j,
+                G_j = min(MU_LOG2, GEAR_OFFSET + bit_length(j + 1))
                 (gear shift: steps 1/2, 1/4, 1/4, 1/8 x 4, ... down to 2^-MU_LOG2, so the first blocks average
-                the estimate instead of creeping towards it; j counts blocks since reset).
+                the estimate instead of creeping towards it; j counts blocks since reset; GEAR_OFFSET starts
+                it lower, for a start-up that a few blocks cannot tell from a slow change of the radius).
 
 Why it converges: with a residual d = n - n_est, e ~ 2 (d_c cos phi + d_s sin phi) and the mean of u_c * cw
 over a block is (A_C,true - A_C) 2^(C_W - 2 - A_FRAC) when the tone is not a multiple of the electrical
@@ -68,15 +70,17 @@ class CancelParams:
     mu_log2: int = 6        # final update step 2^-MU_LOG2 per block, 1..12
     a_frac: int = 4         # fraction bits of the coefficients (data LSBs), 0..12
     a_w: int = 20           # coefficient width, 8..32; A_W <= WAVE_W + A_FRAC
+    gear_offset: int = 0    # the gear shift starts this many gears lower (first step 2^-(1+it)), 0..MU_LOG2-1
 
     def __post_init__(self) -> None:
-        check_integers(NAME, self, ("wave_w", "lut_w", "c_w", "block_log2", "mu_log2", "a_frac", "a_w"))
+        check_integers(NAME, self, ("wave_w", "lut_w", "c_w", "block_log2", "mu_log2", "a_frac", "a_w", "gear_offset"))
         check_range(NAME, "WAVE_W", self.wave_w, 8, 31)
         check_range(NAME, "LUT_W", self.lut_w, 4, 12)
         check_range(NAME, "C_W", self.c_w, 8, 18)
         check_range(NAME, "BLOCK_LOG2", self.block_log2, 4, 12)
         check_range(NAME, "MU_LOG2", self.mu_log2, 1, 12)
         check_range(NAME, "A_FRAC", self.a_frac, 0, 12)
+        check_range(NAME, "GEAR_OFFSET", self.gear_offset, 0, self.mu_log2 - 1, f"0..MU_LOG2-1 = {self.mu_log2 - 1}")
         check_range(NAME, "A_W", self.a_w, 8, min(32, self.wave_w + self.a_frac),
                     f"8..min(32, WAVE_W + A_FRAC) = {min(32, self.wave_w + self.a_frac)}")
         if self.sh0 < 0:
@@ -93,8 +97,8 @@ class CancelParams:
         return self.block_log2 + self.c_w - 2 - self.a_frac
 
     def gear(self, j: int) -> int:
-        """G_j = min(MU_LOG2, bit_length(j + 1)) of block j."""
-        return min(self.mu_log2, (j + 1).bit_length())
+        """G_j = min(MU_LOG2, GEAR_OFFSET + bit_length(j + 1)) of block j."""
+        return min(self.mu_log2, self.gear_offset + (j + 1).bit_length())
 
     @property
     def radius(self) -> int:
@@ -104,7 +108,7 @@ class CancelParams:
     def hdl_parameters(self) -> dict[str, int]:
         """The HDL parameter / generic map (without LUT_INIT and USER_W)."""
         return {"WAVE_W": self.wave_w, "LUT_W": self.lut_w, "C_W": self.c_w, "BLOCK_LOG2": self.block_log2,
-                "MU_LOG2": self.mu_log2, "A_FRAC": self.a_frac, "A_W": self.a_w}
+                "MU_LOG2": self.mu_log2, "A_FRAC": self.a_frac, "A_W": self.a_w, "GEAR_OFFSET": self.gear_offset}
 
 
 def sine_table(params: CancelParams) -> np.ndarray:
@@ -222,8 +226,8 @@ class CancelFloat:
     unit circle without rounding, the LUT replaced by exact cos/sin of the same 32-bit NCO phase; the
     coefficients step by (2 / B) 2^-G_j times the block sums. A stream in pieces gives the same values."""
 
-    def __init__(self, freq: int, block_log2: int, mu_log2: int):
-        self.freq, self.b, self.mu_log2 = int(freq), 1 << block_log2, mu_log2
+    def __init__(self, freq: int, block_log2: int, mu_log2: int, gear_offset: int = 0):
+        self.freq, self.b, self.mu_log2, self.gear_offset = int(freq), 1 << block_log2, mu_log2, gear_offset
         self.n = 0
         self.rows = [np.zeros(4), np.zeros(4)]
         self.sums = np.zeros(4)
@@ -251,7 +255,7 @@ class CancelFloat:
             self.n += taken
             start = r.stop
             if pos + taken == self.b:
-                step = 2.0 / self.b * 2.0 ** -min(self.mu_log2, (k + 1).bit_length())
+                step = 2.0 / self.b * 2.0 ** -min(self.mu_log2, self.gear_offset + (k + 1).bit_length())
                 self.rows.append(self.rows[k + 1] + step * self.sums)
                 self.sums = np.zeros(4)
         return out_c, out_s

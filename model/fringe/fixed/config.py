@@ -30,7 +30,7 @@ TRIM_FIELDS = ("trim", "trim_speed_log2", "trim_map_psi_w", "trim_map_phi_w", "t
 DRIFT_FIELDS = ("drift", "drift_block_log2", "drift_mu_log2", "drift_ofs_frac", "drift_ginv_w", "drift_fwd_w",
                 "drift_table_w", "drift_table_frac", "drift_kg_w", "drift_kg_shift", "drift_hold")
 CANCEL_FIELDS = ("cancel", "cancel_lut_w", "cancel_c_w", "cancel_block_log2", "cancel_mu_log2", "cancel_a_frac",
-                 "cancel_a_w")
+                 "cancel_a_w", "cancel_gear_offset")
 
 #: The parameters/generics of fringe_core and fringe_top (both HDLs) and of sim/synth_wrap.v, in declaration
 #: order, with their meaning and limits: the CoreConfig fields (upper case), the index mappings derived from
@@ -86,6 +86,7 @@ HDL_PARAMETER_DOCS = {
     "CANCEL_MU_LOG2": "final canceller step 2^-CANCEL_MU_LOG2 per block, 1..12",
     "CANCEL_A_FRAC": "fraction bits of the canceller coefficients, 0..12",
     "CANCEL_A_W": "canceller coefficient width, 8..min(32, WAVE_W + CANCEL_A_FRAC)",
+    "CANCEL_GEAR_OFFSET": "the canceller's gear shift starts this many gears lower, 0..CANCEL_MU_LOG2-1",
     "REGS_INIT": "$readmemh image of the registers, 2 x 32 words of 32 bits",
     "WAVE_SIN_INIT": "$readmemh image of the sine table, both banks",
     "WAVE_COS_INIT": "$readmemh image of the cosine table, both banks",
@@ -166,6 +167,7 @@ class CoreConfig(PositionWidths):
     cancel_mu_log2: int = 6    # CANCEL_MU_LOG2: final step 2^-CANCEL_MU_LOG2 per block (gear shift from 1/2)
     cancel_a_frac: int = 4     # CANCEL_A_FRAC: fraction bits of the coefficients (data LSBs)
     cancel_a_w: int = 20       # CANCEL_A_W: coefficient width
+    cancel_gear_offset: int = 0  # CANCEL_GEAR_OFFSET: the gear shift starts this many gears lower
 
     def __post_init__(self) -> None:
         """The limits fringe_core checks at elaboration, its blocks' and its own (rtl/*/fringe_core.*), with the
@@ -263,7 +265,7 @@ class CoreConfig(PositionWidths):
     def cancel_params(self) -> CancelParams:
         return CancelParams(wave_w=self.wave_w, lut_w=self.cancel_lut_w, c_w=self.cancel_c_w,
                             block_log2=self.cancel_block_log2, mu_log2=self.cancel_mu_log2,
-                            a_frac=self.cancel_a_frac, a_w=self.cancel_a_w)
+                            a_frac=self.cancel_a_frac, a_w=self.cancel_a_w, gear_offset=self.cancel_gear_offset)
 
     def hdl_parameters(self) -> dict[str, int]:
         """Parameters/generics of fringe_core and fringe_top (with the long-period index mapping)."""

@@ -58,6 +58,7 @@ def cancel_config(cal: Calibration, cfg: CoreConfig) -> CoreConfig:
     """cfg with fringe_canceller on, its constants the calibration's, its coefficients able to hold a tone of up
     to half the calibrated radius (A_W = WAVE_W + A_FRAC - 2)."""
     return dataclasses.replace(cfg, cancel=1, cancel_a_w=min(32, cfg.wave_w + cfg.cancel_a_frac - 2),
+                               cancel_gear_offset=cal.canceller.get("cancel_gear_offset", 0),
                                **{k: cal.canceller[k] for k in ("cancel_block_log2", "cancel_mu_log2")})
 
 

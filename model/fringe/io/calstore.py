@@ -97,18 +97,25 @@ def write_wave_tables(path: str, inv_sin: WaveformInverse, inv_cos: WaveformInve
 
 
 def _canceller(d, path: str) -> dict:
-    """closed_loop.canceller: {} or the tone (Hz), the sample rate (samples/s) and the canceller's constants."""
+    """closed_loop.canceller: {} or the tone (Hz), the sample rate (samples/s) and the canceller's constants
+    (cancel_gear_offset may be missing: calibrations written before it start the gear shift at 1/2, offset 0)."""
     if not d:
         return {}
-    ok = (isinstance(d, dict) and set(d) == set(CANCELLER_KEYS)
-          and all(isinstance(d[k], (int, float)) and not isinstance(d[k], bool) and math.isfinite(d[k])
-                  for k in CANCELLER_KEYS)
+    keys = set(CANCELLER_KEYS)
+    ok = (isinstance(d, dict) and keys <= set(d) <= keys | {"cancel_gear_offset"}
+          and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in d.values())
           and d["sample_rate_hz"] > 0 and d["tone_hz"] >= 0
           and all(isinstance(d[k], int) for k in ("cancel_block_log2", "cancel_mu_log2")))
     if not ok:
-        raise FringeInputError(f"closed_loop.canceller must map {', '.join(CANCELLER_KEYS)} to finite numbers "
-                               "(a tone >= 0 Hz, a sample rate > 0, integer constants)", path)
-    return dict(d)
+        raise FringeInputError(f"closed_loop.canceller must map {', '.join(CANCELLER_KEYS)} (and optionally "
+                               "cancel_gear_offset) to finite numbers (a tone >= 0 Hz, a sample rate > 0, integer "
+                               "constants)", path)
+    d = {**d, "cancel_gear_offset": d.get("cancel_gear_offset", 0)}
+    offset = d["cancel_gear_offset"]
+    if not isinstance(offset, int) or not 0 <= offset < d["cancel_mu_log2"]:
+        raise FringeInputError(f"closed_loop.canceller.cancel_gear_offset = {offset} must be an integer "
+                               f"0..cancel_mu_log2 - 1 = {d['cancel_mu_log2'] - 1}", path)
+    return d
 
 
 def load_calibration(cal_dir: str) -> Calibration:
