@@ -27,6 +27,7 @@ module fringe_top_stream #(
     parameter integer TRIM_MAP_PHI_W = 5, parameter integer TRIM_W = 18, parameter integer TRIM_FRAC = 4,
     parameter integer TRIM_G_SHIFT = 24, parameter [63:0] TRIM_SECT_RECIP = 64'd1,
     parameter integer TRIM_SECT_SHIFT = 18, parameter integer TRIM_START_SPEED = 0,
+    parameter integer TRIM_MAG_SMOOTH_LOG2 = 0,
     parameter integer COMPACT = 0,            // 1: the time-multiplexed core (run.py's *_compact tasks)
     parameter integer LATENCY = 28,
     parameter integer CLOCKS_PER_SAMPLE = 1   // fringe.fixed.config clocks_per_sample, passed by run.py
@@ -56,6 +57,7 @@ module fringe_top_stream #(
         .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .TRIM_SPEED_LOG2(TRIM_SPEED_LOG2), .TRIM_MAP_PSI_W(TRIM_MAP_PSI_W),
         .TRIM_MAP_PHI_W(TRIM_MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .TRIM_G_SHIFT(TRIM_G_SHIFT),
         .TRIM_SECT_RECIP(TRIM_SECT_RECIP), .TRIM_SECT_SHIFT(TRIM_SECT_SHIFT), .TRIM_START_SPEED(TRIM_START_SPEED),
+        .TRIM_MAG_SMOOTH_LOG2(TRIM_MAG_SMOOTH_LOG2),
         .COMPACT(COMPACT)
     ) dut (
         .clk(clk), .rst(rst),
