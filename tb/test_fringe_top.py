@@ -119,6 +119,9 @@ class Bench:
         self.edge = 0                                      # index of the coming edge
         self.ctrl_seen = 0
         self.n_ce = 0                                      # enabled edges so far
+        # fringe_top's ce is a register: the previous edge's !m_axis_tvalid || m_axis_tready, 1 after a
+        # reset (the Bench starts after _start's reset, whose last edge saw m_axis_tready = 1)
+        self.ce = 1
         self.last_in: int | None = None                    # enabled edge of the last handshake since reset
         self.cps = case.cfg.clocks_per_sample
         # DRIFT = 1, DRIFT_HOLD = 1: the sample at a tracker block boundary (a nonzero multiple of B since
@@ -137,7 +140,8 @@ class Bench:
             # values the coming rising edge samples
             rst = int(d.rst.value)
             # s_axis_tready = ce and one sample per clocks_per_sample clock enables (COMPACT = 1)
-            ce = int(not int(d.m_axis_tvalid.value) or int(d.m_axis_tready.value))
+            ce = self.ce
+            self.ce = 1 if rst else int(not int(d.m_axis_tvalid.value) or int(d.m_axis_tready.value))
             gap = self.cps
             if self.hold_b and self.n_since_rst and self.n_since_rst % self.hold_b == 0:
                 gap = max(gap, self.hold_gap)

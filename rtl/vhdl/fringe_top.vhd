@@ -3,9 +3,11 @@
 -- VHDL-2008 twin of rtl/verilog/fringe_top.v (same generics, ports, latency and behaviour).
 --
 -- s_axis_tdata = {coarse lane, cos lane, sin lane}, m_axis_tdata = {status, position lane}, lanes of
--- whole bytes; the whole pipeline advances on ce = !m_axis_tvalid || m_axis_tready and
--- s_axis_tready = ce && the core's in_ready: nothing lost or duplicated. rst (synchronous, active
--- high) empties the pipeline.
+-- whole bytes; the whole pipeline advances on the registered clock enable ce (a flip-flop: the previous
+-- clock's !m_axis_tvalid || m_axis_tready, 1 after reset) and s_axis_tready = ce && the core's in_ready.
+-- A word the sink refuses while the pipeline advances over it waits in a one-word skid register, which
+-- m_axis_tdata shows while it is full (ce is 0 then): nothing lost or duplicated. rst (synchronous,
+-- active high) empties the pipeline and the skid register.
 --
 -- LATENCY = fringe_core's: CORDIC_STAGES + 25 (+ 13 with TRIM = 1, + 4 with DRIFT = 1, + 4 with
 -- CANCEL = 1) clocks from the s_axis handshake to m_axis_tvalid when the sink does not stall.
@@ -112,19 +114,48 @@ architecture rtl of fringe_top is
     constant POS_W    : integer := clog2(LINES) + FINE_W;     -- position bits
     constant ADC_LANE : integer := 8 * ((ADC_W + 7) / 8);     -- bits of the sin and cos lanes
     constant POS_LANE : integer := 8 * ((POS_W + 7) / 8);     -- bits of the position lane
+    constant M_W      : integer := POS_LANE + 8;              -- bits of m_axis_tdata
 
-    signal ce        : std_logic;
-    signal in_ready  : std_logic;
-    signal out_valid : std_logic;
+    -- The stream's clock enable is a register, so its fan-out to the whole pipeline starts at a
+    -- flip-flop and not at the sink's m_axis_tready: ce = the previous clock's
+    -- !m_axis_tvalid || m_axis_tready. The clock the sink refuses a word, the pipeline may still advance
+    -- over it (ce was decided a clock earlier): the word goes to the skid register, m_axis_tdata shows
+    -- it, and ce is 0 until the sink takes it. skid_valid = !ce except in the clock after a reset.
+    signal ce_r       : std_logic;                            -- the clock enable of the whole pipeline
+    signal skid_valid : std_logic;                            -- the skid register holds the oldest word
+    signal skid_data  : std_logic_vector(M_W - 1 downto 0);
+    signal ce         : std_logic;
+    signal core_valid : std_logic;                            -- the core's registered out_valid
+    signal core_data  : std_logic_vector(M_W - 1 downto 0);   -- {status, position lane} of the core's output
+    signal out_valid  : std_logic;                            -- m_axis_tvalid
+    signal in_ready   : std_logic;
     signal coarse    : std_logic_vector(CW - 1 downto 0);
     signal pos       : std_logic_vector(POS_W - 1 downto 0);
     signal status    : std_logic_vector(7 downto 0);
 
 begin
 
-    ce            <= (not out_valid) or m_axis_tready;
+    ce            <= ce_r;
     s_axis_tready <= ce and in_ready;
+    out_valid     <= skid_valid or core_valid;
     m_axis_tvalid <= out_valid;
+    m_axis_tdata  <= skid_data when skid_valid = '1' else core_data;
+
+    p_skid : process (clk)
+    begin
+        if rising_edge(clk) then
+            if rst = '1' then
+                ce_r       <= '1';
+                skid_valid <= '0';
+            else
+                ce_r       <= (not out_valid) or m_axis_tready;
+                skid_valid <= out_valid and not m_axis_tready;
+            end if;
+            if skid_valid = '0' then
+                skid_data <= core_data;   -- the core's word, kept when the sink refuses it
+            end if;
+        end if;
+    end process p_skid;
 
     g_coarse : if COARSE_W > 0 generate
         coarse <= s_axis_tdata(2 * ADC_LANE + COARSE_W - 1 downto 2 * ADC_LANE);
@@ -161,11 +192,11 @@ begin
             sin => s_axis_tdata(ADC_W - 1 downto 0),
             cos => s_axis_tdata(ADC_LANE + ADC_W - 1 downto ADC_LANE),
             coarse => coarse,
-            out_valid => out_valid, pos => pos, status => status,
+            out_valid => core_valid, pos => pos, status => status,
             cfg_wr_en => cfg_wr_en, cfg_wr_addr => cfg_wr_addr, cfg_wr_data => cfg_wr_data,
             active_bank => active_bank
         );
 
-    m_axis_tdata <= status & std_logic_vector(resize(unsigned(pos), POS_LANE));
+    core_data <= status & std_logic_vector(resize(unsigned(pos), POS_LANE));
 
 end architecture rtl;

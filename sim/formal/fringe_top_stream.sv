@@ -2,15 +2,18 @@
 //
 // Every input is free (any s_axis_tvalid / m_axis_tready pattern, any sample, any configuration
 // write, resets at any time); the first cycle is a reset. A reference pipeline of LATENCY stages
-// (fringe.fixed.core.core_latency, passed by run.py) advances on the documented clock enable
-// !m_axis_tvalid || m_axis_tready and carries, for every accepted sample, a tag the solver chooses
-// freely: {the bank it takes (active_bank at the handshake), CLIP_COS, CLIP_SIN} (the flags of the
-// raw codes). fringe_top returns each of them in its status byte.
-//   stream:  m_axis_tvalid equals the reference's last valid bit and the output's tag its tag, so
-//            every sample comes out once, after exactly LATENCY clock enables, in order (a lost,
-//            duplicated or reordered sample shifts the tag sequence, which the solver can make
-//            differ at any place); s_axis_tready is the clock enable, and with COMPACT = 1 it is 0 for
-//            CLOCKS_PER_SAMPLE - 1 clock enables after every handshake (the documented admission).
+// (fringe.fixed.core.core_latency, passed by run.py) advances on the documented clock enable, a
+// register: ce = the previous clock's !m_axis_tvalid || m_axis_tready (1 after a reset), and carries,
+// for every accepted sample, a tag the solver chooses freely: {the bank it takes (active_bank at the
+// handshake), CLIP_COS, CLIP_SIN} (the flags of the raw codes). Behind it a one-word reference skid
+// buffer takes the last stage's word when the sink refuses it while ce advances the pipeline over it,
+// and is the output while it is full. fringe_top returns each tag in its status byte.
+//   stream:  m_axis_tvalid equals the reference's output valid bit (skid or last stage) and the
+//            output's tag its tag, so every sample comes out once, after exactly LATENCY clock
+//            enables, in order (a lost, duplicated or reordered sample shifts the tag sequence, which
+//            the solver can make differ at any place); s_axis_tready is the clock enable, and with
+//            COMPACT = 1 it is 0 for CLOCKS_PER_SAMPLE - 1 clock enables after every handshake (the
+//            documented admission).
 //   stable:  m_axis_tdata and m_axis_tvalid hold while m_axis_tvalid && !m_axis_tready (AXI4-Stream).
 //   reset:   the clock after rst, m_axis_tvalid = 0 and fringe_period_count has no previous sample;
 //            with stream (the reference is emptied by rst): no sample accepted before a reset ever
@@ -75,8 +78,11 @@ module fringe_top_stream #(
     wire [2:0] out_tag = {m_axis_tdata[POS_LANE + BANK], m_axis_tdata[POS_LANE + CLIP_COS],
                           m_axis_tdata[POS_LANE + CLIP_SIN]};
 
-    // ---- reference pipeline
-    wire ce = !m_axis_tvalid || m_axis_tready;
+    // ---- reference pipeline: the documented clock enable (a register) and the one-word skid buffer
+    reg ref_ce = 1'b1;
+    reg ref_skid_valid;
+    reg [2:0] ref_skid_tag;
+    wire ce = ref_ce;
     wire accepted = s_axis_tvalid && s_axis_tready;
     // the documented admission: a sample, then CLOCKS_PER_SAMPLE - 1 clock enables without one
     integer ref_wait;
@@ -101,6 +107,19 @@ module fringe_top_stream #(
             for (i = 1; i < LATENCY; i = i + 1) ref_tag[i] <= ref_tag[i-1];
         end
     end
+    // the output: the skid's word while it holds one, else the last stage's
+    wire       ref_out_valid = ref_skid_valid || ref_valid[LATENCY-1];
+    wire [2:0] ref_out_tag   = ref_skid_valid ? ref_skid_tag : ref_tag[LATENCY-1];
+    always @(posedge clk) begin
+        if (rst) begin
+            ref_ce         <= 1'b1;
+            ref_skid_valid <= 1'b0;
+        end else begin
+            ref_ce         <= !ref_out_valid || m_axis_tready;
+            ref_skid_valid <= ref_out_valid && !m_axis_tready;
+        end
+        if (!ref_skid_valid) ref_skid_tag <= ref_tag[LATENCY-1];
+    end
 
     reg f_init = 1'b1;          // the first cycle: a reset
     reg f_past_valid = 1'b0;
@@ -114,8 +133,8 @@ module fringe_top_stream #(
     always @(*) begin
         if (!f_init) begin
             assert (s_axis_tready == (ce && ref_wait == 0));
-            assert (m_axis_tvalid == ref_valid[LATENCY-1]);
-            if (m_axis_tvalid) assert (out_tag == ref_tag[LATENCY-1]);
+            assert (m_axis_tvalid == ref_out_valid);
+            if (m_axis_tvalid) assert (out_tag == ref_out_tag);
         end
     end
 `endif
