@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import tempfile
 from collections import deque
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,7 @@ import pytest
 from elab_check import refusal_tests
 from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
-from lib.launch import block_config, block_env, signed
+from lib.launch import block_config, block_env, params_from_hdl, signed
 
 from fringe.fixed.drift import (
     NORM_LATENCY,
@@ -195,10 +196,7 @@ if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
 
 
-def params_of(raw: dict) -> DriftParams:
-    return DriftParams(raw["ADC_W"], raw["FINE_W"], raw["BLOCK_LOG2"], raw["MU_LOG2"], raw["OFS_FRAC"],
-                       raw["GINV_W"], raw["FWD_W"], raw["TABLE_W"], raw["TABLE_FRAC"], raw["KG_W"], raw["KG_SHIFT"],
-                       raw["PIPE_LATENCY"], raw["HOLD"])
+params_of = partial(params_from_hdl, DriftParams)     # HDL parameters -> the model's
 
 
 def _config():
@@ -441,14 +439,15 @@ test_illegal_parameters_stop_elaboration, test_illegal_user_w_stops_elaboration 
     TOPLEVEL, ILLEGAL, params_of, BASE, some_legal=True)   # ADC_W 24 + OFS_FRAC 8 = 32 is legal
 
 
-def _init_files(p: DriftParams) -> dict[str, Path]:
+def init_files(p, stem: str, test: str = "tb/test_fringe_drift.py") -> dict[str, Path]:
+    """FWD_SIN_INIT and FWD_COS_INIT: both tables' words of `waveform_tables` versions 0 (bank 0) and 1 (bank 1),
+    written to ``<tmp>/fringe_tb/<stem>_<name>.mem`` (DriftParams or the observer's ObserverParams)."""
     from fringe.fixed.table_ram import write_hex
 
-    tag = _id((p, 0))
     t0, t1 = waveform_tables(p, 0)[0], waveform_tables(p, 1)[0]
     base = Path(tempfile.gettempdir()) / "fringe_tb"
-    return {name: write_hex(base / f"drift_{tag}_{name}.mem", np.concatenate([t0[k], t1[k]]), p.word_w,
-                            [f"tb/test_fringe_drift.py initial {name} table: {p}", "bank 0 then bank 1"])
+    return {name: write_hex(base / f"{stem}_{name}.mem", np.concatenate([t0[k], t1[k]]), p.word_w,
+                            [f"{test} initial {name} table: {p}", "bank 0 then bank 1"])
             for k, name in enumerate(("FWD_SIN_INIT", "FWD_COS_INIT"))}
 
 
@@ -459,7 +458,7 @@ def test_fringe_drift(sim, ps):
     p, user_w = ps
     hdl = {**p.hdl_parameters(), "USER_W": user_w}
     env = block_env("FRINGE_DRIFT_PARAMS", hdl, DEFAULT_SEED)
-    for k, path in _init_files(p).items():
+    for k, path in init_files(p, f"drift_{_id((p, 0))}").items():
         hdl[k] = path
     run_block(TOPLEVEL, "test_fringe_drift", hdl, sim=sim, timeout_s=600, extra_env=env)
 

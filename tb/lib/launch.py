@@ -31,3 +31,8 @@ def signed(v: int, w: int) -> int:
     """The low ``w`` bits of ``v`` as a two's complement s(w)."""
     v &= (1 << w) - 1
     return v - (1 << w) if v >> (w - 1) else v
+
+
+def params_from_hdl(cls, raw: dict):
+    """The model's parameter dataclass ``cls`` from HDL parameters (its fields' names upper case)."""
+    return cls(**{f: raw[f.upper()] for f in cls.__dataclass_fields__})

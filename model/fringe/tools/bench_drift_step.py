@@ -28,10 +28,10 @@ from ..fixed.drift import (
     kg_for,
     largest_kg_shift,
     make_fwd_table,
-    normalise,
-    observe,
     pack_words,
 )
+from ..fixed.drift_normaliser import normalise
+from ..fixed.drift_observer import observe
 
 
 class OldStep(DriftParams):
