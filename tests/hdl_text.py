@@ -23,13 +23,25 @@ def vhdl_checks_range(text: str, unit: str, name: str, rng: str) -> bool:
     in_pkg = (rf'check_range\(unit, "{re.escape(name)}", {re.escape(name.lower())}, {re.escape(lo)}, '
               rf'{re.escape(hi_value)}(, "{re.escape(hi)}")?\)')
     position = rf'check_position\("{re.escape(unit)}", FINE_W, LINES, \d+\)'
-    return (name in ("FINE_W", "LINES") and re.search(position, text) is not None
-            and re.search(in_pkg, _position_body(text)) is not None)
+    if (name in ("FINE_W", "LINES") and re.search(position, text) is not None
+            and re.search(in_pkg, _position_body(text)) is not None):
+        return True
+    # the drift tracker's parameters, checked by fringe_pkg's check_drift_state / check_drift_observer(unit, ...)
+    return any(re.search(rf'{proc}\("{re.escape(unit)}", ', text) is not None
+               and re.search(in_pkg, _procedure_body(text, proc)) is not None for proc in DRIFT_CHECKS)
+
+
+#: fringe_pkg's checks of the drift tracker's parameters (VHDL procedures; Verilog macros FRINGE_CHECK_DRIFT_*)
+DRIFT_CHECKS = ("check_drift_state", "check_drift_observer")
+
+
+def _procedure_body(text: str, proc: str) -> str:
+    m = re.search(rf"procedure {proc}\([^)]*\) is(.*?)end procedure {proc};", text, re.S)
+    return m.group(1) if m else ""
 
 
 def _position_body(text: str) -> str:
-    m = re.search(r"procedure check_position\(.*?\) is(.*?)end procedure check_position;", text, re.S)
-    return m.group(1) if m else ""
+    return _procedure_body(text, "check_position")
 
 
 def vhdl_checks_position(text: str, unit: str, pos_w_max: int) -> bool:
@@ -58,8 +70,21 @@ def verilog_checks_range(text: str, unit: str, name: str, rng: str) -> bool:
     # FINE_W and LINES, checked by fringe_pkg.vh's FRINGE_CHECK_POSITION(unit, FINE_W, LINES, pos_w_max)
     position = {"FINE_W": '`FRINGE_CHECK_RANGE(g_bad_fine_w, UNIT, "FINE_W", FW, 8, 30)',
                 "LINES": '$error("%s: LINES = %0d out of range 1..2^20 (instance %m)", UNIT, LN);'}
-    return (name in position and f"{name}:{rng}" in ("FINE_W:8..30", "LINES:1..2^20") and macro in pkg
-            and position[name] in pkg and re.search(_position_call(unit), text) is not None)
+    if (name in position and f"{name}:{rng}" in ("FINE_W:8..30", "LINES:1..2^20") and macro in pkg
+            and position[name] in pkg and re.search(_position_call(unit), text) is not None):
+        return True
+    # the drift tracker's parameters, checked by fringe_pkg.vh's FRINGE_CHECK_DRIFT_STATE / _OBSERVER(unit)
+    in_macro = (rf'`FRINGE_CHECK_RANGE\(\w+, UNIT, "{re.escape(name)}", {re.escape(name)}, {re.escape(lo)}, '
+                rf'{re.escape(hi)}\)')
+    return macro in pkg and any(f'`FRINGE_CHECK_DRIFT_{what}("{unit}")' in text
+                                and re.search(in_macro, _macro_body(pkg, f"FRINGE_CHECK_DRIFT_{what}"))
+                                for what in ("STATE", "OBSERVER"))
+
+
+def _macro_body(pkg: str, macro: str) -> str:
+    """The body of the Verilog macro (its continued lines)."""
+    m = re.search(rf"`define {macro}\(.*?\) \\\n((?:.*\\\n)*.*)", pkg)
+    return m.group(1) if m else ""
 
 
 def _verilog_pkg() -> str:

@@ -96,6 +96,30 @@ localparam integer CANCEL_ADAPT_LATENCY    = 15;  // fringe_canceller: a block's
     if ((FW) + $clog2(LN) > (PMAX)) begin : g_bad_pos_w \
         $error("%s: POS_W = FINE_W + clog2(LINES) = %0d exceeds %0d (instance %m)", UNIT, (FW) + $clog2(LN), PMAX); \
     end
+// The drift tracker's halves and fringe_drift (the VHDL's check_drift_state and check_drift_observer), on the
+// module's own parameters of these names: the state and the block (ADC_W, BLOCK_LOG2, OFS_FRAC, ADC_W +
+// OFS_FRAC <= 32, GINV_W, HOLD), and the observer's (FINE_W, MU_LOG2, FWD_W, TABLE_W, TABLE_FRAC, KG_W,
+// KG_SHIFT); generate blocks g_bad_<name>.
+`define FRINGE_CHECK_DRIFT_STATE(UNIT) \
+    `FRINGE_CHECK_RANGE(g_bad_adc_w, UNIT, "ADC_W", ADC_W, 4, 24) \
+    `FRINGE_CHECK_RANGE(g_bad_block_log2, UNIT, "BLOCK_LOG2", BLOCK_LOG2, 4, 12) \
+    `FRINGE_CHECK_RANGE(g_bad_ofs_frac, UNIT, "OFS_FRAC", OFS_FRAC, 0, 8) \
+    if (ADC_W + OFS_FRAC > 32) begin : g_bad_ofs_w \
+        $error("%s: ADC_W + OFS_FRAC = %0d exceeds 32 (instance %m)", UNIT, ADC_W + OFS_FRAC); \
+    end \
+    `FRINGE_CHECK_RANGE(g_bad_ginv_w, UNIT, "GINV_W", GINV_W, 8, 24) \
+    `FRINGE_CHECK_RANGE(g_bad_hold, UNIT, "HOLD", HOLD, 0, 1)
+`define FRINGE_CHECK_DRIFT_OBSERVER(UNIT) \
+    `FRINGE_CHECK_RANGE(g_bad_fine_w, UNIT, "FINE_W", FINE_W, 8, 30) \
+    `FRINGE_CHECK_RANGE(g_bad_mu_log2, UNIT, "MU_LOG2", MU_LOG2, 0, 8) \
+    if (FWD_W < 2 || FWD_W > ((FINE_W - 1 < 10) ? FINE_W - 1 : 10)) begin : g_bad_fwd_w \
+        $error("%s: FWD_W = %0d out of range 2..min(10, FINE_W-1) = %0d (instance %m)", UNIT, FWD_W, \
+               (FINE_W - 1 < 10) ? FINE_W - 1 : 10); \
+    end \
+    `FRINGE_CHECK_RANGE(g_bad_table_w, UNIT, "TABLE_W", TABLE_W, 8, 24) \
+    `FRINGE_CHECK_RANGE(g_bad_table_frac, UNIT, "TABLE_FRAC", TABLE_FRAC, 0, 12) \
+    `FRINGE_CHECK_RANGE(g_bad_kg_w, UNIT, "KG_W", KG_W, 8, 24) \
+    `FRINGE_CHECK_RANGE(g_bad_kg_shift, UNIT, "KG_SHIFT", KG_SHIFT, 1, 60)
 `endif
 
 // Saturation (the VHDL's outside and saturate), X the name of a signed XW-bit value (a name: it is

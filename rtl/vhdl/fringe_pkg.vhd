@@ -33,6 +33,11 @@ package fringe_pkg is
     -- The position checks of the blocks that count in REV = LINES * 2^FINE_W (period count, long
     -- period, trim): FINE_W 8..30, LINES 1..2^20, POS_W = FINE_W + clog2(LINES) <= pos_w_max
     procedure check_position(unit : string; fine_w, lines, pos_w_max : integer);
+    -- The checks of the drift tracker's halves and of fringe_drift (the model's check_state_params and
+    -- check_observer_params): the state and the block (ADC_W, BLOCK_LOG2, OFS_FRAC, ADC_W + OFS_FRAC <= 32,
+    -- GINV_W, HOLD), and the observer's own (FINE_W, MU_LOG2, FWD_W, TABLE_W, TABLE_FRAC, KG_W, KG_SHIFT)
+    procedure check_drift_state(unit : string; adc_w, block_log2, ofs_frac, ginv_w, hold : integer);
+    procedure check_drift_observer(unit : string; fine_w, mu_log2, fwd_w, table_w, table_frac, kg_w, kg_shift : integer);
     -- mapping_exact, or fail with "<unit>: <prefix>_RECIP = .., <prefix>_SHIFT = .. do not map every
     -- position to floor(pos * 2^<addr_name> / REV); take them from <helper>()"
     procedure check_mapping(unit, prefix, addr_name, helper : string; recip, shift, addr_w, lines, fine_w : natural);
@@ -207,6 +212,32 @@ package body fringe_pkg is
                    & " exceeds " & integer'image(pos_w_max)
             severity failure;
     end procedure check_position;
+
+    procedure check_drift_state(unit : string; adc_w, block_log2, ofs_frac, ginv_w, hold : integer) is
+    begin
+        check_range(unit, "ADC_W", adc_w, 4, 24);
+        check_range(unit, "BLOCK_LOG2", block_log2, 4, 12);
+        check_range(unit, "OFS_FRAC", ofs_frac, 0, 8);
+        assert adc_w + ofs_frac <= 32
+            report unit & ": ADC_W + OFS_FRAC = " & integer'image(adc_w + ofs_frac) & " exceeds 32"
+            severity failure;
+        check_range(unit, "GINV_W", ginv_w, 8, 24);
+        check_range(unit, "HOLD", hold, 0, 1);
+    end procedure check_drift_state;
+
+    procedure check_drift_observer(unit : string; fine_w, mu_log2, fwd_w, table_w, table_frac, kg_w, kg_shift : integer) is
+    begin
+        check_range(unit, "FINE_W", fine_w, 8, 30);
+        check_range(unit, "MU_LOG2", mu_log2, 0, 8);
+        assert fwd_w >= 2 and fwd_w <= minimum(10, fine_w - 1)
+            report unit & ": FWD_W = " & integer'image(fwd_w) & " out of range 2..min(10, FINE_W-1) = "
+                   & integer'image(minimum(10, fine_w - 1))
+            severity failure;
+        check_range(unit, "TABLE_W", table_w, 8, 24);
+        check_range(unit, "TABLE_FRAC", table_frac, 0, 12);
+        check_range(unit, "KG_W", kg_w, 8, 24);
+        check_range(unit, "KG_SHIFT", kg_shift, 1, 60);
+    end procedure check_drift_observer;
 
     procedure check_mapping(unit, prefix, addr_name, helper : string; recip, shift, addr_w, lines, fine_w : natural) is
     begin
