@@ -25,6 +25,8 @@ from fringe.fixed.drift import (
     pack_words,
     unpack_words,
 )
+from fringe.fixed.drift_normaliser import NormaliserParams, normaliser_run
+from fringe.fixed.drift_observer import ObserverParams, observer_run
 
 P1 = DriftParams(adc_w=14, fine_w=16, block_log2=8, mu_log2=3, ofs_frac=4, ginv_w=18, fwd_w=6, table_w=18,
                  table_frac=2, kg_w=18, kg_shift=38)                  # HOLD = 1 (the default)
@@ -279,6 +281,41 @@ def test_matches_plain_reference(p):
     np.testing.assert_array_equal(r.sat, sat)
     np.testing.assert_array_equal(r.states, states)
     assert r.updated.any() and (np.diff(r.states, axis=0) != 0).any()
+
+
+@pytest.mark.parametrize("p", [P1, P2, P1H0, P2H1], ids=["P1", "P2-hold0", "P1-hold0", "P2-hold1"])
+def test_composes_the_halves_models(p):
+    """drift_run is the normaliser's model on the observer's states, and the observer's model on the normaliser's
+    codes and the core's phases: fringe_drift is the composition of fringe_drift_normaliser and
+    fringe_drift_observer (their RTL tests check each half against these models)."""
+    enc = Encoder(p, max(9 * p.b, 600) + 37, seed=3, speed=max(0.05, 1.5 / p.w), drift=5.0)
+    r = enc.run()
+    ys, yc, sat, sidx = normaliser_run(enc.rs, enc.rc, r.states, p.normaliser())
+    for got, want in ((ys, r.y_sin), (yc, r.y_cos), (sat, r.sat), (sidx, r.state_index)):
+        np.testing.assert_array_equal(got, want)
+    o = observer_run(r.phase, r.y_sin, r.y_cos, enc.tables, enc.w0, enc.kg, p.observer())
+    for f in ("states", "updated", "track_sat", "sweep", "se", "sea"):
+        np.testing.assert_array_equal(getattr(o, f), getattr(r, f), err_msg=f)
+    assert r.updated.any()
+
+
+@pytest.mark.parametrize("make, name", [(lambda: NormaliserParams(ginv_w=7), "fringe_drift_normaliser: GINV_W = 7"),
+                                        (lambda: NormaliserParams(adc_w=24, ofs_frac=9),
+                                         "fringe_drift_normaliser: OFS_FRAC = 9 out of range 0..8"),
+                                        (lambda: ObserverParams(kg_shift=61), "fringe_drift_observer: KG_SHIFT = 61"),
+                                        (lambda: ObserverParams(fine_w=9, fwd_w=9),
+                                         "fringe_drift_observer: FWD_W = 9 out of range 2..min(10, FINE_W-1) = 8"),
+                                        (lambda: ObserverParams(hold=2), "fringe_drift_observer: HOLD = 2")])
+def test_halves_refuse_with_their_names(make, name):
+    with pytest.raises(ValueError, match=re.escape(name)):
+        make()
+
+
+def test_halves_parameters():
+    """The halves' parameters of a DriftParams carry its values; the halves' HDL maps are the subsets."""
+    assert P2.normaliser() == NormaliserParams(adc_w=10, block_log2=6, ofs_frac=0, ginv_w=12, hold=0)
+    assert P2.observer().hdl_parameters() == {k: v for k, v in P2.hdl_parameters().items() if k != "PIPE_LATENCY"}
+    assert set(P2.normaliser().hdl_parameters()) <= set(P2.hdl_parameters())
 
 
 def test_segment_boundaries_do_not_matter():
