@@ -100,7 +100,7 @@ if cocotb is not None:
 
     @cocotb.test()
     async def mul_ecp5_products(dut):
-        """fringe_mul_ecp5 alone (fringe_drift's d * GINV: an unsigned operand): p is the product of the
+        """fringe_mul_ecp5 alone (fringe_drift_normaliser's d * GINV: an unsigned operand): p is the product of the
         pair of the last clock enable (REG_IN = 1: of the one before), held while ce = 0."""
         prm = json.loads(os.environ["FRINGE_MUL_PARAMS"])
         rng = np.random.default_rng(prm["A_W"] * 100 + prm["B_W"])
