@@ -32,7 +32,18 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fringe import result
-from fringe.fixed import canceller, cordic, drift, long_period, period_count, quadrature, regmap, trim, wave_lut
+from fringe.fixed import (
+    canceller,
+    cordic,
+    drift_normaliser,
+    drift_observer,
+    long_period,
+    period_count,
+    quadrature,
+    regmap,
+    trim,
+    wave_lut,
+)
 from fringe.fixed.config import HDL_PARAMETER_DOCS, HDL_WIDE_PARAMETERS, INPUT_LATENCY, CoreConfig
 
 REPO = Path(__file__).resolve().parent.parent
@@ -76,12 +87,12 @@ def constants() -> list[Const]:
             Const("PERIOD_COUNT_LATENCY", period_count.LATENCY, "fringe_period_count"),
             Const("TRIM_LATENCY", trim.LATENCY, "fringe_trim"),
             Const("LONG_PERIOD_LATENCY", long_period.LATENCY, "fringe_long_period"),
-            Const("DRIFT_NORM_LATENCY", drift.NORM_LATENCY, "fringe_drift normaliser"),
-            Const("DRIFT_OBS_LATENCY", drift.OBS_LATENCY, "fringe_drift observer"),
-            Const("DRIFT_SWEEP_MIN_LOG2", drift.SWEEP_MIN_LOG2,
-                  "fringe_drift: a block that swept 2^-this of a period updates"),
-            Const("DRIFT_PARTIAL_MU_MIN", drift.PARTIAL_MU_MIN,
-                  "fringe_drift: ... if MU_LOG2 is at least this"),
+            Const("DRIFT_NORM_LATENCY", drift_normaliser.LATENCY, "fringe_drift_normaliser"),
+            Const("DRIFT_OBS_LATENCY", drift_observer.LATENCY, "fringe_drift_observer"),
+            Const("DRIFT_SWEEP_MIN_LOG2", drift_observer.SWEEP_MIN_LOG2,
+                  "fringe_drift_observer: a block that swept 2^-this of a period updates"),
+            Const("DRIFT_PARTIAL_MU_MIN", drift_observer.PARTIAL_MU_MIN,
+                  "fringe_drift_observer: ... if MU_LOG2 is at least this"),
             Const("CANCEL_LATENCY", canceller.LATENCY, "fringe_canceller"),
             Const("CANCEL_ADAPT_LATENCY", canceller.ADAPT_LATENCY,
                   "fringe_canceller: a block's last sample to its update in place")]
