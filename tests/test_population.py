@@ -38,21 +38,25 @@ def test_population_subset(seed):
     assert c["model_ratio"] <= 1.25 and c["float_ratio"] <= 1.25, c
     if not c["expected"]:
         assert c["rise"] <= 0.02, c
+    if not c["classes"]:
+        # without effects the plain floor is the declared model's own validation error (the loop's "before")
+        assert c["plain_floor_arcsec"] == pytest.approx(c["before_arcsec"], abs=1e-4), c
 
 
 def test_summary_counts_names_and_aborts():
     rows = [dict(seed=1, classes=["drift"], strengths={}, trajectory="steady", lines=8, adc_bits=12, expected=["drift"],
                  found=["drift", "tone"], named_right=False, float_ratio=1.1, model_ratio=1.3, rise=-0.2, abort=None,
-                 seconds=1.0, model_ratio_settled=1.1),
+                 seconds=1.0, model_ratio_settled=1.1, model_over_plain=1.4),
             dict(seed=2, classes=[], strengths={}, trajectory="fast", lines=8, adc_bits=12, expected=[], found=[],
                  named_right=True, float_ratio=1.0, model_ratio=1.0, rise=0.01, abort=None, seconds=1.0,
-                 model_ratio_settled=1.0),
+                 model_ratio_settled=1.0, model_over_plain=1.0),
             dict(seed=3, classes=[], expected=[], found=[], named_right=False, abort="ValueError: x", seconds=1.0)]
     s = summarise(rows)
     assert s["naming"]["precision"] == 0.5 and s["naming"]["recall"] == 1.0
     assert s["aborts"] == [{"seed": 3, "abort": "ValueError: x"}]
     assert s["correctable_model_within_1.25"] == 0.5 and s["clean_rise_within_2pct"] == 1.0
     assert s["model_over_floor"]["max"] == 1.3 and s["model_over_floor_settled"]["max"] == 1.1
+    assert s["model_over_plain_floor"]["max"] == 1.4 and s["model_within_1.25_of_plain_floor"] == 0.5
 
 
 def test_trim_format_follows_the_fitted_values():
