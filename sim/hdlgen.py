@@ -118,7 +118,7 @@ def verilog_constants() -> list[str]:
 
 #: a comment line before the parameter that opens a group
 GROUPS = {"TRIM": "fringe_trim (closed-loop corrections): built only with TRIM = 1",
-          "DRIFT": "fringe_drift (the online offset/gain tracker): built only with DRIFT = 1",
+          "DRIFT": "the drift tracker (fringe_drift_normaliser, fringe_drift_observer): built only with DRIFT = 1",
           "CANCEL": "fringe_canceller (the adaptive interference canceller): built only with CANCEL = 1",
           "REGS_INIT": 'initial contents: $readmemh images, "" = zeros'}
 

@@ -21,7 +21,9 @@ Replay a failure: ``FRINGE_SEED=<seed in the message> pytest tb/test_fringe_drif
 
 from __future__ import annotations
 
+import tempfile
 from functools import partial
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -29,8 +31,8 @@ from elab_check import refusal_tests
 from lib.cocotb_optional import cocotb
 from lib.hdl_constants import constants_test
 from lib.launch import block_config, block_env, params_from_hdl, signed
-from test_fringe_drift import amplitude, init_files, waveform_tables
 
+from fringe.fixed.drift import kg_for, make_fwd_table, pack_words
 from fringe.fixed.drift_observer import LATENCY, PARTIAL_MU_MIN, ObserverParams, observer_run
 
 TOPLEVEL = "fringe_drift_observer"
@@ -39,6 +41,34 @@ DEFAULT_SEED = 515
 
 
 params_of = partial(params_from_hdl, ObserverParams)     # HDL parameters -> the model's
+
+
+def amplitude(p: ObserverParams) -> float:
+    return 0.3 * 2 ** (p.adc_w - 1)
+
+
+def waveform_tables(p: ObserverParams, version: int):
+    """(words (2, bins), w0 (2,), kg (2,)) of a calibrated waveform: W0 + A sin / cos plus a small harmonic
+    that differs per version."""
+    amp = amplitude(p)
+    h = 0.01 * version
+    fs = lambda ph: 10 + 5 * version + amp * (np.sin(2 * np.pi * ph) + h * np.sin(6 * np.pi * ph))   # noqa: E731
+    fc = lambda ph: -7 + amp * (np.cos(2 * np.pi * ph) + h * np.cos(6 * np.pi * ph))                 # noqa: E731
+    (vs, w0s), (vc, w0c) = make_fwd_table(fs, p), make_fwd_table(fc, p)
+    return np.stack([pack_words(vs, p), pack_words(vc, p)]), np.array([w0s, w0c]), np.array([kg_for(vs, p),
+                                                                                               kg_for(vc, p)])
+
+
+def init_files(p: ObserverParams, stem: str) -> dict[str, Path]:
+    """FWD_SIN_INIT and FWD_COS_INIT: both tables' words of `waveform_tables` versions 0 (bank 0) and 1 (bank 1),
+    written to ``<tmp>/fringe_tb/<stem>_<name>.mem``."""
+    from fringe.fixed.table_ram import write_hex
+
+    t0, t1 = waveform_tables(p, 0)[0], waveform_tables(p, 1)[0]
+    base = Path(tempfile.gettempdir()) / "fringe_tb"
+    return {name: write_hex(base / f"{stem}_{name}.mem", np.concatenate([t0[k], t1[k]]), p.word_w,
+                            [f"tb/test_fringe_drift_observer.py initial {name} table: {p}", "bank 0 then bank 1"])
+            for k, name in enumerate(("FWD_SIN_INIT", "FWD_COS_INIT"))}
 
 
 def model_banks(p: ObserverParams):
@@ -271,7 +301,7 @@ def test_fringe_drift_observer(sim, p):
 
     hdl = p.hdl_parameters()
     env = block_env(VAR, {**hdl, "USER_W": 1}, DEFAULT_SEED)
-    for name, path in init_files(p, f"drift_obs_{_id(p)}", "tb/test_fringe_drift_observer.py").items():
+    for name, path in init_files(p, f"drift_obs_{_id(p)}").items():
         hdl[name] = path
     run_block(TOPLEVEL, "test_fringe_drift_observer", hdl, sim=sim, timeout_s=900, extra_env=env)
 

@@ -20,12 +20,13 @@ and the configuration port at every clock):
 - ``top_saturation``: extreme quadrature registers into the inactive bank, swap, random codes
   (SATURATED, AMP_HIGH).
 Configurations: the seed preset (12-bit ADC, 256 lines, 9-bit coarse code), the same with fringe_trim
-(TRIM = 1, random trim tables in both banks and through the configuration port), with fringe_drift, with
+(TRIM = 1, random trim tables in both banks and through the configuration port), with the drift tracker
+(DRIFT = 1: fringe_drift_normaliser and fringe_drift_observer), with
 fringe_canceller (CANCEL = 1: the stream carries an additive tone at bank A's CANCEL_FREQ, bank B's word
 differs, so a swap changes the NCO word), and a 16-bit ADC, 1 line, no coarse code; each pipelined
 (COMPACT = 0) and also time-multiplexed on the simulators COMPACT_CONFIGS names (COMPACT = 1: the monitor
 checks s_axis_tready against clocks_per_sample at every edge, the words are the same model's); with
-fringe_drift (DRIFT_HOLD = 1) the monitor also expects s_axis_tready = 0 at each tracker block boundary until
+the drift tracker (DRIFT_HOLD = 1) the monitor also expects s_axis_tready = 0 at each tracker block boundary until
 the block's update is resolved.
 Replay: ``FRINGE_SEED=<seed> pytest tb/test_fringe_top.py``.
 """
@@ -126,7 +127,8 @@ class Bench:
         self.cps = case.cfg.clocks_per_sample
         # DRIFT = 1, DRIFT_HOLD = 1: the sample at a tracker block boundary (a nonzero multiple of B since
         # reset) waits until its update is resolved, NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY clock enables
-        # after the block's last sample at the earliest (exactly then: fringe_drift's own test)
+        # after the block's last sample (fringe_drift_normaliser's hold on fringe_drift_observer's resolution):
+        # the monitor expects s_axis_tready = 0 until exactly then
         cfg = case.cfg
         self.hold_b = (1 << cfg.drift_block_log2) if cfg.drift and cfg.drift_hold else 0
         self.hold_gap = drift_mod.NORM_LATENCY + drift_pipe_latency(cfg) + drift_mod.OBS_LATENCY
@@ -576,6 +578,9 @@ CONFIGS = {
     "adc12-L256-c9-trim": (lambda: CoreConfig(trim=1, trim_map_psi_w=4, trim_map_phi_w=5, trim_g_shift=20,
                                               trim_mag_smooth_log2=2), seed_sim, 1),
     "adc12-L256-c9-drift": (lambda: CoreConfig(drift=1, drift_block_log2=7, drift_fwd_w=6), seed_sim, 1),
+    # DRIFT_HOLD = 0: nothing waits, each update applies half a block after its block (the halves' timing check)
+    "adc12-L256-c9-drift-h0": (lambda: CoreConfig(drift=1, drift_block_log2=7, drift_fwd_w=6, drift_hold=0),
+                               seed_sim, 1),
     "adc12-L256-c9-cancel": (lambda: CoreConfig(cancel=1), seed_sim, 1),
 }
 #: CANCEL = 1: the tone on the stream (fraction of FS, Hz) and bank A's / B's CANCEL_FREQ tones (Hz)
@@ -738,7 +743,11 @@ def test_latency_documented():
     ({"LINES": 1 << 16, "FINE_W": 16, "COARSE_W": 0}, "fringe_core: POS_W = clog2(LINES) + FINE_W = 32 > 31"),
     ({"ADC_W": 20, "WAVE_ADDR_W": 16}, "fringe_core: WAVE_ADDR_W = 16: a table bank must fit the 16-bit word address"),
     ({"LP_ADDR_W": 17}, "fringe_core: LP_ADDR_W = 17 > 16"),
-], ids=["pos_w", "wave_addr_w", "lp_addr_w"])
+    # DRIFT_HOLD = 0: the update of fringe_drift_observer would reach fringe_drift_normaliser too late (the
+    # model's message: the latencies may change)
+    ({"DRIFT": 1, "DRIFT_HOLD": 0, "DRIFT_BLOCK_LOG2": 5},
+     str(pytest.raises(ValueError, CoreConfig, drift=1, drift_hold=0, drift_block_log2=5).value)),
+], ids=["pos_w", "wave_addr_w", "lp_addr_w", "drift_late"])
 def test_illegal_parameters_stop_elaboration(sim, params, message):
     from elab_check import assert_refused
 

@@ -2,7 +2,8 @@
 
 `hdl_refusals` is the HDL's parameter checks transcribed from rtl/verilog/fringe_core.v and the blocks it builds
 (the VHDL twins check the same, with the same messages): the core's own, fringe_wave_lut, fringe_quadrature,
-fringe_cordic, fringe_period_count, fringe_long_period, and fringe_trim / fringe_drift when TRIM / DRIFT is 1.
+fringe_cordic, fringe_period_count, fringe_long_period, and fringe_trim / fringe_drift_normaliser and
+fringe_drift_observer when TRIM / DRIFT is 1.
 A randomised population (wide ranges, each draw moving a few parameters outside their legal range) compares it
 with the model; a few draws are elaborated by Verilator, which checks the transcription itself.
 """
@@ -154,19 +155,25 @@ def hdl_refusals(c: dict) -> list[str]:
     if g["DRIFT"] == 1:
         d = {name.removeprefix("DRIFT_"): v for name, v in g.items() if name.startswith("DRIFT_")}
         phi_max = min(10, fine_w - 1)
-        in_range("fringe_drift", "ADC_W", adc_w, 4, 24)
-        in_range("fringe_drift", "FINE_W", fine_w, 8, 30)
-        in_range("fringe_drift", "BLOCK_LOG2", d["BLOCK_LOG2"], 4, 12)
-        in_range("fringe_drift", "MU_LOG2", d["MU_LOG2"], 0, 8)
-        in_range("fringe_drift", "OFS_FRAC", d["OFS_FRAC"], 0, 8)
-        check(adc_w + d["OFS_FRAC"] > 32, f"fringe_drift: ADC_W + OFS_FRAC = {adc_w + d['OFS_FRAC']} exceeds 32")
-        in_range("fringe_drift", "GINV_W", d["GINV_W"], 8, 24)
-        in_range("fringe_drift", "FWD_W", d["FWD_W"], 2, phi_max, f"min(10, FINE_W-1) = {phi_max}")
-        in_range("fringe_drift", "TABLE_W", d["TABLE_W"], 8, 24)
-        in_range("fringe_drift", "TABLE_FRAC", d["TABLE_FRAC"], 0, 12)
-        in_range("fringe_drift", "KG_W", d["KG_W"], 8, 24)
-        in_range("fringe_drift", "KG_SHIFT", d["KG_SHIFT"], 1, 60)
-        in_range("fringe_drift", "HOLD", d["HOLD"], 0, 1)
+        # fringe_drift_normaliser checks the state's parameters, fringe_drift_observer those and its own
+        for unit in ("fringe_drift_normaliser", "fringe_drift_observer"):
+            observer = unit == "fringe_drift_observer"
+            in_range(unit, "ADC_W", adc_w, 4, 24)
+            if observer:
+                in_range(unit, "FINE_W", fine_w, 8, 30)
+            in_range(unit, "BLOCK_LOG2", d["BLOCK_LOG2"], 4, 12)
+            if observer:
+                in_range(unit, "MU_LOG2", d["MU_LOG2"], 0, 8)
+            in_range(unit, "OFS_FRAC", d["OFS_FRAC"], 0, 8)
+            check(adc_w + d["OFS_FRAC"] > 32, f"{unit}: ADC_W + OFS_FRAC = {adc_w + d['OFS_FRAC']} exceeds 32")
+            in_range(unit, "GINV_W", d["GINV_W"], 8, 24)
+            if observer:
+                in_range(unit, "FWD_W", d["FWD_W"], 2, phi_max, f"min(10, FINE_W-1) = {phi_max}")
+                in_range(unit, "TABLE_W", d["TABLE_W"], 8, 24)
+                in_range(unit, "TABLE_FRAC", d["TABLE_FRAC"], 0, 12)
+                in_range(unit, "KG_W", d["KG_W"], 8, 24)
+                in_range(unit, "KG_SHIFT", d["KG_SHIFT"], 1, 60)
+            in_range(unit, "HOLD", d["HOLD"], 0, 1)
         # fringe_core's PIPE_D: the input registers, the waveform tables, the quadrature, the canceller
         # (CANCEL = 1) and the CORDIC
         pipe = (k["CORE_INPUT_LATENCY"] + k["WAVE_LUT_LATENCY"] + k["QUADRATURE_LATENCY"]
@@ -175,7 +182,7 @@ def hdl_refusals(c: dict) -> list[str]:
         if d["BLOCK_LOG2"] >= 1 and d["HOLD"] == 0:     # HOLD = 1: the input waits for the update
             late = (1 << (d["BLOCK_LOG2"] - 1)) + 1
             check(norm + pipe + obs > late,
-                  f"fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = {norm} + {pipe} + {obs} = "
+                  f"fringe_core: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = {norm} + {pipe} + {obs} = "
                   f"{norm + pipe + obs} exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = {late}: the update would come too late")
     return out
 

@@ -1,4 +1,5 @@
-"""Unit tests of the bit-exact fringe_drift model (model/fringe/fixed/drift.py)."""
+"""Unit tests of the bit-exact drift tracker model (model/fringe/fixed/drift.py: the core's
+fringe_drift_normaliser and fringe_drift_observer together)."""
 
 from __future__ import annotations
 
@@ -76,7 +77,7 @@ class Encoder:
 
 
 def reference(rs, rc, phase_of, p: DriftParams, tables, w0, kg, *, old: bool = False):
-    """The contract of docs/blocks/fringe_drift.md as a plain per-sample loop on Python integers.
+    """The contract of docs/drift.md as a plain per-sample loop on Python integers.
 
     old = True: the tracker before HOLD, window, gear shift and partial sweeps (D = B/2, every sample of the
     block accumulated, a fixed step 2^-MU_LOG2, only blocks of a whole period), for comparisons of the start-up."""
@@ -155,7 +156,8 @@ def test_derived_constants():
     q = P1H0
     assert (q.d, q.w, q.w_log2, q.off_shift(0), q.se_w, q.sea_w, q.sweep_w) == (128, 128, 7, 8, 27, 46, 23)
     assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 16, 4, 16)
-    assert p.hdl_parameters()["PIPE_LATENCY"] == 0 and p.hdl_parameters()["KG_SHIFT"] == 38
+    assert p.hdl_parameters() == p.observer().hdl_parameters()    # no HDL block takes PIPE_LATENCY: the core's own
+    assert p.hdl_parameters()["KG_SHIFT"] == 38
     assert p.hdl_parameters()["HOLD"] == 1 and q.hdl_parameters()["HOLD"] == 0
 
 
@@ -175,30 +177,30 @@ KEYS = {k.lower(): k for k in BASE}
 @pytest.mark.parametrize(
     "over, msg",
     [
-        *out_of_range("fringe_drift", "adc_w", 4, 24),
-        ({"fine_w": 7, "fwd_w": 4}, "fringe_drift: FINE_W = 7 out of range 8..30"),
-        *out_of_range("fringe_drift", "fine_w", 8, 30, values=(31,)),
-        *out_of_range("fringe_drift", "block_log2", 4, 12),
-        *out_of_range("fringe_drift", "mu_log2", 0, 8, values=(9,)),
-        *out_of_range("fringe_drift", "ofs_frac", 0, 8, values=(9,)),
-        ({"adc_w": 24, "ofs_frac": 9}, "fringe_drift: OFS_FRAC = 9 out of range 0..8"),
+        *out_of_range("fringe_drift_observer", "adc_w", 4, 24),
+        ({"fine_w": 7, "fwd_w": 4}, "fringe_drift_observer: FINE_W = 7 out of range 8..30"),
+        *out_of_range("fringe_drift_observer", "fine_w", 8, 30, values=(31,)),
+        *out_of_range("fringe_drift_observer", "block_log2", 4, 12),
+        *out_of_range("fringe_drift_observer", "mu_log2", 0, 8, values=(9,)),
+        *out_of_range("fringe_drift_observer", "ofs_frac", 0, 8, values=(9,)),
+        ({"adc_w": 24, "ofs_frac": 9}, "fringe_drift_observer: OFS_FRAC = 9 out of range 0..8"),
         ({"adc_w": 24, "ofs_frac": 8}, "NOERROR"),
-        *out_of_range("fringe_drift", "ginv_w", 8, 24),
-        *out_of_range("fringe_drift", "fwd_w", 2, 10, "min(10, FINE_W-1) = 10"),
-        ({"fine_w": 9, "fwd_w": 9}, "fringe_drift: FWD_W = 9 out of range 2..min(10, FINE_W-1) = 8"),
-        *out_of_range("fringe_drift", "table_w", 8, 24),
-        *out_of_range("fringe_drift", "table_frac", 0, 12, values=(13,)),
-        *out_of_range("fringe_drift", "kg_w", 8, 24),
-        *out_of_range("fringe_drift", "kg_shift", 1, 60),
-        ({"pipe_latency": -1}, "fringe_drift: PIPE_LATENCY = -1 must be >= 0"),
-        ({"pipe_latency": 110}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 110 + 16 = 130 "
+        *out_of_range("fringe_drift_observer", "ginv_w", 8, 24),
+        *out_of_range("fringe_drift_observer", "fwd_w", 2, 10, "min(10, FINE_W-1) = 10"),
+        ({"fine_w": 9, "fwd_w": 9}, "fringe_drift_observer: FWD_W = 9 out of range 2..min(10, FINE_W-1) = 8"),
+        *out_of_range("fringe_drift_observer", "table_w", 8, 24),
+        *out_of_range("fringe_drift_observer", "table_frac", 0, 12, values=(13,)),
+        *out_of_range("fringe_drift_observer", "kg_w", 8, 24),
+        *out_of_range("fringe_drift_observer", "kg_shift", 1, 60),
+        ({"pipe_latency": -1}, "fringe_core: PIPE_LATENCY = -1 must be >= 0"),
+        ({"pipe_latency": 110}, "fringe_core: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 110 + 16 = 130 "
                                 "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = 129: the update would come too late"),
-        ({"block_log2": 4}, "fringe_drift: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 16 = 20 exceeds "
+        ({"block_log2": 4}, "fringe_core: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 16 = 20 exceeds "
                             "D + 1 = 2^(BLOCK_LOG2-1) + 1 = 9: the update would come too late"),
         ({"block_log2": 4, "hold": 1}, "NOERROR"),             # HOLD = 1: no latency limit
         ({"pipe_latency": 1000, "hold": 1}, "NOERROR"),
-        *out_of_range("fringe_drift", "hold", 0, 1),
-        ({"table_w": 18.0}, "fringe_drift: TABLE_W must be an integer"),
+        *out_of_range("fringe_drift_observer", "hold", 0, 1),
+        ({"table_w": 18.0}, "fringe_drift_observer: TABLE_W must be an integer"),
     ],
 )
 def test_parameter_validation(over, msg):
@@ -216,36 +218,54 @@ def test_pipe_latency_limit_is_exact():
 
 
 def test_hdl_messages_match_model():
-    v, h = block_texts("fringe_drift")
-    v += (REPO / "rtl/verilog/fringe_pkg.vh").read_text()     # the checks it shares with its halves are there
+    """The HDL refuses with DriftParams' messages: the ranges in fringe_drift_observer (fringe_pkg's checks, which
+    fringe_drift_normaliser shares for the state's parameters), the halves' timing in fringe_core (DRIFT = 1)."""
+    v, h = block_texts("fringe_drift_observer")
+    v += (REPO / "rtl/verilog/fringe_pkg.vh").read_text()     # the checks it shares with the normaliser are there
     ranges = (("ADC_W", "4..24"), ("FINE_W", "8..30"), ("BLOCK_LOG2", "4..12"), ("MU_LOG2", "0..8"),
               ("OFS_FRAC", "0..8"), ("GINV_W", "8..24"), ("TABLE_W", "8..24"), ("TABLE_FRAC", "0..12"),
               ("KG_W", "8..24"), ("KG_SHIFT", "1..60"), ("HOLD", "0..1"))
-    assert not missing_checks("fringe_drift", ranges)
-    for frag in ("out of range 2..min(10, FINE_W-1) = ", "ADC_W + OFS_FRAC = ", " exceeds 32",
-                 "NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = ", "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = ",
-                 ": the update would come too late"):
+    assert not missing_checks("fringe_drift_observer", ranges)
+    for frag in ("out of range 2..min(10, FINE_W-1) = ", "ADC_W + OFS_FRAC = ", " exceeds 32"):
         assert frag in v and frag in h, frag
-    assert '`FRINGE_CHECK_MIN(g_bad_user_w, "fringe_drift", "USER_W", USER_W, 1)' in v
-    assert 'check_min("fringe_drift", "USER_W", USER_W, 1)' in h
-    assert "PIPE_LATENCY = %0d must be >= 0" in v and 'check_min("fringe_drift", "PIPE_LATENCY", PIPE_LATENCY, 0)' in h
+    cv, ch = block_texts("fringe_core")
+    for frag in ("fringe_core: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = ", "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = ",
+                 ": the update would come too late"):
+        assert frag in cv and frag in ch, frag
 
 
 def test_latency_constants_in_hdl():
-    """The block's constants, or the package constants they name (generated by sim/hdlgen.py)."""
+    """The package constants the core times the halves with (generated by sim/hdlgen.py) are the halves' LATENCY."""
     pattern = r"(?:localparam\s+integer\s+|constant\s+){}\s*(?::\s*integer\s*:)?=\s*(\w+)\s*;"
-    for path, pkg in ((REPO / "rtl/verilog/fringe_drift.v", REPO / "rtl/verilog/fringe_pkg.vh"),
-                      (REPO / "rtl/vhdl/fringe_drift.vhd", REPO / "rtl/vhdl/fringe_pkg.vhd")):
-        text = path.read_text()
-        for name, val in (("NORM_LATENCY", NORM_LATENCY), ("OBS_LATENCY", OBS_LATENCY)):
-            m = re.search(pattern.format(name), text)
-            assert m, (path, name)
-            value = m.group(1)
-            if not value.isdigit():
-                m = re.search(pattern.format(value), pkg.read_text())
-                assert m and m.group(1).isdigit(), (pkg, value)
-                value = m.group(1)
-            assert int(value) == val, (path, name)
+    for core, pkg in ((REPO / "rtl/verilog/fringe_core.v", REPO / "rtl/verilog/fringe_pkg.vh"),
+                      (REPO / "rtl/vhdl/fringe_core.vhd", REPO / "rtl/vhdl/fringe_pkg.vhd")):
+        for name, val in (("DRIFT_NORM_LATENCY", NORM_LATENCY), ("DRIFT_OBS_LATENCY", OBS_LATENCY)):
+            m = re.search(pattern.format(name), pkg.read_text())
+            assert m and int(m.group(1)) == val, (pkg, name)
+            assert name in core.read_text(), (core, name)
+
+
+class _LateParams(DriftParams):
+    """HOLD = 1's window and gear, but each update applied one block late (from (j+2)B): what the core
+    would compute if the boundary sample did not wait for its update."""
+
+    @property
+    def d(self) -> int:
+        return self.b
+
+
+@pytest.mark.parametrize("p", [P1, P2H1], ids=["P1", "P2-hold1"])
+def test_hold_is_needed(p):
+    """Without the hold the words differ: the model with every update applied one block late gives other
+    normalised codes on a fast stream (so the core's RTL tests with DRIFT_HOLD = 1, which compare every word,
+    catch a boundary sample taken before its update; tb/test_fringe_top.py also checks the hold's timing)."""
+    enc = Encoder(p, 6 * p.b, seed=777, speed=2.3 / p.b)
+    late = _LateParams(**{f: getattr(p, f) for f in p.__dataclass_fields__})
+    r = enc.run()
+    q = drift_run(enc.rs, enc.rc, enc.phase_of, late, enc.tables, enc.w0, enc.kg)
+    k = min(q.apply_at.size, r.apply_at.size)
+    assert r.updated.sum() >= 3 and late.d == p.b and (q.apply_at[:k] == r.apply_at[:k] + p.b).all()
+    assert (q.y_sin[p.b:2 * p.b] == r.y_sin[p.b:2 * p.b]).mean() < 0.5    # block 1: reset state vs update 0
 
 
 # ---------------------------------------------------------------------------- tables
@@ -286,7 +306,7 @@ def test_matches_plain_reference(p):
 @pytest.mark.parametrize("p", [P1, P2, P1H0, P2H1], ids=["P1", "P2-hold0", "P1-hold0", "P2-hold1"])
 def test_composes_the_halves_models(p):
     """drift_run is the normaliser's model on the observer's states, and the observer's model on the normaliser's
-    codes and the core's phases: fringe_drift is the composition of fringe_drift_normaliser and
+    codes and the core's phases: the tracker is the composition of fringe_drift_normaliser and
     fringe_drift_observer (their RTL tests check each half against these models)."""
     enc = Encoder(p, max(9 * p.b, 600) + 37, seed=3, speed=max(0.05, 1.5 / p.w), drift=5.0)
     r = enc.run()
@@ -312,9 +332,10 @@ def test_halves_refuse_with_their_names(make, name):
 
 
 def test_halves_parameters():
-    """The halves' parameters of a DriftParams carry its values; the halves' HDL maps are the subsets."""
+    """The halves' parameters of a DriftParams carry its values; its HDL map is the observer's, the normaliser's a
+    subset."""
     assert P2.normaliser() == NormaliserParams(adc_w=10, block_log2=6, ofs_frac=0, ginv_w=12, hold=0)
-    assert P2.observer().hdl_parameters() == {k: v for k, v in P2.hdl_parameters().items() if k != "PIPE_LATENCY"}
+    assert P2.observer().hdl_parameters() == P2.hdl_parameters()
     assert set(P2.normaliser().hdl_parameters()) <= set(P2.hdl_parameters())
 
 

@@ -2,8 +2,9 @@
 // (COMPACT = 1: one per CLOCKS_PER_SAMPLE = CORDIC_STAGES + 1 clock enables, in_ready = 0 in between;
 // the CORDIC iterates, the quadrature's products share one multiplier; the same words and LATENCY):
 //
-//   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1] -> branch select (registered)
+//   sin, cos s(ADC_W) [-> fringe_drift_normaliser, DRIFT = 1] -> branch select (registered)
 //   -> fringe_wave_lut x2 -> fringe_quadrature [-> fringe_canceller, CANCEL = 1] -> fringe_cordic
+//   [-> fringe_drift_observer, DRIFT = 1: the block's update back to the normaliser]
 //   -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W)) [-> fringe_trim, TRIM = 1]
 //   -> fringe_long_period -> pos u(POS_W), status (8 bits)
 //
@@ -136,7 +137,7 @@ module fringe_core #(
     // CORDIC is free whenever a sample reaches it.
     wire take_in = in_valid && in_ready;
     wire admit_ready;                     // the COMPACT spacing
-    wire drift_ready;                     // fringe_drift's hold (DRIFT = 1, DRIFT_HOLD = 1)
+    wire drift_ready;                     // fringe_drift_normaliser's hold (DRIFT = 1, DRIFT_HOLD = 1)
     assign in_ready = admit_ready && drift_ready;
 
     generate
@@ -181,22 +182,40 @@ module fringe_core #(
 
     generate
         if (DRIFT != 0) begin : g_drift
-            wire signed [ADC_W+DRIFT_OFS_FRAC-1:0] off_s, off_c;
-            wire [DRIFT_GINV_W-1:0]                ginv_s, ginv_c;
-            wire                                   track_sat;
-            wire [CW+2:0]                          nu;
+            // fringe_drift_normaliser in front, fringe_drift_observer on each sample's phase PIPE_D clock
+            // enables after its outputs; they hand each other the state and the block's update
+            localparam integer OW      = ADC_W + DRIFT_OFS_FRAC;   // OFF
+            localparam integer D_TOTAL = DRIFT_NORM_LATENCY + PIPE_D + DRIFT_OBS_LATENCY;
+            // DRIFT_HOLD = 0: block j's update must be resolved when sample (j+1)B + B/2 arrives at full speed
+            if (DRIFT_HOLD == 0 && DRIFT_BLOCK_LOG2 >= 1 && D_TOTAL > (1 << (DRIFT_BLOCK_LOG2 - 1)) + 1) begin : g_late
+                $error("fringe_core: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = %0d + %0d + %0d = %0d exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = %0d: the update would come too late (instance %m)",
+                       DRIFT_NORM_LATENCY, PIPE_D, DRIFT_OBS_LATENCY, D_TOTAL, (1 << (DRIFT_BLOCK_LOG2 - 1)) + 1);
+            end
+            wire signed [OW-1:0]    off_s, off_c, upd_off_s, upd_off_c;
+            wire [DRIFT_GINV_W-1:0] ginv_s, ginv_c, upd_ginv_s, upd_ginv_c;
+            wire                    track_sat, upd_valid, upd_sat, upd_resolved, upd_take;
+            wire [CW+2:0]           nu;
 
-            fringe_drift #(
-                .ADC_W(ADC_W), .FINE_W(FINE_W), .BLOCK_LOG2(DRIFT_BLOCK_LOG2), .MU_LOG2(DRIFT_MU_LOG2),
-                .OFS_FRAC(DRIFT_OFS_FRAC), .GINV_W(DRIFT_GINV_W), .FWD_W(DRIFT_FWD_W), .TABLE_W(DRIFT_TABLE_W),
-                .TABLE_FRAC(DRIFT_TABLE_FRAC), .KG_W(DRIFT_KG_W), .KG_SHIFT(DRIFT_KG_SHIFT), .PIPE_LATENCY(PIPE_D),
-                .HOLD(DRIFT_HOLD),
-                .FWD_SIN_INIT(DRIFT_FWD_SIN_INIT), .FWD_COS_INIT(DRIFT_FWD_COS_INIT), .USER_W(CW + 3)
-            ) u_drift (
+            fringe_drift_normaliser #(
+                .ADC_W(ADC_W), .BLOCK_LOG2(DRIFT_BLOCK_LOG2), .OFS_FRAC(DRIFT_OFS_FRAC), .GINV_W(DRIFT_GINV_W),
+                .HOLD(DRIFT_HOLD), .USER_W(CW + 3)
+            ) u_drift_norm (
                 .clk(clk), .rst(rst), .ce(ce),
                 .in_valid(take_in), .raw_sin(sin), .raw_cos(cos), .in_user({coarse, bank_r, raw_clip_c, raw_clip_s}),
                 .in_ready(drift_ready),
                 .norm_valid(n_valid), .y_sin(n_sin), .y_cos(n_cos), .norm_sat(n_sat), .norm_user(nu),
+                .upd_valid(upd_valid), .upd_off_sin(upd_off_s), .upd_off_cos(upd_off_c), .upd_ginv_sin(upd_ginv_s),
+                .upd_ginv_cos(upd_ginv_c), .upd_sat(upd_sat), .upd_resolved(upd_resolved), .upd_take(upd_take),
+                .off_sin(off_s), .off_cos(off_c), .ginv_sin(ginv_s), .ginv_cos(ginv_c), .track_sat(track_sat)
+            );
+
+            fringe_drift_observer #(
+                .ADC_W(ADC_W), .FINE_W(FINE_W), .BLOCK_LOG2(DRIFT_BLOCK_LOG2), .MU_LOG2(DRIFT_MU_LOG2),
+                .OFS_FRAC(DRIFT_OFS_FRAC), .GINV_W(DRIFT_GINV_W), .FWD_W(DRIFT_FWD_W), .TABLE_W(DRIFT_TABLE_W),
+                .TABLE_FRAC(DRIFT_TABLE_FRAC), .KG_W(DRIFT_KG_W), .KG_SHIFT(DRIFT_KG_SHIFT), .HOLD(DRIFT_HOLD),
+                .FWD_SIN_INIT(DRIFT_FWD_SIN_INIT), .FWD_COS_INIT(DRIFT_FWD_COS_INIT)
+            ) u_drift_obs (
+                .clk(clk), .rst(rst), .ce(ce),
                 .obs_valid(c_valid), .obs_phase(phase), .obs_y_sin(c_dx[DX_W-1 -: ADC_W]),
                 .obs_y_cos(c_dx[ADC_W+2:3]), .obs_bank(c_bank),
                 .w0_sin(regs[{c_bank, REG_W0_S}][ADC_W+DRIFT_TABLE_FRAC-1:0]),
@@ -204,12 +223,14 @@ module fringe_core #(
                 .kg_sin(regs[{c_bank, REG_KG_S}][DRIFT_KG_W-1:0]), .kg_cos(regs[{c_bank, REG_KG_C}][DRIFT_KG_W-1:0]),
                 .wr_en(wr_fwd), .wr_sel(wr_fwd_sel), .wr_addr({wr_bank_r, wr_word[DRIFT_FWD_W-1:0]}),
                 .wr_data(wr_data[2*DRIFT_TABLE_W-1:0]),
-                .off_sin(off_s), .off_cos(off_c), .ginv_sin(ginv_s), .ginv_cos(ginv_c), .track_sat(track_sat)
+                .off_sin(off_s), .off_cos(off_c), .ginv_sin(ginv_s), .ginv_cos(ginv_c),
+                .upd_valid(upd_valid), .upd_off_sin(upd_off_s), .upd_off_cos(upd_off_c), .upd_ginv_sin(upd_ginv_s),
+                .upd_ginv_cos(upd_ginv_c), .upd_sat(upd_sat), .upd_resolved(upd_resolved), .upd_take(upd_take)
             );
 
             assign {n_coarse, n_bank, n_clip_c, n_clip_s} = nu;
-            // the tracker's state is observable in simulation; the samples carry norm_sat
-            wire unused_drift = &{1'b0, off_s, off_c, ginv_s, ginv_c, track_sat, c_dx[2:0]};
+            // the tracker's saturation is observable in simulation; the samples carry norm_sat
+            wire unused_drift = &{1'b0, track_sat, c_dx[2:0]};
         end else begin : g_no_drift
             assign drift_ready = 1'b1;
             assign n_valid  = take_in;

@@ -30,8 +30,8 @@ parameter [63:0]  TRIM_SECT_RECIP      = 64'd1, // sector multiplier (trim.secto
 parameter integer TRIM_SECT_SHIFT      = 18,    // sector shift (trim.sector_mapping)
 parameter integer TRIM_START_SPEED     = 0,     // speed of the first sample after reset (no window yet), fine counts per 2^TRIM_SPEED_LOG2 samples, -REV/2..REV/2-1
 parameter integer TRIM_MAG_SMOOTH_LOG2 = 0,     // the magnitude terms take the magnitude's running average over ~2^TRIM_MAG_SMOOTH_LOG2 samples, 0 (the sample's own)..12
-// fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
-parameter integer DRIFT                = 0,     // 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
+// the drift tracker (fringe_drift_normaliser, fringe_drift_observer): built only with DRIFT = 1
+parameter integer DRIFT                = 0,     // 1 = the drift tracker normalises the ADC codes in front of everything (docs/drift.md)
 parameter integer DRIFT_BLOCK_LOG2     = 8,     // samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)
 parameter integer DRIFT_MU_LOG2        = 1,     // final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8
 parameter integer DRIFT_OFS_FRAC       = 4,     // fraction bits of the tracked offsets, 0..8

@@ -2,8 +2,9 @@
 -- (COMPACT = 1: one per CLOCKS_PER_SAMPLE = CORDIC_STAGES + 1 clock enables, in_ready = '0' in between;
 -- the CORDIC iterates, the quadrature's products share one multiplier; the same words and LATENCY):
 --
---   sin, cos s(ADC_W) [-> fringe_drift normaliser, DRIFT = 1] -> branch select (registered)
+--   sin, cos s(ADC_W) [-> fringe_drift_normaliser, DRIFT = 1] -> branch select (registered)
 --   -> fringe_wave_lut x2 -> fringe_quadrature [-> fringe_canceller, CANCEL = 1] -> fringe_cordic
+--   [-> fringe_drift_observer, DRIFT = 1: the block's update back to the normaliser]
 --   -> magnitude flags -> fringe_period_count (+ coarse u(COARSE_W)) [-> fringe_trim, TRIM = 1]
 --   -> fringe_long_period -> pos u(POS_W), status (8 bits)
 --
@@ -53,8 +54,8 @@ entity fringe_core is
         TRIM_SECT_SHIFT      : integer := 18;  -- sector shift (trim.sector_mapping)
         TRIM_START_SPEED     : integer := 0;   -- speed of the first sample after reset (no window yet), fine counts per 2^TRIM_SPEED_LOG2 samples, -REV/2..REV/2-1
         TRIM_MAG_SMOOTH_LOG2 : integer := 0;   -- the magnitude terms take the magnitude's running average over ~2^TRIM_MAG_SMOOTH_LOG2 samples, 0 (the sample's own)..12
-        -- fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
-        DRIFT                : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
+        -- the drift tracker (fringe_drift_normaliser, fringe_drift_observer): built only with DRIFT = 1
+        DRIFT                : integer := 0;   -- 1 = the drift tracker normalises the ADC codes in front of everything (docs/drift.md)
         DRIFT_BLOCK_LOG2     : integer := 8;   -- samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)
         DRIFT_MU_LOG2        : integer := 1;   -- final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8
         DRIFT_OFS_FRAC       : integer := 4;   -- fraction bits of the tracked offsets, 0..8
@@ -195,7 +196,7 @@ architecture rtl of fringe_core is
     signal take_in      : std_logic;    -- the sample is taken (in_valid and in_ready)
     signal in_ready_i   : std_logic;
     signal admit_ready  : std_logic;    -- the COMPACT spacing
-    signal drift_ready  : std_logic;    -- fringe_drift's hold (DRIFT = 1, DRIFT_HOLD = 1)
+    signal drift_ready  : std_logic;    -- fringe_drift_normaliser's hold (DRIFT = 1, DRIFT_HOLD = 1)
     signal c_ready      : std_logic;    -- always '1': the admission spaces the samples
     signal n_sin, n_cos : std_logic_vector(ADC_W - 1 downto 0);
     signal n_sat, n_bank, n_clip_s, n_clip_c : std_logic;
@@ -354,9 +355,28 @@ begin
     c_dx <= c_user(U_C - 1 downto U_C - DX_W);
 
     g_drift : if DRIFT /= 0 generate
-        signal off_s, off_c   : std_logic_vector(ADC_W + DRIFT_OFS_FRAC - 1 downto 0);
-        signal ginv_s, ginv_c : std_logic_vector(DRIFT_GINV_W - 1 downto 0);
-        signal track_sat      : std_logic;
+        -- fringe_drift_normaliser in front, fringe_drift_observer on each sample's phase PIPE_D clock enables
+        -- after its outputs; they hand each other the state and the block's update
+        constant OW : integer := ADC_W + DRIFT_OFS_FRAC;   -- OFF
+        -- DRIFT_HOLD = 0: block j's update must be resolved when sample (j+1)B + B/2 arrives at full speed
+        function timing_ok return boolean is
+            constant TOTAL : integer := DRIFT_NORM_LATENCY + PIPE_D + DRIFT_OBS_LATENCY;
+        begin
+            if DRIFT_HOLD = 0 and DRIFT_BLOCK_LOG2 >= 1 then
+                assert TOTAL <= 2 ** (DRIFT_BLOCK_LOG2 - 1) + 1
+                    report "fringe_core: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = "
+                           & integer'image(DRIFT_NORM_LATENCY) & " + " & integer'image(PIPE_D) & " + "
+                           & integer'image(DRIFT_OBS_LATENCY) & " = " & integer'image(TOTAL)
+                           & " exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = " & integer'image(2 ** (DRIFT_BLOCK_LOG2 - 1) + 1)
+                           & ": the update would come too late"
+                    severity failure;
+            end if;
+            return true;
+        end function timing_ok;
+        constant TIMING_CHECKED : boolean := timing_ok;
+        signal off_s, off_c, upd_off_s, upd_off_c : std_logic_vector(OW - 1 downto 0);
+        signal ginv_s, ginv_c, upd_ginv_s, upd_ginv_c : std_logic_vector(DRIFT_GINV_W - 1 downto 0);
+        signal track_sat, upd_valid, upd_sat, upd_resolved, upd_take : std_logic;
         signal d_in_user, nu  : std_logic_vector(CW + 2 downto 0);
         signal d_wr_addr      : std_logic_vector(DRIFT_FWD_W downto 0);
         signal c_bank_d       : std_logic;
@@ -365,16 +385,27 @@ begin
         d_wr_addr <= wr_bank_r & std_logic_vector(wr_word(DRIFT_FWD_W - 1 downto 0));
         c_bank_d  <= c_user(0);
 
-        u_drift : entity work.fringe_drift
-            generic map (ADC_W => ADC_W, FINE_W => FINE_W, BLOCK_LOG2 => DRIFT_BLOCK_LOG2,
-                         MU_LOG2 => DRIFT_MU_LOG2, OFS_FRAC => DRIFT_OFS_FRAC, GINV_W => DRIFT_GINV_W,
-                         FWD_W => DRIFT_FWD_W, TABLE_W => DRIFT_TABLE_W, TABLE_FRAC => DRIFT_TABLE_FRAC,
-                         KG_W => DRIFT_KG_W, KG_SHIFT => DRIFT_KG_SHIFT, PIPE_LATENCY => PIPE_D, HOLD => DRIFT_HOLD,
-                         FWD_SIN_INIT => DRIFT_FWD_SIN_INIT, FWD_COS_INIT => DRIFT_FWD_COS_INIT, USER_W => CW + 3)
+        u_drift_norm : entity work.fringe_drift_normaliser
+            generic map (ADC_W => ADC_W, BLOCK_LOG2 => DRIFT_BLOCK_LOG2, OFS_FRAC => DRIFT_OFS_FRAC,
+                         GINV_W => DRIFT_GINV_W, HOLD => DRIFT_HOLD, USER_W => CW + 3)
             port map (
                 clk => clk, rst => rst, ce => ce,
                 in_valid => take_in, raw_sin => sin, raw_cos => cos, in_user => d_in_user, in_ready => drift_ready,
                 norm_valid => n_valid, y_sin => n_sin, y_cos => n_cos, norm_sat => n_sat, norm_user => nu,
+                upd_valid => upd_valid, upd_off_sin => upd_off_s, upd_off_cos => upd_off_c,
+                upd_ginv_sin => upd_ginv_s, upd_ginv_cos => upd_ginv_c, upd_sat => upd_sat,
+                upd_resolved => upd_resolved, upd_take => upd_take,
+                off_sin => off_s, off_cos => off_c, ginv_sin => ginv_s, ginv_cos => ginv_c, track_sat => track_sat
+            );
+
+        u_drift_obs : entity work.fringe_drift_observer
+            generic map (ADC_W => ADC_W, FINE_W => FINE_W, BLOCK_LOG2 => DRIFT_BLOCK_LOG2,
+                         MU_LOG2 => DRIFT_MU_LOG2, OFS_FRAC => DRIFT_OFS_FRAC, GINV_W => DRIFT_GINV_W,
+                         FWD_W => DRIFT_FWD_W, TABLE_W => DRIFT_TABLE_W, TABLE_FRAC => DRIFT_TABLE_FRAC,
+                         KG_W => DRIFT_KG_W, KG_SHIFT => DRIFT_KG_SHIFT, HOLD => DRIFT_HOLD,
+                         FWD_SIN_INIT => DRIFT_FWD_SIN_INIT, FWD_COS_INIT => DRIFT_FWD_COS_INIT)
+            port map (
+                clk => clk, rst => rst, ce => ce,
                 obs_valid => c_valid, obs_phase => phase,
                 obs_y_sin => c_dx(DX_W - 1 downto ADC_W + 3), obs_y_cos => c_dx(ADC_W + 2 downto 3),
                 obs_bank => c_bank_d,
@@ -384,7 +415,10 @@ begin
                 kg_cos => reg_field(regs, c_bank_d, REG_KG_C, DRIFT_KG_W),
                 wr_en => wr_fwd, wr_sel => wr_fwd_sel, wr_addr => d_wr_addr,
                 wr_data => wr_data(2 * DRIFT_TABLE_W - 1 downto 0),
-                off_sin => off_s, off_cos => off_c, ginv_sin => ginv_s, ginv_cos => ginv_c, track_sat => track_sat
+                off_sin => off_s, off_cos => off_c, ginv_sin => ginv_s, ginv_cos => ginv_c,
+                upd_valid => upd_valid, upd_off_sin => upd_off_s, upd_off_cos => upd_off_c,
+                upd_ginv_sin => upd_ginv_s, upd_ginv_cos => upd_ginv_c, upd_sat => upd_sat,
+                upd_resolved => upd_resolved, upd_take => upd_take
             );
 
         n_coarse <= nu(CW + 2 downto 3);

@@ -49,8 +49,8 @@ entity fringe_top is
         TRIM_SECT_SHIFT      : integer := 18;  -- sector shift (trim.sector_mapping)
         TRIM_START_SPEED     : integer := 0;   -- speed of the first sample after reset (no window yet), fine counts per 2^TRIM_SPEED_LOG2 samples, -REV/2..REV/2-1
         TRIM_MAG_SMOOTH_LOG2 : integer := 0;   -- the magnitude terms take the magnitude's running average over ~2^TRIM_MAG_SMOOTH_LOG2 samples, 0 (the sample's own)..12
-        -- fringe_drift (the online offset/gain tracker): built only with DRIFT = 1
-        DRIFT                : integer := 0;   -- 1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)
+        -- the drift tracker (fringe_drift_normaliser, fringe_drift_observer): built only with DRIFT = 1
+        DRIFT                : integer := 0;   -- 1 = the drift tracker normalises the ADC codes in front of everything (docs/drift.md)
         DRIFT_BLOCK_LOG2     : integer := 8;   -- samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)
         DRIFT_MU_LOG2        : integer := 1;   -- final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8
         DRIFT_OFS_FRAC       : integer := 4;   -- fraction bits of the tracked offsets, 0..8

@@ -67,7 +67,7 @@ HDL_PARAMETER_DOCS = {
                         "2^TRIM_SPEED_LOG2 samples, -REV/2..REV/2-1",
     "TRIM_MAG_SMOOTH_LOG2": "the magnitude terms take the magnitude's running average over ~2^TRIM_MAG_SMOOTH_LOG2 "
                             "samples, 0 (the sample's own)..12",
-    "DRIFT": "1 = fringe_drift normalises the ADC codes in front of everything (docs/blocks/fringe_drift.md)",
+    "DRIFT": "1 = the drift tracker normalises the ADC codes in front of everything (docs/drift.md)",
     "DRIFT_BLOCK_LOG2": "samples per tracker block = 2^DRIFT_BLOCK_LOG2, 4..12 (>= 7 in the core with DRIFT_HOLD = 0)",
     "DRIFT_MU_LOG2": "final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1), 0..8",
     "DRIFT_OFS_FRAC": "fraction bits of the tracked offsets, 0..8",
@@ -147,8 +147,9 @@ class CoreConfig(PositionWidths):
     trim_g_shift: int = 24     # TRIM_G_SHIFT: right shift of the speed and magnitude products
     trim_start_speed: int = 0  # TRIM_START_SPEED: the first sample's speed after reset (the calibration's mean speed)
     trim_mag_smooth_log2: int = 0   # TRIM_MAG_SMOOTH_LOG2: magnitude averaged over ~2^k samples for the magnitude terms
-    # fringe_drift (the closed loop's online offset/gain tracker, docs/blocks/fringe_drift.md); DRIFT = 0: not built
-    drift: int = 0             # DRIFT: 1 = fringe_drift normalises the ADC codes in front of everything
+    # the drift tracker (the closed loop's online offset/gain tracker: fringe_drift_normaliser and
+    # fringe_drift_observer, docs/drift.md); DRIFT = 0: not built
+    drift: int = 0             # DRIFT: 1 = the tracker normalises the ADC codes in front of everything
     drift_block_log2: int = 8  # DRIFT_BLOCK_LOG2: samples per tracker update = 2^DRIFT_BLOCK_LOG2 (>= 7 in the core)
     drift_mu_log2: int = 1     # DRIFT_MU_LOG2: final tracker step 2^-DRIFT_MU_LOG2 per update (gear shift from 1)
     drift_ofs_frac: int = 4    # DRIFT_OFS_FRAC: fraction bits of the tracked offsets (ADC codes)
@@ -171,8 +172,9 @@ class CoreConfig(PositionWidths):
 
     def __post_init__(self) -> None:
         """The limits fringe_core checks at elaboration, its blocks' and its own (rtl/*/fringe_core.*), with the
-        HDL's messages: ValueError names the first one this configuration breaks. fringe_trim and fringe_drift
-        are checked when they are built (TRIM = 1, DRIFT = 1), fringe_drift with the core's PIPE_LATENCY. The core's
+        HDL's messages: ValueError names the first one this configuration breaks. fringe_trim and the drift
+        tracker's halves are checked when they are built (TRIM = 1, DRIFT = 1), their timing with the core's
+        PIPE_LATENCY. The core's
         own checks of LINES, LP_ADDR_W, LP_W, WAVE_W and ADC_W are implied by its blocks' narrower ranges."""
         if self.compact not in (0, 1):
             raise ValueError(f"fringe_core: COMPACT = {self.compact} must be 0 or 1")
@@ -254,8 +256,9 @@ class CoreConfig(PositionWidths):
                           mag_smooth_log2=self.trim_mag_smooth_log2)
 
     def drift_params(self, pipe_latency: int = 0) -> DriftParams:
-        """fringe_drift's parameters; pipe_latency: clock enables from its normaliser outputs to its
-        observer inputs in the core (`drift_pipe_latency`)."""
+        """The drift tracker's parameters (fringe_drift_observer's, fringe_drift_normaliser's among them);
+        pipe_latency: clock enables from the normaliser's outputs to the observer's inputs in the core
+        (`drift_pipe_latency`)."""
         return DriftParams(adc_w=self.adc_w, fine_w=self.fine_w, block_log2=self.drift_block_log2,
                            mu_log2=self.drift_mu_log2, ofs_frac=self.drift_ofs_frac, ginv_w=self.drift_ginv_w,
                            fwd_w=self.drift_fwd_w, table_w=self.drift_table_w, table_frac=self.drift_table_frac,
@@ -276,7 +279,7 @@ class CoreConfig(PositionWidths):
             p.update({name.upper(): getattr(self, name) for name in TRIM_FIELDS})
             tp = self.trim_params()
             p["TRIM_SECT_RECIP"], p["TRIM_SECT_SHIFT"] = tp.recip, tp.shift
-        if self.drift:    # likewise fringe_drift's
+        if self.drift:    # likewise the drift tracker's
             p.update({name.upper(): getattr(self, name) for name in DRIFT_FIELDS})
         if self.cancel:   # and fringe_canceller's
             p.update({name.upper(): getattr(self, name) for name in CANCEL_FIELDS})
@@ -313,7 +316,7 @@ INPUT_LATENCY = 2
 
 
 def drift_pipe_latency(cfg: CoreConfig) -> int:
-    """Clock enables from fringe_drift's normaliser outputs to its observer inputs: the input registers,
-    the waveform tables, the quadrature, the canceller (CANCEL = 1) and the CORDIC (PIPE_LATENCY)."""
+    """Clock enables from fringe_drift_normaliser's outputs to fringe_drift_observer's inputs in the core: the
+    input registers, the waveform tables, the quadrature, the canceller (CANCEL = 1) and the CORDIC (PIPE_LATENCY)."""
     return (INPUT_LATENCY + wave_mod.LATENCY + quad_mod.LATENCY + (CANCEL_LATENCY if cfg.cancel else 0)
             + cfg.cordic().latency)

@@ -1,17 +1,18 @@
-"""Bit-exact model of ``fringe_drift``: online offset / gain tracker for drifting sin/cos signals.
+"""Bit-exact model of the drift tracker: online offset / gain tracking of drifting sin/cos signals in ``fringe_core``.
 
-Mirrors ``rtl/verilog/fringe_drift.v`` and ``rtl/vhdl/fringe_drift.vhd`` (contract in ``docs/blocks/fringe_drift.md``).
-The composition of two blocks, each with its own model: ``drift_normaliser`` (``fringe_drift_normaliser``,
+No HDL block of its own: with DRIFT = 1 ``fringe_core`` (``rtl/verilog/fringe_core.v``, ``rtl/vhdl/fringe_core.vhd``)
+instantiates its two halves, each with its own model: ``drift_normaliser`` (``fringe_drift_normaliser``,
 at the front of the core: ``y_k = ((raw_k * 2^OFS_FRAC - OFF_k) * GINV_k + half) >>> shift``, saturated) and
 ``drift_observer`` (``fringe_drift_observer``: from each sample's fine phase, computed downstream from the same
 sample's y, the block sums of the error against the calibrated waveform and each block's update at the gear).
 The observer's update of block j becomes the normaliser's state from input sample (j+1)B + D on: D = 0 with
 HOLD = 1 (the normaliser holds sample (j+1)B until the update is resolved: in_ready), D = B/2 with HOLD = 0;
-``drift_run`` closes that loop through the rest of the core (``phase_of``).
+``drift_run`` closes that loop through the rest of the core (``phase_of``). The tracker as a whole (loop gain,
+partial sweeps, the core's timing): ``docs/drift.md``.
 
 The offset step is twice the mean error (the shift's -1) and KG carries a factor 4/3 (`kg_for`): inside
 the core the phase comes from the same normalised codes, so the observer sees half of an offset error and
-3/4 of a relative gain error (docs/blocks/fringe_drift.md, "Loop gain").
+3/4 of a relative gain error (docs/drift.md, "Loop gain").
 ``KG_k`` is the value of the block's last sample's bank; ``W0_k`` and the tables those of each sample's
 bank. Everything per sample is int64 (the widest product e * a is below 2^62); the block sums of e * a
 are split into 32-bit halves and the update runs on Python integers (SEA * KG needs about 100 bits).
@@ -25,7 +26,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .drift_normaliser import LATENCY as NORM_LATENCY
-from .drift_normaliser import NormaliserParams, apply_points, check_state_params, normalise
+from .drift_normaliser import NormaliserParams, apply_points, normalise
 from .drift_observer import LATENCY as OBS_LATENCY
 from .drift_observer import (
     PARTIAL_MU_MIN,
@@ -34,12 +35,12 @@ from .drift_observer import (
     ObserverResult,
     abs_deltas,
     bank_tables,
-    check_observer_params,
     collect,
     end_block,
     observe,
     per_bank,
 )
+from .limits import check_integers
 from .table_ram import periodic_slopes, split_words
 
 __all__ = [
@@ -60,35 +61,29 @@ __all__ = [
     "unpack_words",
 ]
 
-NAME = "fringe_drift"
+NAME = "drift tracker"   # this model's messages (tables, streams): the tracker is no HDL block of its own
+CORE = "fringe_core"    # the HDL unit that checks the normaliser-to-observer timing (PIPE_LATENCY is its pipeline)
 # NORM_LATENCY (fringe_drift_normaliser's LATENCY): enabled clocks from in_valid to norm_valid in the RTL.
 # OBS_LATENCY (fringe_drift_observer's LATENCY): enabled clocks from obs_valid of a block's last sample (its own
 # clock enable counted) until the block's update is pending (ready to be applied).
 
 
-def _check_int(name: str, v) -> None:
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
-        raise ValueError(f"{NAME}: {name} must be an integer")
-
-
 @dataclass(frozen=True)
 class DriftParams(ObserverParams):
     """The HDL parameters (same names upper case, same limits and messages): those of fringe_drift_observer
-    (fringe_drift_normaliser's are among them) and the core's PIPE_LATENCY."""
+    (fringe_drift_normaliser's are among them), refused in its name as the core's observer instance does, and
+    PIPE_LATENCY, the core's clock enables between the halves, whose timing check is fringe_core's."""
 
     pipe_latency: int = 0    # clock enables from norm outputs to obs inputs in the core, >= 0
 
     def __post_init__(self) -> None:
-        for f in ("adc_w", "fine_w", "block_log2", "mu_log2", "ofs_frac", "ginv_w", "fwd_w", "table_w",
-                  "table_frac", "kg_w", "kg_shift", "pipe_latency", "hold"):
-            _check_int(f.upper(), getattr(self, f))
-        check_state_params(NAME, self)
-        check_observer_params(NAME, self)
+        super().__post_init__()     # fringe_drift_observer's checks
+        check_integers(CORE, self, ("pipe_latency",))
         if self.pipe_latency < 0:
-            raise ValueError(f"{NAME}: PIPE_LATENCY = {self.pipe_latency} must be >= 0")
+            raise ValueError(f"{CORE}: PIPE_LATENCY = {self.pipe_latency} must be >= 0")
         total = NORM_LATENCY + self.pipe_latency + OBS_LATENCY
         if not self.hold and total > self.d + 1:
-            raise ValueError(f"{NAME}: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = {NORM_LATENCY} + "
+            raise ValueError(f"{CORE}: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = {NORM_LATENCY} + "
                              f"{self.pipe_latency} + {OBS_LATENCY} = {total} exceeds D + 1 = "
                              f"2^(BLOCK_LOG2-1) + 1 = {self.d + 1}: the update would come too late")
 
@@ -99,13 +94,6 @@ class DriftParams(ObserverParams):
     @property
     def obs_latency(self) -> int:
         return OBS_LATENCY
-
-    def hdl_parameters(self) -> dict[str, int]:
-        """The HDL parameter / generic map (without the init files and USER_W)."""
-        return {"ADC_W": self.adc_w, "FINE_W": self.fine_w, "BLOCK_LOG2": self.block_log2, "MU_LOG2": self.mu_log2,
-                "OFS_FRAC": self.ofs_frac, "GINV_W": self.ginv_w, "FWD_W": self.fwd_w, "TABLE_W": self.table_w,
-                "TABLE_FRAC": self.table_frac, "KG_W": self.kg_w, "KG_SHIFT": self.kg_shift,
-                "PIPE_LATENCY": self.pipe_latency, "HOLD": self.hold}
 
     def normaliser(self) -> NormaliserParams:
         """fringe_drift_normaliser's parameters."""
@@ -238,7 +226,8 @@ def _check_stream(raw_sin, raw_cos, p: DriftParams):
 
 def drift_run(raw_sin, raw_cos, phase_of: Callable[[np.ndarray, np.ndarray], np.ndarray], params: DriftParams,
               tables, w0, kg, *, bank=None, chunk: int | None = None) -> DriftResult:
-    """Bit-exact ``fringe_drift`` over a whole stream of accepted samples starting after a reset.
+    """The bit-exact drift tracker (the core's fringe_drift_normaliser and fringe_drift_observer) over a whole
+    stream of accepted samples starting after a reset.
 
     Args:
         raw_sin, raw_cos: s(ADC_W) codes, one per sample accepted by the normaliser.
