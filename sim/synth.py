@@ -8,7 +8,7 @@ Per configuration (``--configs``):
   seed18 the same encoder with CoreConfig()'s literal defaults (18-bit tables and gains, 18 stages)
   line1  a 16-bit ADC, 1 line per revolution, no coarse code (periods are counted)
   seed_trim   the seed configuration with fringe_trim (TRIM = 1, the closed loop's corrections)
-  seed_drift  the seed configuration with fringe_drift (DRIFT = 1, the closed loop's drift tracker)
+  seed_drift  the seed configuration with the closed loop's drift tracker (DRIFT = 1)
   seed_cancel the seed configuration with fringe_canceller (CANCEL = 1): a 437 Hz tone at 2 % of full scale on
               the recording, its CANCEL_FREQ, CANCEL_BLOCK_LOG2 5, CANCEL_MU_LOG2 6, A_W from cancel_config
   seed_compact, seed_compact_trim, seed_compact_drift  seed, seed_trim, seed_drift with COMPACT = 1 (the
@@ -183,7 +183,7 @@ def seed_trim_config():
 
 
 def seed_drift_config():
-    # the closed loop's drift tracker fringe_drift (DRIFT = 1), tables from the seed calibration's waveforms
+    # the closed loop's drift tracker (DRIFT = 1), tables from the seed calibration's waveforms
     from fringe.hardware.closed_loop import drift_config
 
     cfg, cal = _calibrated(seed_encoder())
@@ -227,7 +227,7 @@ CONFIGS = {
     "seed18": ("seed encoder, CoreConfig() 18-bit defaults", seed18_config),
     "line1": ("16-bit ADC, 1 line, no coarse code", line1_config),
     "seed_trim": ("seed encoder with fringe_trim (closed-loop corrections, TRIM = 1)", seed_trim_config),
-    "seed_drift": ("seed encoder with fringe_drift (the drift tracker, DRIFT = 1)", seed_drift_config),
+    "seed_drift": ("seed encoder with the drift tracker (DRIFT = 1)", seed_drift_config),
     "seed_cancel": ("seed encoder with fringe_canceller (an additive tone cancelled online, CANCEL = 1)",
                     seed_cancel_config),
     "seed_compact": ("seed, time-multiplexed (COMPACT = 1)", _compact(seed_config)),

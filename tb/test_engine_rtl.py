@@ -98,7 +98,7 @@ def _write_recording(cfg, seed: int, path) -> None:
 
 @pytest.mark.parametrize("case", ["eccentricity+hysteresis", "ref_lag+skew", "drift"])
 def test_cli_loop_calibration_rtl_rows_equal_model(sim, tmp_path, case):
-    """A calibration from `fringe loop` (its added effects carried by fringe_trim and fringe_drift) through
+    """A calibration from `fringe loop` (its added effects carried by fringe_trim and the drift tracker) through
     `fringe correct`: the RTL engine writes the same rows as the bit-exact model."""
     import json
 
@@ -157,7 +157,7 @@ def test_run_rtl_with_canceller_matches_model(sim):
 
 
 def test_run_rtl_with_drift_hold_matches_model(sim):
-    """fringe_drift with its hold (DRIFT = 1, DRIFT_HOLD = 1, a short block): the RTL engine's harness waits
+    """The drift tracker with its hold (DRIFT = 1, DRIFT_HOLD = 1, a short block): the RTL engine's harness waits
     for s_axis_tready at every block boundary and every word equals ``run_core``'s; the recording starts
     with an offset / gain error the tracker removes (its words are not those of the core without it)."""
     from fringe.calib.calibrate import calibrate

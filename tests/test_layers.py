@@ -25,7 +25,7 @@ LAYERS = [
     ("io", ["fringe.io.*"]),
     # from a calibration to the core: configuration, tables, ROM images
     ("hardware", ["fringe.hardware.*"]),
-    # the float engine (its drift tracker runs fringe_drift's equations on the hardware's tables)
+    # the float engine (its drift tracker runs the core's equations on the hardware's tables)
     ("engine", ["fringe.engine.*"]),
     # fitting a recording and judging a correction
     ("calibration", ["fringe.calib.*"]),

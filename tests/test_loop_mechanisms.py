@@ -446,7 +446,7 @@ def test_a_noisy_encoders_own_speed_is_not_a_speed_effect():
 
 
 def test_float_engine_keeps_the_cores_order_of_tracker_and_revolution_map():
-    """In the core fringe_drift tracks the raw readings and fringe_trim's map subtracts the angle image of the
+    """In the core the drift tracker follows the raw readings and fringe_trim's map subtracts the angle image of the
     revolution's offsets and gains behind it; a fast tracker follows part of a gain that changes over the
     revolution. The float engine must run them in that order: normalising the readings first (the order it had)
     hides that part from the tracker, and the float engine then differs from the core by about the share the
@@ -679,7 +679,7 @@ def test_an_amplitude_term_that_follows_only_the_magnitudes_noise_is_not_named(s
 @pytest.mark.parametrize("drift", [0.0, 0.01])
 def test_the_tracker_reads_the_phase_table_structures_channels_at_the_phase_the_cordic_measures(drift):
     """In the phase-table structure the CORDIC's phase still holds the channels' shape error (the tables after
-    the arctan take it out), so fringe_drift's forward tables must give the readings at that phase, not at the
+    the arctan take it out), so the drift tracker's forward tables must give the readings at that phase, not at the
     true one the channel models are fitted against: read a phase error away, a shape with even and odd
     harmonics steered the offsets and gains (820" against 48" static on this 7-line encoder). Without drift the
     tracker must not add more than its own update noise (1 %, measured 0.6 %); with drift it must take most of

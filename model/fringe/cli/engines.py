@@ -9,7 +9,7 @@ from ..result import Result
 
 
 def streamable(name: str, cal: Calibration, cal_dir: str):
-    """For the bit-exact model without fringe_drift and fringe_canceller: a function from one piece of the
+    """For the bit-exact model without the drift tracker and fringe_canceller: a function from one piece of the
     recording to its (angle_deg, status), bit-exact with one run over the whole recording
     (`fixed.core.CoreStream`); else None (the engine runs on the whole recording at once)."""
     from ..hardware.closed_loop import unsupported

@@ -21,9 +21,9 @@ from ..result import AMP_HIGH, AMP_LOW, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEE
 
 def fine_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray, psi: np.ndarray | None = None):
     if cal.adaptive:
-        # the core's order: fringe_drift tracks the raw readings, and fringe_trim's map subtracts the angle image of
-        # the revolution's offsets and gains behind it. Normalising the readings first instead would hide from the
-        # tracker what it follows of them in the core, and the map would take that part out a second time.
+        # the core's order: the drift tracker follows the raw readings, and fringe_trim's map subtracts the angle
+        # image of the revolution's offsets and gains behind it. Normalising the readings first instead would hide
+        # from the tracker what it follows of them in the core, and the map would take that part out a second time.
         frac, mag = tracked_phase(cal, sin, cos)
         if cal.rev_norm is not None and psi is not None:
             frac = (frac - rev_norm_image(cal, psi, 2 * np.pi * frac)) % 1.0
@@ -34,10 +34,10 @@ def fine_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray, psi: np.ndarr
 
 
 def tracked_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
-    """Fine phase with the online offset/gain tracker in front of the tables (the float twin of fringe_drift,
-    docs/blocks/fringe_drift.md): per block of samples the normalised readings are compared with the calibrated
+    """Fine phase with the online offset/gain tracker in front of the tables (the float twin of the core's drift
+    tracker, docs/drift.md): per block of samples the normalised readings are compared with the calibrated
     waveform at the measured phase; the mean error steps the offset, its correlation with the waveform the gain;
-    the new values apply from a fixed sample on, causal as in the hardware. fringe_drift's equations without
+    the new values apply from a fixed sample on, causal as in the hardware. The tracker's equations without
     rounding (drift.drift_float), with the forward tables of the core configuration's defaults. Returns
     (fraction of a period, magnitude)."""
     r, mags, scale = _tracked(cal, sin, cos)

@@ -147,7 +147,7 @@ class CancelResult:
 
 
 class CancelStream:
-    """The canceller over a stream given in pieces of any length (the core's model feeds it as fringe_drift
+    """The canceller over a stream given in pieces of any length (the core's model feeds it as the drift tracker
     asks for phases): the same words as one `cancel` over the whole stream."""
 
     def __init__(self, params: CancelParams):

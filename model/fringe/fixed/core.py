@@ -43,7 +43,7 @@ class CoreTables:
     amp_low: int                  # CORDIC magnitude thresholds (mag units)
     amp_high: int
     trim: object | None = None    # hardware.closed_loop.TrimTables of fringe_trim (TRIM = 1), else None
-    drift: object | None = None   # hardware.closed_loop.DriftTables of fringe_drift (DRIFT = 1), else None
+    drift: object | None = None   # hardware.closed_loop.DriftTables of the drift tracker (DRIFT = 1), else None
     cancel_freq: int = 0          # CANCEL_FREQ register: fringe_canceller's NCO word (CANCEL = 1)
 
 
@@ -74,7 +74,7 @@ def core_latency(cfg: CoreConfig) -> int:
 
     The input registers (bank thresholds, branch select) plus the blocks: wave LUT 4, quadrature 5, CORDIC
     CORDIC_STAGES + 2, period count 4, long-period table 8; CORDIC_STAGES + 25 in all, plus fringe_trim's
-    LATENCY with TRIM = 1, fringe_canceller's with CANCEL = 1 (in drift_pipe_latency) and fringe_drift's
+    LATENCY with TRIM = 1, fringe_canceller's with CANCEL = 1 (in drift_pipe_latency) and the drift tracker's
     normaliser (NORM_LATENCY) with DRIFT = 1 (INPUT_LATENCY and drift_pipe_latency: fixed/config.py). The
     same for COMPACT = 1, which only takes fewer samples: one per ``cfg.clocks_per_sample`` clock enables
     (fixed/config.py, from the CORDIC's ``clocks_per_sample``).
@@ -141,7 +141,7 @@ def run_core_banks(banks: list[CoreTables] | tuple[CoreTables, ...], cfg: CoreCo
         return cs, cc, sat_, ph, mg
 
     if cfg.drift:
-        # fringe_drift normalises the codes; its state follows the stream, its tables each sample's bank.
+        # the drift tracker normalises the codes; its state follows the stream, its tables each sample's bank.
         # CLIP_* stay flags of the raw ADC codes; a saturated normalised code is SATURATED.
         dp = cfg.drift_params(drift_pipe_latency(cfg))
         words = np.stack([[drift_mod.pack_words(v, dp) for v in t.drift.fwd] for t in banks])
@@ -194,7 +194,7 @@ def to_adc_codes(values: np.ndarray, adc_w: int, what: str) -> np.ndarray:
 
 
 def streams(cfg: CoreConfig) -> bool:
-    """Whether `CoreStream` can run this configuration in pieces: fringe_drift's tracker and fringe_canceller's
+    """Whether `CoreStream` can run this configuration in pieces: the drift tracker and fringe_canceller's
     adaptation carry state over the whole stream."""
     return not (cfg.drift or cfg.cancel)
 
@@ -207,7 +207,8 @@ class CoreStream:
 
     def __init__(self, t: CoreTables, cfg: CoreConfig):
         if not streams(cfg):
-            raise ValueError("fringe_drift's and fringe_canceller's state spans the whole stream: run it in one piece")
+            raise ValueError("the drift tracker's and fringe_canceller's state spans the whole stream: "
+                             "run it in one piece")
         self.t, self.cfg = t, cfg
         # the tail holds every row while there are fewer (fringe_trim's start-up windows count from the reset)
         self.keep = 1 + (cfg.trim_params().window if cfg.trim else 0)

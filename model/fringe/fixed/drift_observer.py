@@ -1,4 +1,4 @@
-"""Bit-exact model of ``fringe_drift_observer``: the back half of the drift tracker ``fringe_drift``.
+"""Bit-exact model of ``fringe_drift_observer``: the back half of the core's drift tracker (``drift.py``).
 
 Mirrors ``rtl/verilog/fringe_drift_observer.v`` and ``rtl/vhdl/fringe_drift_observer.vhd`` (contract in
 ``docs/blocks/fringe_drift_observer.md``). Per observer sample (its fine phase, the same sample's normalised
@@ -289,7 +289,7 @@ class ObserverResult:
 def observer_run(phase, y_sin, y_cos, tables, w0, kg, params: ObserverParams, *, bank=None,
                  state=None) -> ObserverResult:
     """Bit-exact ``fringe_drift_observer`` over a stream of observer samples from a reset, each block's update
-    taken by the normaliser before the next block's update steps from the state (as in ``fringe_drift``, where
+    taken by the normaliser before the next block's update steps from the state (as in ``fringe_core``, where
     the application sample comes before the next block's end).
 
     Args:

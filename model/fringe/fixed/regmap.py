@@ -43,7 +43,7 @@ REGISTERS = (
     Reg(13, "DIR", False, "1", "1: output runs the other way"),
     Reg(14, "AMP_LOW", False, "WAVE_W+1", "AMP_LOW flag below this CORDIC magnitude"),
     Reg(15, "AMP_HIGH", False, "WAVE_W+1", "AMP_HIGH flag above this CORDIC magnitude"),
-    # fringe_drift (DRIFT = 1, docs/blocks/fringe_drift.md); 0 otherwise
+    # the drift tracker (DRIFT = 1, docs/drift.md); 0 otherwise
     Reg(16, "W0_S", True, "ADC_W+DRIFT_TABLE_FRAC", "drift tracker: mean of the calibrated sine waveform"),
     Reg(17, "W0_C", True, "ADC_W+DRIFT_TABLE_FRAC", "drift tracker: mean of the calibrated cosine waveform"),
     Reg(18, "KG_S", False, "DRIFT_KG_W", "drift tracker: sine gain-loop constant"),

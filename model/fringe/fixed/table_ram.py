@@ -79,7 +79,7 @@ def read_hex(path, data_w: int) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------- {slope, value} words
-# The interpolated tables (fringe_trim, fringe_drift) store a word {slope, value} per point, both
+# The interpolated tables (fringe_trim, fringe_drift_observer) store a word {slope, value} per point, both
 # s(W), value in the low half; the interpolated value is value + ((slope * frac + 2^(FB-1)) >>> FB).
 
 

@@ -13,7 +13,7 @@ a calibration, in float, at the tables' points:
 - gs holds the speed terms (sampling skew): the speed in fine counts per 2^SPEED_LOG2 samples
   becomes rev/s through the recording's sample interval;
 - ga holds the magnitude terms, per unit of the CORDIC's magnitude.
-Drift is tracked online by fringe_drift (DRIFT = 1): `build_drift_tables` gives its forward waveform
+Drift is tracked online by the drift tracker (DRIFT = 1): `build_drift_tables` gives its forward waveform
 tables and W0/KG registers, and `pipeline.tracked_phase` is the float engine's run of the same equations. Terms
 neither block carries are named by `unsupported`.
 """
@@ -329,7 +329,7 @@ def balance_map_words(cal: Calibration, cfg):
     return best[1]
 
 
-MAX_TABLE_W = 24         # the widest table word the blocks accept (fringe_trim TRIM_W, fringe_drift TABLE_W)
+MAX_TABLE_W = 24         # the widest table word the blocks accept (fringe_trim TRIM_W, fringe_drift_observer TABLE_W)
 
 
 def start_speed_counts(cal: Calibration, cfg) -> int:
@@ -402,11 +402,11 @@ def _quantise_trim(grids: TrimGrids, p) -> TrimTables:
     return TrimTables(m, gs, ga)
 
 
-# ---------------------------------------------------------------- fringe_drift (the online tracker)
+# ---------------------------------------------------------------- the drift tracker (online)
 
 @dataclass(frozen=True)
 class DriftTables:
-    """fringe_drift's forward tables (values, (2, 2^FWD_W): sin, cos) and its W0 / KG registers (2,)."""
+    """The drift tracker's forward tables (values, (2, 2^FWD_W): sin, cos) and its W0 / KG registers (2,)."""
 
     fwd: np.ndarray
     w0: np.ndarray
@@ -417,13 +417,13 @@ def channel_waveforms(cal: Calibration):
     """The calibrated channel readings (ADC codes) as functions of the core's fine phase (fraction of a
     period): the phase the CORDIC measures is theta + psi_cos (pipeline.tracked_phase's convention)."""
     if not {"sin", "cos"} <= set(cal.waves):
-        raise ValueError("fringe_drift needs the calibrated waveform models (this calibration has none)")
+        raise ValueError("the drift tracker needs the calibrated waveform models (this calibration has none)")
     psi_c = cal.waves["cos"].psi
     return {k: (lambda ph, w=cal.waves[k]: w(2 * np.pi * np.asarray(ph) - psi_c)) for k in ("sin", "cos")}
 
 
 def tracker_waveforms(cal: Calibration):
-    """The channel readings as functions of the phase fringe_drift's observer is given: the CORDIC's, before
+    """The channel readings as functions of the phase fringe_drift_observer is given: the CORDIC's, before
     the tables after the arctan. With the per-channel inverse that phase is the true one (channel_waveforms).
     In the phase-table structure the waveform stage is straight, so the CORDIC's phase still carries the
     channels' shape error that the tables after it take out, while the channel models are fitted against the
@@ -454,7 +454,7 @@ def choose_kg_shift(cal: Calibration, cfg) -> int:
 
 
 def drift_config(cal: Calibration, cfg):
-    """cfg with fringe_drift switched on for an adaptive calibration, else unchanged.
+    """cfg with the drift tracker switched on for an adaptive calibration, else unchanged.
 
     The forward tables' format follows from the calibrated waveforms (any ADC width): at the configured
     DRIFT_TABLE_W the most fraction bits (DRIFT_TABLE_FRAC, from the configured value down to 0) with
@@ -473,7 +473,7 @@ def drift_config(cal: Calibration, cfg):
                 return trial
             except ValueError as e:
                 last = e
-    raise ValueError(f"{last}: the calibrated waveforms do not fit fringe_drift's forward tables at any "
+    raise ValueError(f"{last}: the calibrated waveforms do not fit the drift tracker's forward tables at any "
                      f"DRIFT_TABLE_W <= {MAX_TABLE_W}")
 
 
@@ -481,7 +481,7 @@ def build_drift_tables(cal: Calibration, cfg, pipe_latency: int = 0) -> DriftTab
     """Forward tables, W0 and KG of a calibration (zero tables for one without waveform models)."""
     p = cfg.drift_params(pipe_latency)
     if not cal.waves:
-        raise ValueError("fringe_drift needs the calibrated waveform models")
+        raise ValueError("the drift tracker needs the calibrated waveform models")
     fwd, w0, kg = [], [], []
     for f in tracker_waveforms(cal).values():
         v, w = make_fwd_table(f, p)

@@ -42,7 +42,7 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
         cfg = CoreConfig.for_encoder(cal.encoder, **base)
         if "trim" not in base:     # closed-loop corrections switch fringe_trim on, with gains sized for them
             cfg = trim_config(cal, cfg)
-        if "drift" not in base:    # and the drift tracker fringe_drift
+        if "drift" not in base:    # and the drift tracker (fringe_drift_normaliser, _observer)
             cfg = drift_config(cal, cfg)
         if "cancel" not in base and cal.canceller:    # and the interference canceller fringe_canceller
             cfg = cancel_config(cal, cfg)

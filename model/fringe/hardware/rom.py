@@ -75,10 +75,10 @@ def images(t: CoreTables, cfg: CoreConfig) -> list[Image]:
                       "fringe_trim magnitude gain {slope, value} per fine-phase bin")]
     if cfg.drift:
         if t.drift is None:
-            raise ValueError("DRIFT = 1: the core tables hold no fringe_drift tables")
+            raise ValueError("DRIFT = 1: the core tables hold no drift tracker tables")
         dp = cfg.drift_params()
         out += [Image(f"drift_fwd_{k}", two_banks(drift_mod.pack_words(t.drift.fwd[i], dp)), 2 * dp.table_w,
-                      f"fringe_drift forward {k} waveform minus its mean {{slope, value}} per fine-phase bin")
+                      f"fringe_drift_observer forward {k} waveform minus its mean {{slope, value}} per fine-phase bin")
                 for i, k in enumerate(("sin", "cos"))]
     if cfg.cancel:      # a constant table, one image (not banked)
         cp = cfg.cancel_params()

@@ -5,7 +5,7 @@ Exchange directory ``$FRINGE_RTL_STREAM_DIR``:
 - out: ``output.txt`` (every m_axis_tdata word, hex, in order), ``result.json`` (measured latency).
 
 The sink never stalls (``m_axis_tready`` = 1), so the pipelined core takes one sample per clock and the
-compact one (COMPACT = 1) one per ``clocks_per_sample``; fringe_drift (DRIFT_HOLD = 1) holds the sample at each
+compact one (COMPACT = 1) one per ``clocks_per_sample``; the drift tracker (DRIFT_HOLD = 1) holds the sample at each
 block boundary until its update is resolved: a sample is held until s_axis_tready takes it. The
 samples are driven and the outputs read at the falling edge (both settled there).
 """
@@ -27,7 +27,7 @@ async def rtl_stream(dut):
     words = [int(x, 16) for x in (xdir / "input.txt").read_text().split()]
     meta = json.loads((xdir / "meta.json").read_text())
     n, lat, per = int(meta["n"]), int(meta["latency"]), int(meta.get("clocks_per_sample", 1))
-    hold = int(meta.get("hold_clocks", 0))     # fringe_drift's waits at its block boundaries (DRIFT_HOLD = 1)
+    hold = int(meta.get("hold_clocks", 0))     # the drift tracker's waits at its block boundaries (DRIFT_HOLD = 1)
     assert len(words) == n, f"input.txt has {len(words)} words, meta.json says {n}"
 
     cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start(start_high=False))

@@ -8,7 +8,7 @@ full speed and returns every output word. The words must equal ``run_core``'s
 (``tb/test_engine_rtl.py`` checks it on a real recording).
 
 Two harnesses drive the same protocol (reset, then one sample per clock whenever s_axis_tready takes it:
-COMPACT = 1 and fringe_drift's hold at its block boundaries make it 0 at times; sink never stalls):
+COMPACT = 1 and the drift tracker's hold at its block boundaries make it 0 at times; sink never stalls):
 - Verilator: the C++ harness ``sim/verilator_engine/stream_main.cpp`` reads the samples from a
   binary file and writes the output words, no Python per sample (``harness="cpp"``, the default);
 - GHDL, and Verilator with ``harness="cocotb"``: the cocotb module ``fringe.hardware.rtl_stream``.
@@ -55,7 +55,7 @@ INIT_FILES = {"REGS_INIT": "regs", "WAVE_SIN_INIT": "wave_sin", "WAVE_COS_INIT":
               "LP_INIT": "long_period"}
 #: ... and those of fringe_trim, with TRIM = 1
 TRIM_INIT_FILES = {"TRIM_MAP_INIT": "trim_map", "TRIM_SPEED_INIT": "trim_speed", "TRIM_AMP_INIT": "trim_amp"}
-#: ... and those of fringe_drift, with DRIFT = 1
+#: ... and those of the drift tracker, with DRIFT = 1
 DRIFT_INIT_FILES = {"DRIFT_FWD_SIN_INIT": "drift_fwd_sin", "DRIFT_FWD_COS_INIT": "drift_fwd_cos"}
 #: ... and fringe_canceller's, with CANCEL = 1
 CANCEL_INIT_FILES = {"CANCEL_LUT_INIT": "cancel_lut"}
@@ -258,9 +258,9 @@ def run_rtl(cal: Calibration | None, cfg: CoreConfig, sin, cos, coarse=None, sim
 
 
 def drift_hold_clocks(cfg: CoreConfig, n: int) -> int:
-    """Clock enables fringe_drift's hold (DRIFT = 1, DRIFT_HOLD = 1) adds to a stream of n samples at most:
+    """Clock enables the drift tracker's hold (DRIFT = 1, DRIFT_HOLD = 1) adds to a stream of n samples at most:
     each block boundary waits until NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY clock enables after the
-    block's last sample (docs/blocks/fringe_drift.md)."""
+    block's last sample (docs/drift.md)."""
     if not (cfg.drift and cfg.drift_hold):
         return 0
     gap = drift_mod.NORM_LATENCY + drift_pipe_latency(cfg) + drift_mod.OBS_LATENCY

@@ -1,11 +1,11 @@
-"""fringe_drift's loop gain inside the core, measured on the bit-exact model
+"""The drift tracker's loop gain inside the core, measured on the bit-exact model
 (``python -m fringe.tools.bench_drift_step [factors|startup|tracking|dither|all]``).
 
 Inside the core the phase is computed from the same normalised codes the observer checks, so an error
 of the normaliser moves the phase too and the observer sees only its part across the Lissajous figure
 (the radial part, after the quadrature correction makes the figure a circle). ``factors`` measures what
 the observer sees of an injected offset / gain error (mean e / offset, SEA / (eps sum a^2)) against
-the analysis in docs/blocks/fringe_drift.md; ``startup`` measures the start-up from reset and the
+the analysis in docs/drift.md; ``startup`` measures the start-up from reset and the
 steady error, the step as specified now ("after") against the step before the loop-gain calibration
 ("before": the offset shift one larger, KG without the 4/3), on the stream of
 tests/test_fixed_drift.py::test_startup_is_shorter_than_before and on a randomised population
