@@ -54,8 +54,14 @@ def static_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray, canceller=N
     return (np.arctan2(s, c) / (2 * np.pi)) % 1.0, np.hypot(s, c)
 
 
-# and cancel_gear_offset, 0 where a calibration written before it has none
+# and cancel_gear_offset (`cancel_gear_offset`)
 CANCELLER_KEYS = ("tone_hz", "sample_rate_hz", "cancel_block_log2", "cancel_mu_log2")
+
+
+def cancel_gear_offset(canceller: dict) -> int:
+    """closed_loop.canceller's gear offset (the core's CANCEL_GEAR_OFFSET): 0, the gear shift from 1/2, where a
+    calibration written before it has none."""
+    return canceller.get("cancel_gear_offset", 0)
 
 
 def float_canceller(cal: Calibration):
@@ -63,4 +69,4 @@ def float_canceller(cal: Calibration):
     from ..fixed.canceller import CancelFloat, freq_word
     k = cal.canceller
     return CancelFloat(freq_word(k["tone_hz"], k["sample_rate_hz"]), k["cancel_block_log2"], k["cancel_mu_log2"],
-                       k.get("cancel_gear_offset", 0))
+                       cancel_gear_offset(k))

@@ -7,7 +7,7 @@ import os
 
 import numpy as np
 
-from ..dsp.calibration import Calibration
+from ..dsp.calibration import Calibration, cancel_gear_offset
 from ..encoder import ARCSEC_PER_REV
 from ..errors import FringeInputError
 from ..fixed import long_period as lp_mod
@@ -58,7 +58,7 @@ def cancel_config(cal: Calibration, cfg: CoreConfig) -> CoreConfig:
     """cfg with fringe_canceller on, its constants the calibration's, its coefficients able to hold a tone of up
     to half the calibrated radius (A_W = WAVE_W + A_FRAC - 2)."""
     return dataclasses.replace(cfg, cancel=1, cancel_a_w=min(32, cfg.wave_w + cfg.cancel_a_frac - 2),
-                               cancel_gear_offset=cal.canceller.get("cancel_gear_offset", 0),
+                               cancel_gear_offset=cancel_gear_offset(cal.canceller),
                                **{k: cal.canceller[k] for k in ("cancel_block_log2", "cancel_mu_log2")})
 
 

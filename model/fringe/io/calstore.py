@@ -7,7 +7,7 @@ import os
 import numpy as np
 
 from .. import __version__
-from ..dsp.calibration import CANCELLER_KEYS, Calibration
+from ..dsp.calibration import CANCELLER_KEYS, Calibration, cancel_gear_offset
 from ..dsp.longperiod import FourierSeries
 from ..dsp.quadrature import QuadratureCorrection
 from ..dsp.waveform import ChannelWaveform, WaveformInverse
@@ -110,7 +110,7 @@ def _canceller(d, path: str) -> dict:
         raise FringeInputError(f"closed_loop.canceller must map {', '.join(CANCELLER_KEYS)} (and optionally "
                                "cancel_gear_offset) to finite numbers (a tone >= 0 Hz, a sample rate > 0, integer "
                                "constants)", path)
-    d = {**d, "cancel_gear_offset": d.get("cancel_gear_offset", 0)}
+    d = {**d, "cancel_gear_offset": cancel_gear_offset(d)}
     offset = d["cancel_gear_offset"]
     if not isinstance(offset, int) or not 0 <= offset < d["cancel_mu_log2"]:
         raise FringeInputError(f"closed_loop.canceller.cancel_gear_offset = {offset} must be an integer "
