@@ -1,8 +1,9 @@
 """The ECP5 technology layer (rtl/verilog/tech/ecp5, selected by FRINGE_TECH_ECP5; sim/synth.py sets it for
 ECP5): the same words, clock for clock, as the generic code.
 
-- Simulation (Verilator): fringe_interp_table and fringe_split_mul built with FRINGE_TECH_ECP5, the
-  technology layer and behavioural models of the two primitives it instantiates (tb/ecp5/DP16KD.v, MULT18X18D.v:
+- Simulation (Verilator): fringe_interp_table, fringe_split_mul and fringe_drift_normaliser built with
+  FRINGE_TECH_ECP5, the technology layer and behavioural models of the two primitives it instantiates
+  (tb/ecp5/DP16KD.v, MULT18X18D.v:
   DP16KD with its output register, MULT18X18D with its output register and, for fringe_mul_ecp5's REG_IN
   mode, its input registers), run through the blocks' own
   cocotb tests against the bit-exact model. The table starts at zero (the models leave INITVAL out),
@@ -91,6 +92,26 @@ def test_ecp5_split_mul(params):
     env = block_env("FRINGE_SPLIT_MUL_PARAMS", params, 20261202)
     results = run_block("fringe_split_mul", "test_fringe_split_mul", params, sim="verilator", timeout_s=300,
                         extra_env=env, sources=_sources("fringe_split_mul"))
+    _assert_built_with(results, "p_q")
+
+
+DRIFT_NORM_PARAMS = [   # both operands of d * GINV fit 18 bits: the MULT18X18D with its output register
+    {"ADC_W": 12, "BLOCK_LOG2": 6, "OFS_FRAC": 3, "GINV_W": 16, "HOLD": 0, "USER_W": 2},   # the seed-like widths
+    {"ADC_W": 4, "BLOCK_LOG2": 5, "OFS_FRAC": 2, "GINV_W": 8, "HOLD": 1, "USER_W": 1},     # the narrowest
+]
+
+
+@pytest.mark.parametrize("params", DRIFT_NORM_PARAMS, ids=lambda p: f"A{p['ADC_W']}-O{p['OFS_FRAC']}-G{p['GINV_W']}")
+def test_ecp5_drift_normaliser(params):
+    """fringe_drift_normaliser's d * GINV on the layer's MULT18X18D, through the block's own test (every word, the
+    state after every sample, against the bit-exact model)."""
+    from cocotb_runner import available_simulators, run_block
+
+    if available_simulators()["verilator"]:
+        pytest.skip(available_simulators()["verilator"])
+    env = block_env("FRINGE_DRIFT_NORMALISER_PARAMS", params, 4242)
+    results = run_block("fringe_drift_normaliser", "test_fringe_drift_normaliser", params, sim="verilator",
+                        timeout_s=300, extra_env=env, sources=_sources("fringe_drift_normaliser"))
     _assert_built_with(results, "p_q")
 
 

@@ -2,7 +2,7 @@
 // codes removed with the tracker's state, which it holds and replaces at block boundaries with the
 // update fringe_drift_observer resolves.
 //
-// LATENCY = 4 clock enables (in_valid to norm_valid), one sample per clock; HOLD = 1: in_ready = 0
+// LATENCY = 5 clock enables (in_valid to norm_valid), one sample per clock; HOLD = 1: in_ready = 0
 // holds the sample at a block boundary until the observer has resolved the block's update; ce = 0 freezes
 // every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_drift_normaliser.md.
@@ -148,11 +148,15 @@ module fringe_drift_normaliser #(
 `else
     reg  signed [PW-1:0]    n3_s, n3_c;
 `endif
+    // the product's bits from the rounding bit up, registered once more in the fabric: the multiplier's
+    // output register (on ECP5 inside the DSP) feeds only this register, the rounding adder and the
+    // saturation are a stage of their own (5)
+    reg  signed [QW:0]      n4_s, n4_c;
     wire signed [OW:0]      n1_sx = {{(OFS_FRAC+1){n1_s[ADC_W-1]}}, n1_s} <<< OFS_FRAC;
     wire signed [OW:0]      n1_cx = {{(OFS_FRAC+1){n1_c[ADC_W-1]}}, n1_c} <<< OFS_FRAC;
     // (P + 2^(SHN-1)) >>> SHN = (P >>> SHN) + P[SHN-1]
-    wire signed [QW-1:0]    q_s = n3_s[PW-1:SHN] + {{(QW-1){1'b0}}, n3_s[SHN-1]};
-    wire signed [QW-1:0]    q_c = n3_c[PW-1:SHN] + {{(QW-1){1'b0}}, n3_c[SHN-1]};
+    wire signed [QW-1:0]    q_s = n4_s[QW:1] + {{(QW-1){1'b0}}, n4_s[0]};
+    wire signed [QW-1:0]    q_c = n4_c[QW:1] + {{(QW-1){1'b0}}, n4_c[0]};
     // in range of s(ADC_W) <=> bits QW-1 .. ADC_W-1 all equal the sign
     wire                    qs_over = `FRINGE_OUTSIDE(q_s, QW, ADC_W);
     wire                    qc_over = `FRINGE_OUTSIDE(q_c, QW, ADC_W);
@@ -172,7 +176,10 @@ module fringe_drift_normaliser #(
             n3_s <= n2_s * $signed({1'b0, n2_gs});
             n3_c <= n2_c * $signed({1'b0, n2_gc});
 `endif
-            // 4: rounded (P[SHN-1] as a carry), >>> SHN, saturate
+            // 4: P[PW-1:SHN-1] registered (P >>> SHN and the rounding bit)
+            n4_s <= n3_s[PW-1:SHN-1];
+            n4_c <= n3_c[PW-1:SHN-1];
+            // 5: rounded (P[SHN-1] as a carry), >>> SHN, saturate
             y_sin    <= `FRINGE_SATURATE(q_s, QW, ADC_W);
             y_cos    <= `FRINGE_SATURATE(q_c, QW, ADC_W);
             norm_sat <= qs_over | qc_over;
@@ -180,7 +187,7 @@ module fringe_drift_normaliser #(
     end
 
     // the rounded-off bits of the products
-    wire unused = &{1'b0, n3_s[SHN-1:0], n3_c[SHN-1:0]};
+    wire unused = &{1'b0, n3_s[SHN-2:0], n3_c[SHN-2:0]};
 
 endmodule
 

@@ -62,7 +62,7 @@ localparam integer CORDIC_ITER_CLOCKS_BASE = 1;  // fringe_cordic ITERATIVE = 1:
 localparam integer PERIOD_COUNT_LATENCY    = 4;  // fringe_period_count
 localparam integer TRIM_LATENCY            = 13;  // fringe_trim
 localparam integer LONG_PERIOD_LATENCY     = 8;  // fringe_long_period
-localparam integer DRIFT_NORM_LATENCY      = 4;  // fringe_drift_normaliser
+localparam integer DRIFT_NORM_LATENCY      = 5;  // fringe_drift_normaliser
 localparam integer DRIFT_OBS_LATENCY       = 16;  // fringe_drift_observer
 localparam integer DRIFT_SWEEP_MIN_LOG2    = 4;  // fringe_drift_observer: a block that swept 2^-this of a period updates
 localparam integer DRIFT_PARTIAL_MU_MIN    = 2;  // fringe_drift_observer: ... if MU_LOG2 is at least this

@@ -3,7 +3,7 @@
 -- update fringe_drift_observer resolves.
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_drift_normaliser.v (same generics, ports and behaviour).
--- LATENCY = 4 clock enables (in_valid to norm_valid), one sample per clock; HOLD = 1: in_ready = '0'
+-- LATENCY = 5 clock enables (in_valid to norm_valid), one sample per clock; HOLD = 1: in_ready = '0'
 -- holds the sample at a block boundary until the observer has resolved the block's update; ce = 0 freezes
 -- every register, rst (synchronous, active high) clears only the valid pipeline and the state, never the data registers.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_drift_normaliser.md.
@@ -97,6 +97,9 @@ architecture rtl of fringe_drift_normaliser is
     signal n2_s, n2_c   : signed(OW downto 0);
     signal n2_gs, n2_gc : unsigned(GINV_W - 1 downto 0);
     signal n3_s, n3_c   : signed(PW - 1 downto 0);
+    -- the product's bits from the rounding bit up, registered once more: the multiplier's output register
+    -- feeds only this register, the rounding adder and the saturation are a stage of their own (5)
+    signal n4_s, n4_c   : signed(QW downto 0);
 
 begin
 
@@ -174,13 +177,16 @@ begin
                 -- 3: d * GINV
                 n3_s <= n2_s * signed('0' & n2_gs);
                 n3_c <= n2_c * signed('0' & n2_gc);
-                -- 4: rounded, >>> SHN, saturate: (P + 2^(SHN-1)) >>> SHN = (P >>> SHN) + P[SHN-1]
+                -- 4: P(PW-1 downto SHN-1) registered (P >>> SHN and the rounding bit)
+                n4_s <= n3_s(PW - 1 downto SHN - 1);
+                n4_c <= n3_c(PW - 1 downto SHN - 1);
+                -- 5: rounded, >>> SHN, saturate: (P + 2^(SHN-1)) >>> SHN = (P >>> SHN) + P[SHN-1]
                 rb_s := (others => '0');
                 rb_c := (others => '0');
-                rb_s(0) := n3_s(SHN - 1);
-                rb_c(0) := n3_c(SHN - 1);
-                q_s := n3_s(PW - 1 downto SHN) + rb_s;
-                q_c := n3_c(PW - 1 downto SHN) + rb_c;
+                rb_s(0) := n4_s(0);
+                rb_c(0) := n4_c(0);
+                q_s := n4_s(QW downto 1) + rb_s;
+                q_c := n4_c(QW downto 1) + rb_c;
                 os := outside(q_s, ADC_W);
                 oc := outside(q_c, ADC_W);
                 y_sin <= std_logic_vector(saturate(q_s, ADC_W));

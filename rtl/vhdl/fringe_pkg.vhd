@@ -120,7 +120,7 @@ package fringe_pkg is
     constant PERIOD_COUNT_LATENCY    : integer := 4;  -- fringe_period_count
     constant TRIM_LATENCY            : integer := 13;  -- fringe_trim
     constant LONG_PERIOD_LATENCY     : integer := 8;  -- fringe_long_period
-    constant DRIFT_NORM_LATENCY      : integer := 4;  -- fringe_drift_normaliser
+    constant DRIFT_NORM_LATENCY      : integer := 5;  -- fringe_drift_normaliser
     constant DRIFT_OBS_LATENCY       : integer := 16;  -- fringe_drift_observer
     constant DRIFT_SWEEP_MIN_LOG2    : integer := 4;  -- fringe_drift_observer: a block that swept 2^-this of a period updates
     constant DRIFT_PARTIAL_MU_MIN    : integer := 2;  -- fringe_drift_observer: ... if MU_LOG2 is at least this

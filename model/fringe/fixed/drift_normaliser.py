@@ -24,7 +24,7 @@ __all__ = ["NAME", "LATENCY", "NormaliserParams", "StateParams", "apply_points",
 
 NAME = "fringe_drift_normaliser"
 #: Enabled clocks from in_valid to norm_valid in the RTL.
-LATENCY = 4
+LATENCY = 5
 
 
 def check_state_params(block: str, p) -> None:
