@@ -32,7 +32,7 @@ from fringe.fixed.drift_observer import ObserverParams, observer_run
 P1 = DriftParams(adc_w=14, fine_w=16, block_log2=8, mu_log2=3, ofs_frac=4, ginv_w=18, fwd_w=6, table_w=18,
                  table_frac=2, kg_w=18, kg_shift=38)                  # HOLD = 1 (the default)
 P2 = DriftParams(adc_w=10, fine_w=12, block_log2=6, mu_log2=1, ofs_frac=0, ginv_w=12, fwd_w=4, table_w=12,
-                 table_frac=0, kg_w=12, kg_shift=21, pipe_latency=13, hold=0)   # at the limit: 4 + 13 + 16 = D + 1
+                 table_frac=0, kg_w=12, kg_shift=21, pipe_latency=12, hold=0)   # at the limit: 5 + 12 + 16 = D + 1
 P1H0 = dataclasses.replace(P1, hold=0, kg_shift=37)                   # W = B/2: KG one shift less
 P2H1 = dataclasses.replace(P2, hold=1, block_log2=4, pipe_latency=40, kg_shift=20)   # HOLD = 1: no latency limit
 
@@ -155,7 +155,7 @@ def test_derived_constants():
     assert (p.e_w, p.se_w, p.sea_w, p.sweep_w, p.word_w) == (20, 28, 47, 24, 36)
     q = P1H0
     assert (q.d, q.w, q.w_log2, q.off_shift(0), q.se_w, q.sea_w, q.sweep_w) == (128, 128, 7, 8, 27, 46, 23)
-    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (4, 16, 4, 16)
+    assert (NORM_LATENCY, OBS_LATENCY, p.norm_latency, p.obs_latency) == (5, 16, 5, 16)
     assert p.hdl_parameters() == p.observer().hdl_parameters()    # no HDL block takes PIPE_LATENCY: the core's own
     assert p.hdl_parameters()["KG_SHIFT"] == 38
     assert p.hdl_parameters()["HOLD"] == 1 and q.hdl_parameters()["HOLD"] == 0
@@ -193,9 +193,9 @@ KEYS = {k.lower(): k for k in BASE}
         *out_of_range("fringe_drift_observer", "kg_w", 8, 24),
         *out_of_range("fringe_drift_observer", "kg_shift", 1, 60),
         ({"pipe_latency": -1}, "fringe_core: PIPE_LATENCY = -1 must be >= 0"),
-        ({"pipe_latency": 110}, "fringe_core: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 110 + 16 = 130 "
+        ({"pipe_latency": 109}, "fringe_core: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 5 + 109 + 16 = 130 "
                                 "exceeds D + 1 = 2^(BLOCK_LOG2-1) + 1 = 129: the update would come too late"),
-        ({"block_log2": 4}, "fringe_core: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 4 + 0 + 16 = 20 exceeds "
+        ({"block_log2": 4}, "fringe_core: NORM_LATENCY + PIPE_LATENCY + OBS_LATENCY = 5 + 0 + 16 = 21 exceeds "
                             "D + 1 = 2^(BLOCK_LOG2-1) + 1 = 9: the update would come too late"),
         ({"block_log2": 4, "hold": 1}, "NOERROR"),             # HOLD = 1: no latency limit
         ({"pipe_latency": 1000, "hold": 1}, "NOERROR"),
@@ -214,7 +214,7 @@ def test_parameter_validation(over, msg):
 
 
 def test_pipe_latency_limit_is_exact():
-    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 109})   # 4 + 109 + 16 = 129 = D + 1
+    DriftParams(**{**{k: BASE[v] for k, v in KEYS.items()}, "pipe_latency": 108})   # 5 + 108 + 16 = 129 = D + 1
 
 
 def test_hdl_messages_match_model():
