@@ -98,7 +98,7 @@ def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
 # and one of less than a sixteenth of a period none)
 TRACKER_BLOCK_LOG2 = (4, 5, 6, 7, 8, 10, 12)
 # The same true loop gains as (0, 1, 2, 4) before the offset step was doubled; MU_LOG2 = 0 keeps a step of 1, whose
-# offset gain reaches 2 on a block that sweeps a short arc back and forth (docs/blocks/fringe_drift.md, "Loop gain");
+# offset gain reaches 2 on a block that sweeps a short arc back and forth (docs/drift.md, "Loop gain");
 # blocks of less than a period update only from MU_LOG2 = 2 on ("Partial sweeps": at 1 an arc swept back and forth
 # near a channel's peak drove the gain to 0), which the choice on the fit recording took wherever most blocks were
 # partial
