@@ -822,7 +822,7 @@ def test_a_core_term_must_help_with_the_vibration_tones_left_in_the_score():
 
 
 def test_a_vibration_near_a_revolution_harmonic_is_estimated_beside_the_long_period_table():
-    """Held-out 9408 without its skew: a 26.9 Hz vibration of 11.8" on an absolute encoder at 1.07 +- 0.15 rev/s
+    """New draw 9408 without its skew: a 26.9 Hz vibration of 11.8" on an absolute encoder at 1.07 +- 0.15 rev/s
     (near harmonic 25 of the revolution). The declared model's long-period table, its orders chosen on the same
     recording, holds harmonics up to 31 and takes part of the vibration: in what it leaves, the line peaked at 27.10
     Hz with 7.3". Beside the table's harmonics the frequency is found to within a hundredth of a bin and the

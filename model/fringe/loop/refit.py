@@ -210,7 +210,7 @@ def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measure
 def tone_weights(x: np.ndarray, r: np.ndarray, cal: Calibration, rev: np.ndarray) -> np.ndarray:
     """The tones' weights in r (columns x), estimated beside the long-period table's harmonics (tones.lp_basis):
     the table fitted on the same recording took part of a vibration at a nearly steady speed, and what it left
-    gives too small a tone (held-out 9408: 7.3" of 11.8"). Where the tones' columns lie within the table's span
+    gives too small a tone (new draw 9408: 7.3" of 11.8"). Where the tones' columns lie within the table's span
     (tones.TONE_APART: the speed hardly changed), on r alone."""
     from .tones import TONE_APART, lp_basis
 

@@ -97,7 +97,7 @@ def lp_basis(cal, psi: np.ndarray) -> np.ndarray | None:
     """Orthonormal columns of the long-period table's harmonics over the revolution angle `psi` (rad), as many
     as cal's table holds, without the mean; None without a table. A vibration at a nearly steady speed is close
     to a harmonic of the revolution, and the table fitted on the same recording takes part of it: the tone is
-    estimated beside these columns (held-out 9408: a 26.9 Hz vibration of 11.8" at 1.07 rev/s; harmonics 23-29 of
+    estimated beside these columns (new draw 9408: a 26.9 Hz vibration of 11.8" at 1.07 rev/s; harmonics 23-29 of
     a 33-harmonic table held 3-4" each, and the line in what the table left peaked at 27.10 Hz with 7.3"; beside
     the table's columns, 26.90 Hz and 11.7")."""
     from ..dsp.longperiod import design_matrix
