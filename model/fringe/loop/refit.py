@@ -212,14 +212,12 @@ def tone_weights(x: np.ndarray, r: np.ndarray, cal: Calibration, rev: np.ndarray
     the table fitted on the same recording took part of a vibration at a nearly steady speed, and what it left
     gives too small a tone (new draw 9408: 7.3" of 11.8"). Where the tones' columns lie within the table's span
     (tones.TONE_APART: the speed hardly changed), on r alone."""
-    from .tones import TONE_APART, lp_basis
+    from .tones import TONE_APART, apart_share, lp_basis
 
     q = lp_basis(cal, 2 * np.pi * (rev % 1.0))
-    if q is not None:
-        apart = x - q @ (q.T @ x)
-        if np.min(np.linalg.norm(apart, axis=0) / np.linalg.norm(x, axis=0)) >= TONE_APART:
-            w, *_ = np.linalg.lstsq(apart, r - q @ (q.T @ r), rcond=None)
-            return w
+    if q is not None and apart_share(x, q) >= TONE_APART:
+        w, *_ = np.linalg.lstsq(x - q @ (q.T @ x), r - q @ (q.T @ r), rcond=None)
+        return w
     w, *_ = np.linalg.lstsq(x, r, rcond=None)
     return w
 

@@ -110,11 +110,15 @@ def lp_basis(cal, psi: np.ndarray) -> np.ndarray | None:
     return q
 
 
-def tone_apart(t: np.ndarray, f: float, q: np.ndarray) -> float:
-    """The share of a tone's columns (their norm) outside the span of q: near 0 where the speed is so steady that
-    the tone is a harmonic of the revolution within the recording."""
-    x = _tone_columns(t, f)
+def apart_share(x: np.ndarray, q: np.ndarray) -> float:
+    """The least share of a column of x (its norm) outside the span of q's orthonormal columns."""
     return float(np.min(np.linalg.norm(x - q @ (q.T @ x), axis=0) / np.linalg.norm(x, axis=0)))
+
+
+def tone_apart(t: np.ndarray, f: float, q: np.ndarray) -> float:
+    """The share of a tone's columns outside the span of q: near 0 where the speed is so steady that the tone is a
+    harmonic of the revolution within the recording."""
+    return apart_share(_tone_columns(t, f), q)
 
 
 def line_p_value(found) -> float:
