@@ -846,3 +846,29 @@ def test_a_vibration_near_a_revolution_harmonic_is_estimated_beside_the_long_per
     rev = run_float(cal, fit.sin, fit.cos, fit.coarse, fit.t_s).position / cal.encoder.lines_per_rev
     amplitude = float(np.hypot(*tone_weights(x - x.mean(0), ev.r - ev.r.mean(), cal, rev)))
     assert abs(amplitude / cfg.vibration_arcsec - 1) < 0.05, (amplitude, cfg.vibration_arcsec)
+
+
+@pytest.mark.parametrize("block_log2, updates", [(4, False), (8, True)])
+def test_the_tracker_reports_how_much_each_block_swept_and_whether_it_updated(block_log2, updates):
+    """Each window sweeps speed x lines x W / fs periods: blocks of 16 samples at
+    10 periods per second (0.016 periods) never pass the sweep test, blocks of 256 (0.26 periods; MU_LOG2 = 2
+    updates on partial sweeps) do. The loop's report quotes this where a drift tracker did not help (tracker_note)."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.engine.pipeline import tracker_activity
+    from fringe.loop.refit import tracker_note
+
+    cfg = SimulationConfig(lines_per_rev=4, coarse_bits=0, samples=4096, speed_mean_rev_s=2.5, speed_swing_rev_s=0.0,
+                           drift_offset_rms=0.01, drift_gain_rms=0.01, ref_error_arcsec={})
+    meas = measurement_of(simulate(cfg, 3))
+    cal = dataclasses.replace(calibrate(meas, cfg.encoder()), adaptive=True,
+                              tracker={"drift_block_log2": block_log2, "drift_mu_log2": 2})
+    updated, sweeps = tracker_activity(cal, meas.sin, meas.cos)
+    assert len(updated) == len(sweeps) == 4096 >> block_log2
+    # in the core's fine phase, which on 4 lines keeps a once-per-period error that the long-period table takes
+    # out (here +-0.06 periods), so the windows' sweeps agree with the reference's on average, not one by one
+    # (HOLD = 1: the window is the whole block)
+    ref = np.unwrap(np.deg2rad(meas.ref_deg)) * 4 / (2 * np.pi)
+    assert np.mean(sweeps[1:]) == pytest.approx((ref[-1] - ref[(1 << block_log2) - 1]) / (len(sweeps) - 1), rel=0.03)
+    assert updated.any() == updates and (updated[1:].all() or not updates)
+    note = tracker_note(cal, meas, meas)
+    assert ("never updated" in note) == (not updates), note

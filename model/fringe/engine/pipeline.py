@@ -51,6 +51,16 @@ def tracked_readings(cal: Calibration, sin: np.ndarray, cos: np.ndarray) -> tupl
     return r["y_sin"], r["y_cos"]
 
 
+def tracker_activity(cal: Calibration, sin: np.ndarray, cos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per block of the online tracker on these readings: whether it updated, and how much of a signal period its
+    window (the samples its sweep test measures) swept, in periods."""
+    r, _, scale = _tracked(cal, sin, cos)
+    p = drift_config(cal, core_config(cal)).drift_params()
+    steps = np.abs(np.mod(np.diff(r["phase"], prepend=r["phase"][:1]) / scale + 0.5, 1.0) - 0.5)
+    ends = p.b * np.arange(1, len(r["updated"]) + 1)
+    return r["updated"], np.array([steps[e - p.w:e].sum() for e in ends])
+
+
 def _tracked(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
     cfg = drift_config(cal, core_config(cal))
     p = cfg.drift_params()

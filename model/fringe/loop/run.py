@@ -33,7 +33,7 @@ from .amplitude import (
 from .candidates import candidates, describe, family_holds, generic_effect, named_shape, speed_holds, strided, widen
 from .evaluation import Evaluation, LoopState, _design, _figs, evaluate, leans_on_vibrations, validation_figures
 from .noise import noise_floor
-from .refit import apply
+from .refit import apply, tracker_note
 from .significance import (
     MIN_GAIN,
     P_VALUE,
@@ -197,6 +197,8 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
             ev_fit = evaluate(state, fit_data)
             sigma = min(sigma, noise_floor(ev_fit)[0])     # a cleaner residual inflates the floor less
         else:
+            if entry["name"] == "drift" and trial.cal.adaptive and not state.cal.adaptive:
+                why_not += "; " + tracker_note(trial.cal, fit_data, val_data)
             entry["why_not_kept"] = why_not
             report["effects_rejected"].append(entry)
     report["after"] = _figs(ev_val)
