@@ -1,6 +1,6 @@
-// fringe_drift_normaliser: the front half of fringe_drift: offsets and gains of the raw sin/cos
-// codes removed with the tracker's state, which it holds and replaces at block boundaries with the
-// update fringe_drift_observer resolves.
+// fringe_drift_normaliser: the front half of the drift tracker (docs/drift.md): offsets and gains of the
+// raw sin/cos codes removed with the tracker's state, which it holds and replaces at block boundaries
+// with the update fringe_drift_observer resolves.
 //
 // LATENCY = 5 clock enables (in_valid to norm_valid), one sample per clock; HOLD = 1: in_ready = 0
 // holds the sample at a block boundary until the observer has resolved the block's update; ce = 0 freezes

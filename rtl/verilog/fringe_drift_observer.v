@@ -1,6 +1,6 @@
-// fringe_drift_observer: the back half of fringe_drift: from each sample's fine phase and normalised
-// codes, block sums of the error against the calibrated waveform, and per block the tracker's next
-// state (offset and inverse gain steps at the gear), held as the pending update until
+// fringe_drift_observer: the back half of the drift tracker (docs/drift.md): from each sample's fine
+// phase and normalised codes, block sums of the error against the calibrated waveform, and per block the
+// tracker's next state (offset and inverse gain steps at the gear), held as the pending update until
 // fringe_drift_normaliser takes it.
 //
 // LATENCY = 16 clock enables (obs_valid of a block's last sample to its resolved update), one sample per

@@ -96,10 +96,10 @@ localparam integer CANCEL_ADAPT_LATENCY    = 15;  // fringe_canceller: a block's
     if ((FW) + $clog2(LN) > (PMAX)) begin : g_bad_pos_w \
         $error("%s: POS_W = FINE_W + clog2(LINES) = %0d exceeds %0d (instance %m)", UNIT, (FW) + $clog2(LN), PMAX); \
     end
-// The drift tracker's halves and fringe_drift (the VHDL's check_drift_state and check_drift_observer), on the
-// module's own parameters of these names: the state and the block (ADC_W, BLOCK_LOG2, OFS_FRAC, ADC_W +
-// OFS_FRAC <= 32, GINV_W, HOLD), and the observer's (FINE_W, MU_LOG2, FWD_W, TABLE_W, TABLE_FRAC, KG_W,
-// KG_SHIFT); generate blocks g_bad_<name>.
+// The drift tracker's halves (the VHDL's check_drift_state and check_drift_observer), on the module's own
+// parameters of these names: the state and the block (ADC_W, BLOCK_LOG2, OFS_FRAC, ADC_W + OFS_FRAC <=
+// 32, GINV_W, HOLD), and the observer's (FINE_W, MU_LOG2, FWD_W, TABLE_W, TABLE_FRAC, KG_W, KG_SHIFT);
+// generate blocks g_bad_<name>.
 `define FRINGE_CHECK_DRIFT_STATE(UNIT) \
     `FRINGE_CHECK_RANGE(g_bad_adc_w, UNIT, "ADC_W", ADC_W, 4, 24) \
     `FRINGE_CHECK_RANGE(g_bad_block_log2, UNIT, "BLOCK_LOG2", BLOCK_LOG2, 4, 12) \

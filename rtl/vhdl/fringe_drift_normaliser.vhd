@@ -1,6 +1,6 @@
--- fringe_drift_normaliser: the front half of fringe_drift: offsets and gains of the raw sin/cos
--- codes removed with the tracker's state, which it holds and replaces at block boundaries with the
--- update fringe_drift_observer resolves.
+-- fringe_drift_normaliser: the front half of the drift tracker (docs/drift.md): offsets and gains of the
+-- raw sin/cos codes removed with the tracker's state, which it holds and replaces at block boundaries
+-- with the update fringe_drift_observer resolves.
 --
 -- VHDL-2008 twin of rtl/verilog/fringe_drift_normaliser.v (same generics, ports and behaviour).
 -- LATENCY = 5 clock enables (in_valid to norm_valid), one sample per clock; HOLD = 1: in_ready = '0'

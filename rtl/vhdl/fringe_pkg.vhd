@@ -33,9 +33,10 @@ package fringe_pkg is
     -- The position checks of the blocks that count in REV = LINES * 2^FINE_W (period count, long
     -- period, trim): FINE_W 8..30, LINES 1..2^20, POS_W = FINE_W + clog2(LINES) <= pos_w_max
     procedure check_position(unit : string; fine_w, lines, pos_w_max : integer);
-    -- The checks of the drift tracker's halves and of fringe_drift (the model's check_state_params and
-    -- check_observer_params): the state and the block (ADC_W, BLOCK_LOG2, OFS_FRAC, ADC_W + OFS_FRAC <= 32,
-    -- GINV_W, HOLD), and the observer's own (FINE_W, MU_LOG2, FWD_W, TABLE_W, TABLE_FRAC, KG_W, KG_SHIFT)
+    -- The checks of the drift tracker's halves, fringe_drift_normaliser and fringe_drift_observer (the
+    -- model's check_state_params and check_observer_params): the state and the block (ADC_W, BLOCK_LOG2,
+    -- OFS_FRAC, ADC_W + OFS_FRAC <= 32, GINV_W, HOLD), and the observer's own (FINE_W, MU_LOG2, FWD_W,
+    -- TABLE_W, TABLE_FRAC, KG_W, KG_SHIFT)
     procedure check_drift_state(unit : string; adc_w, block_log2, ofs_frac, ginv_w, hold : integer);
     procedure check_drift_observer(unit : string; fine_w, mu_log2, fwd_w, table_w, table_frac, kg_w, kg_shift : integer);
     -- mapping_exact, or fail with "<unit>: <prefix>_RECIP = .., <prefix>_SHIFT = .. do not map every

@@ -774,8 +774,8 @@ def choose_structure(meas: Measurement, enc: Encoder, use: np.ndarray,
         t, batches = paired_gain_t(e2, ref, CV_BATCHES)
         # no minimum size beyond significance: the phase table also holds where the amplitude moves to values the
         # recording never had (a gain over the revolution seen on part of it: 0.5 % better on the folds, 3.8x better
-        # at the validation's amplitude). A 2 % rule stood here while fringe_drift read the phase table's channels
-        # at the wrong phase (tracker_waveforms): the tracked drift recordings then lost 15-30x with it
+        # at the validation's amplitude). A 2 % rule stood here while fringe_drift_observer read the phase table's
+        # channels at the wrong phase (tracker_waveforms): the tracked drift recordings then lost 15-30x with it
         best = names[significant_choice(e2.sum(axis=1), t, ref, CV_ALPHA, batches)]
         tstat = {n: round(float(v), 2) for n, v in zip(names, t, strict=True) if n != names[ref]}
     return (*CANDIDATES[best], {"chosen": best, "held_out_rms_arcsec": {n: round(v, 4) for n, v in scores.items()},

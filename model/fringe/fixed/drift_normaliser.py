@@ -1,4 +1,4 @@
-"""Bit-exact model of ``fringe_drift_normaliser``: the front half of the drift tracker ``fringe_drift``.
+"""Bit-exact model of ``fringe_drift_normaliser``: the front half of the drift tracker (``drift.py``).
 
 Mirrors ``rtl/verilog/fringe_drift_normaliser.v`` and ``rtl/vhdl/fringe_drift_normaliser.vhd`` (contract in
 ``docs/blocks/fringe_drift_normaliser.md``). Per channel k in {sin, cos}, with the state ``(OFF_k, GINV_k)``::

@@ -212,7 +212,7 @@ def best_amplitude_remedy(state: LoopState, trial: LoopState, val_after: Evaluat
     found = [("", trial, val_after)]
     for keep, label in ((False, PHASE_DOMAIN), (True, PHASE_DOMAIN + " and magnitude term"), (None, NORMALISER)):
         try:
-            if keep is None:      # the channels' gains tracked online ahead of the tables (fringe_drift)
+            if keep is None:      # the channels' gains tracked online ahead of the tables (fringe_drift_normaliser)
                 if state.cal.adaptive:
                     continue
                 alt = LoopState(choose_tracker(dataclasses.replace(state.cal, adaptive=True), state, fit_data),

@@ -90,7 +90,7 @@ def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
     return dataclasses.replace(fresh, **{**kept, **changes})
 
 
-# fringe_drift's update block and final step (its gear shift starts at 1): together the settled tracker's time
+# fringe_drift_observer's update block and final step (its gear shift starts at 1): together the settled tracker's time
 # constant, 2^(block + mu) samples. Short blocks start up soon after reset (with DRIFT_HOLD = 1 each update applies at
 # the next block's first sample): until the first update the readings carry all of the drift at power-up, which can
 # be most of a recording's excess error (9214: 12" in the first 32 samples against a 0.44" floor); long ones update
