@@ -13,7 +13,7 @@ PACKAGE_ROOT = Path(__file__).resolve().parents[1] / "model"
 
 #: Lowest first: a module may import its own layer and the layers below, never one above. A module is named
 #: exactly, or as a package's module (`fringe.fixed.*`); the exact name wins. Each layer is a package of its own
-#: but for the base (the top-level modules) and two engines (`fringe.cli.engines`, `fringe.hardware.rtlsim`).
+#: but for the base (the top-level modules) and the engines (`fringe.cli.engines`).
 LAYERS = [
     # what everything shares: the errors users see, the encoder description, the engines' result and status bits
     ("base", ["fringe", "fringe.errors", "fringe.encoder", "fringe.result"]),
@@ -23,7 +23,7 @@ LAYERS = [
     ("dsp", ["fringe.dsp.*"]),
     # files: recordings, safe outputs, calibration folders, the shared data sets
     ("io", ["fringe.io.*"]),
-    # from a calibration to the core: configuration, tables, ROM images
+    # from a calibration to the core: configuration, tables, ROM images, the RTL in simulation
     ("hardware", ["fringe.hardware.*"]),
     # the float engine (its drift tracker runs the core's equations on the hardware's tables)
     ("engine", ["fringe.engine.*"]),
@@ -31,8 +31,8 @@ LAYERS = [
     ("calibration", ["fringe.calib.*"]),
     # the closed loop, its scenarios and its report
     ("loop", ["fringe.loop.*"]),
-    # the engines behind `fringe correct` (the RTL in simulation; its speed benchmark calibrates a recording)
-    ("engines", ["fringe.cli.engines", "fringe.hardware.rtlsim"]),
+    # the engines behind `fringe correct`
+    ("engines", ["fringe.cli.engines"]),
     ("cli", ["fringe.cli.*", "fringe.__main__"]),
     # benchmarks, the closed loop's population and the demo, which drive the command line
     ("tools", ["fringe.tools.*"]),
@@ -171,6 +171,26 @@ def test_finds_a_planted_cycle(tmp_path):
 def test_no_import_cycle(graph):
     found = cycles(graph)
     assert not found, "import cycles in model/fringe: " + "; ".join(" <-> ".join(c) for c in found)
+
+
+def package_of(module: str) -> str:
+    """The package a module belongs to: fringe.<sub> for a subpackage's modules, fringe.__main__ with the command
+    line's, every other top-level module the base ("fringe")."""
+    parts = module.split(".")
+    if module == "fringe.__main__":
+        return "fringe.cli"
+    return ".".join(parts[:2]) if len(parts) > 2 or (len(parts) == 2 and modules()[module][1]) else "fringe"
+
+
+def test_no_cycle_between_packages(graph):
+    """Nor between the packages: no function-local import reaches back into a package that imports this one."""
+    packages: dict[str, set[str]] = {}
+    for m, targets in graph.items():
+        packages.setdefault(package_of(m), set()).update(package_of(t) for t in targets)
+    for p, targets in packages.items():
+        targets.discard(p)
+    found = cycles(packages)
+    assert not found, "cycles between fringe's packages: " + "; ".join(" <-> ".join(c) for c in found)
 
 
 def test_every_module_has_a_layer(graph):

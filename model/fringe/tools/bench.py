@@ -21,7 +21,7 @@ from ..dsp.metrics import error_arcsec
 from ..dsp.simulate import seed_encoder, simulate
 from ..fixed.config import CoreConfig
 from ..fixed.core import error_budget
-from ..hardware.rtlsim import engine_speed
+from ..hardware.rtlsim import RtlSimulationError, run_rtl, run_rtl_result
 from ..hardware.tables import build_tables, run_model
 from ..io.datasets import RM44_ENCODER, halves, read_rm44
 from .bench_drift_step import startup as drift_startup
@@ -85,6 +85,53 @@ def speed(samples: int = 1_000_000) -> dict:
             "correct_model_samples_per_s": round(samples / t_model),
             "targets": {"calibrate_1M_le_10s": t_cal <= 10.0, "correct_float_ge_1M_per_s": samples / t_cor >= 1e6,
                         "correct_model_ge_1M_per_s": samples / t_model >= 1e6}}
+
+
+def engine_speed(samples: int = 1_000_000, cocotb_samples: int = 20_000, ghdl_samples: int = 0,
+                 seed: int = 7) -> dict:
+    """Speed of ``--engine verilog`` against ``--engine model`` in one run (for ``make bench``).
+
+    A seed-encoder recording of ``samples`` samples (simulated with ``seed``), calibrated, goes
+    through ``run_model`` and through ``run_rtl_result`` (the C++ harness); the engine's binary is
+    built (or found in the cache) by a short warm-up run first, timed as ``build_s``. The cocotb
+    harness (and GHDL when ``ghdl_samples`` > 0) run a leading slice, for comparison. The words of
+    both full runs are compared. Target (issue 11): the Verilator engine within twice the model's time.
+    """
+    sim_cfg = seed_encoder()
+    sim_cfg.samples = samples
+    meas = measurement_of(simulate(sim_cfg, seed))
+    cal = calibrate(meas, sim_cfg.encoder())
+    cfg = CoreConfig.for_encoder(cal.encoder)
+    tables = build_tables(cal, cfg)
+    t0 = time.perf_counter()
+    model = run_model(cal, cfg, meas.sin, meas.cos, meas.coarse, tables=tables)
+    t_model = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    run_rtl(cal, cfg, meas.sin[:100], meas.cos[:100], None if meas.coarse is None else meas.coarse[:100])
+    t_build = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    rtl = run_rtl_result(cal, cfg, meas.sin, meas.cos, meas.coarse, "verilog")
+    t_rtl = time.perf_counter() - t0
+    same = bool(np.array_equal(rtl.angle_deg, model.angle_deg) and np.array_equal(rtl.status, model.status))
+    out = {"samples": samples, "config": cfg.test_id, "model_s": round(t_model, 3),
+           "model_samples_per_s": round(samples / t_model), "verilog_build_s": round(t_build, 1),
+           "verilog_s": round(t_rtl, 3), "verilog_samples_per_s": round(samples / t_rtl),
+           "verilog_over_model": round(t_rtl / t_model, 2), "verilog_words_equal_model": same}
+    for name, sim, harness, n in (("cocotb_verilator", "verilator", "cocotb", cocotb_samples),
+                                  ("cocotb_ghdl", "ghdl", "cocotb", ghdl_samples)):
+        if n <= 0:
+            continue
+        coarse = None if meas.coarse is None else meas.coarse[:n]
+        try:
+            run_rtl(cal, cfg, meas.sin[:100], meas.cos[:100], None if coarse is None else coarse[:100],
+                    sim, harness=harness)                                      # build
+            t0 = time.perf_counter()
+            run_rtl(cal, cfg, meas.sin[:n], meas.cos[:n], coarse, sim, harness=harness)
+            out[f"{name}_samples_per_s"] = round(n / (time.perf_counter() - t0))
+        except RtlSimulationError as e:
+            out[f"{name}_samples_per_s"] = f"not run: {str(e).splitlines()[0]}"
+    out["targets"] = {"verilog_le_2x_model": t_rtl <= 2.0 * t_model, "verilog_words_equal_model": same}
+    return out
 
 
 def _per_rm44_file(folder: str, figures_of) -> dict | str:
