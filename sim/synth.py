@@ -75,7 +75,7 @@ sys.path.insert(0, str(REPO / "model"))
 from fringe.calib.calibrate import calibrate  # noqa: E402
 from fringe.calib.evaluate import measurement_of  # noqa: E402
 from fringe.dsp.simulate import SimulationConfig, seed_encoder, simulate  # noqa: E402
-from fringe.fixed.config import CoreConfig  # noqa: E402
+from fringe.fixed.config import HDL_WIDE_PARAMETERS, CoreConfig  # noqa: E402
 from fringe.fixed.core import core_latency  # noqa: E402
 from fringe.hardware.rom import write_roms  # noqa: E402
 from fringe.hardware.rtlsim import init_files  # noqa: E402
@@ -316,7 +316,7 @@ def log_tail(log: Path, n: int = 15) -> str:
 def param_value(k: str, v) -> str:
     if isinstance(v, Path):
         return f'"{v}"'
-    return f"64'd{v}" if k in ("LP_RECIP", "TRIM_SECT_RECIP") else str(v)
+    return f"64'd{v}" if k in HDL_WIDE_PARAMETERS else str(v)
 
 
 def tech_sources(device: Device) -> list[Path]:
