@@ -689,7 +689,7 @@ def test_fringe_top(sim, name, compact):
     d = prepare(name, compact)
     with open(d / "case.pkl", "rb") as f:
         cfg = pickle.load(f)["cfg"]
-    params = top_parameters(cfg, d, sim)
+    params = top_parameters(cfg, d)
     seed = os.environ.get("FRINGE_SEED", str(DEFAULT_SEED))
     print(f"fringe_top {sim} {name} COMPACT={compact} {json.dumps(params)} seed {seed}")
     run_block(TOPLEVEL, "test_fringe_top", params, sim=sim, timeout_s=200,

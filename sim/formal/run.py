@@ -216,8 +216,7 @@ def tools() -> list[str]:
 
 
 def hdl_parameters(cfg: CoreConfig) -> dict[str, int]:
-    p = {k: v for k, v in top_parameters(cfg, sim="ghdl").items()}   # plain integers
-    return {k: int(v) for k, v in p.items()}
+    return {k: int(v) for k, v in top_parameters(cfg).items()}
 
 
 def script_lines(task: Task, names: list[str], cfg: CoreConfig) -> list[str]:

@@ -84,23 +84,19 @@ def top_widths(cfg: CoreConfig) -> dict[str, int]:
             "S_DATA_W": 2 * adc_lane + coarse_lane, "M_DATA_W": pos_lane + 8}
 
 
-def top_parameters(cfg: CoreConfig, init_dir: str | os.PathLike | None = None,
-                   sim: str = "verilator") -> dict[str, object]:
-    """Parameters/generics of fringe_top: the configuration, the long-period index mapping and
-    the init files in ``init_dir`` (as written by ``write_init_files``; Verilator takes string
-    parameters with their quotes, GHDL without)."""
+def top_parameters(cfg: CoreConfig, init_dir: str | os.PathLike | None = None) -> dict[str, object]:
+    """Parameters/generics of fringe_top, plain integers and paths: the configuration, the long-period index
+    mapping and the init files in ``init_dir`` (as written by ``write_init_files``). The simulators take them
+    through ``sim/cocotb_runner.py``'s ``simulator_parameters``, the one place that quotes them."""
     lpp = long_period_params(cfg)
     p: dict[str, object] = dict(cfg.hdl_parameters())
-    # LP_RECIP is a 64-bit parameter in Verilog (a natural, < 2^31, in VHDL)
-    p["LP_RECIP"] = f"64'd{int(lpp.recip)}" if sim == "verilator" else int(lpp.recip)
+    p["LP_RECIP"] = int(lpp.recip)        # 64 bits in Verilog (HDL_WIDE_PARAMETERS), a natural < 2^31 in VHDL
     p["LP_SHIFT"] = int(lpp.shift)
     if cfg.trim:      # TRIM_SECT_RECIP likewise
-        recip = int(cfg.trim_params().recip)
-        p["TRIM_SECT_RECIP"] = f"64'd{recip}" if sim == "verilator" else recip
+        p["TRIM_SECT_RECIP"] = int(cfg.trim_params().recip)
     if init_dir is not None:
         for generic, stem in init_files(cfg).items():
-            path = str(Path(init_dir).resolve() / f"{stem}.mem")
-            p[generic] = f'"{path}"' if sim == "verilator" else path
+            p[generic] = str(Path(init_dir).resolve() / f"{stem}.mem")
     return p
 
 
@@ -190,7 +186,7 @@ def _run_cpp(cfg: CoreConfig, params: dict, work: Path, sin_c, cos_c, coarse_c, 
 
     eb = _engine_builder()
     try:
-        binary = eb.build_engine(params, work / "engine")
+        binary = eb.build_engine(_runner().simulator_parameters(params, "verilator"), work / "engine")
     except eb.EngineBuildError as e:
         raise RtlSimulationError(str(e)) from None
     w = top_widths(cfg)
@@ -246,7 +242,7 @@ def run_rtl(cal: Calibration | None, cfg: CoreConfig, sin, cos, coarse=None, sim
     work = cr.SIM_BUILD / "rtlsim" / sim / f"{cfg.test_id}-{key}"
     with cr.locked(work / ".lock"):
         write_init_files(t, cfg, work / "init")
-        params = top_parameters(cfg, work / "init", sim)
+        params = top_parameters(cfg, work / "init")
         if sim == "verilator" and harness == "cpp":
             out_words, latency = _run_cpp(cfg, params, work, sin_c, cos_c, coarse_c, timeout_s)
         else:
