@@ -34,8 +34,9 @@ module fringe_top_miter #(
     localparam integer POS_W    = $clog2(LINES) + FINE_W;
     localparam integer POS_LANE = 8 * ((POS_W + 7) / 8);
     localparam integer M_W      = POS_LANE + 8;
-    localparam integer BANK = 7, OVERSPEED = 4;   // status bits (docs/architecture.md)
-    localparam [19:0]  CTRL = 20'h00080;          // register word CTRL (fringe_core)
+    `include "fringe_pkg.vh"   // the status bits and the register map, generated from the model (sim/hdlgen.py)
+    localparam integer BANK = STATUS_BANK, OVERSPEED = STATUS_OVERSPEED;
+    localparam [19:0]  CTRL = {SPACE_REGS, CTRL_WORD};   // the register space's word CTRL
 
     wire           a_s_tready, a_m_tvalid, a_bank, b_s_tready, b_m_tvalid, b_bank;
     wire [M_W-1:0] a_m_tdata, b_m_tdata;

@@ -48,7 +48,8 @@ module fringe_top_stream #(
     localparam integer POS_W    = $clog2(LINES) + FINE_W;
     localparam integer POS_LANE = 8 * ((POS_W + 7) / 8);
     localparam integer M_W      = POS_LANE + 8;
-    localparam integer BANK = 7, CLIP_COS = 1, CLIP_SIN = 0;   // status bits (docs/architecture.md)
+    `include "fringe_pkg.vh"   // the status bits and block latencies, generated from the model (sim/hdlgen.py)
+    localparam integer BANK = STATUS_BANK, CLIP_COS = STATUS_CLIP_COS, CLIP_SIN = STATUS_CLIP_SIN;
 
     wire             s_axis_tready, m_axis_tvalid, active_bank;
     wire [M_W-1:0]   m_axis_tdata;
@@ -157,7 +158,6 @@ module fringe_top_stream #(
     // come from the block latencies of fringe_pkg.vh (docs/architecture.md): a block taking its
     // sample at age A reads its tables with the sample's bank then, and fringe_core reads a block's
     // registers one clock enable ahead, at age A-1.
-    `include "fringe_pkg.vh"
     localparam integer AGE_LUT  = CORE_INPUT_LATENCY;                                     // fringe_wave_lut
     localparam integer AGE_QUAD = AGE_LUT + WAVE_LUT_LATENCY;                             // fringe_quadrature
     localparam integer AGE_CNT  = AGE_QUAD + QUADRATURE_LATENCY + CORDIC_STAGES + CORDIC_LATENCY_BASE;
