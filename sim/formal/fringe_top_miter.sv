@@ -17,9 +17,9 @@
 `default_nettype none
 
 module fringe_top_miter #(
-    `include "fringe_formal_params.vh"   // the core parameters of the proofs' configuration
-    parameter integer COMPACT = 0,   // run.py passes every parameter of its configuration
-    parameter integer MODE = 0, parameter integer CHECK_BANK = 0
+    // fringe_top's parameters (generated: python sim/hdlgen.py); run.py sets every one of its configuration
+    `include "fringe_core_params.vh"
+    , parameter integer MODE = 0, parameter integer CHECK_BANK = 0
 ) (
     input wire clk,
     input wire rst,
@@ -42,22 +42,19 @@ module fringe_top_miter #(
     wire [M_W-1:0] a_m_tdata, b_m_tdata;
 
     // copy X of fringe_top: its own samples, write data and backpressure (X_tdata, X_wr_data, X_tready ...)
-`define FRINGE_MITER_COPY(X) \
-    fringe_top #( \
-        .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W), \
-        .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD), \
-        .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP), \
-        .LP_SHIFT(LP_SHIFT), .COMPACT(COMPACT) \
-    ) X ( \
+`define FRINGE_MITER_PORTS(X) \
         .clk(clk), .rst(rst), \
         .s_axis_tdata(X``_tdata), .s_axis_tvalid(X``_tvalid), .s_axis_tready(X``_s_tready), \
         .m_axis_tdata(X``_m_tdata), .m_axis_tvalid(X``_m_tvalid), .m_axis_tready(X``_tready), \
-        .cfg_wr_en(cfg_wr_en), .cfg_wr_addr(cfg_wr_addr), .cfg_wr_data(X``_wr_data), .active_bank(X``_bank) \
-    );
+        .cfg_wr_en(cfg_wr_en), .cfg_wr_addr(cfg_wr_addr), .cfg_wr_data(X``_wr_data), .active_bank(X``_bank)
 
-    `FRINGE_MITER_COPY(a)
-    `FRINGE_MITER_COPY(b)
-`undef FRINGE_MITER_COPY
+    fringe_top #(
+        `include "fringe_core_map.vh"   // generated: every parameter passed on
+    ) a (`FRINGE_MITER_PORTS(a));
+    fringe_top #(
+        `include "fringe_core_map.vh"
+    ) b (`FRINGE_MITER_PORTS(b));
+`undef FRINGE_MITER_PORTS
 
     reg f_init = 1'b1;          // the first cycle: a reset
     always @(posedge clk) f_init <= 1'b0;

@@ -24,15 +24,9 @@
 `default_nettype none
 
 module fringe_top_stream #(
-    `include "fringe_formal_params.vh"   // the core parameters of the proofs' configuration
-    // fringe_trim (TRIM = 1): the defaults of fringe_top, run.py sets them for the TRIM tasks
-    parameter integer TRIM = 0, parameter integer TRIM_SPEED_LOG2 = 5, parameter integer TRIM_MAP_PSI_W = 6,
-    parameter integer TRIM_MAP_PHI_W = 5, parameter integer TRIM_W = 18, parameter integer TRIM_FRAC = 4,
-    parameter integer TRIM_G_SHIFT = 24, parameter [63:0] TRIM_SECT_RECIP = 64'd1,
-    parameter integer TRIM_SECT_SHIFT = 18, parameter integer TRIM_START_SPEED = 0,
-    parameter integer TRIM_MAG_SMOOTH_LOG2 = 0,
-    parameter integer COMPACT = 0,            // 1: the time-multiplexed core (run.py's *_compact tasks)
-    parameter integer LATENCY = 28,
+    // fringe_top's parameters (generated: python sim/hdlgen.py); run.py sets every one of its configuration
+    `include "fringe_core_params.vh"
+    , parameter integer LATENCY = 28,
     parameter integer CLOCKS_PER_SAMPLE = 1   // fringe.fixed.config clocks_per_sample, passed by run.py
 ) (
     input wire clk,
@@ -55,14 +49,7 @@ module fringe_top_stream #(
     wire [M_W-1:0]   m_axis_tdata;
 
     fringe_top #(
-        .ADC_W(ADC_W), .LINES(LINES), .COARSE_W(COARSE_W), .WAVE_ADDR_W(WAVE_ADDR_W), .WAVE_W(WAVE_W),
-        .COEF_W(COEF_W), .FINE_W(FINE_W), .CORDIC_STAGES(CORDIC_STAGES), .CORDIC_GUARD(CORDIC_GUARD),
-        .LP_ADDR_W(LP_ADDR_W), .LP_W(LP_W), .LP_FRAC(LP_FRAC), .LP_IF(LP_IF), .LP_RECIP(LP_RECIP),
-        .LP_SHIFT(LP_SHIFT), .TRIM(TRIM), .TRIM_SPEED_LOG2(TRIM_SPEED_LOG2), .TRIM_MAP_PSI_W(TRIM_MAP_PSI_W),
-        .TRIM_MAP_PHI_W(TRIM_MAP_PHI_W), .TRIM_W(TRIM_W), .TRIM_FRAC(TRIM_FRAC), .TRIM_G_SHIFT(TRIM_G_SHIFT),
-        .TRIM_SECT_RECIP(TRIM_SECT_RECIP), .TRIM_SECT_SHIFT(TRIM_SECT_SHIFT), .TRIM_START_SPEED(TRIM_START_SPEED),
-        .TRIM_MAG_SMOOTH_LOG2(TRIM_MAG_SMOOTH_LOG2),
-        .COMPACT(COMPACT)
+        `include "fringe_core_map.vh"   // generated: every parameter passed on
     ) dut (
         .clk(clk), .rst(rst),
         .s_axis_tdata(s_axis_tdata), .s_axis_tvalid(s_axis_tvalid), .s_axis_tready(s_axis_tready),

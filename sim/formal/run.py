@@ -242,7 +242,7 @@ def script_lines(task: Task, names: list[str], cfg: CoreConfig) -> list[str]:
 
 
 def wrapper_includes() -> list[Path]:
-    """The include files of the wrappers in this folder (fringe_formal_params.vh)."""
+    """Include files of the wrappers in this folder, if any (they include rtl/verilog's generated lists)."""
     return sorted(HERE.glob("*.vh"))
 
 
