@@ -76,7 +76,7 @@ def lane_bits(w: int) -> int:
 
 
 def top_widths(cfg: CoreConfig) -> dict[str, int]:
-    """Lane layout of fringe_top (docs/architecture.md, "Top level")."""
+    """Lane layout of fringe_top (docs/blocks/fringe_top.md, "Ports")."""
     adc_lane = lane_bits(cfg.adc_w)
     coarse_lane = lane_bits(cfg.coarse_w) if cfg.coarse_w else 0
     pos_lane = lane_bits(cfg.pos_w)
