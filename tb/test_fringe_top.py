@@ -48,6 +48,7 @@ from fringe.fixed import drift as drift_mod
 from fringe.fixed.config import CoreConfig, drift_pipe_latency
 from fringe.fixed.core import CoreTables, core_latency, run_core, run_core_banks
 from fringe.fixed.quadrature import QuadratureCoefs
+from fringe.fixed.regmap import CTRL_SWAP, CTRL_WORD, REGISTERS, SPACE_LSB, SPACES
 from fringe.hardware.rtlsim import pack_inputs, top_parameters, top_widths, unpack_outputs, write_init_files
 from fringe.hardware.tables import build_tables
 from fringe.result import AMP_HIGH, AMP_LOW, BANK, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, SATURATED
@@ -56,7 +57,9 @@ REPO = Path(__file__).resolve().parent.parent
 TOPLEVEL = "fringe_top"
 DEFAULT_SEED = 20251124
 DATA_ENV = "FRINGE_TOP_DATA"
-CTRL_DELAY = 2    # a CTRL swap takes effect at the second edge after the edge that takes the write
+CTRL_ADDR = SPACES["regs"] << SPACE_LSB | CTRL_WORD      # cfg_wr_addr of CTRL (regmap: the single source)
+REG_INDEX = {r.name: r.index for r in REGISTERS}
+CTRL_DELAY = 2    # a CTRL swap takes effect at the second edge after the edge that takes the write (fringe_regs)
 
 # ============================================================================ cocotb side
 
@@ -166,8 +169,8 @@ class Bench:
                 self.last_in = None
                 self.n_since_rst = 0
             self.n_ce += ce
-            if (int(d.cfg_wr_en.value) and int(d.cfg_wr_addr.value) == 0x80
-                    and int(d.cfg_wr_data.value) & 1):
+            if (int(d.cfg_wr_en.value) and int(d.cfg_wr_addr.value) == CTRL_ADDR
+                    and int(d.cfg_wr_data.value) >> CTRL_SWAP & 1):
                 self.pending_swaps.append(self.edge + CTRL_DELAY)
             if self.pending_swaps and self.pending_swaps[0] == self.edge:
                 self.pending_swaps.pop(0)
@@ -455,17 +458,17 @@ if cocotb is not None:
                 if rng.random() < 0.05:     # a gap now and then
                     dut.cfg_wr_en.value = 0
                     await RisingEdge(dut.clk)
-            # CTRL with bit 0 clear: no swap
-            dut.cfg_wr_addr.value = 0x80
-            dut.cfg_wr_data.value = 2
+            # CTRL with its swap bit clear: no swap
+            dut.cfg_wr_addr.value = CTRL_ADDR
+            dut.cfg_wr_data.value = 1 << (CTRL_SWAP + 1)
             await RisingEdge(dut.clk)
             state["swapped_at"] = len(b.ins)
             # then swaps back and forth (both banks hold a complete calibration): each one with
             # samples of the other bank in flight
             while len(b.ins) < n - 50:
                 dut.cfg_wr_en.value = 1
-                dut.cfg_wr_addr.value = 0x80
-                dut.cfg_wr_data.value = 1
+                dut.cfg_wr_addr.value = CTRL_ADDR
+                dut.cfg_wr_data.value = 1 << CTRL_SWAP
                 await RisingEdge(dut.clk)
                 dut.cfg_wr_en.value = 0
                 for _ in range(int(rng.integers(10, 250))):
@@ -507,13 +510,13 @@ if cocotb is not None:
         banks[inactive] = dataclasses.replace(
             banks[inactive], quad=QuadratureCoefs(kmax, kmax - 1234, kmax, -one, one // 3))
         q = banks[inactive].quad
-        for idx, v in enumerate((q.k_ss, q.k_sc, q.k_cc, q.ofs_s, q.ofs_c)):
+        for name, v in (("K_SS", q.k_ss), ("K_SC", q.k_sc), ("K_CC", q.k_cc), ("OFS_S", q.ofs_s), ("OFS_C", q.ofs_c)):
             dut.cfg_wr_en.value = 1
-            dut.cfg_wr_addr.value = idx
+            dut.cfg_wr_addr.value = SPACES["regs"] << SPACE_LSB | REG_INDEX[name]
             dut.cfg_wr_data.value = int(v) & 0xFFFFFFFF
             await RisingEdge(dut.clk)
-        dut.cfg_wr_addr.value = 0x80
-        dut.cfg_wr_data.value = 1
+        dut.cfg_wr_addr.value = CTRL_ADDR
+        dut.cfg_wr_data.value = 1 << CTRL_SWAP
         await RisingEdge(dut.clk)
         dut.cfg_wr_en.value = 0
         for _ in range(CTRL_DELAY + 1):
