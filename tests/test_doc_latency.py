@@ -70,6 +70,21 @@ def test_block_table_latencies():
     assert rows["fringe_cordic"][0] == f"STAGES + {cp.latency - cp.stages}"
 
 
+def test_readme_block_table():
+    """README.md's block table (a third copy, for the reader who starts there) agrees too."""
+    rows = block_table()
+    checked = 0
+    for line in (REPO / "README.md").read_text(encoding="utf-8").splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) == 3 and re.fullmatch(r"`fringe_\w+`", cells[0]) and cells[0].strip("`") in rows:
+            want = model_latency(rows[cells[0].strip("`")][1])
+            m = re.match(r"(\d+)\b", cells[2])
+            if want is not None and m:
+                assert int(m.group(1)) == want, f"README.md: {cells[0]}'s latency is {cells[2]!r}, its model's {want}"
+                checked += 1
+    assert checked >= 8
+
+
 def test_block_document_and_header_latency():
     """The first "LATENCY = N clock enables" of a block's document and of both HDL headers is its model's LATENCY."""
     checked = 0
