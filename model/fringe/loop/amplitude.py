@@ -127,7 +127,8 @@ def phase_domain(state: LoopState, meas: Measurement, keep_amplitude: bool) -> L
 
 PHASE_DOMAIN = "phase-domain structure"
 NORMALISER = "amplitude normaliser"
-NORMALISER_WHERE = "fringe_drift ahead of the tables: the channels' offsets and gains tracked online from the signals"
+NORMALISER_WHERE = ("fringe_drift_normaliser ahead of the tables: the channels' offsets and gains tracked online from "
+                    "the signals")
 PHASE_DOMAIN_WHERE = ("the waveform stage made straight (a common gain change then moves no angle), and the "
                       "phase error of the channels' shape in fringe_trim's fine-phase map after the arctan")
 
