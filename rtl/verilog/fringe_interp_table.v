@@ -208,6 +208,49 @@ module fringe_interp_table #(
             assign prod3 = prod3_r;
         end
     endgenerate
+`elsif FRINGE_TECH_ICE40
+    // iCE40, a fraction of 2 to 4 bits (BOOTH): slope * fc in the fabric (one adder) instead of an SB_MAC16, a
+    // DSP of the UP5K's 8 for a 4-bit factor. Radix-4 Booth digits of fc (extended to s(4)): fc = 4 d1 + d0,
+    // d1 = c2 + c1 - 2 c3, d0 = c0 - 2 c1, each in -2..2: the sum of two selected and inverted copies of the
+    // slope, modulo 2^S_W (pb3); a negative digit's + 1 is the adder's carry-in (d1) or base3's bit 0 (d0:
+    // value2_x has 0 there).
+    localparam integer BOOTH = (FB >= 2 && FB <= 4) ? 1 : 0;
+    wire signed [W+FB-1:0] prod3;
+    wire [S_W-1:0]         pb3;
+    wire                   bcorr;
+    generate
+        if (BOOTH != 0) begin : g_prod_booth
+            wire [3:0]       c    = {{(4 - FB){fcm[FB-1]}}, fcm};
+            wire             one1 = c[2] ^ c[1];
+            wire             two1 = (c[3] & ~c[2] & ~c[1]) | (~c[3] & c[2] & c[1]);
+            wire             one0 = c[0];
+            wire             two0 = c[1] & ~c[0];
+            wire [S_W+W-1:0] sl_e = {{S_W{slope2[W-1]}}, slope2};
+            wire [S_W-1:0]   sl   = sl_e[S_W-1:0];
+            wire [S_W-1:0]   x1   = (({S_W{one1}} & sl) | ({S_W{two1}} & (sl << 1))) << 2;
+            wire [S_W-1:0]   x0   = ({S_W{one0}} & sl) | ({S_W{two0}} & (sl << 1));
+            reg  [S_W-1:0]   pb3_r;
+            always @(posedge clk) begin
+                if (ce) begin
+                    pb3_r <= (x1 ^ {S_W{c[3]}}) + (x0 ^ {S_W{c[1]}}) + {{(S_W-1){1'b0}}, c[3]};
+                end
+            end
+            assign pb3   = pb3_r;
+            assign bcorr = c[1];
+            assign prod3 = {(W + FB){1'b0}};   // not built
+            wire unused_booth = &{1'b0, sl_e[S_W+W-1:S_W]};
+        end else begin : g_prod
+            reg signed [W+FB-1:0] prod3_r;
+            always @(posedge clk) begin
+                if (ce) begin
+                    prod3_r <= slope2 * $signed(fcm);
+                end
+            end
+            assign prod3 = prod3_r;
+            assign pb3   = {S_W{1'b0}};
+            assign bcorr = 1'b0;
+        end
+    endgenerate
 `else
     reg  signed [W+FB-1:0] prod3;
 `endif
@@ -215,17 +258,25 @@ module fringe_interp_table #(
 
     always @(posedge clk) begin
         if (ce) begin
+`ifdef FRINGE_TECH_ICE40
+            base3 <= (value2_x | {{(S_W-1){1'b0}}, bcorr}) + slope2_x + OFFSET;
+`else
 `ifndef FRINGE_TECH_ECP5
             prod3 <= slope2 * $signed(fcm);
 `endif
             base3 <= value2_x + slope2_x + OFFSET;
+`endif
         end
     end
 
     // ---- R (4; 5 with PIECE_W > 0): result = (base + product) >>> FB, one add -------------------------------------------------
     // = value + offset + ((slope * frac + 2^(FB-1)) >>> FB), modulo 2^OUT_W.
     wire [S_W+W+FB-1:0] prod3_e = {{S_W{prod3[W+FB-1]}}, prod3};
+`ifdef FRINGE_TECH_ICE40
+    wire [S_W-1:0]   sum3    = base3 + ((BOOTH != 0) ? pb3 : prod3_e[S_W-1:0]);
+`else
     wire [S_W-1:0]   sum3    = base3 + prod3_e[S_W-1:0];
+`endif
 
     always @(posedge clk) begin
         if (ce) begin

@@ -9,6 +9,13 @@
 
 `default_nettype none
 
+// the technology layers that add a narrow partial product up in the fabric (ECP5, iCE40); undefined at the end
+`ifdef FRINGE_TECH_ECP5
+`define FRINGE_SPLIT_FABRIC_NARROW
+`elsif FRINGE_TECH_ICE40
+`define FRINGE_SPLIT_FABRIC_NARROW
+`endif
+
 module fringe_split_mul #(
     parameter integer A_W      = 18,  // width of a, >= 1
     parameter integer A_SIGNED = 1,   // 1: a is two's complement, 0: unsigned
@@ -114,8 +121,8 @@ module fringe_split_mul #(
 
     // ---- stage 1: the partial products, each at its weight, registered bare -------------------------
     wire [NP*P_W-1:0] prod;
-`ifdef FRINGE_TECH_ECP5
-    wire [NP*2*(L+1)-1:0] chunks;   // {ca, cb} of each partial product (the ECP5 layer multiplies them)
+`ifdef FRINGE_SPLIT_FABRIC_NARROW
+    wire [NP*2*(L+1)-1:0] chunks;   // {ca, cb} of each partial product (the technology layers multiply them)
 `endif
     genvar gk, gs;
     generate
@@ -127,7 +134,7 @@ module fringe_split_mul #(
             wire signed [2*L+1:0]   m  = ca * cb;
             wire [P_W+2*L+1:0]      mw = {{P_W{m[2*L+1]}}, m} << (L * (I + J));
             assign prod[gk*P_W +: P_W] = mw[P_W-1:0];
-`ifdef FRINGE_TECH_ECP5
+`ifdef FRINGE_SPLIT_FABRIC_NARROW
             assign chunks[gk*2*(L+1) +: 2*(L+1)] = {ca, cb};
 `endif
             wire unused_m = &{1'b0, mw[P_W+2*L+1:P_W]};
@@ -142,10 +149,11 @@ module fringe_split_mul #(
             for (gk = 0; gk < NP; gk = gk + 1) begin : g_term
                 localparam integer LO = term_lo(gs, gk);
                 localparam integer HI = term_hi(gs, gk);
-`ifdef FRINGE_TECH_ECP5
-                // ECP5: the live bits of the two chunks (a chunk below the top: L; the top chunk of a signed
+`ifdef FRINGE_SPLIT_FABRIC_NARROW
+                // ECP5, iCE40: the live bits of the two chunks (a chunk below the top: L; the top chunk of a signed
                 // operand: its bits with the sign; of an unsigned one: without its zero sign bit). A product
-                // of two factors of 2 bits or more, one of them 6 or more, takes a MULT18X18D; a narrower one
+                // of two factors of 2 bits or more, one of them 6 or more, takes a MULT18X18D (ECP5; on iCE40
+                // Yosys maps g_live's product to an SB_MAC16); a narrower one
                 // (a factor of 1 to 3 bits) is added up in the fabric from shifted copies of the wide factor,
                 // keeping DSPs free (Yosys would put a 2-bit signed factor in a DSP of its own)
                 localparam integer I  = gk / NB;
@@ -155,6 +163,7 @@ module fringe_split_mul #(
                 localparam integer NSIG = (LA <= LB) ? ((I == NA - 1 && A_SIGNED != 0) ? 1 : 0)
                                                      : ((J == NB - 1 && B_SIGNED != 0) ? 1 : 0);
                 localparam integer NW = (LA <= LB) ? LA : LB;   // the narrow factor's live bits
+`ifdef FRINGE_TECH_ECP5
                 localparam integer WW = (LA <= LB) ? LB : LA;
                 if (LO < P_W && gs == 0 && L + 1 <= 18 && NW >= 2 && WW >= 6) begin : g_dsp
                     // the bare partial product registered in the MULT18X18D's output register, then
@@ -167,7 +176,9 @@ module fringe_split_mul #(
                     wire [P_W+2*L+1:0] mw = {{P_W{m[2*L+1]}}, m} << (L * (I + J));
                     assign q[gk*P_W +: P_W] = mw[P_W-1:0];
                     wire unused_m = &{1'b0, mw[P_W+2*L+1:P_W]};
-                end else if (LO < P_W && gs == 0 && NW <= 3) begin : g_narrow
+                end else
+`endif
+                if (LO < P_W && gs == 0 && NW <= 3) begin : g_narrow
                     // the wide factor times each live bit of the narrow one (the top bit negative if it
                     // is a sign), summed: NW - 1 adders at most, no multiplier
                     wire signed [L:0] cn = (LA <= LB) ? chunks[gk*2*(L+1)+L+1 +: L+1] : chunks[gk*2*(L+1) +: L+1];
@@ -243,7 +254,14 @@ module fringe_split_mul #(
 
     // Bits that carry nothing: the operands' extension above the top chunk, terms past the last.
     wire unused = &{1'b0, a_ext, b_ext, stage[NS]};
+`ifdef FRINGE_TECH_ICE40
+    // each term reads either its product or its chunks
+    wire unused_fabric = &{1'b0, prod, chunks};
+`endif
 
 endmodule
 
+`ifdef FRINGE_SPLIT_FABRIC_NARROW
+`undef FRINGE_SPLIT_FABRIC_NARROW
+`endif
 `default_nettype wire
