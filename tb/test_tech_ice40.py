@@ -92,7 +92,7 @@ def test_ice40_fringe_top_compact():
     d = top.prepare("adc12-L256-c9", 1)
     with open(d / "case.pkl", "rb") as f:
         cfg = pickle.load(f)["cfg"]
-    params = top.top_parameters(cfg, d, "verilator")
+    params = top.top_parameters(cfg, d)
     seed = os.environ.get("FRINGE_SEED", str(top.DEFAULT_SEED))
     results = run_block(top.TOPLEVEL, "test_fringe_top", params, sim="verilator", timeout_s=300,
                         extra_env={top.DATA_ENV: str(d), "FRINGE_SEED": seed}, sources=_sources(top.TOPLEVEL))
