@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from fringe.dsp.canceller_float import CancelFloat
 from fringe.fixed import canceller as cm
 
 
@@ -104,7 +105,7 @@ def test_float_twin_agrees():
         a = p.radius / 30
         c, s, phi, word = circle(p, 300 * p.b, (a, a), noise=3.0, seed=5)
         r = cm.cancel(c, s, word, p)
-        fc, fs = cm.CancelFloat(word, p.block_log2, p.mu_log2, p.gear_offset).run(c / p.radius, s / p.radius)
+        fc, fs = CancelFloat(word, p.block_log2, p.mu_log2, p.gear_offset).run(c / p.radius, s / p.radius)
         tail = slice(200 * p.b, None)
         d = np.abs(r.c - fc * p.radius)[tail]
         budget = a * 2 * math.pi / (1 << p.lut_w) + a * 2.0 ** -(p.c_w - 2) + 2.0 + 4 * 3.0 * 2.0 ** -(p.mu_log2 / 2)

@@ -11,13 +11,13 @@ import pytest
 from hdl_text import REPO, block_texts, missing_checks
 from param_cases import out_of_range
 
+from fringe.dsp.drift_float import drift_float
 from fringe.fixed.drift import (
     NORM_LATENCY,
     OBS_LATENCY,
     PARTIAL_MU_MIN,
     SWEEP_MIN_LOG2,
     DriftParams,
-    drift_float,
     drift_run,
     error_bound,
     kg_for,

@@ -5,12 +5,12 @@ import math
 import numpy as np
 import pytest
 
+from fringe.dsp.quadrature_float import quadrature_float
 from fringe.fixed.quadrature import (
     QuadratureCoefs,
     QuadratureParams,
     error_budget,
     quadrature,
-    quadrature_float,
     quantise_coefs,
 )
 

@@ -210,6 +210,25 @@ def test_fixed_is_a_leaf(graph):
     assert not outside, "the bit-exact models import outside fringe.fixed:\n" + "\n".join(outside)
 
 
+def float_twins(root: Path = PACKAGE_ROOT) -> list[str]:
+    """Top-level `*_float` functions and `*Float` classes of fringe.fixed: the float twins' names."""
+    return [f"{m}.{node.name}" for m, (path, _) in modules(root).items() if m.startswith("fringe.fixed")
+            for node in ast.parse(path.read_text(encoding="utf-8")).body
+            if (isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.name.endswith("_float"))
+            or (isinstance(node, ast.ClassDef) and node.name.endswith("Float"))]
+
+
+def test_fixed_holds_bit_exact_models_only(tmp_path):
+    """A float twin lives in the float layer (fringe.dsp) beside its users, not next to the model it mirrors; and the
+    bit-exact models import nothing above the base layer."""
+    assert FIXED_MAY_IMPORT <= set(LAYERS[0][1])
+    found = float_twins()
+    assert not found, "float twins in fringe.fixed (move them to fringe.dsp):\n" + "\n".join(found)
+    (tmp_path / "fringe" / "fixed").mkdir(parents=True)
+    (tmp_path / "fringe" / "fixed" / "x.py").write_text("def x_float():\n    pass\n\n\nclass XFloat:\n    pass\n")
+    assert float_twins(tmp_path) == ["fringe.fixed.x.x_float", "fringe.fixed.x.XFloat"]
+
+
 def test_the_loop_imports_down(graph):
     assert sorted(m for m in graph if m.startswith("fringe.loop.")) == sorted(LOOP_ORDER), \
         "place the loop's modules in LOOP_ORDER"

@@ -65,8 +65,9 @@ def cancel_gear_offset(canceller: dict) -> int:
 
 
 def float_canceller(cal: Calibration):
-    """The float twin of fringe_canceller for cal.canceller, from reset (fixed/canceller.py, CancelFloat)."""
-    from ..fixed.canceller import CancelFloat, freq_word
+    """The float twin of fringe_canceller for cal.canceller, from reset (dsp/canceller_float.py, CancelFloat)."""
+    from ..fixed.canceller import freq_word
+    from .canceller_float import CancelFloat
     k = cal.canceller
     return CancelFloat(freq_word(k["tone_hz"], k["sample_rate_hz"]), k["cancel_block_log2"], k["cancel_mu_log2"],
                        cancel_gear_offset(k))

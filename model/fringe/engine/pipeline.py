@@ -11,6 +11,7 @@ import dataclasses
 import numpy as np
 
 from ..dsp.calibration import Calibration, float_canceller, static_phase
+from ..dsp.drift_float import drift_float
 from ..dsp.position import coarse_fine_combine, count_periods, overspeed
 from ..encoder import ARCSEC_PER_REV
 from ..fixed import drift as drift_mod
@@ -38,7 +39,7 @@ def tracked_phase(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
     tracker, docs/drift.md): per block of samples the normalised readings are compared with the calibrated
     waveform at the measured phase; the mean error steps the offset, its correlation with the waveform the gain;
     the new values apply from a fixed sample on, causal as in the hardware. The tracker's equations without
-    rounding (drift.drift_float), with the forward tables of the core configuration's defaults. Returns
+    rounding (dsp/drift_float.py), with the forward tables of the core configuration's defaults. Returns
     (fraction of a period, magnitude)."""
     r, mags, scale = _tracked(cal, sin, cos)
     return r["phase"] / scale, mags
@@ -77,7 +78,7 @@ def _tracked(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
         mags.append(mag)
         return frac * scale
 
-    r = drift_mod.drift_float(sin, cos, phase_of, p, words, t.w0, t.kg)
+    r = drift_float(sin, cos, phase_of, p, words, t.w0, t.kg)
     return r, (np.concatenate(mags) if mags else np.zeros(0)), scale
 
 

@@ -46,7 +46,7 @@ import numpy as np
 
 from .limits import check_integers, check_range
 
-__all__ = ["ADAPT_LATENCY", "LATENCY", "NAME", "CancelParams", "CancelResult", "CancelFloat", "CancelStream", "cancel",
+__all__ = ["ADAPT_LATENCY", "LATENCY", "NAME", "CancelParams", "CancelResult", "CancelStream", "cancel",
            "freq_word", "sine_table"]
 
 NAME = "fringe_canceller"
@@ -219,43 +219,3 @@ def cancel(c, s, freq, params: CancelParams) -> CancelResult:
     blocks = -(-len(oc) // params.b)
     rows = st.rows + [st.rows[-1]] * max(0, blocks + 2 - len(st.rows))
     return CancelResult(oc, os_, sat, tsat, np.array(rows[:blocks + 2], dtype=np.int64).reshape(-1, 4))
-
-
-class CancelFloat:
-    """The float twin (the float engine's canceller, `calibration.static_phase`): the same equations on the
-    unit circle without rounding, the LUT replaced by exact cos/sin of the same 32-bit NCO phase; the
-    coefficients step by (2 / B) 2^-G_j times the block sums. A stream in pieces gives the same values."""
-
-    def __init__(self, freq: int, block_log2: int, mu_log2: int, gear_offset: int = 0):
-        self.freq, self.b, self.mu_log2, self.gear_offset = int(freq), 1 << block_log2, mu_log2, gear_offset
-        self.n = 0
-        self.rows = [np.zeros(4), np.zeros(4)]
-        self.sums = np.zeros(4)
-
-    def run(self, c, s):
-        """(c_out, s_out) of the next piece (unit-circle floats)."""
-        c, s = np.asarray(c, float), np.asarray(s, float)
-        n = len(c)
-        idx = self.n + np.arange(n, dtype=np.uint64)
-        theta = 2 * np.pi * ((idx * np.uint64(self.freq)) & np.uint64((1 << NCO_W) - 1)) / 2.0 ** NCO_W
-        cw, sw = np.cos(theta), np.sin(theta)
-        out_c, out_s = np.empty(n), np.empty(n)
-        start = 0
-        while start < n:
-            k, pos = divmod(self.n, self.b)
-            r = slice(start, min(n, start + self.b - pos))
-            a_c, b_c, a_s, b_s = self.rows[k]
-            yc = c[r] - (a_c * cw[r] + b_c * sw[r])
-            ys = s[r] - (a_s * cw[r] + b_s * sw[r])
-            out_c[r], out_s[r] = yc, ys
-            e = yc * yc + ys * ys - 1.0
-            uc, us = e * yc, e * ys
-            self.sums += [uc @ cw[r], uc @ sw[r], us @ cw[r], us @ sw[r]]
-            taken = r.stop - r.start
-            self.n += taken
-            start = r.stop
-            if pos + taken == self.b:
-                step = 2.0 / self.b * 2.0 ** -min(self.mu_log2, self.gear_offset + (k + 1).bit_length())
-                self.rows.append(self.rows[k + 1] + step * self.sums)
-                self.sums = np.zeros(4)
-        return out_c, out_s

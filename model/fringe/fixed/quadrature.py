@@ -27,7 +27,6 @@ __all__ = [
     "QuadratureParams",
     "error_budget",
     "quadrature",
-    "quadrature_float",
     "quantise_coefs",
 ]
 
@@ -157,17 +156,10 @@ def quadrature(xs, xc, coefs: QuadratureCoefs, params: QuadratureParams
     return s, c, sat
 
 
-def quadrature_float(xs, xc, k_ss, k_sc, k_cc, ofs_s, ofs_c):
-    """Float reference in any consistent units (no rounding, no saturation): (s, c)."""
-    xs = np.asarray(xs, dtype=float)
-    xc = np.asarray(xc, dtype=float)
-    return k_ss * (xs - ofs_s) + k_sc * (xc - ofs_c), k_cc * (xc - ofs_c)
-
-
 def error_budget(params: QuadratureParams, k_ss, k_sc, k_cc, d_max: float = 4.0) -> tuple[float, float]:
     """Bound on |model - float| in output LSBs (2^-WAVE_FRAC) for s and c, away from saturation.
 
-    The model with the quantised coefficients, against ``quadrature_float`` with the float
+    The model with the quantised coefficients, against ``dsp.quadrature_float`` with the float
     coefficients (``k_*`` real; offsets real), for inputs with ``|x - ofs| <= d_max`` (real
     units; 4.0 covers every input):
 
