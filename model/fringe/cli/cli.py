@@ -273,8 +273,7 @@ def cmd_loop(a) -> int:
     shown = []    # the plots need no more rows than the decision; no reference to the recordings is kept here
     base, state, report = run_loop(_read_for_calibration(a.data, enc), enc, val, shown)
     del val
-    from ..loop.report import write_outputs  # matplotlib only now: its memory does not add to the loop's peak
-    write_outputs(base, state, report, shown[0], None, a.out)
+    write_loop_outputs(base, state, report, shown[0], None, a.out)
     b, f = report["before"], report["after"]
     print(f"declared model: RMS {b['rms_arcsec']:.3f}\"; with the added effects: RMS {f['rms_arcsec']:.3f}\" "
           f"(noise floor {report['noise_floor_arcsec']:.3f}\", on {report['validation']})")
@@ -285,6 +284,26 @@ def cmd_loop(a) -> int:
         print(f"not kept {e['name']}: {e['why_not_kept']}")
     print(f"wrote {a.out}/report.md, report.json, cal/")
     return 0
+
+
+def write_loop_outputs(base, state, report: dict, train, validate, out_dir: str):
+    """`fringe loop`'s folder: DIR/report.json, DIR/report.md with plots, DIR/cal/; all or nothing. base and state
+    are the loop's LoopStates (declared model, chosen one), train and validate its Measurements."""
+    from ..hardware.corefiles import core_files
+    from ..io.calstore import save_calibration
+    from ..io.outputs import atomic_dir
+
+    # matplotlib only now: its memory does not add to the loop's peak
+    from ..loop.report import write_markdown, write_plots
+
+    with atomic_dir(out_dir, "loop", command="fringe loop") as tmp:
+        save_calibration(state.cal, os.path.join(tmp, "cal"), core_files(state.cal, "fringe loop"),
+                         command="fringe loop")
+        plots = write_plots(base, state, train if validate is None else validate, tmp)
+        with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
+            json.dump(report, f, indent=2, default=float)
+            f.write("\n")
+        write_markdown(report, plots, os.path.join(tmp, "report.md"))
 
 
 ROM_OPTIONS = ("wave_addr_w", "wave_w", "fine_w", "cordic_stages", "lp_addr_w")

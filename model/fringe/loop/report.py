@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 
 import matplotlib
@@ -12,8 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..calib.report import error_plot, lissajous_plot  # noqa: E402
-from ..io.dataio import Measurement  # noqa: E402
-from .evaluation import LoopState, evaluate  # noqa: E402
+from .evaluation import evaluate  # noqa: E402
 from .noise import uniform_run  # noqa: E402
 from .run import DECISION_ROWS, DECISION_RUNS  # noqa: E402
 
@@ -131,20 +129,3 @@ def write_markdown(report: dict, plots: dict, path: str):
         out += [f"## {title}", "", f"![{title}]({file})", ""]
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(out))
-
-
-def write_outputs(base: LoopState, state: LoopState, report: dict, train: Measurement,
-                  validate: Measurement | None, out_dir: str):
-    """DIR/report.json, DIR/report.md with plots, DIR/cal/; all or nothing."""
-    from ..hardware.corefiles import core_files
-    from ..io.calstore import save_calibration
-    from ..io.outputs import atomic_dir
-
-    with atomic_dir(out_dir, "loop", command="fringe loop") as tmp:
-        save_calibration(state.cal, os.path.join(tmp, "cal"), core_files(state.cal, "fringe loop"),
-                         command="fringe loop")
-        plots = write_plots(base, state, train if validate is None else validate, tmp)
-        with open(os.path.join(tmp, "report.json"), "w", encoding="utf-8") as f:
-            json.dump(report, f, indent=2, default=float)
-            f.write("\n")
-        write_markdown(report, plots, os.path.join(tmp, "report.md"))
