@@ -2,8 +2,8 @@
 
 The model (below, from the register map fringe.fixed.regmap): a write presented at clock edge n is
 decoded at edge n+1 (the table strobes wr_* with word, bank and data, for one clock) and lands at
-edge n+2; its bank is the one inactive before edge n; register words are 0..N_REGS-1 of space 0, a
-write of bit CTRL_SWAP to CTRL_WORD flips active_bank at edge n+2; a table word outside its bank
+edge n+LATENCY (regmap's); its bank is the one inactive before edge n; register words are 0..N_REGS-1 of space 0, a
+write of bit CTRL_SWAP to CTRL_WORD flips active_bank at edge n+LATENCY; a table word outside its bank
 (the bank sizes from the generics) and unknown spaces are ignored. Random traffic (fixed seed):
 writes to every space, in and out of range, CTRL swaps, idle clocks; after every edge both banks of
 the register file, active_bank and the strobes are compared. Replay: ``FRINGE_SEED=<seed>``.
@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from lib.cocotb_optional import cocotb
 
-from fringe.fixed.regmap import CTRL_SWAP, CTRL_WORD, N_REGS, REG_W, SPACES
+from fringe.fixed.regmap import CTRL_SWAP, CTRL_WORD, LATENCY, N_REGS, REG_W, SPACES
 
 TOPLEVEL = "fringe_regs"
 SEED = int(os.environ.get("FRINGE_SEED", 20261203))
@@ -82,7 +82,7 @@ if cocotb is not None:
         sizes = bank_words(g)
         dut.cfg_wr_en.value, dut.cfg_wr_addr.value, dut.cfg_wr_data.value = 0, 0, 0
         await start_clock(dut)
-        pipe: list[dict | None] = [None, None]     # the writes presented at the last two edges
+        pipe: list[dict | None] = [None] * LATENCY   # the writes presented at the last LATENCY edges
         n_reg = n_tab = n_swap = 0
         for cyc in range(3000):
             en = int(rng.random() < 0.6)
@@ -97,7 +97,7 @@ if cocotb is not None:
             await RisingEdge(dut.clk)
             await ReadOnly()
             landing = pipe[0]
-            if landing is not None:          # presented two edges ago: lands now
+            if landing is not None:          # presented LATENCY edges ago: lands now
                 d = landing["dec"]
                 if d["reg"] is not None:
                     regs[landing["bank"] * N_REGS + d["reg"]] = landing["data"] & ((1 << REG_W) - 1)
@@ -105,7 +105,7 @@ if cocotb is not None:
                 if d["swap"]:
                     bank ^= 1
                     n_swap += 1
-            pipe = [pipe[1], now]
+            pipe = pipe[1:] + [now]
             got = int(dut.regs_q.value)
             for i in range(2 * N_REGS):
                 w = got >> (REG_W * i) & ((1 << REG_W) - 1)
@@ -114,7 +114,7 @@ if cocotb is not None:
                                          f"{w:#x}, model {regs[i]:#x}")
             if int(dut.active_bank.value) != bank:
                 raise AssertionError(f"[{tag}] cycle {cyc}: active_bank {int(dut.active_bank.value)}, model {bank}")
-            decoded = pipe[0]                # presented one edge ago: its strobes are out now
+            decoded = pipe[-2]               # presented one edge ago: its strobes are out now
             exp = decoded["dec"] if decoded else decode(g, 15, 0, 0)
             for s in STROBES:
                 if int(getattr(dut, s).value) != exp[s]:

@@ -49,6 +49,7 @@ from fringe.fixed.config import CoreConfig, drift_pipe_latency
 from fringe.fixed.core import CoreTables, core_latency, run_core, run_core_banks
 from fringe.fixed.quadrature import QuadratureCoefs
 from fringe.fixed.regmap import CTRL_SWAP, CTRL_WORD, REGISTERS, SPACE_LSB, SPACES
+from fringe.fixed.regmap import LATENCY as REGS_LATENCY
 from fringe.hardware.rtlsim import pack_inputs, top_parameters, top_widths, unpack_outputs, write_init_files
 from fringe.hardware.tables import build_tables
 from fringe.result import AMP_HIGH, AMP_LOW, BANK, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, SATURATED
@@ -59,7 +60,6 @@ DEFAULT_SEED = 20251124
 DATA_ENV = "FRINGE_TOP_DATA"
 CTRL_ADDR = SPACES["regs"] << SPACE_LSB | CTRL_WORD      # cfg_wr_addr of CTRL (regmap: the single source)
 REG_INDEX = {r.name: r.index for r in REGISTERS}
-CTRL_DELAY = 2    # a CTRL swap takes effect at the second edge after the edge that takes the write (fringe_regs)
 
 # ============================================================================ cocotb side
 
@@ -171,7 +171,7 @@ class Bench:
             self.n_ce += ce
             if (int(d.cfg_wr_en.value) and int(d.cfg_wr_addr.value) == CTRL_ADDR
                     and int(d.cfg_wr_data.value) >> CTRL_SWAP & 1):
-                self.pending_swaps.append(self.edge + CTRL_DELAY)
+                self.pending_swaps.append(self.edge + REGS_LATENCY)    # fringe_regs: the swap lands with the writes
             if self.pending_swaps and self.pending_swaps[0] == self.edge:
                 self.pending_swaps.pop(0)
                 self.bank ^= 1           # samples after this edge take the other bank
@@ -519,7 +519,7 @@ if cocotb is not None:
         dut.cfg_wr_data.value = 1 << CTRL_SWAP
         await RisingEdge(dut.clk)
         dut.cfg_wr_en.value = 0
-        for _ in range(CTRL_DELAY + 1):
+        for _ in range(REGS_LATENCY + 1):
             await RisingEdge(dut.clk)
         if int(dut.active_bank.value) != inactive:
             raise AssertionError("the swap did not happen")

@@ -15,7 +15,7 @@ import re
 from hdl_text import REPO
 
 from fringe.dsp.simulate import seed_encoder
-from fringe.fixed import canceller, drift_normaliser, drift_observer, trim
+from fringe.fixed import canceller, drift_normaliser, drift_observer, regmap, trim
 from fringe.fixed.config import CoreConfig, drift_pipe_latency
 from fringe.fixed.core import core_latency
 
@@ -99,6 +99,17 @@ def test_block_document_and_header_latency():
                 assert int(m.group(1)) == want, f"{path.relative_to(REPO)}: LATENCY = {m.group(1)}, its model's {want}"
                 checked += 1
     assert checked >= 24
+
+
+def test_register_write_latency():
+    """A configuration write and a CTRL swap land regmap.LATENCY edges after the edge that takes them, as
+    fringe_regs' document and the core's documents say (the block table's figure is checked above)."""
+    n = regmap.LATENCY
+    found = re.findall(r"(?:lands at|flips active_bank at) edge n\+(\d+)", flat("blocks/fringe_regs.md"))
+    assert len(found) == 2 and all(int(k) == n for k in found), found
+    for rel in ("architecture.md", "blocks/fringe_core.md"):
+        found = re.findall(r"(\w+) clocks after (?:the|that) edge", flat(rel))
+        assert len(found) == 2 and all(w == {1: "one", 2: "two", 3: "three", 4: "four"}[n] for w in found), (rel, found)
 
 
 def test_core_latency_sums():

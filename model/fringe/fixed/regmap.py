@@ -61,6 +61,10 @@ CFG_ADDR_W = 20   # cfg_wr_addr bits
 SPACE_LSB = 16    # cfg_wr_addr bit where the space number starts
 CTRL_WORD = 0x80  # word of the register space: writing bit CTRL_SWAP = 1 swaps the banks
 CTRL_SWAP = 0
+#: fringe_regs' latency in clock edges (it has no clock enable): a configuration write taken at edge n lands at
+#: edge n + LATENCY (two registered decode steps, the table strobes out after edge n + 1), and a CTRL swap flips
+#: active_bank at that same edge, in step with the writes
+LATENCY = 2
 
 
 def widths(cfg: CoreConfig) -> dict[str, int]:
