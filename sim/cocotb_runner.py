@@ -40,6 +40,8 @@ import xml.etree.ElementTree as ET
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
+from fringe.fixed.config import HDL_WIDE_PARAMETERS
+
 REPO = Path(__file__).resolve().parent.parent
 RTL_VERILOG = REPO / "rtl" / "verilog"
 RTL_VHDL = REPO / "rtl" / "vhdl"
@@ -205,9 +207,10 @@ def include_files() -> list[Path]:
 
 # --------------------------------------------------------------------------- parameters
 
-#: 64-bit Verilog parameters (the index-mapping multipliers: the core's, and fringe_trim's own SECT_RECIP):
-#: Verilator takes them sized
-WIDE_PARAMETERS = ("LP_RECIP", "TRIM_SECT_RECIP", "SECT_RECIP")
+#: 64-bit Verilog parameters, which Verilator takes sized: the core's index-mapping multipliers and fringe_trim's
+#: own name for its one (the core's TRIM_SECT_RECIP without the block prefix: SECT_RECIP)
+WIDE_PARAMETERS = HDL_WIDE_PARAMETERS + tuple(n.removeprefix("TRIM_") for n in HDL_WIDE_PARAMETERS
+                                              if n.startswith("TRIM_"))
 _SIZED = re.compile(r"^\d+'[dhb]", re.I)
 
 
