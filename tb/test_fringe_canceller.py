@@ -4,7 +4,7 @@ Two halves in one file (the cocotb ``examples/adder`` layout): cocotb coroutines
 read the configuration from ``FRINGE_CANCEL_PARAMS`` (JSON of the HDL parameters) and the seed from
 ``FRINGE_SEED``, and the pytest launcher ``test_fringe_canceller``.
 
-The run is planned before the simulation (``tb/planned_stream.py``): the input samples of a synthetic
+The run is planned before the simulation (``tb/lib/planned_stream.py``): the input samples of a synthetic
 encoder (a circle of radius about R turning at an electrical speed, plus a tone at an NCO word, plus
 noise), the per-sample NCO word, the resets and the ce and in_valid patterns. The model (`cancel` per
 reset segment) gives every output word (c_out, s_out, sat, track_sat, out_user), checked exactly:
@@ -66,7 +66,7 @@ def encoder(p: CancelParams, rng, freq: np.ndarray, radius: float, tone: float, 
 
 def build_plan(p: CancelParams, user_w: int, seed: int):
     """The cycles of the run with the expected output words; and the model's result per reset segment."""
-    from planned_stream import Cycle, accepted_segments
+    from lib.planned_stream import Cycle, accepted_segments
 
     rng = np.random.default_rng(seed)
     B = p.b
@@ -153,8 +153,9 @@ def _config():
 
 
 if cocotb is not None:
+    from lib.clock import start_clock
     from lib.latency import check_latency
-    from planned_stream import hdl_constant, play_plan, start_clock
+    from lib.planned_stream import hdl_constant, play_plan
 
     def _read(dut, p: CancelParams):
         return (signed(int(dut.c_out.value), p.wave_w), signed(int(dut.s_out.value), p.wave_w), int(dut.sat.value),

@@ -29,9 +29,9 @@ DEFAULT_SEED = 20240611
 # ============================================================================ cocotb side
 
 if cocotb is not None:
-    from cocotb.clock import Clock
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-    from pipeline_check import drive_ports, edges_until
+    from lib.clock import start_clock
+    from lib.pipeline_check import drive_ports, edges_until
 
 
 def _config() -> tuple[CordicParams, int, int]:
@@ -91,8 +91,8 @@ class Bench:
 
     async def start(self) -> None:
         d = self.dut
-        cocotb.start_soon(Clock(d.clk, 10, unit="ns").start())
         drive_ports(d, rst=1, ce=1, in_valid=0, x=0, y=0, in_user=0)
+        await start_clock(d)
         for _ in range(3):
             await RisingEdge(d.clk)
         await FallingEdge(d.clk)

@@ -54,7 +54,7 @@ def word(rng: np.random.Generator, width: int) -> int:
 
 
 if cocotb is not None:
-    from pipeline_check import start_clock
+    from lib.clock import start_clock
 
     @cocotb.test()
     async def delay_stream(dut):

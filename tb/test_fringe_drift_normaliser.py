@@ -61,7 +61,8 @@ def draw_update(p: NormaliserParams, rng) -> tuple[tuple[int, int, int, int], in
 
 if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-    from planned_stream import hdl_constant, measure_latency, start_clock
+    from lib.clock import start_clock
+    from lib.planned_stream import hdl_constant, measure_latency
 
     def _state(dut, p):
         return (signed(int(dut.off_sin.value), p.ofs_w), signed(int(dut.off_cos.value), p.ofs_w),

@@ -128,7 +128,8 @@ def samples(p: ObserverParams, rng, w0):
 
 if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-    from planned_stream import hdl_constant, start_clock
+    from lib.clock import start_clock
+    from lib.planned_stream import hdl_constant
 
     def _update(dut, p):
         return (int(dut.upd_valid.value), signed(int(dut.upd_off_sin.value), p.ofs_w),

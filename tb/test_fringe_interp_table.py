@@ -52,8 +52,8 @@ def image_words(cfg: dict) -> list[int]:
 
 if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-    from pipeline_check import start_clock
-    from planned_stream import hdl_constant
+    from lib.clock import start_clock
+    from lib.planned_stream import hdl_constant
 
     @cocotb.test()
     async def interp_table_traffic(dut):

@@ -7,7 +7,7 @@ Two halves in one file (the cocotb ``examples/adder`` layout):
 - the pytest launcher ``test_fringe_long_period`` builds and runs them with
   ``sim/cocotb_runner.py`` over several parameter sets and both simulators (``--sims``).
 
-The run is planned before the simulation (``tb/planned_stream.py``), table writes included, so
+The run is planned before the simulation (``tb/lib/planned_stream.py``), table writes included, so
 each sample's expected word comes from the vectorised model with the table contents it reads:
 
 1. both banks from INIT_FILE (two different smooth corrections), the bank chosen per sample:
@@ -102,7 +102,7 @@ def positions(p: LongPeriodParams, rng: np.random.Generator, n: int, hot=()) -> 
 
 def build_plan(p: LongPeriodParams, user_w: int, seed: int):
     """The cycles of the whole run with their expected outputs, and the table contents over time."""
-    from planned_stream import Cycle, draw_controls, idle_cycles
+    from lib.planned_stream import Cycle, draw_controls, idle_cycles
 
     rng = np.random.default_rng(seed)
     n = p.entries
@@ -196,8 +196,9 @@ def _config() -> tuple[LongPeriodParams, int, int]:
 
 
 if cocotb is not None:
+    from lib.clock import start_clock
     from lib.latency import check_latency
-    from planned_stream import play_planned, start_clock
+    from lib.planned_stream import play_planned
 
     def _read(dut) -> tuple[int, int]:
         return int(dut.pos_out.value), int(dut.out_user.value)
@@ -249,7 +250,7 @@ def _id(ps) -> str:
 
 def test_plan_is_effective():
     """The plans exercise what the module docstring promises (checked without a simulator)."""
-    from planned_stream import accepted_positions
+    from lib.planned_stream import accepted_positions
 
     for p, user_w in PARAM_SETS:
         cycles = build_plan(p, user_w, DEFAULT_SEED)

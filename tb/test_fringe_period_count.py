@@ -8,7 +8,7 @@ Two halves in one file (the cocotb ``examples/adder`` layout):
   ``sim/cocotb_runner.py`` over several parameter sets and both simulators (``--sims``).
 
 The block has state (the previous phase, the period counter), so the whole run is planned before
-the simulation (``tb/planned_stream.py``): which cycles reset, stall (ce = 0) or carry a valid
+the simulation (``tb/lib/planned_stream.py``): which cycles reset, stall (ce = 0) or carry a valid
 sample. The accepted samples between resets are then exactly the streams the vectorised model
 ``period_count`` takes, and its words are expected from the RTL, cycle by cycle.
 
@@ -194,7 +194,7 @@ def restart_cycles(p: PeriodCountParams, rng, phase_before: int) -> list[tuple[i
 
 def build_plan(p: PeriodCountParams, user_w: int, seed: int):
     """The cycles of the whole run with their expected outputs (pure Python: no simulator)."""
-    from planned_stream import Cycle, accepted_segments
+    from lib.planned_stream import Cycle, accepted_segments
 
     rng = np.random.default_rng(seed)
     pos_w = p.pos_w
@@ -259,8 +259,9 @@ def _config() -> tuple[PeriodCountParams, int, int]:
 
 
 if cocotb is not None:
+    from lib.clock import start_clock
     from lib.latency import check_latency
-    from planned_stream import plan_tag, play_plan, start_clock
+    from lib.planned_stream import plan_tag, play_plan
 
     def _read(dut) -> tuple[int, int, int, int]:
         return (int(dut.pos.value), int(dut.overspeed.value), int(dut.coarse_err.value), int(dut.out_user.value))

@@ -46,7 +46,8 @@ def _ids(ps):
 # --------------------------------------------------------------------------- cocotb side
 
 if cocotb is not None:
-    from pipeline_check import StreamChecker, lv, lv_signed, start_clock, to_bits
+    from lib.clock import start_clock
+    from lib.pipeline_check import StreamChecker, lv, lv_signed, to_bits
 
     def _stimulus(p: QuadratureParams, rng, n: int):
         """n samples: realistic vectors, corners and random codes; coefficient sets that switch."""

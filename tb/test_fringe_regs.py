@@ -69,7 +69,7 @@ def image(seed: int) -> list[int]:
 
 if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-    from pipeline_check import start_clock
+    from lib.clock import start_clock
 
     @cocotb.test()
     async def regs_traffic(dut):

@@ -39,7 +39,7 @@ def operand(rng: np.random.Generator, width: int, is_signed: bool) -> int:
 
 
 if cocotb is not None:
-    from pipeline_check import start_clock
+    from lib.clock import start_clock
 
     @cocotb.test()
     async def split_mul_products(dut):

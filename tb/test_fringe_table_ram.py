@@ -48,7 +48,8 @@ def image_words(addr_w: int, data_w: int, seed: int) -> np.ndarray:
 
 if cocotb is not None:
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-    from pipeline_check import lv, start_clock
+    from lib.clock import start_clock
+    from lib.pipeline_check import lv
 
     @cocotb.test()
     async def table_ram_traffic(dut):

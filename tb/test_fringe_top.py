@@ -64,9 +64,9 @@ REG_INDEX = {r.name: r.index for r in REGISTERS}
 # ============================================================================ cocotb side
 
 if cocotb is not None:
-    from cocotb.clock import Clock
     from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-    from pipeline_check import drive_ports, edges_until
+    from lib.clock import start_clock
+    from lib.pipeline_check import drive_ports, edges_until
 
     try:
         from cocotbext.axi import AxiStreamBus, AxiStreamFrame, AxiStreamSink, AxiStreamSource
@@ -279,7 +279,7 @@ class Bench:
 async def _start(dut) -> None:
     drive_ports(dut, rst=1, s_axis_tvalid=0, s_axis_tdata=0, m_axis_tready=1, cfg_wr_en=0, cfg_wr_addr=0,
                 cfg_wr_data=0)
-    cocotb.start_soon(Clock(dut.clk, 10, unit="ns").start(start_high=False))
+    await start_clock(dut)
     for _ in range(3):
         await RisingEdge(dut.clk)
     dut.rst.value = 0

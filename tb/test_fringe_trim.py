@@ -7,7 +7,7 @@ Two halves in one file (the cocotb ``examples/adder`` layout):
 - the pytest launcher ``test_fringe_trim`` builds and runs them with ``sim/cocotb_runner.py`` over
   several parameter sets and both simulators (``--sims``).
 
-The run is planned before the simulation (``tb/planned_stream.py``), table writes included. The
+The run is planned before the simulation (``tb/lib/planned_stream.py``), table writes included. The
 speed of each accepted sample comes from the positions accepted since the last reset
 (`speeds` per reset segment), its output word from the vectorised model with the table contents
 it reads:
@@ -141,7 +141,7 @@ def motion(p: TrimParams, rng: np.random.Generator, n: int, v0: float = 0.0) -> 
 
 def build_plan(p: TrimParams, user_w: int, seed: int):
     """The cycles of the whole run with their expected outputs."""
-    from planned_stream import Cycle, accepted_segments, draw_controls, idle_cycles
+    from lib.planned_stream import Cycle, accepted_segments, draw_controls, idle_cycles
 
     rng = np.random.default_rng(seed)
     word_mask = (1 << p.word_w) - 1
@@ -267,8 +267,9 @@ def _config() -> tuple[TrimParams, int, int]:
 
 
 if cocotb is not None:
+    from lib.clock import start_clock
     from lib.latency import check_latency
-    from planned_stream import play_planned, start_clock
+    from lib.planned_stream import play_planned
 
     def _read(dut) -> tuple[int, int, int, int]:
         return int(dut.pos_out.value), int(dut.dir.value), int(dut.sat.value), int(dut.out_user.value)
@@ -328,7 +329,7 @@ def _id(ps) -> str:
 
 def test_plan_is_effective():
     """The plans exercise what the module docstring promises (checked without a simulator)."""
-    from planned_stream import accepted_positions, accepted_segments
+    from lib.planned_stream import accepted_positions, accepted_segments
 
     for p, user_w in PARAM_SETS:
         cycles = build_plan(p, user_w, DEFAULT_SEED)

@@ -68,7 +68,8 @@ def random_table(p: WaveLutParams, rng) -> np.ndarray:
 # --------------------------------------------------------------------------- cocotb side
 
 if cocotb is not None:
-    from pipeline_check import StreamChecker, lv, lv_signed, start_clock, to_bits
+    from lib.clock import start_clock
+    from lib.pipeline_check import StreamChecker, lv, lv_signed, to_bits
 
     class Tables:
         """Expected outputs of every table for every (branch, code), and the write schedule."""

@@ -117,7 +117,7 @@ def test_ecp5_drift_normaliser(params):
 
 if cocotb is not None:
     from cocotb.triggers import FallingEdge
-    from pipeline_check import start_clock
+    from lib.clock import start_clock
 
     @cocotb.test()
     async def mul_ecp5_products(dut):

@@ -5,7 +5,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from cocotb.triggers import FallingEdge
-from planned_stream import hdl_constant, measure_latency
+
+from lib.planned_stream import hdl_constant, measure_latency
 
 
 async def check_latency(dut, apply_sample: Callable[[], None], latency: int, read_output: Callable[[], tuple],

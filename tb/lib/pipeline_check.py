@@ -22,11 +22,7 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Callable, Iterable
 
-import cocotb
-from cocotb.clock import Clock
 from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-
-CLK_PERIOD_NS = 10
 
 
 def lv(handle) -> int:
@@ -42,13 +38,6 @@ def lv_signed(handle) -> int:
 def to_bits(v: int, w: int) -> int:
     """Two's complement of v in w bits (for driving signed ports)."""
     return int(v) & ((1 << w) - 1)
-
-
-async def start_clock(dut) -> None:
-    """Start ``dut.clk`` (first rising edge half a period in)."""
-    dut.clk.value = 0
-    cocotb.start_soon(Clock(dut.clk, CLK_PERIOD_NS, unit="ns").start(start_high=False))
-    await FallingEdge(dut.clk)
 
 
 def drive_ports(dut, **values: int) -> None:

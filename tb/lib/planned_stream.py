@@ -24,7 +24,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from cocotb.triggers import FallingEdge, ReadOnly, RisingEdge
-from pipeline_check import CLK_PERIOD_NS, start_clock  # noqa: F401 - the one clock of both drivers, re-exported
+
+from lib.clock import start_clock
 
 
 @dataclass
