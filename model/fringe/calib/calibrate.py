@@ -41,7 +41,7 @@ from ..dsp.quadrature import QuadratureCorrection, QuadratureFitError, fit_conic
 from ..dsp.smoothmotion import MotionTooSlow, interruptions, smooth_motion_phase
 from ..dsp.waveform import ChannelWaveform, PaperChannel, WaveformInverse, build_inverse, is_invertible
 from ..encoder import ARCSEC_PER_REV, Encoder
-from ..engine.pipeline import encoder_position, fine_phase, run_float
+from ..engine.pipeline import encoder_position, fine_phase, run_float, run_starts
 from ..errors import FringeInputError
 from ..io.dataio import Measurement
 
@@ -341,11 +341,23 @@ def find_direction_and_zero(cal: Calibration, meas: Measurement, rev: np.ndarray
     ref = meas.ref_deg / 360.0
     d_enc, d_ref = wrap(np.diff(rev)), wrap(np.diff(ref))
     moving = np.abs(d_ref) > 0
+    starts = run_starts(meas.t_s, len(rev))
+    if starts is not None and not starts[1:].all():
+        # not across the holes of rows taken out (the loop's interleaved halves): there the reference moved by a
+        # whole hole and the encoder's count by what it could follow, of either sign at a fast motion
+        moving &= ~starts[1:]
     if not moving.any():
         _fail(meas, "no motion: the reference angle never changes")
     corr = float(np.sum(d_enc[moving] * d_ref[moving]))
     cal.direction = 1 if corr >= 0 else -1
-    cal.zero_deg = 360.0 * (circular_mean(ref - cal.direction * rev) % 1.0)
+    offset = wrap(ref - cal.direction * rev)
+    if cal.encoder.lines_per_rev > 1 and len(offset) > 1:
+        # the count of an incremental encoder slips by whole periods where the rows skip a fast motion (the closed
+        # loop's interleaved halves: 32-sample holes at 0.02 periods a sample); the zero is the offset between
+        # the slips, as lp_error_arcsec takes the error
+        lines = cal.encoder.lines_per_rev
+        offset = offset - np.concatenate([[0.0], np.cumsum(np.round(wrap(np.diff(offset)) * lines))]) / lines
+    cal.zero_deg = 360.0 * (circular_mean(offset) % 1.0)
 
 
 def lp_error_arcsec(cal: Calibration, meas: Measurement, rev: np.ndarray) -> np.ndarray:

@@ -21,7 +21,8 @@ from ..dsp.effects import (
 )
 from ..dsp.metrics import error_arcsec, error_figures
 from ..dsp.position import shifted
-from ..engine.pipeline import run_float, sample_times
+from ..encoder import ARCSEC_PER_REV
+from ..engine.pipeline import run_float, run_starts, sample_times
 from ..io.dataio import Measurement
 from .motion import reference_motion
 
@@ -63,13 +64,27 @@ def covered(ctx: Context) -> Context:
     return dataclasses.replace(ctx, revolution_covered=len(sectors) >= REVOLUTION_SECTORS)
 
 
+def unslipped(r: np.ndarray, cal: Calibration, meas: Measurement) -> np.ndarray:
+    """The error without the whole periods an incremental encoder's count slipped by across the holes of rows taken
+    out of a recording (the loop's interleaved halves): across a hole the motion is unknown to it, and a fast one
+    (a 32-row hole at 0.02 periods a row) moves it by more than it can follow. Within a run of consecutive rows a
+    slip is the encoder's own error and stays."""
+    lines = cal.encoder.lines_per_rev
+    starts = run_starts(meas.t_s, len(r))
+    if lines == 1 or (cal.encoder.coarse_bits and meas.coarse is not None) or starts is None or not starts.any():
+        return r
+    period = ARCSEC_PER_REV / lines
+    jumps = np.where(starts, np.round(np.diff(r, prepend=r[0]) / period), 0.0)
+    return r - period * np.cumsum(jumps)
+
+
 def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
     """The residual of `meas` through state.cal (or `res`, another engine's result for `meas`), with
     the measurement artefacts compensated."""
     meas = shift_reference(meas, state.ref_lag_s)
     if res is None:
         res = run_float(state.cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
-    r = error_arcsec(res.angle_deg, meas.ref_deg)
+    r = unslipped(error_arcsec(res.angle_deg, meas.ref_deg), state.cal, meas)
     ctx = covered(make_context(res.frac, res.position, state.cal.encoder.lines_per_rev,
                                sample_times(len(r), meas.t_s), res.magnitude, state.cal.start_speed_rev_s,
                                state.cal.magnitude_smooth_log2))
