@@ -97,9 +97,9 @@ def test_loop_without_a_validation_recording_on_a_fast_incremental_encoder(perio
     the holes between blocks (16 rows of 8192) an incremental encoder's period count cannot follow a fast motion:
     it slipped by whole periods, the direction came out reversed from the rows across the holes and calibration
     stopped ("the sin channel does not follow the phase"), or the declared model scored 366000" against 5.2" on
-    the whole recording (16384 rows, 0.04 to 0.24 periods a sample). Now the direction and zero skip the holes, the error is
-    taken between the slips across them, and the loop scores what `fringe calibrate` does (within its noise:
-    the declared model is fitted on half of the rows)."""
+    the whole recording (16384 rows, 0.04 to 0.24 periods a sample). Now the direction and zero skip the holes,
+    the error is taken between the slips across them, and the loop scores what `fringe calibrate` does (within
+    its noise: the declared model is fitted on half of the rows)."""
     from fringe.calib.calibrate import calibrate
     from fringe.dsp.simulate import SimulationConfig
     from fringe.loop.evaluation import LoopState
