@@ -36,7 +36,7 @@ from ..dsp.calibration import Calibration
 from ..dsp.effects import FINE_MAP_PREFIX, FittedEffect, generic_name, parse_generic, phase_columns
 from ..dsp.fourierfit import CoverageError, cv_folds, cv_harmonics, fit_select, paired_gain_t, significant_choice
 from ..dsp.metrics import error_arcsec
-from ..dsp.position import circular_mean, fit_coarse_offset, wrap
+from ..dsp.position import circular_mean, fit_coarse_offset, without_slips, wrap
 from ..dsp.quadrature import QuadratureCorrection, QuadratureFitError, fit_conic, fit_seed_ellipse, shape_phase_error
 from ..dsp.smoothmotion import MotionTooSlow, interruptions, smooth_motion_phase
 from ..dsp.waveform import ChannelWaveform, PaperChannel, WaveformInverse, build_inverse, is_invertible
@@ -355,8 +355,7 @@ def find_direction_and_zero(cal: Calibration, meas: Measurement, rev: np.ndarray
         # the count of an incremental encoder slips by whole periods where the rows skip a fast motion (the closed
         # loop's interleaved halves: 32-sample holes at 0.02 periods a sample); the zero is the offset between
         # the slips, as lp_error_arcsec takes the error
-        lines = cal.encoder.lines_per_rev
-        offset = offset - np.concatenate([[0.0], np.cumsum(np.round(wrap(np.diff(offset)) * lines))]) / lines
+        offset = without_slips(offset, 1.0 / cal.encoder.lines_per_rev)
     cal.zero_deg = 360.0 * (circular_mean(offset) % 1.0)
 
 
@@ -372,8 +371,7 @@ def lp_error_arcsec(cal: Calibration, meas: Measurement, rev: np.ndarray) -> np.
         # tables over the phase must not fit (a 26-line phase table scored 14375" on such folds against 138"). The
         # error itself moves far less than half a period between rows
         period = ARCSEC_PER_REV / cal.encoder.lines_per_rev
-        slips = np.concatenate([[0.0], np.cumsum(np.round(np.diff(err) / period))])
-        err = err - period * slips
+        err = without_slips(err, period)
         err = err - period * np.round(np.median(err) / period)
     return err
 

@@ -13,6 +13,16 @@ def circular_mean(x: np.ndarray, period: float = 1.0) -> float:
     return float(np.angle(z) / (2 * np.pi) * period)
 
 
+def without_slips(x: np.ndarray, period: float, at: np.ndarray | None = None) -> np.ndarray:
+    """x without the whole periods it jumped by between rows (only at the rows `at`, where given): an incremental
+    encoder's count slips by whole periods where it cannot follow the motion, while its error moves far less than
+    half a period from one row to the next."""
+    jumps = np.round(np.diff(x, prepend=x[:1]) / period)
+    if at is not None:
+        jumps = np.where(at, jumps, 0.0)
+    return x - period * np.cumsum(jumps)
+
+
 def coarse_code_span(lines: int, coarse_bits: int) -> float:
     """Width of one coarse code, in signal periods."""
     return lines / float(1 << coarse_bits)

@@ -20,7 +20,7 @@ from ..dsp.effects import (
     tone_columns,
 )
 from ..dsp.metrics import error_arcsec, error_figures
-from ..dsp.position import shifted
+from ..dsp.position import shifted, without_slips
 from ..encoder import ARCSEC_PER_REV
 from ..engine.pipeline import run_float, run_starts, sample_times
 from ..io.dataio import Measurement
@@ -73,9 +73,7 @@ def unslipped(r: np.ndarray, cal: Calibration, meas: Measurement) -> np.ndarray:
     starts = run_starts(meas.t_s, len(r))
     if lines == 1 or (cal.encoder.coarse_bits and meas.coarse is not None) or starts is None or not starts.any():
         return r
-    period = ARCSEC_PER_REV / lines
-    jumps = np.where(starts, np.round(np.diff(r, prepend=r[0]) / period), 0.0)
-    return r - period * np.cumsum(jumps)
+    return without_slips(r, ARCSEC_PER_REV / lines, at=starts)
 
 
 def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
