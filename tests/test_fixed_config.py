@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fringe.encoder import Encoder
 from fringe.fixed.config import CoreConfig
 
 REPO = Path(__file__).resolve().parents[1]
@@ -238,6 +239,14 @@ def test_default_config_is_legal_and_replace_rechecks():
         dataclasses.replace(cfg, drift=1, drift_block_log2=5, drift_hold=0)
     dataclasses.replace(cfg, drift=1, drift_block_log2=4)    # HOLD = 1: no deadline
     dataclasses.replace(cfg, trim=0, trim_map_phi_w=99)      # fringe_trim is not built: its limits do not apply
+
+
+@pytest.mark.parametrize("lines, coarse_bits, fine_w", [(1, 0, 16), (32768, 0, 16), (100_000, 0, 14),
+                                                       (1 << 20, 0, 11), (8192, 15, 17)])
+def test_an_encoder_of_many_lines_gets_a_position_within_the_registers(lines, coarse_bits, fine_w):
+    """FINE_W is 16 bits a period unless a fine coarse code needs more, or the lines need fewer: POS_W <= 31."""
+    cfg = CoreConfig.for_encoder(Encoder(lines_per_rev=lines, adc_bits=16, coarse_bits=coarse_bits))
+    assert cfg.fine_w == fine_w and cfg.pos_w <= 31
 
 
 @pytest.mark.parametrize("cancel", [0, 1])

@@ -216,8 +216,11 @@ class CoreConfig(PositionWidths):
         arcsec_per_rad = 1_296_000 / (2 * math.pi * enc.lines_per_rev)
         angle_bits = math.ceil(math.log2(arcsec_per_rad / WAVE_LSB_ARCSEC)) + 2
         wave_w = min(31, max(15, enc.adc_bits + 3, angle_bits))
-        # the period count needs COARSE_W <= FINE_W - 2: a fine coarse code gets a finer phase
-        fine_w = overrides.get("fine_w", max(cls.fine_w, enc.coarse_bits + 2))
+        # the period count needs COARSE_W <= FINE_W - 2: a fine coarse code gets a finer phase; an encoder of more
+        # than 2^15 lines gets a coarser one, so that a position stays within the 32-bit registers (POS_W <= 31):
+        # at 2^20 lines a period is 1.24", and 2^-11 of one 0.0006"
+        lines_w = max(0, (enc.lines_per_rev - 1).bit_length())
+        fine_w = overrides.get("fine_w", max(min(cls.fine_w, 31 - lines_w), enc.coarse_bits + 2, 8))
         base = dict(adc_w=enc.adc_bits, lines=enc.lines_per_rev, coarse_w=enc.coarse_bits,
                     wave_addr_w=min(enc.adc_bits - 1, max(8, enc.adc_bits - 4), 10),
                     wave_w=wave_w, coef_w=min(27, max(16, enc.adc_bits + 2)), fine_w=fine_w,
