@@ -35,3 +35,10 @@ def test_partial_ellipse_is_refused():
     t = np.linspace(0, 1.0, 500)
     with pytest.raises(QuadratureFitError, match="full signal period"):
         fit_conic(np.sin(t), np.cos(t))
+
+
+def test_a_speed_in_step_with_the_sampling_is_named_as_such():
+    """0.2 periods a sample, steady: a long recording that visits five phases is not 'less than a period'."""
+    t = 2 * np.pi * (0.2 * np.arange(4000) + 1e-4 * np.random.default_rng(1).standard_normal(4000))
+    with pytest.raises(QuadratureFitError, match="moves 0.2 periods a sample.*same few phases"):
+        fit_conic(np.sin(t), np.cos(t))

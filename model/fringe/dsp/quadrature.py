@@ -44,6 +44,16 @@ class QuadratureCorrection:
 NOT_ROUND = "the recording must span at least one full signal period"
 
 
+def not_round(ang: np.ndarray) -> str:
+    """Why samples at the angles ``ang`` (rad, in time order) miss part of the figure: too little motion, or a
+    steady speed in step with the sampling (0.2 periods a sample visits five phases over a long recording)."""
+    step = float(np.median(np.abs(np.angle(np.exp(1j * np.diff(ang)))))) / (2 * np.pi) if len(ang) > 1 else 0.0
+    if step > 1 / 16:
+        return (f"the phase moves {step:.3g} periods a sample, and at a steady speed in step with the sampling "
+                "the samples fall on the same few phases: record at another speed or sample rate")
+    return NOT_ROUND
+
+
 def _check_coverage(s: np.ndarray, c: np.ndarray, min_octants: int = 8):
     """An ellipse is only determined when the samples go round it."""
     if len(s) < 6:
@@ -52,7 +62,7 @@ def _check_coverage(s: np.ndarray, c: np.ndarray, min_octants: int = 8):
     octants = np.unique(np.floor((ang + np.pi) / (np.pi / 4)).astype(int) % 8)
     if len(octants) < min_octants:
         raise QuadratureFitError(f"the samples cover only {len(octants)} of 8 octants of the "
-                                 f"Lissajous figure: {NOT_ROUND}")
+                                 f"Lissajous figure: {not_round(ang)}")
 
 
 def _check_fit(q: "QuadratureCorrection", s: np.ndarray, c: np.ndarray, min_octants: int = 8):
@@ -63,10 +73,11 @@ def _check_fit(q: "QuadratureCorrection", s: np.ndarray, c: np.ndarray, min_octa
     if scatter > 0.25:
         raise QuadratureFitError(f"the samples scatter by {100 * scatter:.0f}% around the fitted ellipse "
                                  f"(noise or no motion): {NOT_ROUND}")
-    octants = np.unique(np.floor((np.arctan2(s2, c2) + np.pi) / (np.pi / 4)).astype(int) % 8)
+    ang = np.arctan2(s2, c2)
+    octants = np.unique(np.floor((ang + np.pi) / (np.pi / 4)).astype(int) % 8)
     if len(octants) < min_octants:
         raise QuadratureFitError(f"the samples cover only {len(octants)} of 8 octants of the "
-                                 f"Lissajous figure: {NOT_ROUND}")
+                                 f"Lissajous figure: {not_round(ang)}")
     return q
 
 
