@@ -492,9 +492,17 @@ module fringe_core #(
         .out_user(p_user)
     );
 
-    // status sideband from here on: {bank, sat, coarse_err, overspeed, amp_high, amp_low, clip_c, clip_s}
-    localparam integer U_L = 8;
-    wire [U_L-1:0] p_status = {p_user[0], p_user[3], p_coarse_err, p_overspeed, p_user[5:4], p_user[2:1]};
+    // status sideband from here on, its bits the generated STATUS_* (fringe.fixed.regmap)
+    localparam integer U_L = STATUS_W;
+    wire [U_L-1:0] p_status;
+    assign p_status[STATUS_CLIP_SIN]   = p_user[1];
+    assign p_status[STATUS_CLIP_COS]   = p_user[2];
+    assign p_status[STATUS_AMP_LOW]    = p_user[4];
+    assign p_status[STATUS_AMP_HIGH]   = p_user[5];
+    assign p_status[STATUS_OVERSPEED]  = p_overspeed;
+    assign p_status[STATUS_COARSE_ERR] = p_coarse_err;
+    assign p_status[STATUS_SATURATED]  = p_user[3];
+    assign p_status[STATUS_BANK]       = p_user[0];
 
     // ---- closed-loop trim (TRIM = 1), tables and bank as every other stage ------------------------
     wire             t_valid;
@@ -514,13 +522,14 @@ module fringe_core #(
                 .MAP_INIT(TRIM_MAP_INIT), .SPEED_INIT(TRIM_SPEED_INIT), .AMP_INIT(TRIM_AMP_INIT), .USER_W(U_L)
             ) u_trim (
                 .clk(clk), .rst(rst), .ce(ce),
-                .in_valid(p_valid), .pos(p_pos), .mag(p_user[U_P-1:6]), .bank(p_status[7]), .in_user(p_status),
+                .in_valid(p_valid), .pos(p_pos), .mag(p_user[U_P-1:6]), .bank(p_status[STATUS_BANK]), .in_user(p_status),
                 .wr_en(wr_trim), .wr_sel(wr_trim_sel), .wr_addr(trim_wr_addr), .wr_data(wr_data[2*TRIM_W-1:0]),
                 .out_valid(t_valid), .pos_out(t_pos), .dir(trim_dir), .sat(trim_sat), .out_user(trim_user)
             );
 
             // a clipped trim is a saturation like the quadrature's
-            assign t_status = {trim_user[7], trim_user[6] | trim_sat, trim_user[5:0]};
+            wire [U_L-1:0] trim_sat_bit = {{(U_L-1){1'b0}}, trim_sat} << STATUS_SATURATED;
+            assign t_status = trim_user | trim_sat_bit;
             wire unused_trim = &{1'b0, trim_dir};
         end else begin : g_no_trim
             assign t_valid  = p_valid;
@@ -538,7 +547,7 @@ module fringe_core #(
         .LP_IF(LP_IF), .LP_RECIP(LP_RECIP), .LP_SHIFT(LP_SHIFT), .INIT_FILE(LP_INIT), .USER_W(U_L)
     ) u_long (
         .clk(clk), .rst(rst), .ce(ce),
-        .in_valid(t_valid), .pos(t_pos), .bank(t_status[7]),
+        .in_valid(t_valid), .pos(t_pos), .bank(t_status[STATUS_BANK]),
         .zero(zero_r), .dir(dir_r),
         .in_user(t_status),
         .wr_en(wr_lp), .wr_addr(lp_wr_addr), .wr_data(wr_data[2*LP_W-1:0]),
@@ -549,7 +558,7 @@ module fringe_core #(
     // are duplicates. cfg_wr_data above the widest table word is not used.
     wire unused_ok = &{1'b0, wl_valid_c, wl_user_c, wr_data, wr_word, c_bank, c_ready};
 
-    // status word: bit 0 CLIP_SIN .. 6 SATURATED, 7 BANK (the blocks' sideband, registered)
+    // status word: the STATUS_* bits (the blocks' sideband, registered)
     assign status = l_user;
 
 endmodule

@@ -285,7 +285,7 @@ architecture rtl of fringe_core is
     signal p_dir        : std_logic_vector(0 downto 0);
 
     -- long period: user {bank, sat, coarse_err, overspeed, amp_high, amp_low, clip_c, clip_s}
-    constant U_L : integer := 8;
+    constant U_L : integer := STATUS_W;
     signal p_status     : std_logic_vector(U_L - 1 downto 0);
     signal t_valid      : std_logic;
     signal t_pos        : std_logic_vector(POS_W - 1 downto 0);
@@ -642,8 +642,15 @@ begin
             out_user => p_user
         );
 
-    -- status sideband from here on: {bank, sat, coarse_err, overspeed, amp_high, amp_low, clip_c, clip_s}
-    p_status <= p_user(0) & p_user(3) & p_coarse_err & p_overspeed & p_user(5 downto 4) & p_user(2 downto 1);
+    -- status sideband from here on, its bits the generated STATUS_* (fringe.fixed.regmap)
+    p_status(STATUS_CLIP_SIN)   <= p_user(1);
+    p_status(STATUS_CLIP_COS)   <= p_user(2);
+    p_status(STATUS_AMP_LOW)    <= p_user(4);
+    p_status(STATUS_AMP_HIGH)   <= p_user(5);
+    p_status(STATUS_OVERSPEED)  <= p_overspeed;
+    p_status(STATUS_COARSE_ERR) <= p_coarse_err;
+    p_status(STATUS_SATURATED)  <= p_user(3);
+    p_status(STATUS_BANK)       <= p_user(0);
 
     -- ---- closed-loop trim (TRIM = 1), tables and bank as every other stage ------------------------
     g_trim : if TRIM /= 0 generate
@@ -660,14 +667,18 @@ begin
                          AMP_INIT => TRIM_AMP_INIT, USER_W => U_L)
             port map (
                 clk => clk, rst => rst, ce => ce,
-                in_valid => p_valid, pos => p_pos, mag => p_user(U_P - 1 downto 6), bank => p_status(7),
+                in_valid => p_valid, pos => p_pos, mag => p_user(U_P - 1 downto 6), bank => p_status(STATUS_BANK),
                 in_user => p_status,
                 wr_en => wr_trim, wr_sel => wr_trim_sel, wr_addr => trim_wr_addr,
                 wr_data => wr_data(2 * TRIM_W - 1 downto 0),
                 out_valid => t_valid, pos_out => t_pos, dir => trim_dir, sat => trim_sat, out_user => trim_user
             );
         -- a clipped trim is a saturation like the quadrature's
-        t_status <= trim_user(7) & (trim_user(6) or trim_sat) & trim_user(5 downto 0);
+        process (all) is
+        begin
+            t_status <= trim_user;
+            t_status(STATUS_SATURATED) <= trim_user(STATUS_SATURATED) or trim_sat;
+        end process;
     else generate
         t_valid  <= p_valid;
         t_pos    <= p_pos;
@@ -681,14 +692,14 @@ begin
                      INIT_FILE => LP_INIT, USER_W => U_L)
         port map (
             clk => clk, rst => rst, ce => ce,
-            in_valid => t_valid, pos => t_pos, bank => t_status(7),
+            in_valid => t_valid, pos => t_pos, bank => t_status(STATUS_BANK),
             zero => p_zero, dir => p_dir(0),
             in_user => t_status,
             wr_en => wr_lp, wr_addr => lp_wr_addr, wr_data => wr_data(2 * LP_W - 1 downto 0),
             out_valid => out_valid, pos_out => pos, out_user => l_user
         );
 
-    -- status word: bit 0 CLIP_SIN .. 6 SATURATED, 7 BANK (the blocks' sideband, registered)
+    -- status word: the STATUS_* bits (the blocks' sideband, registered)
     status <= l_user;
 
 end architecture rtl;
