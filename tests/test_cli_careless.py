@@ -217,3 +217,39 @@ def test_a_careless_user_loses_nothing(world, tmp_path, monkeypatch, case):
     what, argv, kind = draw_case(rng, root)
     status, err = _check(root, what, argv, kind, monkeypatch)
     print(what, "->", status, err)
+
+
+# ---------------------------------------------------------------- what a randomised sweep found (each failed before)
+
+def _fails_with(argv, *words, cwd=None):
+    """Exit 2, one line on stderr holding every word, no 'internal error'; returns the line."""
+    with _in(cwd or os.getcwd()):
+        status, _, err = _run(argv)
+    assert status == 2 and err.count("\n") == 1 and "internal error" not in err, err
+    for w in words:
+        assert w in err, err
+    return err
+
+
+def _enc_file(tmp_path, raw: bytes):
+    p = tmp_path / "enc.json"
+    p.write_bytes(raw)
+    return p
+
+
+def test_an_encoder_description_with_a_byte_order_mark_is_read(tmp_path):
+    from fringe.encoder import load_encoder
+    enc = load_encoder(str(_enc_file(tmp_path, b'\xef\xbb\xbf{"lines_per_rev": 256, "adc_bits": 12}')))
+    assert (enc.lines_per_rev, enc.adc_bits) == (256, 12)
+
+
+@pytest.mark.parametrize("raw, words", [
+    (b'{"lines_per_rev": 100, "adc_bits": 12, "lines_per_rev": 7}', ("enc.json", "'lines_per_rev'", "twice")),
+    (b'\xff\xfe{\x00}\x00', ("enc.json", "line 1", "UTF-8")),
+    (b"[" * 5000, ("enc.json", "nested")),
+    (b" \n", ("enc.json", "empty file")),
+])
+def test_a_broken_encoder_description_is_named_not_an_internal_error(world, tmp_path, raw, words):
+    enc = _enc_file(tmp_path, raw)
+    _fails_with(["calibrate", world / "user" / "rec.csv", "--encoder", enc, "--out", tmp_path / "cal"], *words)
+    assert not (tmp_path / "cal").exists()

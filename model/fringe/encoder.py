@@ -88,12 +88,42 @@ def encoder_from_dict(d: dict, where: str = "encoder") -> Encoder:
 
 def load_encoder(path: str) -> Encoder:
     try:
-        with open(path, encoding="utf-8") as f:
-            text = f.read()
+        with open(path, "rb") as f:
+            raw = f.read(MAX_ENCODER_BYTES + 1)
     except OSError as e:
         raise FringeInputError(f"cannot read encoder description: {e.strerror}", path) from None
+    if len(raw) > MAX_ENCODER_BYTES:
+        raise FringeInputError(f"too large for an encoder description (over {MAX_ENCODER_BYTES} bytes)", path)
     try:
-        d = json.loads(text)
+        text = raw.decode("utf-8-sig")        # a byte-order mark (Windows editors write one) is fine
+    except UnicodeDecodeError as e:
+        line = raw[:e.start].count(b"\n") + 1
+        raise FringeInputError("not a text (UTF-8) JSON file", path, f"line {line}") from None
+    if not text.strip():
+        raise FringeInputError("empty file: expected a JSON object such as "
+                               '{"lines_per_rev": 256, "adc_bits": 12}', path)
+    try:
+        d = json.loads(text, object_pairs_hook=_unique_keys)
     except json.JSONDecodeError as e:
         raise FringeInputError(f"not valid JSON: {e.msg}", path, f"line {e.lineno}") from None
+    except _DuplicateKey as e:
+        raise FringeInputError(f"key '{e.args[0]}' is given twice: say it once", path) from None
+    except RecursionError:
+        raise FringeInputError("not an encoder description: nested too deeply", path) from None
     return encoder_from_dict(d, path)
+
+
+MAX_ENCODER_BYTES = 1 << 20
+
+
+class _DuplicateKey(ValueError):
+    pass
+
+
+def _unique_keys(pairs):
+    d = {}
+    for k, v in pairs:
+        if k in d:
+            raise _DuplicateKey(k)
+        d[k] = v
+    return d
