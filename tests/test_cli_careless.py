@@ -253,3 +253,30 @@ def test_a_broken_encoder_description_is_named_not_an_internal_error(world, tmp_
     enc = _enc_file(tmp_path, raw)
     _fails_with(["calibrate", world / "user" / "rec.csv", "--encoder", enc, "--out", tmp_path / "cal"], *words)
     assert not (tmp_path / "cal").exists()
+
+
+def _csv(tmp_path, raw: bytes, name="rec.csv"):
+    p = tmp_path / name
+    p.write_bytes(raw)
+    return p
+
+
+@pytest.mark.parametrize("raw, words, not_words", [
+    (b"# note\r# lines_per_rev: 256\rsin,cos\r1,2\r3,4\r", ("line 1", "carriage return"), ("empty file",)),
+    (b"sin,cos,coarse\n1,2,-3\n", ("line 2", "'coarse': -3 is not"), ("np.",)),
+    (b"t_s;sin;cos\n0;1;2\n", ("line 1", "separated by ';'"), ()),
+    (b"t_s\tsin\tcos\n0\t1\t2\n", ("line 1", "separated by tabs"), ()),
+    (b"T_S,SIN,COS\n0,1,2\n", ("line 1", "'SIN' looks like 'sin'", "'COS' looks like 'cos'", "lower-case"), ()),
+    (__import__("gzip").compress(b"sin,cos\n1,2\n"), ("line 1", "gzip"), ()),
+])
+def test_a_careless_recording_gets_a_message_that_names_the_cause(tmp_path, raw, words, not_words):
+    from fringe.errors import FringeInputError
+    from fringe.io.dataio import read_measurement
+    with pytest.raises(FringeInputError) as e:
+        read_measurement(str(_csv(tmp_path, raw)))
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith(str(tmp_path / "rec.csv")), msg
+    for w in words:
+        assert w in msg, msg
+    for w in not_words:
+        assert w not in msg, msg

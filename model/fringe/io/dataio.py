@@ -128,7 +128,7 @@ def _checked(path, cols, line_of, comments, encoder, t_before=None):
         c = cols["coarse"]
         bad = np.flatnonzero((c != np.round(c)) | (c < 0))
         if bad.size:
-            raise FringeInputError(f"column 'coarse': {c[bad[0]]!r} is not an unsigned integer", path,
+            raise FringeInputError(f"column 'coarse': {float(c[bad[0]]):.10g} is not an unsigned integer", path,
                                    _row_line(line_of, bad[0]))
         if encoder is not None and encoder.coarse_bits:
             over = np.flatnonzero(c >= (1 << encoder.coarse_bits))
@@ -194,21 +194,37 @@ def _header(path):
                     offset, raw = len(BOM), raw[len(BOM):]
                 first = False
                 text = raw.decode("utf-8").strip()
+                if "\r" in text:     # csv cannot split it; pyarrow would read it as a row break
+                    what = "line" if text.startswith("#") else "header line"
+                    raise FringeInputError(f"a carriage return inside the {what} (mixed or old Mac line endings): "
+                                           "save the file with one kind of line ending", path, f"line {line_no}")
                 if text.startswith("#"):
                     comments.append(text[1:].strip())
                 elif text:
-                    if "\r" in text:     # csv cannot split it; pyarrow would read it as a row break
-                        raise FringeInputError("a carriage return inside the header line (mixed or old Mac line "
-                                               "endings): save the file with one kind of line ending", path,
-                                               f"line {line_no}")
                     header = [h.strip() for h in next(csv.reader([text]))]
                     return offset, line_no, header, comments
                 offset += len(raw)
     except OSError as e:
         raise FringeInputError(f"cannot read data file: {e.strerror}", path) from None
     except UnicodeDecodeError:
-        raise FringeInputError("not a text (UTF-8) CSV file", path, f"line {line_no}") from None
+        raise FringeInputError(f"not a text (UTF-8) CSV file{_binary_kind(path)}", path, f"line {line_no}") from None
     raise FringeInputError("empty file: no header row", path)
+
+
+_MAGIC = ((b"\x1f\x8b", "gzip-compressed: decompress it first"), (b"PK\x03\x04", "a ZIP archive (or .xlsx "
+          "workbook): export or extract the CSV first"), (b"\xff\xfe", "UTF-16 text: save it as UTF-8"),
+          (b"\xfe\xff", "UTF-16 text: save it as UTF-8"), (b"BZh", "bzip2-compressed: decompress it first"),
+          (b"\xfd7zXZ", "xz-compressed: decompress it first"))
+
+
+def _binary_kind(path) -> str:
+    """' (it is ...)' for a file whose first bytes say what it is, else ''."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(8)
+    except OSError:
+        return ""
+    return next((f" (it is {what})" for magic, what in _MAGIC if head.startswith(magic)), "")
 
 
 BOM = b"\xef\xbb\xbf"
@@ -217,7 +233,7 @@ BOM = b"\xef\xbb\xbf"
 def _wanted_columns(header, path, line_no):
     missing = [c for c in REQUIRED if c not in header]
     if missing:
-        hint = _close_names(missing, header)
+        hint = _separator_hint(header) or _close_names(missing, header)
         raise FringeInputError(f"missing required column(s) {', '.join(missing)}{hint} "
                                f"(header has: {', '.join(header)})", path, f"line {line_no}")
     if len(set(header)) != len(header):
@@ -392,12 +408,26 @@ def _read_binary(path, ext):
 
 def _close_names(missing, header):
     import difflib
-    hints = []
+    hints, case = [], False
     for m in missing:
-        close = difflib.get_close_matches(m, header, n=1, cutoff=0.5)
+        same = [h for h in header if str(h).lower() == m]   # 'SIN', 'Sin': names are lower-case
+        close = same or difflib.get_close_matches(m, [str(h).lower() for h in header], n=1, cutoff=0.5)
         if close:
-            hints.append(f"'{close[0]}' looks like '{m}'")
-    return f" ({'; '.join(hints)})" if hints else ""
+            case = case or bool(same)
+            name = same[0] if same else next(h for h in header if str(h).lower() == close[0])
+            hints.append(f"'{name}' looks like '{m}'")
+    return f" ({'; '.join(hints)}{': column names are lower-case' if case else ''})" if hints else ""
+
+
+def _separator_hint(header) -> str:
+    """' (the columns seem separated by ';' ...)' when one header field splits into sin and cos at another
+    separator than the comma."""
+    for h in header:
+        for sep, name in ((";", "';'"), ("\t", "tabs"), ("|", "'|'"), (" ", "spaces")):
+            parts = [p.strip().lower() for p in str(h).split(sep)]
+            if len(parts) > 1 and all(r in parts for r in REQUIRED):
+                return f" (the columns seem separated by {name}: fringe reads comma-separated CSV)"
+    return ""
 
 
 class CsvWriter:
