@@ -280,3 +280,42 @@ def test_a_careless_recording_gets_a_message_that_names_the_cause(tmp_path, raw,
         assert w in msg, msg
     for w in not_words:
         assert w not in msg, msg
+
+
+def test_a_folder_given_as_an_input_is_named_not_the_output(world, tmp_path):
+    """`fringe calibrate . ...` blamed --out ('lies inside the folder ., which this command reads')."""
+    user = world / "user"
+    _fails_with(["calibrate", ".", "--encoder", "enc.json", "--out", "newcal"], ".: is a folder", cwd=user)
+    _fails_with(["calibrate", "rec.csv", "--encoder", ".", "--out", "newcal"], ".: is a folder", cwd=user)
+    _fails_with(["loop", "rec.csv", "--encoder", "enc.json", "--validate", ".", "--out", "newloop"],
+                ".: is a folder", cwd=user)
+    _fails_with(["correct", "rec.csv", "--cal", ".", "--out", "new.csv"], ".: not a fringe calibration", cwd=user)
+    _fails_with(["rom", ".", "--out", "newrom"], ".: not a fringe calibration", cwd=user)
+    _fails_with(["rom", "enc.json", "--out", "newrom"], "enc.json: is a file, not a calibration folder", cwd=user)
+    assert not any((user / n).exists() for n in ("newcal", "newloop", "new.csv", "newrom"))
+
+
+def test_a_users_big_folder_as_out_is_refused_without_walking_it(world, tmp_path, monkeypatch):
+    """`--out /` walked the whole file system (25 s and more) before it saw there was no manifest."""
+    from fringe.io import outputs
+
+    def walked(folder):
+        raise AssertionError(f"walked {folder}")
+    monkeypatch.setattr(outputs, "files_in", walked)
+    _fails_with(["rom", world / "user" / "cal", "--out", world / "user"], "no fringe-manifest.json")
+    _fails_with(["calibrate", world / "user" / "rec.csv", "--encoder", world / "user" / "enc.json", "--out", "/"],
+                "no fringe-manifest.json")
+
+
+def test_rom_format_names_are_case_blind_and_repeats_harmless(world, tmp_path):
+    with _in(world):
+        status, out, err = _run(["rom", "user/cal", "--out", tmp_path / "rom", "--format", "MEM,mem, Mif"])
+    assert status == 0, err
+    names = sorted(os.listdir(tmp_path / "rom"))
+    assert any(n.endswith(".mem") for n in names) and any(n.endswith(".mif") for n in names), names
+
+
+def test_an_output_file_name_ending_in_a_slash_is_not_called_an_existing_folder(tmp_path):
+    err = _fails_with(["simulate", "--preset", "seed-encoder", "--samples", "100", "--out", f"{tmp_path}/new/"],
+                      "ends with '/'")
+    assert "is a folder" not in err and not (tmp_path / "new").exists()

@@ -109,6 +109,18 @@ def cmd_simulate(a) -> int:
 SIMULATE_BYTES_PER_SAMPLE = 400   # the simulator's arrays and the CSV text, per sample
 
 
+def check_inputs(files=(), cal_dir=None):
+    """The inputs, before the outputs are checked: a folder given for a file, or a folder that is not a
+    calibration, is named as such (not as an --out inside the folder 'this command reads')."""
+    from ..io.outputs import verify_dir
+
+    if cal_dir is not None:
+        verify_dir(cal_dir, "calibration")
+    for what, path in files:
+        if path is not None and os.path.isdir(path):     # a missing file is named by its reader
+            raise FringeInputError(f"is a folder: give the {what} itself", path)
+
+
 def _read_for_calibration(path, enc):
     """The recording, refused early when its signals cannot be calibrated (too short, dead, clipped) or
     when it disagrees with the encoder description (diagnose)."""
@@ -157,6 +169,7 @@ def cmd_calibrate(a) -> int:
     from ..io.outputs import check_output_dir
 
     inputs = (a.data, a.encoder)
+    check_inputs((("encoder description", a.encoder), ("data file", a.data)))
     check_output_dir(a.out, "calibration", inputs)
     enc = load_encoder(a.encoder)
     meas = fitting_rows(_read_for_calibration(a.data, enc))
@@ -204,6 +217,7 @@ def cmd_correct(a) -> int:
     from .engines import run_engine, streamable
 
     inputs = (a.data, a.cal)
+    check_inputs((("data file", a.data),), a.cal)
     check_output_file(a.out, "correct", inputs)
     cal = load_calibration(a.cal)
     comments = (f"fringe correct --engine {a.engine}: {a.data} with {a.cal}",)
@@ -267,6 +281,7 @@ def cmd_loop(a) -> int:
     from ..io.outputs import check_output_dir
     from ..loop.run import run_loop
 
+    check_inputs((("encoder description", a.encoder), ("data file", a.data), ("data file", a.validate)))
     check_output_dir(a.out, "loop", (a.data, a.encoder, a.validate))
     enc = load_encoder(a.encoder)
     val = _read_for_calibration(a.validate, enc) if a.validate else None
@@ -315,11 +330,12 @@ def cmd_rom(a) -> int:
     from ..io.calstore import load_calibration
     from ..io.outputs import check_output_dir
 
-    formats = [f.strip() for f in a.format.split(",") if f.strip()]
+    formats = list(dict.fromkeys(f.strip().lower() for f in a.format.split(",") if f.strip()))   # 'MEM', 'mem,mem'
     unknown = [f for f in formats if f not in FORMATS]
     if not formats or unknown:
         raise FringeInputError(f"{'unknown format ' + repr(unknown[0]) if unknown else 'no format given'} "
                                f"(choose from {','.join(FORMATS)})", "--format")
+    check_inputs(cal_dir=a.cal)
     check_output_dir(a.out, "rom", (a.cal,))
     cal = load_calibration(a.cal)
     overrides = {k: getattr(a, k) for k in ROM_OPTIONS if getattr(a, k) is not None}

@@ -125,18 +125,21 @@ def check_output_dir(path: str, kind: str, inputs=()) -> None:
 
 def _check_replaceable(path: str, kind: str):
     try:
-        present = files_in(path)
         entries = os.listdir(path)
     except OSError as e:
         _fail(f"cannot be read: {e.strerror}", path)
     if not entries:
         return
-    man = read_manifest(path)
+    man = read_manifest(path)     # before walking the folder: '/' or a home folder is refused at once
     if man is None:
         _fail(f"exists and is not a fringe {kind} folder (no {MANIFEST}): fringe replaces only its own "
               "outputs; choose another --out or remove it yourself", path)
     if man.get("kind") != kind:
         _fail(f"is a fringe {man.get('kind')} folder, not a {kind} folder: refusing to replace it", path)
+    try:
+        present = files_in(path)
+    except OSError as e:
+        _fail(f"cannot be read: {e.strerror}", path)
     extra = sorted(present - set(man["files"]) - {MANIFEST})
     if extra:
         _fail(f"holds {extra[0]}, which fringe did not write: refusing to replace the folder", path)
@@ -171,8 +174,10 @@ def check_output_file(path: str, kind: str, inputs=(), form: str | None = None) 
     folder, a missing or unwritable folder."""
     if not path:
         _fail("the output file name is empty", path)
-    if path.endswith(("/", os.sep)) or os.path.isdir(path):
+    if os.path.isdir(path):
         _fail("is a folder: give a file name", path)
+    if path.endswith(("/", os.sep)):
+        _fail("ends with '/', which names a folder: give a file name", path)
     if os.path.islink(path):
         _fail("is a symbolic link: give the file itself", path)
     if os.path.lexists(path):
@@ -217,7 +222,7 @@ def write_manifest(folder: str, kind: str, command: str):
 def verify_dir(folder: str, kind: str) -> dict:
     """Refuse a folder that is not a complete, unedited fringe `kind` folder, naming the file."""
     if not os.path.isdir(folder):
-        _fail(f"{kind} folder not found", folder)
+        _fail(f"is a file, not a {kind} folder" if os.path.exists(folder) else f"{kind} folder not found", folder)
     man = read_manifest(folder)
     if man is None:
         _fail(f"not a fringe {kind} folder: {MANIFEST} is missing or damaged (written by an older fringe? "
