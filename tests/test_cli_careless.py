@@ -319,3 +319,32 @@ def test_an_output_file_name_ending_in_a_slash_is_not_called_an_existing_folder(
     err = _fails_with(["simulate", "--preset", "seed-encoder", "--samples", "100", "--out", f"{tmp_path}/new/"],
                       "ends with '/'")
     assert "is a folder" not in err and not (tmp_path / "new").exists()
+
+
+def _with_ref(world, tmp_path, fn):
+    """user/rec.csv with ref_deg replaced by fn(ref_deg), as tmp_path/ref.csv."""
+    lines = (world / "user" / "rec.csv").read_text().splitlines()
+    head = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
+    k = lines[head].split(",").index("ref_deg")
+    out = lines[:head + 1]
+    for ln in lines[head + 1:]:
+        v = ln.split(",")
+        v[k] = repr(fn(float(v[k])))
+        out.append(",".join(v))
+    p = tmp_path / "ref.csv"
+    p.write_text("\n".join(out) + "\n")
+    return p
+
+
+@pytest.mark.parametrize("fn, words, not_words", [
+    (lambda r: 12.5, ("column 'ref_deg'", "12.5 on every row"), ("times as far",)),
+    (lambda r: r * 1e-9, ("column 'ref_deg'", "times as far"), ("?) (or", "degrees? (or")),
+])
+def test_a_still_or_unrelated_reference_is_named_plainly(world, tmp_path, fn, words, not_words):
+    """A constant ref_deg was 'moves 0 times as far as the signals ...: is ref_deg in degrees? (or ref_deg is
+    not in degrees)'."""
+    err = _fails_with(["calibrate", _with_ref(world, tmp_path, fn), "--encoder", world / "user" / "enc.json",
+                       "--out", tmp_path / "cal"], *words)
+    for w in not_words:
+        assert w not in err, err
+    assert not (tmp_path / "cal").exists()

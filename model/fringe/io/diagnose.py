@@ -130,6 +130,10 @@ def _check_reference(meas: Measurement, enc: Encoder, phase: np.ndarray, step: f
     ref, lines = meas.ref_deg, enc.lines_per_rev
     deg = 360.0 / lines                                    # signal degrees per period of the phase
     n = len(ref)
+    if np.ptp(ref) == 0:
+        raise FringeInputError(f"ref_deg is {float(ref[0]):g} on every row while the signals move: no reference "
+                               "was recorded? (remove the column to calibrate without one)", meas.path,
+                               "column 'ref_deg'")
     if np.max(np.abs(ref)) <= 2 * np.pi + 1e-9 and np.ptp(phase) * deg > 20:
         a, _ = _slope(phase, unwrap_in_blocks(lambda s: ref[s], n, 2 * np.pi, 180 / np.pi), deg)
         if SCALE_OK[0] <= abs(a) <= SCALE_OK[1]:
@@ -170,7 +174,7 @@ def _check_reference(meas: Measurement, enc: Encoder, phase: np.ndarray, step: f
     a, _ = _slope(phase, ref_u, deg)
     if not SCALE_OK[0] <= abs(a) <= SCALE_OK[1]:
         guess = lines / abs(a) if abs(a) > 1e-9 else float("inf")
-        hint = (f"lines_per_rev is probably about {guess:.0f}, not {lines}" if 0.5 <= guess <= (1 << 24)
-                else "is ref_deg in degrees?")
+        hint = (f"lines_per_rev is probably about {guess:.0f}, not {lines} (or ref_deg is not in degrees)"
+                if 0.5 <= guess <= (1 << 24) else "is ref_deg in degrees, and from the same shaft?")
         raise FringeInputError(f"the reference moves {abs(a):.4g} times as far as the signals with lines_per_rev = "
-                               f"{lines}: {hint} (or ref_deg is not in degrees)", meas.path, "column 'ref_deg'")
+                               f"{lines}: {hint}", meas.path, "column 'ref_deg'")
