@@ -348,3 +348,29 @@ def test_a_still_or_unrelated_reference_is_named_plainly(world, tmp_path, fn, wo
     for w in not_words:
         assert w not in err, err
     assert not (tmp_path / "cal").exists()
+
+
+@pytest.mark.parametrize("where, value, words", [
+    (("stages", "output", "zero_deg"), 1e300, ("zero_deg", "plausible")),
+    (("stages", "status", "amp_low"), 5.0, ("amp_low",)),
+    (("stages", "coarse", "offset_periods"), 1e12, ("offset_periods",)),
+    (("stages", "waveform", "cos", "inverse", "step_counts"), -1.0, ("stages.waveform.cos.inverse", "step_counts")),
+])
+@pytest.mark.parametrize("engine", ["model", "float"])
+def test_a_calibration_edited_to_impossible_values_is_refused_by_name(world, tmp_path, where, value, words, engine):
+    """An edited calibration.json with a manifest written anew ran: zero_deg = 1e300 gave the float engine
+    errors of a quarter turn, step_counts <= 0 or amp_low > amp_high flagged every sample, a huge coarse offset
+    stopped the model engine with a message that blamed the recording."""
+    from fringe.io.outputs import write_manifest
+    cal = tmp_path / "cal"
+    shutil.copytree(world / "user" / "cal", cal)
+    d = json.loads((cal / "calibration.json").read_text())
+    o = d
+    for k in where[:-1]:
+        o = o[k]
+    o[where[-1]] = value
+    (cal / "calibration.json").write_text(json.dumps(d))
+    write_manifest(str(cal), "calibration", "edited by hand")
+    err = _fails_with(["correct", world / "user" / "rec.csv", "--cal", cal, "--out", tmp_path / "o.csv",
+                       "--engine", engine], "calibration.json", *words)
+    assert "rec.csv" not in err and not (tmp_path / "o.csv").exists()

@@ -188,7 +188,39 @@ def load_calibration(cal_dir: str) -> Calibration:
                     float(inv["threshold_lo_counts"]), float(inv["mid_counts"])))
     except (KeyError, TypeError, ValueError) as e:
         raise FringeInputError(f"calibration is incomplete or damaged ({type(e).__name__}: {e})", path) from None
+    _check_values(cal, path)
     return cal
+
+
+MAX_ZERO_DEG = 1e9   # as a recording's ref_deg (dataio.MAX_REF_DEG)
+
+
+def _check_values(cal: Calibration, path: str):
+    """Values a calibration cannot hold, refused by name (an edited calibration.json whose manifest was written
+    anew): non-finite numbers, an angle beyond any plausible zero, status thresholds out of order, a waveform
+    table that does not step forward, a coarse offset beyond the revolution."""
+    def bad(field, problem):
+        raise FringeInputError(f"{field} {problem}: the calibration is damaged or edited; write it anew", path)
+
+    if not (np.isfinite(cal.zero_deg) and abs(cal.zero_deg) <= MAX_ZERO_DEG):
+        bad("stages.output.zero_deg", f"= {cal.zero_deg!r} is not a plausible angle in degrees")
+    if not (np.isfinite(cal.amp_low) and np.isfinite(cal.amp_high) and 0 <= cal.amp_low < cal.amp_high):
+        bad("stages.status", f"amp_low = {cal.amp_low!r}, amp_high = {cal.amp_high!r} must be finite with "
+                             "0 <= amp_low < amp_high")
+    q = cal.quad.to_dict()
+    for k, v in q.items():
+        if isinstance(v, float) and not np.isfinite(v):
+            bad(f"stages.quadrature.{k}", f"= {v!r} is not a finite number")
+    c = cal.coarse_offset_periods
+    if c is not None and not (np.isfinite(c) and abs(c) <= cal.encoder.lines_per_rev):
+        bad("stages.coarse.offset_periods", f"= {c!r} is beyond the revolution's {cal.encoder.lines_per_rev} "
+                                            "periods")
+    for k in ("sin", "cos"):
+        inv = getattr(cal, f"inv_{k}", None)
+        if isinstance(inv, WaveformInverse):
+            numbers = (inv.lo, inv.step, inv.threshold_hi, inv.threshold_lo, inv.mid)
+            if not (all(np.isfinite(numbers)) and inv.step > 0):
+                bad(f"stages.waveform.{k}.inverse", "must hold finite numbers and a step_counts > 0")
 
 
 def _read_wave_tables(path: str) -> np.ndarray:
