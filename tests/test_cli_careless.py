@@ -374,3 +374,41 @@ def test_a_calibration_edited_to_impossible_values_is_refused_by_name(world, tmp
     err = _fails_with(["correct", world / "user" / "rec.csv", "--cal", cal, "--out", tmp_path / "o.csv",
                        "--engine", engine], "calibration.json", *words)
     assert "rec.csv" not in err and not (tmp_path / "o.csv").exists()
+
+
+def _with_cols(world, tmp_path, fn):
+    """user/rec.csv with each data row's fields (a dict by column name) changed by fn, as tmp_path/cols.csv."""
+    lines = (world / "user" / "rec.csv").read_text().splitlines()
+    head = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
+    names = lines[head].split(",")
+    out = lines[:head + 1]
+    for ln in lines[head + 1:]:
+        row = dict(zip(names, ln.split(","), strict=True))
+        fn(row)
+        out.append(",".join(row[n] for n in names))
+    p = tmp_path / "cols.csv"
+    p.write_text("\n".join(out) + "\n")
+    return p
+
+
+def _set(**kw):
+    def fn(row):
+        for k, f in kw.items():
+            row[k] = f(row)
+    return fn
+
+
+@pytest.mark.parametrize("fn, words, not_words", [
+    (_set(cos=lambda r: r["sin"]), ("'sin' and 'cos' are equal", "same signal"), ("octants",)),
+    (_set(cos=lambda r: str(-int(r["sin"]))), ("'sin' and 'cos' are opposite",), ("octants",)),
+    (_set(cos=lambda r: "17"), ("column 'cos' is 17 on every row",), ()),
+    (_set(sin=lambda r: "2047" if int(r["sin"]) > 1200 else r["sin"]), ("clipped", "(first: line "), ("data row",)),
+])
+def test_a_calibration_refusal_names_the_column_or_line_and_the_real_cause(world, tmp_path, fn, words, not_words):
+    """sin == cos (or -cos) was 'the samples cover only 3 of 8 octants ... must span at least one full signal
+    period'; a constant channel was 'a channel never changes' (which?); clipping named a 'data row', not a line."""
+    err = _fails_with(["calibrate", _with_cols(world, tmp_path, fn), "--encoder", world / "user" / "enc.json",
+                       "--out", tmp_path / "cal"], "cols.csv", *words)
+    for w in not_words:
+        assert w not in err, err
+    assert not (tmp_path / "cal").exists()

@@ -111,8 +111,9 @@ def check_recording(meas: Measurement, enc: Encoder) -> np.ndarray:
     """Refuse what cannot be calibrated; return the mask of samples usable for fitting."""
     if len(meas) < MIN_SAMPLES:
         _fail(meas, f"too few samples: {len(meas)} (calibration needs at least {MIN_SAMPLES})")
-    if np.ptp(meas.sin) == 0 or np.ptp(meas.cos) == 0:
-        _fail(meas, "no signal: a channel never changes (sensor unplugged or no motion?)")
+    for name, v in (("sin", meas.sin), ("cos", meas.cos)):
+        if np.ptp(v) == 0:
+            _fail(meas, f"no signal: column '{name}' is {float(v[0]):g} on every row (sensor unplugged or no motion?)")
     lo, hi = -enc.adc_half_range, enc.adc_half_range - 1
     clipped = (meas.sin <= lo) | (meas.sin >= hi) | (meas.cos <= lo) | (meas.cos >= hi)
     if clipped.any():
@@ -124,9 +125,9 @@ def check_recording(meas: Measurement, enc: Encoder) -> np.ndarray:
         hidden = (total > 0) & (kept < MIN_UNCLIPPED_SHARE * total)
         if hidden.any():
             first = int(np.argmax(clipped))
-            _fail(meas, f"{int(clipped.sum())} of {len(meas)} samples are clipped at the ADC limits (first: data "
-                        f"row {first + 1}), all of them near some phases; reduce the gain: clipped samples hide "
-                        "the waveform")
+            _fail(meas, f"{int(clipped.sum())} of {len(meas)} samples are clipped at the ADC limits (first: "
+                        f"{meas.row_line(first)}), all of them near some phases; reduce the gain: clipped samples "
+                        "hide the waveform")
     return ~clipped
 
 

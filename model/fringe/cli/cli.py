@@ -125,11 +125,12 @@ def _read_for_calibration(path, enc):
     """The recording, refused early when its signals cannot be calibrated (too short, dead, clipped) or
     when it disagrees with the encoder description (diagnose)."""
     from ..calib.calibrate import check_recording as check_signals
-    from ..io.dataio import check_signal_scale, read_measurement
+    from ..io.dataio import check_channels, check_signal_scale, read_measurement
     from ..io.diagnose import check_recording
 
     meas = read_measurement(path, enc)
     check_signals(meas, enc)
+    check_channels(meas)
     check_signal_scale(meas, enc)
     check_recording(meas, enc)
     return meas

@@ -182,6 +182,19 @@ def check_signal_scale(meas: Measurement, enc: Encoder):
                                f"ADC's +-{enc.adc_half_range}: wrong adc_bits or full_scale?", meas.path)
 
 
+SAME_SIGNAL_SHARE = 0.95   # sin within a count of +-cos on this share of the rows: one signal in both columns
+
+
+def check_channels(meas: Measurement):
+    """For calibration: the same signal in both columns (a copied column, one input wired twice) is named as
+    such, not as a recording that covers too little of the Lissajous figure."""
+    for sign, what in ((1, "equal"), (-1, "opposite")):
+        same = np.count_nonzero(np.abs(meas.sin - sign * meas.cos) <= 1.0)
+        if same >= SAME_SIGNAL_SHARE * len(meas):
+            raise FringeInputError(f"columns 'sin' and 'cos' are {what} on {same} of {len(meas)} rows: the same "
+                                   "signal in both columns (a copied column, or one input wired twice)?", meas.path)
+
+
 def _header(path):
     """(byte offset of the header row, its line number, its column names, the comment lines before it)."""
     comments, offset, line_no = [], 0, 0
