@@ -412,3 +412,13 @@ def test_a_calibration_refusal_names_the_column_or_line_and_the_real_cause(world
     for w in not_words:
         assert w not in err, err
     assert not (tmp_path / "cal").exists()
+
+
+@pytest.mark.parametrize("text", ["sin,cos,note,note\n1,2,a,b\n5,6,c,d\n", "sin,cos,,\n1,2,,\n5,6,,\n",
+                                  "t_s,sin,cos,,,\n0,1,2,,,\n1,5,6,,,\n"])
+def test_repeated_or_empty_names_of_ignored_columns_are_ignored(tmp_path, text):
+    """Unknown columns are ignored (spec 1), but two of the same name (or the empty names of a spreadsheet's
+    trailing separators) were refused as 'duplicate column(s) ' before."""
+    from fringe.io.dataio import read_measurement
+    m = read_measurement(str(_csv(tmp_path, text.encode())))
+    assert list(m.sin) == [1, 5] and list(m.cos) == [2, 6]

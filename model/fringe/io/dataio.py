@@ -249,8 +249,8 @@ def _wanted_columns(header, path, line_no):
         hint = _separator_hint(header) or _close_names(missing, header)
         raise FringeInputError(f"missing required column(s) {', '.join(missing)}{hint} "
                                f"(header has: {', '.join(header)})", path, f"line {line_no}")
-    if len(set(header)) != len(header):
-        dup = sorted({h for h in header if header.count(h) > 1})
+    dup = sorted({h for h in header if header.count(h) > 1 and h in REQUIRED + OPTIONAL})   # others are ignored
+    if dup:
         raise FringeInputError(f"duplicate column(s) {', '.join(dup)}", path, f"line {line_no}")
     return [c for c in REQUIRED + OPTIONAL if c in header]
 
@@ -261,7 +261,8 @@ def _csv_options(header, wanted, **read):
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
-    return dict(read_options=pacsv.ReadOptions(column_names=header, skip_rows=1, **read),
+    names = [h if h in wanted else f"\0{k}" for k, h in enumerate(header)]   # ignored names may repeat or be ''
+    return dict(read_options=pacsv.ReadOptions(column_names=names, skip_rows=1, **read),
                 parse_options=pacsv.ParseOptions(ignore_empty_lines=False),
                 convert_options=pacsv.ConvertOptions(include_columns=wanted,
                                                      column_types={c: pa.float64() for c in wanted},
