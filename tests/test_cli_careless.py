@@ -422,3 +422,10 @@ def test_repeated_or_empty_names_of_ignored_columns_are_ignored(tmp_path, text):
     from fringe.io.dataio import read_measurement
     m = read_measurement(str(_csv(tmp_path, text.encode())))
     assert list(m.sin) == [1, 5] and list(m.cos) == [2, 6]
+
+
+def test_simulate_with_one_name_for_both_outputs_says_so(tmp_path):
+    """--out X --encoder-out X was refused as 'is also an input of this command (X)': X is no input."""
+    err = _fails_with(["simulate", "--preset", "seed-encoder", "--samples", "100", "--out", tmp_path / "s.csv",
+                       "--encoder-out", tmp_path / "s.csv"], "--encoder-out names the same file as --out")
+    assert "input" not in err and not (tmp_path / "s.csv").exists()

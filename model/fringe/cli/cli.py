@@ -89,6 +89,9 @@ def cmd_simulate(a) -> int:
 
     check_output_file(a.out, "simulate", form="CSV")
     if a.encoder_out:
+        if os.path.realpath(a.encoder_out) == os.path.realpath(a.out):
+            raise FringeInputError("--encoder-out names the same file as --out: give the encoder description "
+                                   "(JSON) its own name", a.encoder_out)
         check_output_file(a.encoder_out, "simulate", inputs=(a.out,), form="JSON")
     cfg = simulate.preset(a.preset)
     if a.samples:
