@@ -429,3 +429,12 @@ def test_simulate_with_one_name_for_both_outputs_says_so(tmp_path):
     err = _fails_with(["simulate", "--preset", "seed-encoder", "--samples", "100", "--out", tmp_path / "s.csv",
                        "--encoder-out", tmp_path / "s.csv"], "--encoder-out names the same file as --out")
     assert "input" not in err and not (tmp_path / "s.csv").exists()
+
+
+def test_loop_on_a_short_recording_counts_the_files_rows(tmp_path):
+    """70 rows gave 'too few samples: 40 (calibration needs at least 64)': the rows of one interleaved half."""
+    assert _run(["simulate", "--preset", "seed-encoder", "--samples", "100", "--out", tmp_path / "s.csv",
+                 "--encoder-out", tmp_path / "e.json"])[0] == 0
+    err = _fails_with(["loop", tmp_path / "s.csv", "--encoder", tmp_path / "e.json", "--out", tmp_path / "l"],
+                      "s.csv", "too few samples for the closed loop: 100", "--validate")
+    assert not (tmp_path / "l").exists(), err

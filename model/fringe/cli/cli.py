@@ -290,7 +290,7 @@ def cmd_loop(a) -> int:
     enc = load_encoder(a.encoder)
     val = _read_for_calibration(a.validate, enc) if a.validate else None
     shown = []    # the plots need no more rows than the decision; no reference to the recordings is kept here
-    base, state, report = run_loop(_read_for_calibration(a.data, enc), enc, val, shown)
+    base, state, report = run_loop(_loop_recording(a.data, enc, val is None), enc, val, shown)
     del val
     write_loop_outputs(base, state, report, shown[0], None, a.out)
     b, f = report["before"], report["after"]
@@ -303,6 +303,29 @@ def cmd_loop(a) -> int:
         print(f"not kept {e['name']}: {e['why_not_kept']}")
     print(f"wrote {a.out}/report.md, report.json, cal/")
     return 0
+
+
+def _loop_recording(path, enc, halves: bool):
+    """The loop's recording, read as for calibration; with `halves`, each interleaved half long enough. No
+    reference to it stays here: run_loop lets it go once it is split."""
+    meas = _read_for_calibration(path, enc)
+    if halves:
+        _check_halves(meas)
+    return meas
+
+
+def _check_halves(meas):
+    """Without --validate the loop fits on one interleaved half of the recording and judges on the other: each
+    must be long enough to calibrate (else the message would count the rows of a half, not of the file)."""
+    from ..calib.calibrate import MIN_SAMPLES
+    from ..loop.run import VALIDATION_BLOCKS
+
+    n = len(meas)
+    half = int(np.count_nonzero((np.arange(n) * VALIDATION_BLOCKS // n) % 2))
+    if min(half, n - half) < MIN_SAMPLES:
+        raise FringeInputError(f"too few samples for the closed loop: {n} (without --validate it fits on one "
+                               f"interleaved half and judges on the other, each needs at least {MIN_SAMPLES}: "
+                               "give a longer recording or a --validate one)", meas.path)
 
 
 def write_loop_outputs(base, state, report: dict, train, validate, out_dir: str):
