@@ -438,3 +438,15 @@ def test_loop_on_a_short_recording_counts_the_files_rows(tmp_path):
     err = _fails_with(["loop", tmp_path / "s.csv", "--encoder", tmp_path / "e.json", "--out", tmp_path / "l"],
                       "s.csv", "too few samples for the closed loop: 100", "--validate")
     assert not (tmp_path / "l").exists(), err
+
+
+@pytest.mark.parametrize("engine", ["model", "float"])
+def test_correct_on_normalised_floats_says_to_calibrate_again(world, tmp_path, engine):
+    """Float readings for a calibration of counts were told to 'give full_scale in the encoder description', but
+    fringe correct reads no encoder description: the calibration's is the one to change."""
+    def to_float(key):
+        return lambda r: repr(int(r[key]) / 2048)
+    data = _with_cols(world, tmp_path, _set(sin=to_float("sin"), cos=to_float("cos")))
+    _fails_with(["correct", data, "--cal", world / "user" / "cal", "--out", tmp_path / "o.csv", "--engine", engine],
+                "cols.csv", "full_scale", "calibrate again")
+    assert not (tmp_path / "o.csv").exists()

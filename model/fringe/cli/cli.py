@@ -216,7 +216,7 @@ def summary_text(cal, meas) -> str:
 
 def cmd_correct(a) -> int:
     from ..io.calstore import load_calibration
-    from ..io.dataio import csv_writer, iter_measurement, read_measurement
+    from ..io.dataio import FROM_CALIBRATION, csv_writer, iter_measurement, read_measurement
     from ..io.outputs import check_output_file
     from .engines import run_engine, streamable
 
@@ -229,7 +229,9 @@ def cmd_correct(a) -> int:
     summary = CorrectSummary()
     with csv_writer(a.out, ("angle_deg", "status"), comments, formats, inputs) as w:
         step = streamable(a.engine, cal, a.cal)       # pieces of bounded size, or the whole recording
-        pieces = iter_measurement(a.data, cal.encoder) if step else [read_measurement(a.data, cal.encoder)]
+        said = FROM_CALIBRATION    # floats for a calibration of counts: its encoder is the one to change
+        pieces = (iter_measurement(a.data, cal.encoder, described=said) if step
+                  else [read_measurement(a.data, cal.encoder, described=said)])
         for meas in pieces:
             if cal.encoder.coarse_bits and meas.coarse is None:
                 raise FringeInputError(f"the calibration's encoder has a {cal.encoder.coarse_bits}-bit coarse code, "

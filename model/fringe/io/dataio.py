@@ -11,6 +11,9 @@ from ..encoder import Encoder
 from ..errors import FringeInputError
 
 REQUIRED = ("sin", "cos")
+ENCODER_FILE = "in the encoder description"      # where a missing full_scale is to be given, for messages
+FROM_CALIBRATION = ("in the encoder description and calibrate again (this calibration's encoder has none: it "
+                    "reads ADC counts)")
 OPTIONAL = ("coarse", "ref_deg", "t_s")
 
 
@@ -75,9 +78,11 @@ def check_memory(rows: float, bytes_per_row: int, what: str, where: str):
                                f"{free / 2**30:.1f} GiB are free", where)
 
 
-def read_measurement(path: str, encoder: Encoder | None = None, min_samples: int = 1) -> Measurement:
+def read_measurement(path: str, encoder: Encoder | None = None, min_samples: int = 1,
+                     described: str = ENCODER_FILE) -> Measurement:
     """Read and check a recording (CSV, or .npy/.parquet with the same column names); every problem
-    is a FringeInputError naming the file and line."""
+    is a FringeInputError naming the file and line. `described`: where the encoder description came from, for
+    the messages."""
     if not os.path.isfile(path):
         raise FringeInputError("data file not found" if not os.path.exists(path) else "is not a regular file",
                                path)
@@ -89,14 +94,14 @@ def read_measurement(path: str, encoder: Encoder | None = None, min_samples: int
     n = len(cols["sin"])
     if n < min_samples:
         raise FringeInputError(f"too few samples: {n} (need at least {min_samples})", path)
-    return _checked(path, cols, line_of, comments, encoder)
+    return _checked(path, cols, line_of, comments, encoder, described=described)
 
 
 def _row_line(line_of, r) -> str:
     return line_of(r) if callable(line_of) else f"line {int(line_of[r])}"
 
 
-def _checked(path, cols, line_of, comments, encoder, t_before=None):
+def _checked(path, cols, line_of, comments, encoder, t_before=None, described=None):
     for name, v in cols.items():
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:
@@ -139,7 +144,7 @@ def _checked(path, cols, line_of, comments, encoder, t_before=None):
 
     sin, cos = cols["sin"], cols["cos"]
     if encoder is not None:
-        sin, cos = _to_counts(sin, cos, encoder, path, line_of)
+        sin, cos = _to_counts(sin, cos, encoder, path, line_of, described or ENCODER_FILE)
     return Measurement(path, sin, cos, coarse, ref, t, tuple(comments), line_of)
 
 
@@ -148,7 +153,7 @@ MAX_REF_DEG = 1e9         # about 2.8 million turns
 MIN_RANGE_USED = 1 / 256  # a signal swinging less than this fraction of the ADC's range: wrong adc_bits?
 
 
-def _to_counts(sin, cos, enc: Encoder, path, line_of):
+def _to_counts(sin, cos, enc: Encoder, path, line_of, described=ENCODER_FILE):
     """Float readings are scaled by full_scale; offset-binary codes are centred; counts must fit the ADC."""
     lo, hi = -enc.adc_half_range, enc.adc_half_range - 1
     if enc.full_scale is not None:   # to the codes the core's ADC input holds: calibrate on what it will see
@@ -159,8 +164,7 @@ def _to_counts(sin, cos, enc: Encoder, path, line_of):
         fractional = np.any(sin != np.round(sin)) or np.any(cos != np.round(cos))
         if fractional and peak <= 2.0:
             raise FringeInputError(f"the readings are fractions within +-{peak:.3g}: normalised floats? give "
-                                   "'full_scale' (the reading that means ADC full scale) in the encoder "
-                                   "description", path)
+                                   f"'full_scale' (the reading that means ADC full scale) {described}", path)
         if enc.offset_binary:
             sin, cos = sin - enc.adc_half_range, cos - enc.adc_half_range
     for name, v in (("sin", sin), ("cos", cos)):
@@ -340,7 +344,7 @@ def _lines_at_most(path, offset) -> int:
     return breaks + 1
 
 
-def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18):
+def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18, described: str = ENCODER_FILE):
     """The recording in pieces of about `rows` rows, each checked as `read_measurement` checks the whole
     (time stamps across the pieces too): memory bounded by a piece. A CSV that pyarrow's streaming reader
     cannot take row by row (comment lines among the rows, a broken row) is read whole, which finds and
@@ -348,7 +352,7 @@ def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18):
     import pyarrow as pa
 
     if os.path.splitext(path)[1].lower() in (".npy", ".parquet") or not os.path.isfile(path):
-        yield read_measurement(path, encoder)
+        yield read_measurement(path, encoder, described=described)
         return
     offset, header_line, header, comments = _header(path)
     wanted = _wanted_columns(header, path, header_line)
@@ -357,14 +361,15 @@ def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18):
         for batch in _csv_batches(path, offset, header, wanted, rows):
             cols = {c: batch.column(c).to_numpy(zero_copy_only=False) for c in wanted}
             first = header_line + 1 + done
-            m = _checked(path, cols, lambda r, first=first: f"line {first + r}", comments, encoder, t_last)
+            m = _checked(path, cols, lambda r, first=first: f"line {first + r}", comments, encoder, t_last,
+                         described)
             done += len(m)
             if m.t_s is not None and len(m):
                 t_last = m.t_s[-1]
             if len(m):
                 yield m
     except (pa.ArrowInvalid, ValueError):
-        whole = read_measurement(path, encoder)     # names the line, or reads what pyarrow could not
+        whole = read_measurement(path, encoder, described=described)   # names the line, or reads what pyarrow could not
         if done < len(whole):
             yield whole.subset(slice(done, None))
         return
