@@ -255,6 +255,15 @@ def test_a_broken_encoder_description_is_named_not_an_internal_error(world, tmp_
     assert not (tmp_path / "cal").exists()
 
 
+@pytest.mark.parametrize("command", ["calibrate", "loop"])
+def test_an_encoder_no_core_can_hold_is_named_before_the_fit(world, tmp_path, command):
+    """32768 lines with a 15-bit coarse code need a 32-bit position: said of the encoder file, before any work."""
+    enc = _enc_file(tmp_path, b'{"lines_per_rev": 32768, "adc_bits": 16, "coarse_bits": 15}')
+    _fails_with([command, world / "user" / "rec.csv", "--encoder", enc, "--out", tmp_path / "out"],
+                "enc.json", "no core configuration holds this encoder", "position of 32 bits")
+    assert not (tmp_path / "out").exists()
+
+
 def _csv(tmp_path, raw: bytes, name="rec.csv"):
     p = tmp_path / name
     p.write_bytes(raw)

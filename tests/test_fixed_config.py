@@ -249,6 +249,11 @@ def test_an_encoder_of_many_lines_gets_a_position_within_the_registers(lines, co
     assert cfg.fine_w == fine_w and cfg.pos_w <= 31
 
 
+def test_an_absolute_encoder_whose_position_needs_32_bits_is_refused_with_the_reason():
+    with pytest.raises(ValueError, match="coarse code of 15 bits needs FINE_W >= 17.*position of 32 bits"):
+        CoreConfig.for_encoder(Encoder(lines_per_rev=32768, adc_bits=16, coarse_bits=15))
+
+
 @pytest.mark.parametrize("cancel", [0, 1])
 def test_drift_update_deadline_counts_the_canceller(cancel):
     """With DRIFT = 1 the tracker's update deadline holds the canceller's latency when CANCEL = 1: the

@@ -165,9 +165,22 @@ def _note_fitting_rows(cal, meas):
                            "consecutive rows): a longer recording adds no accuracy, only memory")
 
 
+def load_core_encoder(path: str):
+    """The encoder description at ``path``, refused (naming the file) when no core configuration can hold its
+    geometry: known before a fit rather than after it."""
+    from ..encoder import load_encoder
+    from ..fixed.config import CoreConfig
+
+    enc = load_encoder(path)
+    try:
+        CoreConfig.for_encoder(enc)
+    except ValueError as e:
+        raise FringeInputError(f"no core configuration holds this encoder: {e}", path) from None
+    return enc
+
+
 def cmd_calibrate(a) -> int:
     from ..calib.calibrate import calibrate
-    from ..encoder import load_encoder
     from ..hardware.corefiles import core_files
     from ..io.calstore import save_calibration
     from ..io.outputs import check_output_dir
@@ -175,7 +188,7 @@ def cmd_calibrate(a) -> int:
     inputs = (a.data, a.encoder)
     check_inputs((("encoder description", a.encoder), ("data file", a.data)))
     check_output_dir(a.out, "calibration", inputs)
-    enc = load_encoder(a.encoder)
+    enc = load_core_encoder(a.encoder)
     meas = fitting_rows(_read_for_calibration(a.data, enc))
     cal = calibrate(meas, enc)
     _note_fitting_rows(cal, meas)
@@ -283,13 +296,12 @@ class CorrectSummary:
 
 
 def cmd_loop(a) -> int:
-    from ..encoder import load_encoder
     from ..io.outputs import check_output_dir
     from ..loop.run import run_loop
 
     check_inputs((("encoder description", a.encoder), ("data file", a.data), ("data file", a.validate)))
     check_output_dir(a.out, "loop", (a.data, a.encoder, a.validate))
-    enc = load_encoder(a.encoder)
+    enc = load_core_encoder(a.encoder)
     val = _read_for_calibration(a.validate, enc) if a.validate else None
     shown = []    # the plots need no more rows than the decision; no reference to the recordings is kept here
     base, state, report = run_loop(_loop_recording(a.data, enc, val is None), enc, val, shown)

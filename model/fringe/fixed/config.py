@@ -221,6 +221,10 @@ class CoreConfig(PositionWidths):
         # at 2^20 lines a period is 1.24", and 2^-11 of one 0.0006"
         lines_w = max(0, (enc.lines_per_rev - 1).bit_length())
         fine_w = overrides.get("fine_w", max(min(cls.fine_w, 31 - lines_w), enc.coarse_bits + 2, 8))
+        if "fine_w" not in overrides and lines_w + fine_w > 31 and enc.coarse_bits:
+            raise ValueError(f"a coarse code of {enc.coarse_bits} bits needs FINE_W >= {enc.coarse_bits + 2}, and "
+                             f"{enc.lines_per_rev} lines then need a position of {lines_w + fine_w} bits: the core's "
+                             "registers hold 31 (clog2(lines_per_rev) + coarse_bits must be at most 29)")
         base = dict(adc_w=enc.adc_bits, lines=enc.lines_per_rev, coarse_w=enc.coarse_bits,
                     wave_addr_w=min(enc.adc_bits - 1, max(8, enc.adc_bits - 4), 10),
                     wave_w=wave_w, coef_w=min(27, max(16, enc.adc_bits + 2)), fine_w=fine_w,
