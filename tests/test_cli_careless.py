@@ -459,3 +459,13 @@ def test_correct_on_normalised_floats_says_to_calibrate_again(world, tmp_path, e
     _fails_with(["correct", data, "--cal", world / "user" / "cal", "--out", tmp_path / "o.csv", "--engine", engine],
                 "cols.csv", "full_scale", "calibrate again")
     assert not (tmp_path / "o.csv").exists()
+
+
+def test_control_characters_in_a_header_are_shown_escaped_on_one_line(world, tmp_path):
+    """A NUL or an escape sequence inside a column name was echoed raw into the terminal."""
+    bad = tmp_path / "ctl.csv"
+    bad.write_bytes(b"sin,c\x00os\x1b[2J\n1,2\n")
+    err = _fails_with(["calibrate", bad, "--encoder", world / "user" / "enc.json", "--out", tmp_path / "cal"],
+                      "ctl.csv", "c\\x00os")
+    assert err.rstrip("\n").isprintable(), err
+    assert not (tmp_path / "cal").exists()

@@ -187,8 +187,10 @@ def test_a_mixed_truncated_or_edited_calibration_is_refused(work, tmp_path, caps
     assert not (tmp_path / "o.csv").exists() and not (tmp_path / "rom").exists()
 
 
-def test_a_calibration_from_another_encoder_is_refused_even_with_a_fresh_manifest(work, tmp_path, capsys):
-    """core.json's encoder fields must agree with calibration.json's encoder, whoever wrote the manifest."""
+@pytest.mark.parametrize("engine", ["model", "float"])
+def test_a_calibration_from_another_encoder_is_refused_even_with_a_fresh_manifest(work, tmp_path, capsys, engine):
+    """core.json's encoder fields must agree with calibration.json's encoder, whoever wrote the manifest, and
+    whichever engine reads the folder."""
     from fringe.io.outputs import write_manifest
 
     def edit(c):
@@ -196,9 +198,27 @@ def test_a_calibration_from_another_encoder_is_refused_even_with_a_fresh_manifes
         os.remove(c / MANIFEST)
         write_manifest(str(c), "calibration", "test")
     cal = _damaged(work, tmp_path, edit)
-    status, err = run(["correct", work / "b.csv", "--cal", cal, "--out", tmp_path / "o.csv"], capsys)
+    status, err = run(["correct", work / "b.csv", "--cal", cal, "--out", tmp_path / "o.csv", "--engine", engine],
+                      capsys)
     one_line_failure(status, err)
     assert "core.json" in err and "disagrees" in err
+
+
+def test_a_quadrature_term_dropped_from_a_calibration_is_refused_not_taken_as_zero(work, tmp_path, capsys):
+    """A missing k_sc read as 0 (no phase correction) would give wrong angles with no word."""
+    from fringe.io.outputs import write_manifest
+
+    def edit(c):
+        d = json.loads((c / "calibration.json").read_text())
+        del d["stages"]["quadrature"]["k_sc"]
+        (c / "calibration.json").write_text(json.dumps(d))
+        os.remove(c / MANIFEST)
+        write_manifest(str(c), "calibration", "test")
+    cal = _damaged(work, tmp_path, edit)
+    status, err = run(["correct", work / "b.csv", "--cal", cal, "--out", tmp_path / "o.csv", "--engine", "float"],
+                      capsys)
+    one_line_failure(status, err)
+    assert "k_sc" in err and not (tmp_path / "o.csv").exists()
 
 
 # --- input diagnosis ---------------------------------------------------------------------------------------

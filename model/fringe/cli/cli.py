@@ -17,7 +17,8 @@ ENGINES = ("model", "float", "verilog", "vhdl")
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):
-        raise FringeInputError(message, "fringe " + self.prog.split()[-1] if " " in self.prog else "fringe")
+        # main prints 'fringe: ' before it: name the subcommand only ("fringe: simulate: ...")
+        raise FringeInputError(message, self.prog.split()[-1] if " " in self.prog else None)
 
 
 def _positive_int(text):
@@ -229,7 +230,7 @@ def summary_text(cal, meas) -> str:
 
 def cmd_correct(a) -> int:
     from ..io.calstore import load_calibration
-    from ..io.dataio import FROM_CALIBRATION, csv_writer, iter_measurement, read_measurement
+    from ..io.dataio import FractionalReadings, csv_writer, iter_measurement, read_measurement
     from ..io.outputs import check_output_file
     from .engines import run_engine, streamable
 
@@ -242,20 +243,21 @@ def cmd_correct(a) -> int:
     summary = CorrectSummary()
     with csv_writer(a.out, ("angle_deg", "status"), comments, formats, inputs) as w:
         step = streamable(a.engine, cal, a.cal)       # pieces of bounded size, or the whole recording
-        said = FROM_CALIBRATION    # floats for a calibration of counts: its encoder is the one to change
-        pieces = (iter_measurement(a.data, cal.encoder, described=said) if step
-                  else [read_measurement(a.data, cal.encoder, described=said)])
-        for meas in pieces:
-            if cal.encoder.coarse_bits and meas.coarse is None:
-                raise FringeInputError(f"the calibration's encoder has a {cal.encoder.coarse_bits}-bit coarse code, "
-                                       "but the recording has no 'coarse' column", a.data)
-            if step:
-                angle, status = step(meas)
-            else:
-                res = run_engine(a.engine, cal, meas, a.cal)
-                angle, status = res.angle_deg, res.status
-            w.write({"angle_deg": angle, "status": status})
-            summary.add(angle, status, meas.ref_deg)
+        try:
+            pieces = iter_measurement(a.data, cal.encoder) if step else [read_measurement(a.data, cal.encoder)]
+            for meas in pieces:
+                if cal.encoder.coarse_bits and meas.coarse is None:
+                    raise FringeInputError(f"the calibration's encoder has a {cal.encoder.coarse_bits}-bit coarse "
+                                           "code, but the recording has no 'coarse' column", a.data)
+                if step:
+                    angle, status = step(meas)
+                else:
+                    res = run_engine(a.engine, cal, meas, a.cal)
+                    angle, status = res.angle_deg, res.status
+                w.write({"angle_deg": angle, "status": status})
+                summary.add(angle, status, meas.ref_deg)
+        except FractionalReadings as e:
+            raise e.for_calibration() from None
     print(f"wrote {a.out}: {summary.rows} rows, engine {a.engine}{summary.text()}")
     return 0
 

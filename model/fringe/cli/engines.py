@@ -3,7 +3,7 @@
 from ..dsp.calibration import Calibration
 from ..engine.pipeline import run_float
 from ..errors import FringeInputError
-from ..hardware.corefiles import core_config
+from ..hardware.corefiles import core_config, saved_core_fields
 from ..io.dataio import Measurement
 from ..result import Result
 
@@ -41,6 +41,7 @@ def streamable(name: str, cal: Calibration, cal_dir: str):
 
 def run_engine(name: str, cal: Calibration, meas: Measurement, cal_dir: str) -> Result:
     if name == "float":
+        saved_core_fields(cal, cal_dir)     # refuses a mixed folder, as the bit-exact engines do
         return run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
     from ..hardware.closed_loop import unsupported
     from ..hardware.tables import run_model

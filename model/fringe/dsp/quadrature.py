@@ -38,7 +38,8 @@ class QuadratureCorrection:
 
     @classmethod
     def from_dict(cls, d: dict) -> "QuadratureCorrection":
-        return cls(**{k: float(v) for k, v in d.items() if k in cls.__dataclass_fields__})
+        """Every field is required (KeyError names a missing one): a dropped key would silently mean no correction."""
+        return cls(**{k: float(d[k]) for k in cls.__dataclass_fields__})
 
 
 NOT_ROUND = "the recording must span at least one full signal period"

@@ -24,19 +24,7 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
     """The core configuration of a calibration: CAL_DIR/core.json if present, else the defaults. A core.json of
     an earlier version is read under today's field names (config.RENAMED_FIELDS: e.g. its speed_log2 is
     trim_speed_log2); core.json is written with today's names only."""
-    base = {}
-    path = os.path.join(cal_dir, CORE_JSON) if cal_dir else None
-    if path and os.path.exists(path):
-        try:
-            with open(path, encoding="utf-8") as f:
-                base = current_field_names(json.load(f)["config"])
-        except (OSError, ValueError, KeyError) as e:
-            raise FringeInputError(f"core configuration damaged ({e})", path) from None
-        enc = cal.encoder    # the encoder's description is the one source of these
-        for key, value in (("adc_w", enc.adc_bits), ("lines", enc.lines_per_rev), ("coarse_w", enc.coarse_bits)):
-            if key in base and base[key] != value:
-                raise FringeInputError(f"'{key}' = {base[key]!r} disagrees with the calibration's encoder "
-                                       f"({value}): the folder is mixed", path)
+    base = saved_core_fields(cal, cal_dir)
     base.update(overrides)
     try:
         cfg = CoreConfig.for_encoder(cal.encoder, **base)
@@ -50,8 +38,28 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
             cfg = long_period_config(cal, cfg)
         return cfg
     except (TypeError, ValueError) as e:
-        where = " ".join(f"--{k.replace('_', '-')} {v}" for k, v in overrides.items()) or path
-        raise FringeInputError(f"core configuration not possible: {e}", where or "core configuration") from None
+        where = " ".join(f"--{k.replace('_', '-')} {v}" for k, v in overrides.items()) or \
+            (os.path.join(cal_dir, CORE_JSON) if base else "core configuration")
+        raise FringeInputError(f"core configuration not possible: {e}", where) from None
+
+
+def saved_core_fields(cal: Calibration, cal_dir: str | None) -> dict:
+    """CAL_DIR/core.json's configuration fields (none without the file), checked against the calibration's
+    encoder: a folder whose two files describe different encoders is refused, whatever the engine."""
+    path = os.path.join(cal_dir, CORE_JSON) if cal_dir else None
+    if not (path and os.path.exists(path)):
+        return {}
+    try:
+        with open(path, encoding="utf-8") as f:
+            base = current_field_names(json.load(f)["config"])
+    except (OSError, ValueError, KeyError) as e:
+        raise FringeInputError(f"core configuration damaged ({e})", path) from None
+    enc = cal.encoder    # the encoder's description is the one source of these
+    for key, value in (("adc_w", enc.adc_bits), ("lines", enc.lines_per_rev), ("coarse_w", enc.coarse_bits)):
+        if key in base and base[key] != value:
+            raise FringeInputError(f"'{key}' = {base[key]!r} disagrees with the calibration's encoder "
+                                   f"({value}): the folder is mixed", path)
+    return base
 
 
 def cancel_config(cal: Calibration, cfg: CoreConfig) -> CoreConfig:

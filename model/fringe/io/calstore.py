@@ -14,6 +14,7 @@ from ..dsp.waveform import ChannelWaveform, WaveformInverse
 from ..encoder import encoder_from_dict
 from ..errors import FringeInputError
 from ..fixed.trim import MAG_SMOOTH_LOG2_MAX
+from .dataio import MAX_REF_DEG
 from .outputs import atomic_dir, verify_dir
 
 TRACKER_KEYS = ("drift_block_log2", "drift_mu_log2")     # the drift tracker constants a calibration may choose
@@ -192,9 +193,6 @@ def load_calibration(cal_dir: str) -> Calibration:
     return cal
 
 
-MAX_ZERO_DEG = 1e9   # as a recording's ref_deg (dataio.MAX_REF_DEG)
-
-
 def _check_values(cal: Calibration, path: str):
     """Values a calibration cannot hold, refused by name (an edited calibration.json whose manifest was written
     anew): non-finite numbers, an angle beyond any plausible zero, status thresholds out of order, a waveform
@@ -202,7 +200,7 @@ def _check_values(cal: Calibration, path: str):
     def bad(field, problem):
         raise FringeInputError(f"{field} {problem}: the calibration is damaged or edited; write it anew", path)
 
-    if not (np.isfinite(cal.zero_deg) and abs(cal.zero_deg) <= MAX_ZERO_DEG):
+    if not (np.isfinite(cal.zero_deg) and abs(cal.zero_deg) <= MAX_REF_DEG):   # an angle, as a ref_deg is
         bad("stages.output.zero_deg", f"= {cal.zero_deg!r} is not a plausible angle in degrees")
     if not (np.isfinite(cal.amp_low) and np.isfinite(cal.amp_high) and 0 <= cal.amp_low < cal.amp_high):
         bad("stages.status", f"amp_low = {cal.amp_low!r}, amp_high = {cal.amp_high!r} must be finite with "

@@ -11,9 +11,6 @@ from ..encoder import Encoder
 from ..errors import FringeInputError
 
 REQUIRED = ("sin", "cos")
-ENCODER_FILE = "in the encoder description"      # where a missing full_scale is to be given, for messages
-FROM_CALIBRATION = ("in the encoder description and calibrate again (this calibration's encoder has none: it "
-                    "reads ADC counts)")
 OPTIONAL = ("coarse", "ref_deg", "t_s")
 
 
@@ -78,11 +75,23 @@ def check_memory(rows: float, bytes_per_row: int, what: str, where: str):
                                f"{free / 2**30:.1f} GiB are free", where)
 
 
-def read_measurement(path: str, encoder: Encoder | None = None, min_samples: int = 1,
-                     described: str = ENCODER_FILE) -> Measurement:
+class FractionalReadings(FringeInputError):
+    """Readings within +-2 with fractions, for an encoder without 'full_scale': normalised floats."""
+
+    def __init__(self, path, peak, where="in the encoder description"):
+        self.path, self.peak = path, peak
+        super().__init__(f"the readings are fractions within +-{peak:.3g}: normalised floats? give 'full_scale' "
+                         f"(the reading that means ADC full scale) {where}", path)
+
+    def for_calibration(self) -> "FractionalReadings":
+        """The same, for a calibration of counts: its encoder is the one to change."""
+        return FractionalReadings(self.path, self.peak, "in the encoder description and calibrate again (this "
+                                  "calibration's encoder has none: it reads ADC counts)")
+
+
+def read_measurement(path: str, encoder: Encoder | None = None, min_samples: int = 1) -> Measurement:
     """Read and check a recording (CSV, or .npy/.parquet with the same column names); every problem
-    is a FringeInputError naming the file and line. `described`: where the encoder description came from, for
-    the messages."""
+    is a FringeInputError naming the file and line."""
     if not os.path.isfile(path):
         raise FringeInputError("data file not found" if not os.path.exists(path) else "is not a regular file",
                                path)
@@ -94,14 +103,14 @@ def read_measurement(path: str, encoder: Encoder | None = None, min_samples: int
     n = len(cols["sin"])
     if n < min_samples:
         raise FringeInputError(f"too few samples: {n} (need at least {min_samples})", path)
-    return _checked(path, cols, line_of, comments, encoder, described=described)
+    return _checked(path, cols, line_of, comments, encoder)
 
 
 def _row_line(line_of, r) -> str:
     return line_of(r) if callable(line_of) else f"line {int(line_of[r])}"
 
 
-def _checked(path, cols, line_of, comments, encoder, t_before=None, described=None):
+def _checked(path, cols, line_of, comments, encoder, t_before=None):
     for name, v in cols.items():
         bad = np.flatnonzero(~np.isfinite(v))
         if bad.size:
@@ -144,7 +153,7 @@ def _checked(path, cols, line_of, comments, encoder, t_before=None, described=No
 
     sin, cos = cols["sin"], cols["cos"]
     if encoder is not None:
-        sin, cos = _to_counts(sin, cos, encoder, path, line_of, described or ENCODER_FILE)
+        sin, cos = _to_counts(sin, cos, encoder, path, line_of)
     return Measurement(path, sin, cos, coarse, ref, t, tuple(comments), line_of)
 
 
@@ -153,7 +162,7 @@ MAX_REF_DEG = 1e9         # about 2.8 million turns
 MIN_RANGE_USED = 1 / 256  # a signal swinging less than this fraction of the ADC's range: wrong adc_bits?
 
 
-def _to_counts(sin, cos, enc: Encoder, path, line_of, described=ENCODER_FILE):
+def _to_counts(sin, cos, enc: Encoder, path, line_of):
     """Float readings are scaled by full_scale; offset-binary codes are centred; counts must fit the ADC."""
     lo, hi = -enc.adc_half_range, enc.adc_half_range - 1
     if enc.full_scale is not None:   # to the codes the core's ADC input holds: calibrate on what it will see
@@ -163,8 +172,7 @@ def _to_counts(sin, cos, enc: Encoder, path, line_of, described=ENCODER_FILE):
         peak = max(np.max(np.abs(sin)), np.max(np.abs(cos)))
         fractional = np.any(sin != np.round(sin)) or np.any(cos != np.round(cos))
         if fractional and peak <= 2.0:
-            raise FringeInputError(f"the readings are fractions within +-{peak:.3g}: normalised floats? give "
-                                   f"'full_scale' (the reading that means ADC full scale) {described}", path)
+            raise FractionalReadings(path, peak)
         if enc.offset_binary:
             sin, cos = sin - enc.adc_half_range, cos - enc.adc_half_range
     for name, v in (("sin", sin), ("cos", cos)):
@@ -344,7 +352,7 @@ def _lines_at_most(path, offset) -> int:
     return breaks + 1
 
 
-def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18, described: str = ENCODER_FILE):
+def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18):
     """The recording in pieces of about `rows` rows, each checked as `read_measurement` checks the whole
     (time stamps across the pieces too): memory bounded by a piece. A CSV that pyarrow's streaming reader
     cannot take row by row (comment lines among the rows, a broken row) is read whole, which finds and
@@ -352,7 +360,7 @@ def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18, described
     import pyarrow as pa
 
     if os.path.splitext(path)[1].lower() in (".npy", ".parquet") or not os.path.isfile(path):
-        yield read_measurement(path, encoder, described=described)
+        yield read_measurement(path, encoder)
         return
     offset, header_line, header, comments = _header(path)
     wanted = _wanted_columns(header, path, header_line)
@@ -361,15 +369,14 @@ def iter_measurement(path: str, encoder: Encoder, rows: int = 1 << 18, described
         for batch in _csv_batches(path, offset, header, wanted, rows):
             cols = {c: batch.column(c).to_numpy(zero_copy_only=False) for c in wanted}
             first = header_line + 1 + done
-            m = _checked(path, cols, lambda r, first=first: f"line {first + r}", comments, encoder, t_last,
-                         described)
+            m = _checked(path, cols, lambda r, first=first: f"line {first + r}", comments, encoder, t_last)
             done += len(m)
             if m.t_s is not None and len(m):
                 t_last = m.t_s[-1]
             if len(m):
                 yield m
     except (pa.ArrowInvalid, ValueError):
-        whole = read_measurement(path, encoder, described=described)   # names the line, or reads what pyarrow could not
+        whole = read_measurement(path, encoder)   # names the line, or reads what pyarrow could not
         if done < len(whole):
             yield whole.subset(slice(done, None))
         return
