@@ -64,6 +64,7 @@ def constants() -> list[Const]:
     out = [Const("REG_W", regmap.REG_W, "bits per register word"),
            Const("N_REGS", regmap.N_REGS, "register words per bank")]
     reg_addr_w = (regmap.N_REGS - 1).bit_length()
+    out.append(Const("REG_INDEX_W", reg_addr_w, "bits of a register's index in its bank"))
     out += [Const(f"REG_{r.name}", r.index, f"{'s' if r.signed else 'u'}({r.width})", reg_addr_w)
             for r in regmap.REGISTERS]
     out += [Const("CTRL_WORD", regmap.CTRL_WORD, "register-space word of CTRL", regmap.SPACE_LSB),

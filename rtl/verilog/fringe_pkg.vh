@@ -12,6 +12,7 @@
 // BEGIN generated constants (written by python sim/hdlgen.py; do not edit)
 localparam integer REG_W                   = 32;  // bits per register word
 localparam integer N_REGS                  = 32;  // register words per bank
+localparam integer REG_INDEX_W             = 5;  // bits of a register's index in its bank
 localparam [4:0]   REG_K_SS                = 5'd0;  // s(COEF_W)
 localparam [4:0]   REG_K_SC                = 5'd1;  // s(COEF_W)
 localparam [4:0]   REG_K_CC                = 5'd2;  // s(COEF_W)

@@ -20,7 +20,8 @@ module fringe_regs #(
     input  wire                      cfg_wr_en,
     input  wire [19:0]               cfg_wr_addr,   // {space, word}
     input  wire [63:0]               cfg_wr_data,
-    // the register file: word {bank, index} at bits [32*(32*bank + index) +: 32]
+    // the register file: word {bank, index} at bits [32*(32*bank + index) +: 32] (2 x N_REGS words of REG_W
+    // bits; the package's constants come after the ports: the width is checked below)
     output wire [2*32*32-1:0]        regs_q,
     output wire                      active_bank,
     // the landing table write (one clock): strobes, word address in a bank, its bank, data
@@ -46,6 +47,8 @@ module fringe_regs #(
 
     generate
         `FRINGE_MEM_INIT(REGS_INIT, regs, 2 * N_REGS, REG_W)
+        // regs_q's width is written out in the port list, ahead of the package's constants
+        `FRINGE_CHECK_RANGE(g_bad_regs_q, "fringe_regs", "regs_q width", 2 * N_REGS * REG_W, 2 * 32 * 32, 2 * 32 * 32)
     endgenerate
 
     wire [3:0]  cfg_sel  = cfg_wr_addr[19:16];
@@ -62,7 +65,7 @@ module fringe_regs #(
     reg  [15:0]       st1_word;
     reg               st1_bank;
     reg  [63:0]       st1_data;
-    reg  [63:0]       reg_we;
+    reg  [2*N_REGS-1:0] reg_we;
     reg               ctrl_swap;
 
     // power-up values: no write lands before the first one presented (as bank_r, not reset)
@@ -70,7 +73,7 @@ module fringe_regs #(
         st1_en_reg    = 1'b0;
         st1_en_ctrl_a = 1'b0;
         st1_sel       = 8'd0;
-        reg_we        = 64'd0;
+        reg_we        = {2*N_REGS{1'b0}};
         wr_sin        = 1'b0;
         wr_cos        = 1'b0;
         wr_lp         = 1'b0;
@@ -81,7 +84,7 @@ module fringe_regs #(
 
     // step 1: which space, whether the word lies inside one bank (table words), CTRL in two halves
     always @(posedge clk) begin
-        st1_en_reg    <= cfg_wr_en && cfg_sel == SPACE_REGS && cfg_word[15:5] == 11'd0;
+        st1_en_reg    <= cfg_wr_en && cfg_sel == SPACE_REGS && (cfg_word >> REG_INDEX_W) == 16'd0;
         st1_en_ctrl_a <= cfg_wr_en && cfg_sel == SPACE_REGS && cfg_word[15:8] == 8'd0;
         st1_en_ctrl_b <= cfg_word[7:0] == CTRL_WORD[7:0] && cfg_wr_data[CTRL_SWAP];
         st1_sel       <= {cfg_sel == SPACE_DRIFT_FWD_COS, cfg_sel == SPACE_DRIFT_FWD_SIN, cfg_sel == SPACE_TRIM_AMP,
@@ -99,8 +102,8 @@ module fringe_regs #(
     // step 2: one-hot register enables {bank, index}, table enables, CTRL
     integer wi;
     always @(posedge clk) begin
-        for (wi = 0; wi < 64; wi = wi + 1) begin
-            reg_we[wi] <= st1_en_reg && st1_word[4:0] == wi[4:0] && st1_bank == wi[5];
+        for (wi = 0; wi < 2 * N_REGS; wi = wi + 1) begin
+            reg_we[wi] <= st1_en_reg && st1_word[REG_INDEX_W-1:0] == wi[REG_INDEX_W-1:0] && st1_bank == wi[REG_INDEX_W];
         end
         wr_sin      <= st1_sel[0] && st1_wave_ok;
         wr_cos      <= st1_sel[1] && st1_wave_ok;
@@ -117,7 +120,7 @@ module fringe_regs #(
 
     genvar ri;
     generate
-        for (ri = 0; ri < 64; ri = ri + 1) begin : g_reg_wr
+        for (ri = 0; ri < 2 * N_REGS; ri = ri + 1) begin : g_reg_wr
             always @(posedge clk) begin
                 if (reg_we[ri]) begin
                     regs[ri] <= wr_data[REG_W-1:0];

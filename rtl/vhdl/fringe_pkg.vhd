@@ -71,6 +71,7 @@ package fringe_pkg is
     -- BEGIN generated constants (written by python sim/hdlgen.py; do not edit)
     constant REG_W                   : integer := 32;  -- bits per register word
     constant N_REGS                  : integer := 32;  -- register words per bank
+    constant REG_INDEX_W             : integer := 5;  -- bits of a register's index in its bank
     constant REG_K_SS                : integer := 0;  -- s(COEF_W)
     constant REG_K_SC                : integer := 1;  -- s(COEF_W)
     constant REG_K_CC                : integer := 2;  -- s(COEF_W)

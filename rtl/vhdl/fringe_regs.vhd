@@ -27,7 +27,7 @@ entity fringe_regs is
         cfg_wr_addr : in  std_logic_vector(19 downto 0);            -- {space, word}
         cfg_wr_data : in  std_logic_vector(63 downto 0);
         -- the register file: word {bank, index} at bits 32*(32*bank + index) + 31 .. 32*(32*bank + index)
-        regs_q      : out std_logic_vector(2 * 32 * 32 - 1 downto 0);
+        regs_q      : out std_logic_vector(2 * N_REGS * REG_W - 1 downto 0);
         active_bank : out std_logic;
         -- the landing table write (one clock): strobes, word address in a bank, its bank, data
         wr_sin      : out std_logic;
@@ -70,7 +70,7 @@ architecture rtl of fringe_regs is
     signal st1_data      : std_logic_vector(63 downto 0);
     signal ctrl_swap     : std_logic := '0';
     -- step 2: the one-hot register enables and the landing write's data
-    signal reg_we        : std_logic_vector(63 downto 0) := (others => '0');
+    signal reg_we        : std_logic_vector(2 * N_REGS - 1 downto 0) := (others => '0');
     signal wr_data_r     : std_logic_vector(63 downto 0);
 
 begin
@@ -94,7 +94,7 @@ begin
     begin
         if rising_edge(clk) then
             st1_en_reg    <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SPACE_REGS
-                               and cfg_word(15 downto 5) = 0);
+                               and shift_right(cfg_word, REG_INDEX_W) = 0);
             st1_en_ctrl_a <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SPACE_REGS
                                and cfg_word(15 downto 8) = 0);
             -- (the package's CTRL_SWAP by its full name: the signal ctrl_swap hides it)
@@ -116,9 +116,9 @@ begin
     p_cfg_dec : process (clk)
     begin
         if rising_edge(clk) then
-            for i in 0 to 63 loop
-                if st1_en_reg = '1' and st1_word(4 downto 0) = to_unsigned(i mod 32, 5)
-                   and (st1_bank = '1') = (i >= 32) then
+            for i in 0 to 2 * N_REGS - 1 loop
+                if st1_en_reg = '1' and st1_word(REG_INDEX_W - 1 downto 0) = to_unsigned(i mod N_REGS, REG_INDEX_W)
+                   and (st1_bank = '1') = (i >= N_REGS) then
                     reg_we(i) <= '1';
                 else
                     reg_we(i) <= '0';
@@ -142,7 +142,7 @@ begin
     p_regs : process (clk)
     begin
         if rising_edge(clk) then
-            for i in 0 to 63 loop
+            for i in 0 to 2 * N_REGS - 1 loop
                 if reg_we(i) = '1' then
                     regs(i) <= wr_data_r(REG_W - 1 downto 0);
                 end if;
