@@ -11,7 +11,7 @@ import numpy as np
 
 from ..calib.calibrate import calibrate
 from ..dsp.calibration import Calibration
-from ..dsp.effects import LIBRARY, Context, FittedEffect, make_context
+from ..dsp.effects import FINE_MAP_PREFIX, LIBRARY, Context, FittedEffect, make_context
 from ..dsp.metrics import error_arcsec
 from ..encoder import ARCSEC_PER_REV
 from ..engine.pipeline import run_float, sample_times, tracked_readings, tracker_activity
@@ -42,7 +42,10 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
             if abs(w) * np.std(ev.ctx.speed) < 0.01 * noise_sigma(ev.r):
                 break
     elif t.name == "rev_offset_gain":
-        new.cal = fit_rev_offset_gain(new.cal, shift_reference(fit_data, state.ref_lag_s))
+        meas = shift_reference(fit_data, state.ref_lag_s)
+        if new.cal.canceller:    # the offsets and gains of the readings, not of the interference the core cancels
+            meas = interference_removed(new.cal, new, meas, new.cal.canceller["tone_hz"]) or meas
+        new.cal = fit_rev_offset_gain(new.cal, meas)
     elif kind in ("hardware", "float engine"):
         new.cal.angle_terms.append(fitted)
         meas = shift_reference(fit_data, state.ref_lag_s)
@@ -83,9 +86,15 @@ def recalibrate(meas: Measurement, cal: Calibration, known_error_arcsec: np.ndar
 
 
 def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
-    """A fresh calibration of the declared model with the closed loop's additions of `cal` carried over."""
+    """A fresh calibration of the declared model with the closed loop's additions of `cal` carried over. The fresh
+    calibration's own fine-phase map (the phase-table structure's, an angle term of the fine phase alone) is
+    its declared model, fitted on these readings: it replaces cal's. Carried over, cal's map, fitted on other
+    readings, undid the fresh one's fit (held-out 9212: offsets over the revolution, normalised in the readings,
+    took the fit data from 58" to 201" with the stale map, to 44" with the fresh one)."""
+    fresh_map = [t for t in fresh.angle_terms if t.name.startswith(FINE_MAP_PREFIX)]
+    terms = [t for t in cal.angle_terms if not (fresh_map and t.name.startswith(FINE_MAP_PREFIX))] + fresh_map
     kept = dict(rev_norm=cal.rev_norm, adaptive=cal.adaptive, tracker=dict(cal.tracker),
-                canceller=dict(cal.canceller), angle_terms=list(cal.angle_terms),
+                canceller=dict(cal.canceller), angle_terms=terms,
                 start_speed_rev_s=cal.start_speed_rev_s, magnitude_smooth_log2=cal.magnitude_smooth_log2)
     return dataclasses.replace(fresh, **{**kept, **changes})
 
@@ -180,15 +189,10 @@ def refit_around_interference(cal: Calibration, state: LoopState, meas: Measurem
     reading minus the calibrated waveform at the reference's phase, and the model calibrated again on the
     readings without it. (One round: the channel errors of a calibration made without the tone are taken in
     a frame that no longer shows it whole.)"""
-    t = sample_times(len(meas), meas.t_s)
-    x = np.column_stack([np.ones_like(t), np.cos(2 * np.pi * tone_hz * t), np.sin(2 * np.pi * tone_hz * t)])
     plain = dataclasses.replace(cal, canceller={})
-    e = channel_errors(evaluate(LoopState(plain, state.artefacts, state.ref_lag_s), meas))
-    if e is None:
+    clean = interference_removed(plain, state, meas, tone_hz)
+    if clean is None:
         return plain
-    w, *_ = np.linalg.lstsq(x, e.T, rcond=None)
-    tone = x[:, 1:] @ w[1:]          # the offsets stay in the readings: the waveform fit has its own
-    clean = dataclasses.replace(meas, sin=meas.sin - tone[:, 0], cos=meas.cos - tone[:, 1])
     fresh = carry_loop(recalibrate(clean, cal), plain)
     # vibrations already named stay out of the reference the declared model is fitted against; the angle terms
     # found before are refitted with it (a declared model calibrated again without their error held out takes
@@ -197,6 +201,23 @@ def refit_around_interference(cal: Calibration, state: LoopState, meas: Measurem
     if vibrations:
         return refit_around_tone(fresh, vibrations, clean)
     return refit_angle_terms(fresh, clean) if fresh.angle_terms else fresh
+
+
+def interference_removed(cal: Calibration, state: LoopState, meas: Measurement, tone_hz: float
+                         ) -> Measurement | None:
+    """The readings with the additive tone at tone_hz taken out: the tone (cos, sin at its frequency) fitted to
+    each channel's reading minus `cal`'s waveform at the reference's phase (`cal` without the canceller). What
+    the declared model and the signal-domain terms are calibrated on once fringe_canceller removes the tone in
+    the core; None where the channel errors cannot be formed."""
+    t = sample_times(len(meas), meas.t_s)
+    x = np.column_stack([np.ones_like(t), np.cos(2 * np.pi * tone_hz * t), np.sin(2 * np.pi * tone_hz * t)])
+    e = channel_errors(evaluate(LoopState(dataclasses.replace(cal, canceller={}), state.artefacts, state.ref_lag_s),
+                                meas))
+    if e is None:
+        return None
+    w, *_ = np.linalg.lstsq(x, e.T, rcond=None)
+    tone = x[:, 1:] @ w[1:]          # the offsets stay in the readings: the waveform fit has its own
+    return dataclasses.replace(meas, sin=meas.sin - tone[:, 0], cos=meas.cos - tone[:, 1])
 
 
 def refit_around_tone(cal: Calibration, tones: list[FittedEffect], meas: Measurement, rounds: int = 3) -> Calibration:
