@@ -880,13 +880,14 @@ def test_offsets_over_the_revolution_refit_the_phase_table_structures_own_fine_m
     stale map carried over from the first calibration undid that fit (held-out 9212: 58" -> 201" on the fit
     data). Here: 9212's encoder without its interference, the structure forced, validated on a new recording."""
     from fringe.calib.calibrate import PHASE_TABLE, CalibrationOptions, calibrate
+    from fringe.dsp.effects import FINE_MAP_PREFIX
     from fringe.loop.refit import fit_rev_offset_gain
     from fringe.tools.population import draw_case
 
     cfg = dataclasses.replace(draw_case(9212)["config"], interference_fs=0.0)
     fit, val = measurement_of(simulate(cfg, 1)), measurement_of(simulate(cfg, 2))
     cal = calibrate(fit, cfg.encoder(), CalibrationOptions(structure=PHASE_TABLE))
-    assert any(t.name.startswith("generic:1:") for t in cal.angle_terms)
+    assert any(t.name.startswith(FINE_MAP_PREFIX) for t in cal.angle_terms)
     before = evaluate(LoopState(cal), val).rms
     after = evaluate(LoopState(fit_rev_offset_gain(cal, fit)), val).rms
     # before: the map absorbs most of it (46"); the offsets' fit must take it towards the floor (43"), not away

@@ -44,7 +44,8 @@ def apply(state: LoopState, t: Test, fit_data: Measurement) -> LoopState:
     elif t.name == "rev_offset_gain":
         meas = shift_reference(fit_data, state.ref_lag_s)
         if new.cal.canceller:    # the offsets and gains of the readings, not of the interference the core cancels
-            meas = interference_removed(new.cal, new, meas, new.cal.canceller["tone_hz"]) or meas
+            clean = interference_removed(new.cal, new, meas, new.cal.canceller["tone_hz"])
+            meas = meas if clean is None else clean
         new.cal = fit_rev_offset_gain(new.cal, meas)
     elif kind in ("hardware", "float engine"):
         new.cal.angle_terms.append(fitted)
@@ -207,7 +208,7 @@ def refit_around_interference(cal: Calibration, state: LoopState, meas: Measurem
 def interference_removed(cal: Calibration, state: LoopState, meas: Measurement, tone_hz: float
                          ) -> Measurement | None:
     """The readings with the additive tone at tone_hz taken out: the tone (cos, sin at its frequency) fitted to
-    each channel's reading minus `cal`'s waveform at the reference's phase (`cal` without the canceller). What
+    each channel's reading minus `cal`'s waveform at the reference's phase (`cal` run without its canceller). What
     the declared model and the signal-domain terms are calibrated on once fringe_canceller removes the tone in
     the core; None where the channel errors cannot be formed."""
     t = sample_times(len(meas), meas.t_s)
