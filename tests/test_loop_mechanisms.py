@@ -892,3 +892,42 @@ def test_offsets_over_the_revolution_refit_the_phase_table_structures_own_fine_m
     after = evaluate(LoopState(fit_rev_offset_gain(cal, fit)), val).rms
     # before: the map absorbs most of it (46"); the offsets' fit must take it towards the floor (43"), not away
     assert after < before, (before, after)
+
+
+def test_an_amplitude_that_follows_the_revolution_is_reported_ambiguous_with_its_offsets():
+    """Where the magnitude is a function of the place in the revolution, a waveform that changes with the amplitude
+    and offsets and gains over the revolution give the same error: the entry says so (held-out 9202, 9208 named one
+    and let it take the other's part). Not where the magnitude changes in time on its own, nor on an incremental
+    encoder (the offsets over the revolution are no candidate there), nor for other effects."""
+    from types import SimpleNamespace
+
+    from fringe.dsp.effects import Context
+    from fringe.loop.amplitude import AMBIGUOUS_SHARE, with_revolution_ambiguity
+    from fringe.loop.candidates import magnitude_follows_revolution
+
+    rng = np.random.default_rng(5)
+    n, lines = 20000, 64
+    t = np.arange(n) / 10000.0
+    rev = 1.7 * t                                   # 3.4 revolutions at a steady speed
+    psi = 2 * np.pi * (rev % 1.0)
+    phi = (lines * psi) % (2 * np.pi)
+    ones = np.ones(n)
+
+    def ctx(magnitude):
+        return Context(phi, psi, t, 1.7 * ones, 0 * ones, ones, magnitude, lines)
+
+    tied = ctx(1 + 0.05 * np.cos(psi + 0.3) + 0.01 * rng.normal(size=n))
+    in_time = ctx(1 + 0.05 * np.sin(2 * np.pi * 0.23 * t) + 0.01 * rng.normal(size=n))
+    assert magnitude_follows_revolution(tied) > 0.9
+    assert magnitude_follows_revolution(in_time) < AMBIGUOUS_SHARE
+    absolute = SimpleNamespace(encoder=SimpleNamespace(lines_per_rev=lines, coarse_bits=7), coarse_offset_periods=0)
+    incremental = SimpleNamespace(encoder=SimpleNamespace(lines_per_rev=lines, coarse_bits=0),
+                                  coarse_offset_periods=None)
+    entry = {"name": "amplitude", "evidence": "explains"}
+    marked = with_revolution_ambiguity(entry, tied, absolute)
+    assert marked["ambiguous_with"] == "rev_offset_gain" and "ambiguous with rev_offset_gain" in marked["evidence"]
+    assert with_revolution_ambiguity({**entry, "name": "rev_offset_gain"}, tied, absolute)["ambiguous_with"] == \
+        "amplitude"
+    for e, c, cal in ((entry, in_time, absolute), (entry, tied, incremental),
+                      ({**entry, "name": "sampling_skew"}, tied, absolute)):
+        assert with_revolution_ambiguity(e, c, cal) == e

@@ -9,10 +9,12 @@ import dataclasses
 import numpy as np
 
 from ..calib.calibrate import PHASE_TABLE
+from ..dsp.calibration import Calibration
 from ..dsp.effects import (
     AMPLITUDE_ORDERS,
     FINE_MAP_PREFIX,
     GENERIC,
+    Context,
     FittedEffect,
     generic_design,
     generic_name,
@@ -20,13 +22,45 @@ from ..dsp.effects import (
 )
 from ..errors import FringeInputError
 from ..io.dataio import Measurement
-from .candidates import _fold_grams, _held_out, cv_held_out, magnitude_follows_time, strided
+from .candidates import (
+    _fold_grams,
+    _held_out,
+    cv_held_out,
+    magnitude_follows_revolution,
+    magnitude_follows_time,
+    strided,
+)
 from .evaluation import Evaluation, LoopState, _design, evaluate, shift_reference
 from .refit import apply, carry_loop, choose_tracker, recalibrate, refit_angle_terms
-from .significance import MIN_GAIN, Test, test_terms
+from .significance import MIN_GAIN, REVOLUTION_MIN_LINES, Test, revolution_untestable, test_terms
 
 PHASE_DOMAIN_ORDERS = (2, 4, 6, 8, 12, 16, 24, 32)   # fine-phase orders of the phase-domain map (chosen by CV)
 AMPLITUDE_TERMS = ("amplitude", "generic:magnitude:", "generic:magnitude2:")
+
+
+#: the effects an error tied to both the magnitude and the place in the revolution could be, each the other's twin
+REVOLUTION_TWIN = {"amplitude": "rev_offset_gain", "rev_offset_gain": "amplitude"}
+AMBIGUOUS_SHARE = 0.5   # of the magnitude's changes, the place in the revolution explaining this much: ambiguous
+
+
+def with_revolution_ambiguity(entry: dict, ctx: Context, cal: Calibration) -> dict:
+    """An amplitude or revolution-offsets entry marked ambiguous (`ambiguous_with`, and said in its evidence) where
+    the magnitude follows the place in the revolution in this recording: a waveform that changes with the amplitude
+    and offsets and gains over the revolution then give the same error, and the name taken is the one whose shape
+    fitted first (held-out 9202 and 9208 name one and let it take the other's part). Only where both can be named
+    (an absolute encoder of REVOLUTION_MIN_LINES periods or more, the revolution covered): without a coarse code the
+    offsets over the revolution are no candidate, and an amplitude term is the correction the core can make."""
+    other = REVOLUTION_TWIN.get(entry["name"])
+    if other is None or ctx.lines < REVOLUTION_MIN_LINES or revolution_untestable(ctx, cal) is not None:
+        return entry
+    share = magnitude_follows_revolution(ctx)
+    if share < AMBIGUOUS_SHARE:
+        return entry
+    return {**entry, "ambiguous_with": other,
+            "evidence": entry["evidence"] + f"; ambiguous with {other}: the place in the revolution explains "
+                        f"{share:.0%} of the magnitude's changes in this recording, so an amplitude-dependent "
+                        "waveform and offsets and gains over the revolution look alike here (a recording whose "
+                        "amplitude changes otherwise, at another air gap, tells them apart)"}
 
 
 def unnamed_amplitude(entry: dict, lines: int) -> dict:

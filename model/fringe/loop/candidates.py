@@ -15,6 +15,7 @@ from ..dsp.effects import (
     GENERIC_REV_ORDERS,
     INTERFERENCE,
     LIBRARY,
+    REV_ORDERS,
     Context,
     _legendre_time,
     amplitude_phase_columns,
@@ -90,6 +91,22 @@ def magnitude_follows_time(ctx: Context) -> bool:
         return float(np.sum((m - cross_fit(_magnitude_shapes(ctx, slow), m, SMOOTH_BLOCKS)) ** 2))
 
     return held_out(_slow_time(ctx)) < held_out(_slow_revolution(ctx))
+
+
+def magnitude_follows_revolution(ctx: Context) -> float:
+    """The share of the magnitude's changes that the place in the revolution explains (its harmonics
+    1..REV_ORDERS, fitted on every other block of samples and evaluated on the blocks between): 0 where the
+    revolution is not covered. Near 1, a gain over the revolution and an amplitude-dependent waveform give the
+    same error in this recording: the magnitude is then a function of the place in the revolution."""
+    if not ctx.revolution_covered:
+        return 0.0
+    m = ctx.magnitude - ctx.magnitude.mean()
+    total = float(np.sum(m * m))
+    if total <= 0:
+        return 0.0
+    x = np.column_stack([np.ones_like(m)] + [f(k * ctx.psi) for k in range(1, REV_ORDERS + 1)
+                                             for f in (np.cos, np.sin)])
+    return max(0.0, 1.0 - float(np.sum((m - cross_fit(x, m, SMOOTH_BLOCKS)) ** 2)) / total)
 
 
 NOISE_SHARE = 0.25    # of what the term explains, the noise-free magnitude must explain this much (variance)

@@ -29,6 +29,7 @@ from .amplitude import (
     magnitude_cause,
     read_on_the_better_magnitude,
     unnamed_amplitude,
+    with_revolution_ambiguity,
 )
 from .candidates import candidates, describe, family_holds, generic_effect, named_shape, speed_holds, strided, widen
 from .evaluation import Evaluation, LoopState, _design, _figs, evaluate, leans_on_vibrations, validation_figures
@@ -186,6 +187,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                          correction="adaptive" if remedy == NORMALISER else "hardware")
         if entry["name"] == "amplitude" and state.cal.encoder.lines_per_rev < REVOLUTION_MIN_LINES:
             entry = unnamed_amplitude(entry, state.cal.encoder.lines_per_rev)
+        entry = with_revolution_ambiguity(entry, ev_fit.ctx, state.cal)
         why_not = "" if val_after.rms < (1 - 0.5 * MIN_GAIN) * ev_val.rms else \
             f"did not lower the error on the validation data ({val_name})"
         if not why_not and best.name != "tone" and leans_on_vibrations(state, trial, val_data):
