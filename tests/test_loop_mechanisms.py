@@ -931,3 +931,25 @@ def test_an_amplitude_that_follows_the_revolution_is_reported_ambiguous_with_its
     for e, c, cal in ((entry, in_time, absolute), (entry, tied, incremental),
                       ({**entry, "name": "sampling_skew"}, tied, absolute)):
         assert with_revolution_ambiguity(e, c, cal) == e
+
+
+def test_a_tone_on_a_steady_revolution_harmonic_is_reported_ambiguous():
+    """At a steady 2 rev/s a vibration within the resolution of a revolution harmonic (21.37 Hz: 11 x 2 Hz within
+    1.5 bins) looks like a position error at that order in one recording: its entry says so; one between harmonics
+    (23 Hz) is a tone without doubt. (One exactly on a harmonic, 20 Hz, the long-period table takes whole.)"""
+    from fringe.calib.calibrate import calibrate
+    from fringe.loop.significance import Test
+    from fringe.loop.tones import tone_candidates, with_harmonic_ambiguity
+
+    entry = {"name": "tone", "evidence": "explains"}
+    for hz, ambiguous in ((21.37, True), (23.0, False)):
+        cfg = SimulationConfig(lines_per_rev=64, adc_bits=14, coarse_bits=7, sample_rate_hz=10000.0, samples=16384,
+                               speed_mean_rev_s=2.0, speed_swing_rev_s=0.0, vibration_arcsec=30.0, vibration_hz=hz)
+        fit = measurement_of(simulate(cfg, 1))
+        (name, f, _, harmonic), = tone_candidates(evaluate(LoopState(calibrate(fit, cfg.encoder())), fit))[0]
+        assert name == "tone" and abs(f - hz) < 0.05 and harmonic == ambiguous, (hz, f, harmonic)
+        got = with_harmonic_ambiguity(entry, Test("tone", np.zeros(2), 1.0, 1.0, 0.0, 2, f, ambiguous=harmonic))
+        assert ("ambiguous_with" in got) == ambiguous and ("harmonic of the steady revolution" in got["evidence"]) == \
+            ambiguous
+    assert with_harmonic_ambiguity({"name": "drift", "evidence": ""}, Test("drift", np.zeros(1), 1, 1, 0, 1,
+                                                                            ambiguous=True))["evidence"] == ""

@@ -45,7 +45,7 @@ from .significance import (
     test_terms,
     testable,
 )
-from .tones import tone_candidates
+from .tones import tone_candidates, with_harmonic_ambiguity
 
 MAX_EFFECTS = 8          # effects kept at most
 MAX_TRIALS = 20          # candidates tried at most: a rejected one must not use up a kept one's turn
@@ -187,7 +187,7 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
                          correction="adaptive" if remedy == NORMALISER else "hardware")
         if entry["name"] == "amplitude" and state.cal.encoder.lines_per_rev < REVOLUTION_MIN_LINES:
             entry = unnamed_amplitude(entry, state.cal.encoder.lines_per_rev)
-        entry = with_revolution_ambiguity(entry, ev_fit.ctx, state.cal)
+        entry = with_harmonic_ambiguity(with_revolution_ambiguity(entry, ev_fit.ctx, state.cal), best)
         why_not = "" if val_after.rms < (1 - 0.5 * MIN_GAIN) * ev_val.rms else \
             f"did not lower the error on the validation data ({val_name})"
         if not why_not and best.name != "tone" and leans_on_vibrations(state, trial, val_data):

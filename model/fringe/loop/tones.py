@@ -13,7 +13,7 @@ from ..engine.pipeline import tracked_readings
 from .evaluation import Evaluation
 from .motion import settled_speed
 from .noise import sample_rate, uniform_run
-from .significance import P_VALUE
+from .significance import P_VALUE, Test
 
 WAVE_HARMONICS = 32  # at a steady speed, channel lines at these multiples of the electrical frequency are waveform
 LINE_WINDOW = 64      # bins either side for the local spectral level of the line detector
@@ -245,6 +245,17 @@ def update_ripple(f: float, cal: Calibration | None, fs: float, electrical: floa
             return (f"{kk} x the electrical frequency {'+' if jj > 0 else '-'} {abs(jj)} x {who} update rate "
                     f"({rate:.4g} Hz)")
     return ""
+
+
+def with_harmonic_ambiguity(entry: dict, test: Test) -> dict:
+    """A tone entry whose line lies on a harmonic of a steady revolution rate (test.ambiguous, tone_candidates)
+    marked ambiguous with a position error at that order (`ambiguous_with`, and said in its evidence): within one
+    recording the two look the same, and it is corrected as a tone in time."""
+    if entry["name"] != "tone" or not test.ambiguous:
+        return entry
+    return {**entry, "ambiguous_with": "a position error at a harmonic of the revolution",
+            "evidence": entry["evidence"] + "; the line lies on a harmonic of the steady revolution rate: in this "
+                                            "recording a vibration and a position error at that order look the same"}
 
 
 def tone_candidates(ev: Evaluation, known_hz=()) -> tuple[list[tuple[str, float, float, bool]], list[str]]:
