@@ -12,7 +12,7 @@ Per configuration (``--configs``):
   seed_cancel the seed configuration with fringe_canceller (CANCEL = 1): a 437 Hz tone at 2 % of full scale on
               the recording, its CANCEL_FREQ, CANCEL_BLOCK_LOG2 5, CANCEL_MU_LOG2 6, A_W from cancel_config
   seed_compact, seed_compact_trim, seed_compact_drift  seed, seed_trim, seed_drift with COMPACT = 1 (the
-         time-multiplexed core: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC; same words); their
+         time-multiplexed core: one sample per CORDIC_STAGES clocks, iterated CORDIC; same words); their
          rows carry the issue's targets (COMPACT_TARGETS, judged on the UP5K) in ``compact_targets``; they run
          on the UP5K only (CONFIG_DEVICES), whatever --devices lists besides
 the tables are filled from a real calibration of a short simulated recording (fringe.dsp.simulate ->

@@ -591,7 +591,7 @@ CANCEL_TONE = (0.02, 437.0)
 CANCEL_TONES_HZ = (437.0, 1210.0)
 N_STREAM = 2500
 #: the configurations also run with COMPACT = 1 (the same tests), on these simulators. A compact run takes
-#: CORDIC_STAGES + 1 clocks per sample: about 70 s each on Verilator, 100-250 s on GHDL (measured 2026-12-02).
+#: CORDIC_STAGES clocks per sample: about 70 s each on Verilator, 100-250 s on GHDL (measured 2026-12-02).
 #: Within the CI budget: every configuration on Verilator, the seed preset on GHDL too (the VHDL of the
 #: iterated CORDIC is also checked on its own, tb/test_fringe_cordic.py, on both simulators).
 COMPACT_CONFIGS = {"adc12-L256-c9": ("verilator", "ghdl"), "adc16-L1-c0": ("verilator",),

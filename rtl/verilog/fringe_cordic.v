@@ -3,7 +3,7 @@
 // LATENCY = STAGES + 2 clock enables. ITERATIVE = 0: fully pipelined, one sample per clock, ready = 1.
 // ITERATIVE = 1: one x/y/z register and one micro-rotation stage iterated STAGES times (the same
 // micro-rotations in the same order, so the same words and the same LATENCY), one sample per
-// STAGES + CORDIC_ITER_CLOCKS_BASE clock enables; ready = 0 while a sample is in the register, and an
+// STAGES + CORDIC_ITER_CLOCKS_BASE (= 0) clock enables; ready = 0 while a sample is in the register, and an
 // in_valid while ready = 0 is ignored. ce = 0 freezes every register, rst (synchronous, active high)
 // clears only the valid pipeline and the state, never the data registers.
 // Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_cordic.md.
@@ -17,7 +17,7 @@ module fringe_cordic #(
     parameter integer STAGES = 18,  // CORDIC micro-rotations, 4..32 (>= FINE_W+1 for full precision)
     parameter integer GUARD  = 3,   // extra fractional bits of x, y and the angle accumulator, 0..8
     parameter integer USER_W = 1,   // sideband width, >= 1
-    parameter integer ITERATIVE = 0 // 1 = one micro-rotation stage iterated (one sample per STAGES + 1 clocks)
+    parameter integer ITERATIVE = 0 // 1 = one micro-rotation stage iterated (one sample per STAGES clocks)
 ) (
     input  wire                 clk,
     input  wire                 rst,       // synchronous, active high: clears valid only
@@ -165,78 +165,133 @@ module fringe_cordic #(
                 .out_valid(out_valid), .out_data(out_user)
             );
         end else begin : g_iterative
-            // One register holds the sample: step k after k micro-rotations (k = 0: pre-rotated,
-            // loaded by the clock enable that takes the sample), stage k applied at step k; at
-            // step STAGES the output register takes the result, and the same clock enable may
-            // load the next sample. Same LATENCY as the pipeline. The step is one-hot, so the
-            // shifts and the angle are AND-OR selections (fewer logic levels than a barrel shifter
-            // on the loop x/y -> shift -> add -> x/y).
+            // One register holds the sample: step k while micro-rotation k is applied (k = 0 after
+            // the clock enable that takes the sample, which loads it pre-rotated). The last one's
+            // result goes to a register of its own (the output register's input, as the last
+            // pipeline stage), so the same clock enable loads the next sample: one micro-rotation
+            // every clock enable, a sample every STAGES. Same LATENCY as the pipeline. The step is
+            // one-hot, so the shifts are AND-OR selections (fewer logic levels than a barrel shifter
+            // on the loop x/y -> shift -> add -> x/y), and the angle ATAN[k] is a register of its
+            // own, chosen a clock enable ahead (off the loop).
             reg                    busy;
-            reg [STAGES:0]         step;     // step[k]: k micro-rotations done
-            reg signed [DP_W-1:0]  xr, yr;
-            reg [ACC_W-1:0]        zr;
-            reg [USER_W-1:0]       user_r, user_o;
-            reg                    valid_o;
+            reg [STAGES-1:0]       step;     // step[k]: micro-rotation k this clock enable
+            reg signed [DP_W-1:0]  xr, yr, x_done;
+            reg [ACC_W-1:0]        zr, z_done;
+            reg [USER_W-1:0]       user_r, user_done, user_o;
+            reg                    valid_done, valid_o;
 
-            // the angle table, ATAN[k] at [k*ACC_W +: ACC_W] (entry STAGES is 0: never selected)
-            wire [(STAGES+1)*ACC_W-1:0] atan_all;
-            for (k = 0; k <= STAGES; k = k + 1) begin : g_atan
-                localparam [63:0] ATAN_FULL = (k < STAGES) ? (atan62(k) + (64'd1 << (61 - ACC_W))) >> (62 - ACC_W)
-                                                           : 64'd0;
+            // the angle table, ATAN[k] at [k*ACC_W +: ACC_W]
+            wire [STAGES*ACC_W-1:0] atan_all;
+            for (k = 0; k < STAGES; k = k + 1) begin : g_atan
+                localparam [63:0] ATAN_FULL = (atan62(k) + (64'd1 << (61 - ACC_W))) >> (62 - ACC_W);
                 assign atan_all[k*ACC_W +: ACC_W] = ATAN_FULL[ACC_W-1:0];
             end
 
-            wire                    done = busy && step[STAGES];
-            wire                    take = in_valid && (!busy || done);
-            reg  [ACC_W-1:0]        atan_k;
-            reg  signed [DP_W-1:0]  ysh, xsh;
-            reg  signed [DP_W-1:0]  ysh_i, xsh_i;  // arithmetic shifts in a signed context of their own
-            wire                    neg = yr[DP_W-1];  // y < 0: rotate counter-clockwise
+            wire                    last = busy && step[STAGES-1];
+            wire                    take = in_valid && (!busy || last);
+            wire                    neg  = yr[DP_W-1];  // y < 0: rotate counter-clockwise
+            reg  [ACC_W-1:0]        atan_k;             // ATAN[k] for the step k: registered with it
             integer i;
 
-            // ATAN[k], y >>> k, x >>> k for the one k with step[k] = 1 (0 at step STAGES: unused)
+            // y >>> k and x >>> k for the one k with step[k] = 1, as an AND-OR tree in fixed levels:
+            // a pair of steps per LUT, up to four pairs per group, then the groups' OR with the
+            // add/subtract select. The kept wires stop the mapper from sharing the loop's logic
+            // across x and y and across bits, which made the loop 7 LUTs deep on the iCE40.
+            localparam integer PAIRS  = (STAGES + 1) / 2;
+            localparam integer GROUPS = (PAIRS + 3) / 4;
+            (* keep *) wire [PAIRS*DP_W-1:0]  x_pair, y_pair;
+            (* keep *) wire [GROUPS*DP_W-1:0] x_group, y_group;
+            for (k = 0; k < PAIRS; k = k + 1) begin : g_pair
+                wire signed [DP_W-1:0] x_a = xr >>> (2 * k);
+                wire signed [DP_W-1:0] y_a = yr >>> (2 * k);
+                if (2 * k + 1 < STAGES) begin : g_two
+                    wire signed [DP_W-1:0] x_b = xr >>> (2 * k + 1);
+                    wire signed [DP_W-1:0] y_b = yr >>> (2 * k + 1);
+                    assign x_pair[k*DP_W +: DP_W] = (x_a & {DP_W{step[2*k]}}) | (x_b & {DP_W{step[2*k+1]}});
+                    assign y_pair[k*DP_W +: DP_W] = (y_a & {DP_W{step[2*k]}}) | (y_b & {DP_W{step[2*k+1]}});
+                end else begin : g_one
+                    assign x_pair[k*DP_W +: DP_W] = x_a & {DP_W{step[2*k]}};
+                    assign y_pair[k*DP_W +: DP_W] = y_a & {DP_W{step[2*k]}};
+                end
+            end
+            for (k = 0; k < GROUPS; k = k + 1) begin : g_group
+                reg [DP_W-1:0] x_or, y_or;
+                integer j;
+                always @(*) begin
+                    x_or = {DP_W{1'b0}};
+                    y_or = {DP_W{1'b0}};
+                    for (j = 4 * k; j < 4 * k + 4 && j < PAIRS; j = j + 1) begin
+                        x_or = x_or | x_pair[j*DP_W +: DP_W];
+                        y_or = y_or | y_pair[j*DP_W +: DP_W];
+                    end
+                end
+                assign x_group[k*DP_W +: DP_W] = x_or;
+                assign y_group[k*DP_W +: DP_W] = y_or;
+            end
+            reg [DP_W-1:0] xsh, ysh;
             always @(*) begin
-                atan_k = {ACC_W{1'b0}};
-                ysh    = {DP_W{1'b0}};
-                xsh    = {DP_W{1'b0}};
-                for (i = 0; i < STAGES; i = i + 1) begin
-                    atan_k = atan_k | (atan_all[i*ACC_W +: ACC_W] & {ACC_W{step[i]}});
-                    ysh_i  = yr >>> i;
-                    xsh_i  = xr >>> i;
-                    ysh    = ysh | (ysh_i & {DP_W{step[i]}});
-                    xsh    = xsh | (xsh_i & {DP_W{step[i]}});
+                xsh = {DP_W{1'b0}};
+                ysh = {DP_W{1'b0}};
+                for (i = 0; i < GROUPS; i = i + 1) begin
+                    xsh = xsh | x_group[i*DP_W +: DP_W];
+                    ysh = ysh | y_group[i*DP_W +: DP_W];
                 end
             end
 
-            assign ready = !busy || done;
+            // the micro-rotation as in the pipeline, each value one adder whose carry-in is the
+            // subtraction's +1: {a, 1} + {b, c} = 2 (a + b + c) + 1, so the top bits are a + b + c
+            wire [DP_W:0]  x_sum = {xr, 1'b1} + {ysh ^ {DP_W{neg}}, neg};
+            wire [DP_W:0]  y_sum = {yr, 1'b1} + {xsh ^ {DP_W{~neg}}, ~neg};
+            wire [ACC_W:0] z_sum = {zr, 1'b1} + {atan_k ^ {ACC_W{neg}}, neg};
+            wire signed [DP_W-1:0]  x_next = x_sum[DP_W:1];
+            wire signed [DP_W-1:0]  y_next = y_sum[DP_W:1];
+            wire        [ACC_W-1:0] z_next = z_sum[ACC_W:1];
+            wire unused_carry_in = &{1'b0, x_sum[0], y_sum[0], z_sum[0]};
 
-            // the micro-rotation as in the pipeline: one adder with carry-in per value
+            // ATAN[k+1] for the step k (0 after the last: never used)
+            reg [ACC_W-1:0] atan_next;
+            integer n;
+            always @(*) begin
+                atan_next = {ACC_W{1'b0}};
+                for (n = 0; n + 1 < STAGES; n = n + 1)
+                    atan_next = atan_next | (atan_all[(n+1)*ACC_W +: ACC_W] & {ACC_W{step[n]}});
+            end
+
+            assign ready = !busy || last;
+
             always @(posedge clk) begin
                 if (ce) begin
-                    busy    <= take || (busy && !done);
-                    valid_o <= done;
+                    busy       <= take || (busy && !last);
+                    valid_done <= last;
+                    valid_o    <= valid_done;
                     if (take) begin
                         xr     <= x_abs <<< GUARD;
                         yr     <= y_pre <<< GUARD;
                         zr     <= x_neg ? HALF_TURN : {ACC_W{1'b0}};
-                        step   <= {{STAGES{1'b0}}, 1'b1};
+                        step   <= {{(STAGES-1){1'b0}}, 1'b1};
+                        atan_k <= atan_all[0 +: ACC_W];
                         user_r <= in_user;
-                    end else if (busy && !done) begin
-                        xr   <= xr + (ysh ^ {DP_W{neg}}) + {{(DP_W-1){1'b0}}, neg};
-                        yr   <= yr + (xsh ^ {DP_W{~neg}}) + {{(DP_W-1){1'b0}}, ~neg};
-                        zr   <= zr + (atan_k ^ {ACC_W{neg}}) + {{(ACC_W-1){1'b0}}, neg};
-                        step <= {step[STAGES-1:0], 1'b0};
+                    end else if (busy) begin
+                        xr     <= x_next;
+                        yr     <= y_next;
+                        zr     <= z_next;
+                        step   <= step << 1;
+                        atan_k <= atan_next;
                     end
-                    user_o <= user_r;   // with the output registers below
+                    x_done    <= x_next;    // read only after the last micro-rotation
+                    z_done    <= z_next;
+                    user_done <= user_r;
+                    user_o    <= user_done; // with the output registers below
                 end
                 if (rst) begin          // the control only, after the step: rst wins over ce
-                    busy    <= 1'b0;
-                    valid_o <= 1'b0;
+                    busy       <= 1'b0;
+                    valid_done <= 1'b0;
+                    valid_o    <= 1'b0;
                 end
             end
 
-            assign x_last    = xr;
-            assign z_last    = zr;
+            assign x_last    = x_done;
+            assign z_last    = z_done;
             assign out_valid = valid_o;
             assign out_user  = user_o;
         end

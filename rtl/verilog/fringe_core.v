@@ -1,5 +1,5 @@
 // fringe_core: the whole signal-correction pipeline of a sin/cos encoder, one sample per clock
-// (COMPACT = 1: one per CLOCKS_PER_SAMPLE = CORDIC_STAGES + 1 clock enables, in_ready = 0 in between;
+// (COMPACT = 1: one per CLOCKS_PER_SAMPLE = CORDIC_STAGES clock enables, in_ready = 0 in between;
 // the CORDIC iterates, the quadrature's products share one multiplier; the same words and LATENCY):
 //
 //   sin, cos s(ADC_W) [-> fringe_drift_normaliser, DRIFT = 1] -> branch select (registered)

@@ -11,7 +11,7 @@ parameter integer COEF_W               = 18,    // quadrature gain width (COEF_W
 parameter integer FINE_W               = 16,    // fine phase bits per signal period, 8..30
 parameter integer CORDIC_STAGES        = 18,    // CORDIC micro-rotations, 4..32
 parameter integer CORDIC_GUARD         = 3,     // extra fraction bits inside the CORDIC, 0..8
-parameter integer COMPACT              = 0,     // 1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)
+parameter integer COMPACT              = 0,     // 1 = time-multiplexed: one sample per CORDIC_STAGES clocks, iterated CORDIC (same words)
 parameter integer LP_ADDR_W            = 8,     // long-period table entries per revolution = 2^LP_ADDR_W, <= 16
 parameter integer LP_W                 = 18,    // long-period table value/slope width, <= 32
 parameter integer LP_FRAC              = 4,     // fraction bits of the long-period correction (fine counts)

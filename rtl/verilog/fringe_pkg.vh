@@ -59,7 +59,7 @@ localparam integer CORE_INPUT_LATENCY      = 2;  // fringe_core input registers
 localparam integer WAVE_LUT_LATENCY        = 4;  // fringe_wave_lut
 localparam integer QUADRATURE_LATENCY      = 5;  // fringe_quadrature
 localparam integer CORDIC_LATENCY_BASE     = 2;  // fringe_cordic: STAGES + this
-localparam integer CORDIC_ITER_CLOCKS_BASE = 1;  // fringe_cordic ITERATIVE = 1: a sample every STAGES + this clock enables
+localparam integer CORDIC_ITER_CLOCKS_BASE = 0;  // fringe_cordic ITERATIVE = 1: a sample every STAGES + this clock enables
 localparam integer PERIOD_COUNT_LATENCY    = 4;  // fringe_period_count
 localparam integer TRIM_LATENCY            = 13;  // fringe_trim
 localparam integer LONG_PERIOD_LATENCY     = 8;  // fringe_long_period

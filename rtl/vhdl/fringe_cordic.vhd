@@ -4,7 +4,7 @@
 -- LATENCY = STAGES + 2 clock enables. ITERATIVE = 0: fully pipelined, one sample per clock, ready = 1.
 -- ITERATIVE = 1: one x/y/z register and one micro-rotation stage iterated STAGES times (the same
 -- micro-rotations in the same order, so the same words and the same LATENCY), one sample per
--- STAGES + CORDIC_ITER_CLOCKS_BASE clock enables; ready = 0 while a sample is in the register, and an
+-- STAGES + CORDIC_ITER_CLOCKS_BASE (= 0) clock enables; ready = 0 while a sample is in the register, and an
 -- in_valid while ready = 0 is ignored. ce = 0 freezes every register, rst (synchronous, active high)
 -- clears only the valid pipeline and the state, never the data registers.
 -- Parameters, ports, arithmetic and pipeline: docs/blocks/fringe_cordic.md.
@@ -22,7 +22,7 @@ entity fringe_cordic is
         STAGES : integer := 18;  -- CORDIC micro-rotations, 4..32 (>= FINE_W+1 for full precision)
         GUARD  : integer := 3;   -- extra fractional bits of x, y and the angle accumulator, 0..8
         USER_W : integer := 1;   -- sideband width, >= 1
-        ITERATIVE : integer := 0 -- 1 = one micro-rotation stage iterated (one sample per STAGES + 1 clocks)
+        ITERATIVE : integer := 0 -- 1 = one micro-rotation stage iterated (one sample per STAGES clocks)
     );
     port (
         clk       : in  std_logic;
@@ -188,56 +188,69 @@ begin
     end generate g_pipelined;
 
     g_iterative : if ITERATIVE = 1 generate
-        -- One register holds the sample: step = k after k micro-rotations (k = 0: pre-rotated,
-        -- loaded by the clock enable that takes the sample), stage k applied at step k; at
-        -- step = STAGES the output register takes the result, and the same clock enable may load
-        -- the next sample. Same LATENCY as the pipeline.
-        signal busy, valid_o  : std_logic;
-        signal step           : integer range 0 to STAGES;
-        signal xr, yr         : signed(DP_W - 1 downto 0);
-        signal zr             : unsigned(ACC_W - 1 downto 0);
-        signal user_r, user_o : std_logic_vector(USER_W - 1 downto 0);
-        signal done, take     : std_logic;
+        -- One register holds the sample: step = k while micro-rotation k is applied (k = 0 after
+        -- the clock enable that takes the sample, which loads it pre-rotated). The last one's
+        -- result goes to a register of its own (the output register's input, as the last
+        -- pipeline stage), so the same clock enable loads the next sample: one micro-rotation
+        -- every clock enable, a sample every STAGES. Same LATENCY as the pipeline.
+        signal busy, valid_done, valid_o : std_logic;
+        signal step                      : integer range 0 to STAGES - 1;
+        signal xr, yr, x_done            : signed(DP_W - 1 downto 0);
+        signal zr, z_done                : unsigned(ACC_W - 1 downto 0);
+        signal atan_k                    : unsigned(ACC_W - 1 downto 0);  -- ATAN(step), registered with it
+        signal user_r, user_done, user_o : std_logic_vector(USER_W - 1 downto 0);
+        signal x_next, y_next            : signed(DP_W - 1 downto 0);
+        signal z_next                    : unsigned(ACC_W - 1 downto 0);
+        signal last, take                : std_logic;
     begin
-        done  <= '1' when busy = '1' and step = STAGES else '0';
-        take  <= in_valid and (not busy or done);
-        ready <= not busy or done;
+        last  <= '1' when busy = '1' and step = STAGES - 1 else '0';
+        take  <= in_valid and (not busy or last);
+        ready <= not busy or last;
+
+        -- the micro-rotation as in the pipeline (the Verilog selects the shifts in fixed LUT levels for
+        -- the iCE40's loop; described here as the shifts themselves, the same values)
+        x_next <= xr + shift_right(yr, step) when yr(DP_W - 1) = '0' else xr - shift_right(yr, step);
+        y_next <= yr - shift_right(xr, step) when yr(DP_W - 1) = '0' else yr + shift_right(xr, step);
+        z_next <= zr + atan_k when yr(DP_W - 1) = '0' else zr - atan_k;
 
         p_iter : process (clk)
         begin
             if rising_edge(clk) then
                 if ce = '1' then
-                    busy    <= take or (busy and not done);
-                    valid_o <= done;
+                    busy       <= take or (busy and not last);
+                    valid_done <= last;
+                    valid_o    <= valid_done;
                     if take = '1' then
                         xr     <= x_pre;
                         yr     <= y_pre;
                         zr     <= z_pre;
                         step   <= 0;
+                        atan_k <= ATAN(0);
                         user_r <= in_user;
-                    elsif busy = '1' and done = '0' then
-                        if yr(DP_W - 1) = '0' then
-                            xr <= xr + shift_right(yr, step);
-                            yr <= yr - shift_right(xr, step);
-                            zr <= zr + ATAN(step);
-                        else
-                            xr <= xr - shift_right(yr, step);
-                            yr <= yr + shift_right(xr, step);
-                            zr <= zr - ATAN(step);
+                    elsif busy = '1' then
+                        xr   <= x_next;
+                        yr   <= y_next;
+                        zr   <= z_next;
+                        if last = '0' then
+                            step   <= step + 1;
+                            atan_k <= ATAN(step + 1);
                         end if;
-                        step <= step + 1;
                     end if;
-                    user_o <= user_r;   -- with the output registers
+                    x_done    <= x_next;    -- read only after the last micro-rotation
+                    z_done    <= z_next;
+                    user_done <= user_r;
+                    user_o    <= user_done; -- with the output registers
                 end if;
                 if rst = '1' then       -- the control only, after the step: rst wins over ce
-                    busy    <= '0';
-                    valid_o <= '0';
+                    busy       <= '0';
+                    valid_done <= '0';
+                    valid_o    <= '0';
                 end if;
             end if;
         end process p_iter;
 
-        x_last    <= xr;
-        z_last    <= zr;
+        x_last    <= x_done;
+        z_last    <= z_done;
         out_valid <= valid_o;
         out_user  <= user_o;
     end generate g_iterative;

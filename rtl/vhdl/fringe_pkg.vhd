@@ -118,7 +118,7 @@ package fringe_pkg is
     constant WAVE_LUT_LATENCY        : integer := 4;  -- fringe_wave_lut
     constant QUADRATURE_LATENCY      : integer := 5;  -- fringe_quadrature
     constant CORDIC_LATENCY_BASE     : integer := 2;  -- fringe_cordic: STAGES + this
-    constant CORDIC_ITER_CLOCKS_BASE : integer := 1;  -- fringe_cordic ITERATIVE = 1: a sample every STAGES + this clock enables
+    constant CORDIC_ITER_CLOCKS_BASE : integer := 0;  -- fringe_cordic ITERATIVE = 1: a sample every STAGES + this clock enables
     constant PERIOD_COUNT_LATENCY    : integer := 4;  -- fringe_period_count
     constant TRIM_LATENCY            : integer := 13;  -- fringe_trim
     constant LONG_PERIOD_LATENCY     : integer := 8;  -- fringe_long_period

@@ -30,7 +30,7 @@ entity fringe_top is
         FINE_W               : integer := 16;  -- fine phase bits per signal period, 8..30
         CORDIC_STAGES        : integer := 18;  -- CORDIC micro-rotations, 4..32
         CORDIC_GUARD         : integer := 3;   -- extra fraction bits inside the CORDIC, 0..8
-        COMPACT              : integer := 0;   -- 1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)
+        COMPACT              : integer := 0;   -- 1 = time-multiplexed: one sample per CORDIC_STAGES clocks, iterated CORDIC (same words)
         LP_ADDR_W            : integer := 8;   -- long-period table entries per revolution = 2^LP_ADDR_W, <= 16
         LP_W                 : integer := 18;  -- long-period table value/slope width, <= 32
         LP_FRAC              : integer := 4;   -- fraction bits of the long-period correction (fine counts)

@@ -67,7 +67,7 @@ FORMAL_CONFIG = CoreConfig(adc_w=4, lines=4, coarse_w=2, wave_addr_w=2, wave_w=8
 #: with fringe_trim (TRIM = 1): its smallest legal tables (2 sectors x 4 bins, 8-bit values)
 TRIM_CONFIG = dataclasses.replace(FORMAL_CONFIG, trim=1, trim_map_psi_w=1, trim_map_phi_w=2, trim_w=8,
                                   trim_speed_log2=1)
-#: the time-multiplexed core (COMPACT = 1): one sample per CORDIC_STAGES + 1 = 5 clock enables
+#: the time-multiplexed core (COMPACT = 1): one sample per CORDIC_STAGES = 4 clock enables
 COMPACT_CONFIG = dataclasses.replace(FORMAL_CONFIG, compact=1)
 EXTRA_DEPTH = 12       # bmc: clocks beyond LATENCY
 MIN_EXTRA_DEPTH = 8    # issue 11: at least LATENCY + 8 (the two-copy miters, the slowest, run to exactly that)
@@ -161,7 +161,7 @@ MUTANTS = (
     Mutant("compact_admits_early", "fringe_core.v", "wait_r <= GAP_32[WAIT_W-1:0];",
            "wait_r <= GAP_32[WAIT_W-1:0] - 1'b1;", ("stream_compact",),
            "COMPACT = 1 takes the next sample one clock enable early, while the iterated CORDIC is busy"),
-    Mutant("cordic_busy_survives_reset", "fringe_cordic.v", "busy    <= 1'b0;", "busy    <= busy;",
+    Mutant("cordic_busy_survives_reset", "fringe_cordic.v", "busy       <= 1'b0;", "busy       <= busy;",
            ("stream_compact",), "the iterated CORDIC finishes a sample accepted before a reset"),
     Mutant("counter_survives_reset", "fringe_period_count.v", "have_prev <= 1'b0;", "have_prev <= have_prev;",
            ("reset", "reset_miter"), "the period count keeps its previous sample across a reset"),

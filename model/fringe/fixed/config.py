@@ -46,7 +46,7 @@ HDL_PARAMETER_DOCS = {
     "FINE_W": "fine phase bits per signal period, 8..30",
     "CORDIC_STAGES": "CORDIC micro-rotations, 4..32",
     "CORDIC_GUARD": "extra fraction bits inside the CORDIC, 0..8",
-    "COMPACT": "1 = time-multiplexed: one sample per CORDIC_STAGES + 1 clocks, iterated CORDIC (same words)",
+    "COMPACT": "1 = time-multiplexed: one sample per CORDIC_STAGES clocks, iterated CORDIC (same words)",
     "LP_ADDR_W": "long-period table entries per revolution = 2^LP_ADDR_W, <= 16",
     "LP_W": "long-period table value/slope width, <= 32",
     "LP_FRAC": "fraction bits of the long-period correction (fine counts)",
@@ -245,8 +245,9 @@ class CoreConfig(PositionWidths):
     @property
     def clocks_per_sample(self) -> int:
         """Clock enables from one accepted sample to the next at full speed (in_ready / s_axis_tready is 0 in
-        between): 1 for the pipelined core; with COMPACT = 1 the iterated CORDIC's, CORDIC_STAGES + 1. The
-        latency (fixed/core.py core_latency) and every output word are the same for both."""
+        between): 1 for the pipelined core; with COMPACT = 1 the iterated CORDIC's, CORDIC_STAGES (>= 4, the
+        shared quadrature multiplier's SHARED_MIN_CLOCKS). The latency (fixed/core.py core_latency) and every
+        output word are the same for both."""
         return self.cordic().clocks_per_sample
 
     @property

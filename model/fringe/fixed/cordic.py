@@ -87,9 +87,9 @@ ATAN62 = (
 #: Width of the shared table's fractions (bits of a turn).
 ATAN62_BITS = 62
 
-#: ITERATIVE = 1: clock enables per sample beyond STAGES (the clock enable that loads the pre-rotated
-#: vector; the one that hands the result to the output register may load the next sample).
-ITER_CLOCKS_BASE = 1
+#: ITERATIVE = 1: clock enables per sample beyond STAGES: none (the clock enable of the last micro-rotation
+#: writes its result to a register of its own and loads the next sample's pre-rotated vector).
+ITER_CLOCKS_BASE = 0
 
 
 @dataclass(frozen=True)
