@@ -48,6 +48,17 @@ architecture rtl of fringe_regs is
     -- register indices REG_*, CTRL_WORD: fringe_pkg (generated from model/fringe/fixed/regmap.py)
     subtype regs_t is word_array(0 to 2 * N_REGS - 1)(REG_W - 1 downto 0);   -- bank 0, then bank 1
 
+    -- CTRL is decoded in two halves of its word, each one compare in step 1: the high bits zero (with
+    -- the space and the write enable) and the low CTRL_LOW_W bits CTRL_WORD's (with the swap bit)
+    constant CTRL_LOW_W : integer := 8;
+
+    function generics_ok return boolean is
+    begin
+        check_range("fringe_regs", "CTRL_WORD", CTRL_WORD, 0, 2 ** CTRL_LOW_W - 1);
+        return true;
+    end function generics_ok;
+    constant GENERICS_CHECKED : boolean := generics_ok;
+
     signal regs   : regs_t := read_memh(REGS_INIT, 2 * N_REGS, REG_W, "fringe_regs: REGS_INIT");
     signal bank_r : std_logic := '0';
 
@@ -96,9 +107,9 @@ begin
             st1_en_reg    <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SPACE_REGS
                                and shift_right(cfg_word, REG_INDEX_W) = 0);
             st1_en_ctrl_a <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SPACE_REGS
-                               and cfg_word(15 downto 8) = 0);
+                               and shift_right(cfg_word, CTRL_LOW_W) = 0);
             -- (the package's CTRL_SWAP by its full name: the signal ctrl_swap hides it)
-            st1_en_ctrl_b <= b(cfg_word(7 downto 0) = to_unsigned(CTRL_WORD mod 256, 8)
+            st1_en_ctrl_b <= b(cfg_word(CTRL_LOW_W - 1 downto 0) = to_unsigned(CTRL_WORD, CTRL_LOW_W)
                                and cfg_wr_data(work.fringe_pkg.CTRL_SWAP) = '1');
             for k in 0 to 7 loop
                 st1_sel(k) <= b(cfg_wr_en = '1' and to_integer(unsigned(cfg_sel)) = SEL_SPACES(k));
