@@ -70,8 +70,9 @@ def _slow_time(ctx: Context) -> list[np.ndarray]:
     return list(_legendre_time(ctx, 3))
 
 
-def _slow_revolution(ctx: Context) -> list[np.ndarray]:
-    return [f(k * ctx.psi) for k in (1, 2) for f in (np.cos, np.sin)]
+def _slow_revolution(ctx: Context, orders: int = 2) -> list[np.ndarray]:
+    """Revolution harmonics 1..orders (cos, sin)."""
+    return [f(k * ctx.psi) for k in range(1, orders + 1) for f in (np.cos, np.sin)]
 
 
 def _magnitude_shapes(ctx: Context, slow: list[np.ndarray]) -> np.ndarray:
@@ -104,8 +105,7 @@ def magnitude_follows_revolution(ctx: Context) -> float:
     total = float(np.sum(m * m))
     if total <= 0:
         return 0.0
-    x = np.column_stack([np.ones_like(m)] + [f(k * ctx.psi) for k in range(1, REV_ORDERS + 1)
-                                             for f in (np.cos, np.sin)])
+    x = np.column_stack([np.ones_like(m)] + _slow_revolution(ctx, REV_ORDERS))
     return max(0.0, 1.0 - float(np.sum((m - cross_fit(x, m, SMOOTH_BLOCKS)) ** 2)) / total)
 
 
