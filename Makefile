@@ -32,7 +32,7 @@ demo: $(STAMP)
 	$(BIN)/python -m fringe.tools.demo $(OUT)/demo
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -n $(JOBS) -q
+	$(BIN)/python -m pytest -n $(JOBS) -q --durations=20
 
 test-model: $(STAMP)
 	$(BIN)/python -m pytest -n $(JOBS) -q tests
