@@ -45,6 +45,10 @@ module fringe_regs #(
 
     initial bank_r = 1'b0;   // power-up value (configuration: no reset)
 
+    // CTRL is decoded in two halves of its word, each one compare in step 1: the high bits zero (with
+    // the space and the write enable) and the low CTRL_LOW_W bits CTRL_WORD's (with the swap bit)
+    localparam integer CTRL_LOW_W = 8;
+
     generate
         `FRINGE_MEM_INIT(REGS_INIT, regs, 2 * N_REGS, REG_W)
         // regs_q's width is written out in the port list, ahead of the package's constants
@@ -52,11 +56,6 @@ module fringe_regs #(
         // CTRL's decode compares the word's low CTRL_LOW_W bits and its high bits apart (below)
         `FRINGE_CHECK_RANGE(g_bad_ctrl_word, "fringe_regs", "CTRL_WORD", CTRL_WORD, 0, (1 << CTRL_LOW_W) - 1)
     endgenerate
-
-    // CTRL is decoded in two halves of its word, each one compare in step 1: the high bits zero (with
-    // the space and the write enable) and the low CTRL_LOW_W bits CTRL_WORD's (with the swap bit)
-    localparam integer CTRL_LOW_W = 8;
-    localparam [15:0]  CTRL_HIGH_ZERO = 16'd0;
 
     wire [3:0]  cfg_sel  = cfg_wr_addr[19:16];
     wire [15:0] cfg_word = cfg_wr_addr[15:0];
@@ -92,7 +91,7 @@ module fringe_regs #(
     // step 1: which space, whether the word lies inside one bank (table words), CTRL in two halves
     always @(posedge clk) begin
         st1_en_reg    <= cfg_wr_en && cfg_sel == SPACE_REGS && (cfg_word >> REG_INDEX_W) == 16'd0;
-        st1_en_ctrl_a <= cfg_wr_en && cfg_sel == SPACE_REGS && (cfg_word >> CTRL_LOW_W) == CTRL_HIGH_ZERO;
+        st1_en_ctrl_a <= cfg_wr_en && cfg_sel == SPACE_REGS && (cfg_word >> CTRL_LOW_W) == 16'd0;
         st1_en_ctrl_b <= cfg_word[CTRL_LOW_W-1:0] == CTRL_WORD[CTRL_LOW_W-1:0] && cfg_wr_data[CTRL_SWAP];
         st1_sel       <= {cfg_sel == SPACE_DRIFT_FWD_COS, cfg_sel == SPACE_DRIFT_FWD_SIN, cfg_sel == SPACE_TRIM_AMP,
                           cfg_sel == SPACE_TRIM_SPEED, cfg_sel == SPACE_TRIM_MAP, cfg_sel == SPACE_LONG_PERIOD,
