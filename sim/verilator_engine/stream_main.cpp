@@ -8,7 +8,7 @@
 // OUT.bin: n little-endian uint64, every m_axis_tdata word in order.
 // stdout:  one JSON line {"samples", "latency", "cycles"}.
 // The protocol is model/fringe/hardware/rtl_stream.py's (the cocotb path): rst high for 3 clocks, then one sample
-// per clock (each when s_axis_tready = 1: COMPACT = 1 takes one per CORDIC_STAGES + 1, DRIFT_HOLD = 1 waits at
+// per clock (each when s_axis_tready = 1: COMPACT = 1 takes one per CORDIC_STAGES, DRIFT_HOLD = 1 waits at
 // each tracker block boundary) with m_axis_tready = 1; the ROM images and registers come from the init-file
 // parameters the binary was built with (read by $readmemh when the model starts).
 #include <cstdint>
@@ -90,7 +90,7 @@ int main(int argc, char** argv) {
     long long latency = -1;
     size_t cyc = 0;
     size_t k = 0;   // next sample to present; taken at an edge with s_axis_tready = 1 (COMPACT = 1: 0 between)
-    const size_t limit = (n + 1000) * 64;   // clocks per sample <= CORDIC_STAGES + 1 <= 33
+    const size_t limit = (n + 1000) * 64;   // clocks per sample <= CORDIC_STAGES <= 32
     while (out.size() < n) {
         if (k < n) {
             const int32_t* r = &rec[3 * k];
