@@ -73,6 +73,31 @@ def _check_parent(path: str):
         _fail(f"cannot be written: the folder {parent} is not writable", path)
 
 
+def _check_name(path: str):
+    """A name the system can create: no part longer than the folder's NAME_MAX, the whole within PATH_MAX
+    (refused before the work, naming what was given, not the temporary name beside it)."""
+    parent = os.path.dirname(os.path.abspath(path))
+    while not os.path.isdir(parent):
+        parent = os.path.dirname(parent)
+    try:
+        name_max, path_max = os.pathconf(parent, "PC_NAME_MAX"), os.pathconf(parent, "PC_PATH_MAX")
+    except (OSError, ValueError):
+        name_max, path_max = 255, 4096
+    longest = max((len(os.fsencode(p)) for p in os.path.abspath(path).split(os.sep)), default=0)
+    if longest > name_max:
+        _fail(f"a name in it is {longest} bytes long; this file system takes at most {name_max}", path)
+    if len(os.fsencode(os.path.abspath(path))) >= path_max:
+        _fail(f"is longer than this system's limit of {path_max} bytes for a path", path)
+
+
+def _check_not_current(path: str):
+    """The folder the command runs in (or one holding it) cannot be replaced whole."""
+    out, here = _real(path), _real(os.getcwd())
+    if here == out or here.startswith(out.rstrip(os.sep) + os.sep):
+        _fail("is the current folder, or holds it: an output folder is replaced whole; give a new folder's "
+              "name", path)
+
+
 def _check_not_an_input(path: str, inputs, is_dir: bool):
     out = _real(path)
     for given in inputs:
@@ -113,6 +138,8 @@ def check_output_dir(path: str, kind: str, inputs=()) -> None:
     `kind`, a folder holding an input, a folder inside an input folder, an unwritable place."""
     if not path:
         _fail("the output folder name is empty", path)
+    _check_name(path)
+    _check_not_current(path)
     if os.path.islink(path):
         _fail("is a symbolic link: give the folder itself", path)
     if os.path.lexists(path):
@@ -140,9 +167,32 @@ def _check_replaceable(path: str, kind: str):
         present = files_in(path)
     except OSError as e:
         _fail(f"cannot be read: {e.strerror}", path)
-    extra = sorted(present - set(man["files"]) - {MANIFEST})
+    listed = set(man["files"]) | {MANIFEST}
+    # fringe writes regular files, and folders only to hold them: a link, or a folder that holds none of its
+    # files (an empty one counts), is the user's
+    holders = {"/".join(rel.split("/")[:k]) for rel in listed for k in range(1, rel.count("/") + 1)}
+    try:
+        links, folders = _links_and_folders(path)
+    except OSError as e:
+        _fail(f"cannot be read: {e.strerror}", path)
+    extra = sorted((present - listed) | links | (folders - holders))
     if extra:
         _fail(f"holds {extra[0]}, which fringe did not write: refusing to replace the folder", path)
+
+
+def _links_and_folders(folder: str) -> tuple[set[str], set[str]]:
+    """The symbolic links (to anything) and the folders below `folder`, as relative paths with '/' (links to
+    folders are not followed)."""
+    links, folders = set(), set()
+    for dirpath, dirnames, names in os.walk(folder):
+        for n in dirnames + names:
+            full = os.path.join(dirpath, n)
+            rel = os.path.relpath(full, folder).replace(os.sep, "/")
+            if os.path.islink(full):
+                links.add(rel)
+            elif n in dirnames:
+                folders.add(rel)
+    return links, folders
 
 
 def written_by_fringe(path: str, kind: str) -> bool:
@@ -174,6 +224,7 @@ def check_output_file(path: str, kind: str, inputs=(), form: str | None = None) 
     folder, a missing or unwritable folder."""
     if not path:
         _fail("the output file name is empty", path)
+    _check_name(path)
     if os.path.isdir(path):
         _fail("is a folder: give a file name", path)
     if path.endswith(("/", os.sep)):
@@ -296,7 +347,8 @@ def atomic_output(path: str, kind: str, inputs=(), mode: str = "w"):
     check_output_file(path, kind, inputs)
     mask = current_umask()
     directory = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=TMP_PREFIX, suffix="-" + os.path.basename(path))
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=TMP_PREFIX,
+                                suffix="-" + os.path.basename(path)[:40])
     try:
         binary = "b" in mode
         with os.fdopen(fd, mode, encoding=None if binary else "utf-8", newline=None if binary else "") as f:
