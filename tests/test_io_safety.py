@@ -3,6 +3,7 @@ is one line with exit status 2. Each test drives the command line as a careless 
 
 import json
 import os
+import shutil
 import signal
 import stat
 import subprocess
@@ -14,7 +15,7 @@ import pytest
 from cli_runs import simulate_pair
 
 from fringe.cli.cli import main
-from fringe.io.outputs import MANIFEST, TMP_PREFIX
+from fringe.io.outputs import MANIFEST, TMP_PREFIX, sha256
 
 
 @pytest.fixture(scope="module")
@@ -408,3 +409,119 @@ def test_binary_recordings_read_like_csv(work, tmp_path):
         b = read_measurement(str(tmp_path / p), enc)
         for k in ("sin", "cos", "coarse", "ref_deg", "t_s"):
             assert np.array_equal(getattr(a, k), getattr(b, k)), (p, k)
+
+
+def test_a_link_or_an_empty_folder_of_the_users_inside_fringes_own_folder_is_refused(work, tmp_path, capsys):
+    # careless sweep, stop 41: the check counted files only, and replacing the folder took a user's link and an
+    # empty folder with it
+    (tmp_path / "elsewhere").mkdir()
+    argv = ["calibrate", work / "a.csv", "--encoder", work / "enc.json", "--out", tmp_path / "cal"]
+    for add in ("link", "empty folder", "link to a file"):
+        out = tmp_path / "cal"
+        assert run(argv, capsys)[0] == 0
+        mine = out / "mine"
+        if add == "link":
+            os.symlink(tmp_path / "elsewhere", mine)
+        elif add == "link to a file":
+            os.symlink(work / "a.csv", mine)
+        else:
+            mine.mkdir()
+        status, err = run(argv, capsys)
+        one_line_failure(status, err)
+        assert "mine" in err and os.path.lexists(mine)
+        if os.path.islink(mine) or not os.path.isdir(mine):
+            os.unlink(mine)
+        else:
+            os.rmdir(mine)
+    assert run(argv, capsys)[0] == 0     # fringe's own folder, as fringe wrote it, is still replaced
+
+
+def test_the_current_folder_and_names_too_long_are_refused_before_the_work(work, tmp_path, capsys, monkeypatch):
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    monkeypatch.chdir(empty)
+    status, err = run(["calibrate", work / "a.csv", "--encoder", work / "enc.json", "--out", "."], capsys)
+    one_line_failure(status, err)
+    assert "current folder" in err and TMP_PREFIX not in err
+    long = tmp_path / ("x" * 300)
+    for argv in (["calibrate", work / "a.csv", "--encoder", work / "enc.json", "--out", long],
+                 ["correct", work / "b.csv", "--cal", work / "cal", "--out", f"{long}.csv"]):
+        status, err = run(argv, capsys)
+        one_line_failure(status, err)
+        assert "at most" in err and TMP_PREFIX not in err
+    # a name the system takes, with the temporary name beside it longer than that
+    ok = tmp_path / ("y" * 240 + ".csv")
+    assert run(["correct", work / "b.csv", "--cal", work / "cal", "--out", ok], capsys)[0] == 0
+    assert os.listdir(empty) == []
+
+
+def test_empty_names_are_named(work, tmp_path, capsys):
+    for argv in (["calibrate", "", "--encoder", work / "enc.json", "--out", tmp_path / "c"],
+                 ["calibrate", work / "a.csv", "--encoder", "", "--out", tmp_path / "c"],
+                 ["correct", "", "--cal", work / "cal", "--out", tmp_path / "c.csv"],
+                 ["loop", work / "a.csv", "--encoder", work / "enc.json", "--out", tmp_path / "l", "--validate", ""]):
+        status, err = run(argv, capsys)
+        one_line_failure(status, err)
+        assert err.startswith("fringe: '': ") and "empty" in err, err
+    assert os.listdir(tmp_path) == []
+
+
+def test_a_field_too_long_a_damaged_core_file_and_a_huge_header_are_one_short_line(work, tmp_path, capsys):
+    lines = (work / "a.csv").read_text().splitlines()[:400]
+    header = next(i for i, t in enumerate(lines) if not t.startswith("#"))
+    lines[header + 100] = lines[header + 100] + "," + "9" * 200_000
+    (tmp_path / "long.csv").write_text("\n".join(lines) + "\n")
+    status, err = run(["correct", tmp_path / "long.csv", "--cal", work / "cal", "--out", tmp_path / "x.csv"], capsys)
+    one_line_failure(status, err)
+    assert f"line {header + 101}" in err and len(err) < 600
+    (tmp_path / "wide.csv").write_text("D" * 50_000)
+    status, err = run(["calibrate", tmp_path / "wide.csv", "--encoder", work / "enc.json", "--out", tmp_path / "c"],
+                      capsys)
+    one_line_failure(status, err)
+    assert len(err) < 600 and "characters" in err
+    cal = tmp_path / "cal"
+    shutil.copytree(work / "cal", cal)
+    (cal / "core.json").write_text("[1, 2]\n")
+    man = json.loads((cal / MANIFEST).read_text())      # a fresh manifest: the damage is in the content
+    man["files"]["core.json"] = {"sha256": sha256(cal / "core.json"), "bytes": 7}
+    (cal / MANIFEST).write_text(json.dumps(man))
+    for argv in (["correct", work / "b.csv", "--cal", cal, "--out", tmp_path / "y.csv"],
+                 ["rom", cal, "--out", tmp_path / "rom"]):
+        status, err = run(argv, capsys)
+        one_line_failure(status, err)
+        assert "core.json" in err and "list" in err
+    assert sorted(os.listdir(tmp_path)) == ["cal", "long.csv", "wide.csv"]
+
+
+def test_a_few_glitched_coarse_codes_are_flagged_not_refused(work, tmp_path, capsys):
+    # careless sweep, stop 41: one wrong code in 3000 rows refused the whole recording; the core flags such a
+    # code (status) and rides through it, and the calibration is that of the clean rows
+    text = (work / "a.csv").read_text().splitlines()
+    header = next(i for i, t in enumerate(text) if not t.startswith("#"))
+    names = text[header].split(",")
+    k = names.index("coarse")
+    rows = [t.split(",") for t in text[header + 1:header + 3001]]
+    # in the middle of a code's run (near a code's edge the core does not read the code, and a wrong one there
+    # changes nothing)
+    mid = next(i for i in range(100, 3000) if len({r[k] for r in rows[i - 6:i + 7]}) == 1)
+    rows[mid][k] = str((int(rows[mid][k]) + 100) % 512)
+    (tmp_path / "glitch.csv").write_text("\n".join(text[:header + 1] + [",".join(r) for r in rows]) + "\n")
+    (tmp_path / "clean.csv").write_text("\n".join(text[:header + 3001]) + "\n")
+    for name in ("glitch", "clean"):
+        status = main(["calibrate", str(tmp_path / f"{name}.csv"), "--encoder", str(work / "enc.json"), "--out",
+                       str(tmp_path / f"cal_{name}")])
+        assert status == 0
+        out = capsys.readouterr().out
+        assert ("rows with fault flags left out" in out) == (name == "glitch"), out
+    for name in ("glitch", "clean"):
+        assert main(["correct", str(tmp_path / "clean.csv"), "--cal", str(tmp_path / f"cal_{name}"), "--out",
+                     str(tmp_path / f"{name}.out.csv")]) == 0
+    a, b = ((tmp_path / f"{n}.out.csv").read_text() for n in ("glitch", "clean"))
+    assert a.splitlines()[1:] == b.splitlines()[1:]      # the same corrected rows (the first line names the cal)
+    # codes that miss on most rows are still refused
+    for r in rows[::2]:
+        r[k] = str((int(r[k]) + 200) % 512)
+    (tmp_path / "random.csv").write_text("\n".join(text[:header + 1] + [",".join(r) for r in rows]) + "\n")
+    status = main(["calibrate", str(tmp_path / "random.csv"), "--encoder", str(work / "enc.json"), "--out",
+                   str(tmp_path / "cal_random")])
+    assert status == 2 and "coarse" in capsys.readouterr().err

@@ -8,10 +8,21 @@ class FringeInputError(Exception):
     """
 
     def __init__(self, message: str, path: str | None = None, where: str | None = None):
-        parts = [p for p in (path, where) if p]
-        prefix = ":".join(str(p) for p in parts)
+        parts = ["''" if path == "" else path, where]     # an empty name is named as such
+        prefix = ":".join(str(p) for p in parts if p)
         text = f"{prefix}: {message}" if prefix else message
-        super().__init__(_one_line(text))
+        super().__init__(_short(_one_line(text)))
+
+
+#: the longest message: a header or a name echoed from the user's file is cut in the middle beyond it
+MAX_MESSAGE = 400
+
+
+def _short(text: str) -> str:
+    if len(text) <= MAX_MESSAGE:
+        return text
+    cut = len(text) - MAX_MESSAGE
+    return f"{text[:MAX_MESSAGE * 2 // 3]} [... {cut} characters ...] {text[-MAX_MESSAGE // 3:]}"
 
 
 def _one_line(text: str) -> str:

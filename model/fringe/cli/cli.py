@@ -121,6 +121,8 @@ def check_inputs(files=(), cal_dir=None):
     if cal_dir is not None:
         verify_dir(cal_dir, "calibration")
     for what, path in files:
+        if path == "":
+            raise FringeInputError(f"the {what} name is empty", path)
         if path is not None and os.path.isdir(path):     # a missing file is named by its reader
             raise FringeInputError(f"is a folder: give the {what} itself", path)
 
@@ -221,10 +223,16 @@ def summary_text(cal, meas) -> str:
         lines.append(f"skipped: {s}")
     if meas.ref_deg is not None:
         res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
-        err = error_arcsec(res.angle_deg, meas.ref_deg)
-        fig = error_figures(err, res.frac, res.position / cal.encoder.lines_per_rev)
+        # rows with a fault flag (a glitched coarse code, a clipped channel) carry no angle to score
+        ok = (res.status & 0x7F) == 0
+        flagged = int(len(ok) - np.count_nonzero(ok))
+        if flagged == len(ok):
+            ok[:] = True
+        err = error_arcsec(res.angle_deg[ok], meas.ref_deg[ok])
+        fig = error_figures(err, res.frac[ok], res.position[ok] / cal.encoder.lines_per_rev)
         lines.append(f"on the calibration data: RMS {fig.rms_arcsec:.3f}\", interpolation {fig.interp_pp_arcsec:.3f}\" "
-                     f"p-p, long period {fig.lp_pp_arcsec:.3f}\" p-p")
+                     f"p-p, long period {fig.lp_pp_arcsec:.3f}\" p-p"
+                     + (f" ({flagged} rows with fault flags left out)" if 0 < flagged < len(ok) else ""))
     return "\n".join(lines)
 
 
@@ -269,39 +277,56 @@ class CorrectSummary:
     def __init__(self):
         self.rows = self.flagged = 0
         self.centre = None
-        self.sum = self.sumsq = 0.0
-        self.lo, self.hi = np.inf, -np.inf
+        self.all, self.clean = ErrorSums(), ErrorSums()     # every row; the rows without a fault flag
         self.has_ref = True
 
     def add(self, angle, status, ref):
         from ..dsp.position import circular_mean, wrap
 
         self.rows += len(angle)
-        self.flagged += int(np.count_nonzero(status & 0x7F))
+        bad = (status & 0x7F) != 0
+        self.flagged += int(np.count_nonzero(bad))
         if ref is None:
             self.has_ref = False
             return
         d = wrap(angle / 360.0 - ref / 360.0)
         if self.centre is None:
-            self.centre = circular_mean(d)
+            self.centre = circular_mean(d[~bad] if not bad.all() else d)
         e = wrap(d - self.centre) * 1296000.0
-        self.sum, self.sumsq = self.sum + e.sum(), self.sumsq + np.dot(e, e)
-        self.lo, self.hi = min(self.lo, e.min()), max(self.hi, e.max())
+        self.all.add(e)
+        self.clean.add(e[~bad])
 
     def text(self) -> str:
         msg = f"; {self.flagged} samples carry fault flags" if self.flagged else ""
         if self.has_ref and self.rows:
-            mean = self.sum / self.rows
-            rms = np.sqrt(max(self.sumsq / self.rows - mean ** 2, 0.0))
-            msg += f"; error against ref_deg: RMS {rms:.3f}\", p-p {self.hi - self.lo:.3f}\""
+            msg += f"; error against ref_deg: {self.all.text()}"
+            if self.flagged and self.clean.n:
+                msg += f"; on the {self.clean.n} rows without a flag: {self.clean.text()}"
         return msg
+
+
+class ErrorSums:
+    """Count, sums and extremes of an error in arcsec, gathered piece by piece."""
+
+    def __init__(self):
+        self.n, self.sum, self.sumsq, self.lo, self.hi = 0, 0.0, 0.0, np.inf, -np.inf
+
+    def add(self, e):
+        if len(e):
+            self.n, self.sum, self.sumsq = self.n + len(e), self.sum + e.sum(), self.sumsq + float(np.dot(e, e))
+            self.lo, self.hi = min(self.lo, e.min()), max(self.hi, e.max())
+
+    def text(self) -> str:
+        mean = self.sum / self.n
+        rms = np.sqrt(max(self.sumsq / self.n - mean ** 2, 0.0))
+        return f"RMS {rms:.3f}\", p-p {self.hi - self.lo:.3f}\""
 
 
 def cmd_loop(a) -> int:
     from ..io.outputs import check_output_dir
     from ..loop.run import run_loop
 
-    check_inputs((("encoder description", a.encoder), ("data file", a.data), ("data file", a.validate)))
+    check_inputs((("encoder description", a.encoder), ("data file", a.data), ("validation recording", a.validate)))
     check_output_dir(a.out, "loop", (a.data, a.encoder, a.validate))
     enc = load_core_encoder(a.encoder)
     val = _read_for_calibration(a.validate, enc) if a.validate else None

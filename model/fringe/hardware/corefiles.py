@@ -51,7 +51,10 @@ def saved_core_fields(cal: Calibration, cal_dir: str | None) -> dict:
         return {}
     try:
         with open(path, encoding="utf-8") as f:
-            base = current_field_names(json.load(f)["config"])
+            saved = json.load(f)
+        if not isinstance(saved, dict):
+            raise ValueError(f"the file holds a JSON {type(saved).__name__}, not an object")
+        base = current_field_names(saved["config"])
     except (OSError, ValueError, KeyError) as e:
         raise FringeInputError(f"core configuration damaged ({e})", path) from None
     enc = cal.encoder    # the encoder's description is the one source of these

@@ -226,7 +226,7 @@ def _header(path):
                 if text.startswith("#"):
                     comments.append(text[1:].strip())
                 elif text:
-                    header = [h.strip() for h in next(csv.reader([text]))]
+                    header = [h.strip() for h in _fields(text, path, line_no)]
                     return offset, line_no, header, comments
                 offset += len(raw)
     except OSError as e:
@@ -497,6 +497,15 @@ def csv_writer(path: str, names, comments: tuple[str, ...], formats: dict | None
         yield CsvWriter(f, names, formats)
 
 
+def _fields(text: str, path: str, line_no: int) -> list[str]:
+    """One CSV line's fields; what the csv module cannot split (a field over its size limit, a stray quote) is
+    named with the line."""
+    try:
+        return next(csv.reader([text]))
+    except csv.Error as e:
+        raise FringeInputError(f"cannot be split into CSV fields ({e})", path, f"line {line_no}") from None
+
+
 def write_csv(path: str, columns: dict, comments: tuple[str, ...], formats: dict | None = None, inputs=()):
     """Write equal-length columns as the spec's CSV, atomically (see CsvWriter)."""
     with csv_writer(path, list(columns), comments, formats, inputs) as w:
@@ -509,7 +518,7 @@ WRITE_ROWS = 1 << 17
 def _parse_slowly(body, header, wanted, col_index, path):
     values = np.empty((len(body), len(wanted)))
     for row_no, (line_no, text) in enumerate(body):
-        rec = next(csv.reader([text]))
+        rec = _fields(text, path, line_no)
         if len(rec) != len(header):
             raise FringeInputError(f"has {len(rec)} fields, the header has {len(header)}", path,
                                    f"line {line_no}")
