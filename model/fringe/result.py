@@ -6,6 +6,8 @@ from dataclasses import dataclass
 import numpy as np
 
 CLIP_SIN, CLIP_COS, AMP_LOW, AMP_HIGH, OVERSPEED, COARSE_ERR, SATURATED, BANK = (1 << i for i in range(8))
+#: the fault flags of the status word (every bit below BANK, which only says which table bank served the sample)
+FAULTS = BANK - 1
 STATUS_NAMES = ["CLIP_SIN", "CLIP_COS", "AMP_LOW", "AMP_HIGH", "OVERSPEED", "COARSE_ERR", "SATURATED", "BANK"]
 
 

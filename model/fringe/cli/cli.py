@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import FringeInputError
 from ..io import outputs
+from ..result import FAULTS
 
 ENGINES = ("model", "float", "verilog", "vhdl")
 
@@ -224,7 +225,7 @@ def summary_text(cal, meas) -> str:
     if meas.ref_deg is not None:
         res = run_float(cal, meas.sin, meas.cos, meas.coarse, meas.t_s)
         # rows with a fault flag (a glitched coarse code, a clipped channel) carry no angle to score
-        ok = (res.status & 0x7F) == 0
+        ok = (res.status & FAULTS) == 0
         flagged = int(len(ok) - np.count_nonzero(ok))
         if flagged == len(ok):
             ok[:] = True
@@ -284,7 +285,7 @@ class CorrectSummary:
         from ..dsp.position import circular_mean, wrap
 
         self.rows += len(angle)
-        bad = (status & 0x7F) != 0
+        bad = (status & FAULTS) != 0
         self.flagged += int(np.count_nonzero(bad))
         if ref is None:
             self.has_ref = False

@@ -131,7 +131,8 @@ COARSE_OFF_SHARE = 0.05
 def _share_off(phase: np.ndarray, coarse: np.ndarray, a: float, limit: float) -> float:
     """The share of rows whose coarse code (unwrapped, in periods) lies more than `limit` from the line through
     the fine phase with slope `a` (its offset the median, which a few wild codes do not move)."""
-    mid = float(np.median(coarse[::max(1, len(coarse) // SAMPLE)] - a * phase[::max(1, len(coarse) // SAMPLE)]))
+    i = _spread(len(phase), SAMPLE)
+    mid = float(np.median(coarse[i] - a * phase[i]))
     off = sum(int(np.count_nonzero(np.abs(coarse[s] - a * phase[s] - mid) > limit)) for s in _blocks(len(phase)))
     return off / len(phase)
 
