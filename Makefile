@@ -5,6 +5,10 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 JOBS   ?= 2
+# one BLAS thread a process: the tests run JOBS workers, and a multithreaded BLAS in each oversubscribes the cores
+# (the small solves of the fits then wait for each other); the bench measures one process alike. --dist loadgroup:
+# tests marked xdist_group share a worker (tb/test_engine_rtl.py: one loop calibration for both simulators)
+ONE_BLAS_THREAD := OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 
 SYNTH_STAMP := $(VENV)/.installed-synth
 
@@ -32,13 +36,13 @@ demo: $(STAMP)
 	$(BIN)/python -m fringe.tools.demo $(OUT)/demo
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -n $(JOBS) -q --durations=20
+	$(ONE_BLAS_THREAD) $(BIN)/python -m pytest -n $(JOBS) --dist loadgroup -q --durations=20
 
 test-model: $(STAMP)
-	$(BIN)/python -m pytest -n $(JOBS) -q tests
+	$(ONE_BLAS_THREAD) $(BIN)/python -m pytest -n $(JOBS) --dist loadgroup -q tests
 
 test-rtl: $(STAMP)
-	$(BIN)/python -m pytest -n $(JOBS) -q tb
+	$(ONE_BLAS_THREAD) $(BIN)/python -m pytest -n $(JOBS) --dist loadgroup -q tb
 
 lint: $(STAMP)
 	$(BIN)/ruff check model tests tb sim
@@ -46,7 +50,7 @@ lint: $(STAMP)
 	$(BIN)/python sim/hdlgen.py --check
 
 bench: synth synth-families formal
-	OPENBLAS_NUM_THREADS=1 $(BIN)/python -m fringe.tools.bench --out results
+	$(ONE_BLAS_THREAD) $(BIN)/python -m fringe.tools.bench --out results
 
 $(SYNTH_STAMP): $(STAMP)
 	$(BIN)/python -m pip install --quiet -e '.[test,synth]'

@@ -96,31 +96,49 @@ def _write_recording(cfg, seed: int, path) -> None:
     write_csv(str(path), cols, simulate.describe(cfg, seed), simulate.csv_formats())
 
 
-@pytest.mark.parametrize("case", ["eccentricity+hysteresis", "ref_lag+skew", "drift"])
-def test_cli_loop_calibration_rtl_rows_equal_model(sim, tmp_path, case):
-    """A calibration from `fringe loop` (its added effects carried by fringe_trim and the drift tracker) through
-    `fringe correct`: the RTL engine writes the same rows as the bit-exact model."""
+# the loop's calibration is the same for both simulators: each case's tests share a worker (make test runs xdist with
+# --dist loadgroup) and the calibration is made once there
+LOOP_CASES = ["eccentricity+hysteresis", "ref_lag+skew", "drift"]
+_LOOP_RUNS: dict[str, Path] = {}
+
+
+def _loop_run(case: str, tmp_path_factory) -> Path:
+    """`fringe loop` on the case's recording (its added effects carried by fringe_trim or the drift tracker), and a
+    second recording to correct: the folder holding both."""
     import json
 
     from fringe.cli.cli import main
     from fringe.loop.scenarios import scenario
 
-    cfg, expected = scenario(case, samples=60_000)
-    d = tmp_path
-    _write_recording(cfg, 1, d / "a.csv")
-    _write_recording(dataclasses.replace(cfg, samples=4000), 2, d / "b.csv")
-    (d / "e.json").write_text(json.dumps(cfg.encoder().to_dict()))
-    assert main(["loop", str(d / "a.csv"), "--encoder", str(d / "e.json"), "--out", str(d / "loop")]) == 0
-    added = {e["name"] for e in json.loads((d / "loop" / "report.json").read_text())["effects_added"]}
-    assert added & {"rev_offset_gain", "hysteresis", "sampling_skew", "drift"}, added
-    core = json.loads((d / "loop" / "cal" / "core.json").read_text())["config"]
-    assert core["trim"] == 1 or core["drift"] == 1, core
+    if case not in _LOOP_RUNS:
+        cfg, _ = scenario(case, samples=60_000)
+        d = tmp_path_factory.mktemp("loop")
+        _write_recording(cfg, 1, d / "a.csv")
+        _write_recording(dataclasses.replace(cfg, samples=4000), 2, d / "b.csv")
+        (d / "e.json").write_text(json.dumps(cfg.encoder().to_dict()))
+        assert main(["loop", str(d / "a.csv"), "--encoder", str(d / "e.json"), "--out", str(d / "loop")]) == 0
+        added = {e["name"] for e in json.loads((d / "loop" / "report.json").read_text())["effects_added"]}
+        assert added & {"rev_offset_gain", "hysteresis", "sampling_skew", "drift"}, added
+        core = json.loads((d / "loop" / "cal" / "core.json").read_text())["config"]
+        assert core["trim"] == 1 or core["drift"] == 1, core
+        assert main(["correct", str(d / "b.csv"), "--cal", str(d / "loop" / "cal"), "--out", str(d / "model.csv"),
+                     "--engine", "model"]) == 0
+        _LOOP_RUNS[case] = d
+    return _LOOP_RUNS[case]
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, marks=pytest.mark.xdist_group(f"loop-rtl-{c}")) for c in LOOP_CASES])
+def test_cli_loop_calibration_rtl_rows_equal_model(sim, tmp_path, tmp_path_factory, case):
+    """A calibration from `fringe loop` (its added effects carried by fringe_trim and the drift tracker) through
+    `fringe correct`: the RTL engine writes the same rows as the bit-exact model."""
+    from fringe.cli.cli import main
+
+    d = _loop_run(case, tmp_path_factory)
     engine = {"verilator": "verilog", "ghdl": "vhdl"}[sim]
-    for e in ("model", engine):
-        assert main(["correct", str(d / "b.csv"), "--cal", str(d / "loop" / "cal"), "--out", str(d / f"{e}.csv"),
-                     "--engine", e]) == 0
-    rows = {e: [ln for ln in (d / f"{e}.csv").read_text().splitlines() if not ln.startswith("#")]
-            for e in ("model", engine)}
+    assert main(["correct", str(d / "b.csv"), "--cal", str(d / "loop" / "cal"), "--out", str(tmp_path / "rtl.csv"),
+                 "--engine", engine]) == 0
+    rows = {e: [ln for ln in p.read_text().splitlines() if not ln.startswith("#")]
+            for e, p in (("model", d / "model.csv"), (engine, tmp_path / "rtl.csv"))}
     assert len(rows["model"]) == 4001 and rows["model"] == rows[engine]
 
 

@@ -405,9 +405,13 @@ def parse_generic(name: str) -> tuple[str, int, int]:
 
 
 def phase_columns(phi: np.ndarray, k: int, constant: bool) -> list[np.ndarray]:
+    """[1,] cos(j phi), sin(j phi) for j = 1..k: powers of exp(i phi) (one exponential, not 2k)."""
     cols = [np.ones_like(phi)] if constant else []
-    for j in range(1, k + 1):
-        cols += [np.cos(j * phi), np.sin(j * phi)]
+    z = np.exp(1j * np.asarray(phi, float))
+    p = z
+    for _ in range(k):
+        cols += [p.real, p.imag]
+        p = p * z
     return cols
 
 

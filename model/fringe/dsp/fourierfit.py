@@ -26,6 +26,26 @@ def _design_interleaved(x: np.ndarray, orders: list[int]) -> np.ndarray:
     return m
 
 
+def _gram_at_bin_centres(counts: np.ndarray, orders: list[int]) -> np.ndarray:
+    """m.T @ diag(c) @ m for each row c of `counts` (weights of the bins), m = _design_interleaved at the bin
+    centres 2 pi (i + 1/2) / bins: from the weights' spectrum, without forming the products (a product of two
+    harmonics is the sum of two others). Shape (rows, 2 len(orders) + 1, same)."""
+    counts = np.atleast_2d(np.asarray(counts, float))
+    bins = counts.shape[1]
+    top = 2 * max(orders, default=0)
+    h = np.arange(top + 1)
+    # spec[:, h] = sum_i c_i exp(j h x_i), x_i the bin centres (the FFT's sign and phase origin turned to them)
+    spec = np.conj(np.fft.fft(counts, axis=1)[:, h % bins]) * np.exp(1j * np.pi * h / bins)
+    freq = np.array([0] + [o for o in orders for _ in (0, 1)])
+    is_sin = np.array([False] + [t for _ in orders for t in (False, True)])
+    diff, add = freq[:, None] - freq[None, :], freq[:, None] + freq[None, :]
+    re_d, re_a = spec.real[:, np.abs(diff)], spec.real[:, add]
+    im_d, im_a = np.sign(diff) * spec.imag[:, np.abs(diff)], spec.imag[:, add]
+    sp, sq = is_sin[:, None], is_sin[None, :]
+    return 0.5 * np.where(~sp & ~sq, re_d + re_a, np.where(sp & sq, re_d - re_a,
+                                                           np.where(~sp & sq, im_a - im_d, im_a + im_d)))
+
+
 def _to_paper_order(w: np.ndarray, orders: list[int]) -> np.ndarray:
     """Interleaved weights of `orders` -> seed 000 order [w0, a1..an, b1..bn], zeros where skipped."""
     n = max(orders, default=0)
@@ -189,19 +209,19 @@ def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bi
     m = _design_interleaved(2 * np.pi * (np.arange(bins) + 0.5) / bins, orders)
     ks = np.arange(1, 2 * len(orders) + 2, 2)
     sse = np.zeros((len(ks), bins))                       # held-out squared error per candidate and bin
-    g_fold = [m.T @ (m * c[:, None]) for c in count]      # each fold's normal equations
+    g_fold = _gram_at_bin_centres(count, orders)          # each fold's normal equations
     b_fold = sy @ m
-    g_all, b_all = sum(g_fold), b_fold.sum(0)
+    g_all, b_all = g_fold.sum(0), b_fold.sum(0)
     for f in range(k_folds):
         try:
             lower = cholesky(g_all - g_fold[f], lower=True)
         except LinAlgError:
             raise CoverageError("the angles do not determine the Fourier series (too little coverage)") from None
         u = solve_triangular(lower, b_all - b_fold[f], lower=True)
-        w = np.zeros((m.shape[1], len(ks)))               # candidate j's weights in column j
-        for j, k in enumerate(ks):
-            w[:k, j] = solve_triangular(lower[:k, :k].T, u[:k], lower=False)
-        p = m @ w                                         # predictions at the bin centres
+        # the design in the training fold's orthonormal basis (q = m L^-T): the prefix model of k columns
+        # predicts q[:, :k] @ u[:k], so a running sum over the columns gives every candidate at once
+        q = solve_triangular(lower, m.T, lower=True).T
+        p = np.cumsum(q * u, axis=1)[:, ks - 1]           # predictions at the bin centres, one column a candidate
         sse += (syy[f][:, None] - 2 * p * sy[f][:, None] + count[f][:, None] * p * p).T
     press = sse.sum(axis=1)
     rms = np.full(cap + 1, np.nan)
