@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fringe.dsp.effects import phase_columns
-from fringe.dsp.fourierfit import _design_interleaved, _gram_at_bin_centres, _orders, cv_folds, cv_harmonics
+from fringe.dsp.fourierfit import _gram_at_bin_centres, _orders, cv_folds, cv_harmonics, harmonic_design
 
 
 @pytest.mark.parametrize("bins, top, skip", [(4096, 64, 0), (4096, 40, 7), (64, 40, 0), (16, 3, 0)])
@@ -15,7 +15,7 @@ def test_the_normal_equations_from_the_spectrum_equal_the_products(bins, top, sk
     rng = np.random.default_rng(bins + top)
     counts = rng.integers(0, 20, size=(3, bins)).astype(float)
     orders = _orders(top, skip)
-    m = _design_interleaved(2 * np.pi * (np.arange(bins) + 0.5) / bins, orders)
+    m = harmonic_design(2 * np.pi * (np.arange(bins) + 0.5) / bins, orders)
     direct = np.stack([m.T @ (m * c[:, None]) for c in counts])
     assert np.abs(_gram_at_bin_centres(counts, orders) - direct).max() <= 1e-12 * np.abs(direct).max()
 
@@ -26,7 +26,7 @@ def _held_out_rms_by_products(x, y, n_max, folds, bins=4096):
     centres = 2 * np.pi * (np.arange(bins) + 0.5) / bins
     press = np.zeros(n_max + 1)
     for n in range(n_max + 1):
-        m = _design_interleaved(centres, _orders(n, 0))[cell]
+        m = harmonic_design(centres, _orders(n, 0))[cell]
         for f in np.unique(folds):
             w = np.linalg.lstsq(m[folds != f], y[folds != f], rcond=None)[0]
             press[n] += np.sum((y[folds == f] - m[folds == f] @ w) ** 2)

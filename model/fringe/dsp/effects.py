@@ -24,6 +24,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from ..fixed.trim import speed_window_log2
+from .fourierfit import harmonic_design
 from .position import wrap
 
 MAG_REF = 1.0                 # amplitude terms work on magnitude - MAG_REF (a fixed point, as in the hardware)
@@ -405,14 +406,8 @@ def parse_generic(name: str) -> tuple[str, int, int]:
 
 
 def phase_columns(phi: np.ndarray, k: int, constant: bool) -> list[np.ndarray]:
-    """[1,] cos(j phi), sin(j phi) for j = 1..k: powers of exp(i phi) (one exponential, not 2k)."""
-    cols = [np.ones_like(phi)] if constant else []
-    z = np.exp(1j * np.asarray(phi, float))
-    p = z
-    for _ in range(k):
-        cols += [p.real, p.imag]
-        p = p * z
-    return cols
+    """[1,] cos(j phi), sin(j phi) for j = 1..k (fourierfit.harmonic_design's columns)."""
+    return list(harmonic_design(phi, list(range(1, k + 1))).T[0 if constant else 1:])
 
 
 def factor_columns(factor: str, ctx: Context, m: int) -> list[np.ndarray]:

@@ -13,7 +13,7 @@ from scipy.linalg import LinAlgError, cholesky, solve_triangular
 from .longperiod import FourierSeries
 
 
-def _design_interleaved(x: np.ndarray, orders: list[int]) -> np.ndarray:
+def harmonic_design(x: np.ndarray, orders: list[int]) -> np.ndarray:
     """Columns [1, cos h1 x, sin h1 x, cos h2 x, ...]: a model with fewer harmonics is a prefix."""
     z = np.exp(1j * np.asarray(x, float))
     m = np.empty((len(z), 2 * len(orders) + 1))
@@ -27,7 +27,7 @@ def _design_interleaved(x: np.ndarray, orders: list[int]) -> np.ndarray:
 
 
 def _gram_at_bin_centres(counts: np.ndarray, orders: list[int]) -> np.ndarray:
-    """m.T @ diag(c) @ m for each row c of `counts` (weights of the bins), m = _design_interleaved at the bin
+    """m.T @ diag(c) @ m for each row c of `counts` (weights of the bins), m = harmonic_design at the bin
     centres 2 pi (i + 1/2) / bins: from the weights' spectrum, without forming the products (a product of two
     harmonics is the sum of two others). Shape (rows, 2 len(orders) + 1, same)."""
     counts = np.atleast_2d(np.asarray(counts, float))
@@ -98,7 +98,7 @@ def fit_select(x: np.ndarray, y: np.ndarray, n_max: int, bins: int = 8192,
     n_max = int(min(n_max, _coverage_cap(len(xm))))
     top = n_max if n_fixed is None else min(n_fixed, n_max)
     orders = _orders(top, skip_multiples_of)
-    m = _design_interleaved(xm, orders)
+    m = harmonic_design(xm, orders)
     sw = np.sqrt(c)
     mw, yw = m * sw[:, None], ym * sw
     g, b, yy = mw.T @ mw, mw.T @ yw, float(yw @ yw)
@@ -206,7 +206,7 @@ def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bi
     train_count = count.sum(0) - count
     cap = min([int(n_max)] + [_coverage_cap(int(np.count_nonzero(c))) for c in train_count])
     orders = _orders(cap, skip_multiples_of)
-    m = _design_interleaved(2 * np.pi * (np.arange(bins) + 0.5) / bins, orders)
+    m = harmonic_design(2 * np.pi * (np.arange(bins) + 0.5) / bins, orders)
     ks = np.arange(1, 2 * len(orders) + 2, 2)
     sse = np.zeros((len(ks), bins))                       # held-out squared error per candidate and bin
     g_fold = _gram_at_bin_centres(count, orders)          # each fold's normal equations
