@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fringe.encoder import Encoder
-from fringe.fixed.config import CoreConfig
+from fringe.encoder import ARCSEC_PER_REV, Encoder
+from fringe.fixed.config import WAVE_LSB_ARCSEC, CoreConfig
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -241,12 +241,24 @@ def test_default_config_is_legal_and_replace_rechecks():
     dataclasses.replace(cfg, trim=0, trim_map_phi_w=99)      # fringe_trim is not built: its limits do not apply
 
 
-@pytest.mark.parametrize("lines, coarse_bits, fine_w", [(1, 0, 16), (32768, 0, 16), (100_000, 0, 14),
-                                                       (1 << 20, 0, 11), (8192, 15, 17)])
+@pytest.mark.parametrize("lines, coarse_bits, fine_w", [(1, 0, 20), (3, 0, 18), (15, 0, 16), (32768, 0, 16),
+                                                       (100_000, 0, 14), (1 << 20, 0, 11), (8192, 15, 17)])
 def test_an_encoder_of_many_lines_gets_a_position_within_the_registers(lines, coarse_bits, fine_w):
-    """FINE_W is 16 bits a period unless a fine coarse code needs more, or the lines need fewer: POS_W <= 31."""
+    """FINE_W is 16 bits a period unless a fine coarse code needs more, few lines need a finer count (at most
+    WAVE_LSB_ARCSEC: 1.24" at 1 line) or many lines fewer bits: POS_W <= 31."""
     cfg = CoreConfig.for_encoder(Encoder(lines_per_rev=lines, adc_bits=16, coarse_bits=coarse_bits))
     assert cfg.fine_w == fine_w and cfg.pos_w <= 31
+    assert ARCSEC_PER_REV / lines / 2 ** cfg.fine_w <= WAVE_LSB_ARCSEC
+
+
+@pytest.mark.parametrize("lines", [1, 2, 5, 16, 256])
+def test_one_lsb_of_a_table_value_or_gain_moves_the_angle_by_at_most_the_budget(lines):
+    """WAVE_W and COEF_W: one unit of the last bit is a relative error of 2^-(W-2) of the unit amplitude, at most
+    that many radians of fine phase, and a radian is 1296000 / (2 pi lines) arcsec."""
+    cfg = CoreConfig.for_encoder(Encoder(lines_per_rev=lines, adc_bits=12, coarse_bits=0))
+    arcsec_per_rad = ARCSEC_PER_REV / (2 * np.pi * lines)
+    for width in (cfg.wave_w, cfg.coef_w):
+        assert 2.0 ** -(width - 2) * arcsec_per_rad <= WAVE_LSB_ARCSEC
 
 
 def test_an_absolute_encoder_whose_position_needs_32_bits_is_refused_with_the_reason():

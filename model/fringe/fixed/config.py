@@ -25,6 +25,7 @@ from .trim import TrimParams, speed_window_log2
 from .wave_lut import WaveLutParams
 
 WAVE_LSB_ARCSEC = 2.0   # default table width: one LSB of a waveform table moves the angle by at most this
+# (and one LSB of a quadrature gain, and one count of the fine phase: few lines a revolution widen all three)
 TRIM_FIELDS = ("trim", "trim_speed_log2", "trim_map_psi_w", "trim_map_phi_w", "trim_w", "trim_frac", "trim_g_shift",
                "trim_start_speed", "trim_mag_smooth_log2")
 DRIFT_FIELDS = ("drift", "drift_block_log2", "drift_mu_log2", "drift_ofs_frac", "drift_ginv_w", "drift_fwd_w",
@@ -206,28 +207,32 @@ class CoreConfig(PositionWidths):
         """Defaults that fit the encoder and a small FPGA.
 
         Tables of 2^min(ADC_W-1, 8..10) points per branch; table values 3 bits wider than the ADC
-        (13 fraction bits for a 12-bit ADC, so their rounding stays below the ADC's), wider for encoders of
-        few lines, where a radian of fine phase is a large angle (WAVE_LSB_ARCSEC); gains of 16
+        (13 fraction bits for a 12-bit ADC, so their rounding stays below the ADC's); gains of 16
         bits, so every quadrature product is one 16x16 DSP (the iCE40 UP5K has eight); a CORDIC of
-        FINE_W + 1 stages. `make bench` reports what these cost against 18-bit datapaths.
+        FINE_W + 1 stages. Encoders of few lines, where a radian of fine phase is a large angle, get wider
+        table values, gains and fine phase, each so that one unit of its last bit moves the angle by at most
+        WAVE_LSB_ARCSEC (a 1-line encoder: 19-bit values and gains, a 20-bit phase of 1.24"; at 16 lines and
+        more nothing changes). `make bench` reports what these cost against 18-bit datapaths.
         """
-        # table values: 3 bits finer than the ADC, and fine enough that one unit of their last bit moves the angle
-        # by at most WAVE_LSB_ARCSEC (few lines per revolution make a radian of fine phase a large angle)
+        # table values and gains: one unit of their last bit moves the angle by at most WAVE_LSB_ARCSEC (a relative
+        # error e of either moves it by up to e radians of fine phase); values 3 bits finer than the ADC
         arcsec_per_rad = 1_296_000 / (2 * math.pi * enc.lines_per_rev)
         angle_bits = math.ceil(math.log2(arcsec_per_rad / WAVE_LSB_ARCSEC)) + 2
         wave_w = min(31, max(15, enc.adc_bits + 3, angle_bits))
-        # the period count needs COARSE_W <= FINE_W - 2: a fine coarse code gets a finer phase; an encoder of more
-        # than 2^15 lines gets a coarser one, so that a position stays within the 32-bit registers (POS_W <= 31):
-        # at 2^20 lines a period is 1.24", and 2^-11 of one 0.0006"
+        # the fine phase: a count of at most WAVE_LSB_ARCSEC (16 bits from 16 lines on). The period count needs
+        # COARSE_W <= FINE_W - 2: a fine coarse code gets a finer phase; an encoder of more than 2^15 lines gets a
+        # coarser one, so that a position stays within the 32-bit registers (POS_W <= 31): at 2^20 lines a period
+        # is 1.24", and 2^-11 of one 0.0006"
         lines_w = max(0, (enc.lines_per_rev - 1).bit_length())
-        fine_w = overrides.get("fine_w", max(min(cls.fine_w, 31 - lines_w), enc.coarse_bits + 2, 8))
+        count_bits = math.ceil(math.log2(1_296_000 / enc.lines_per_rev / WAVE_LSB_ARCSEC))
+        fine_w = overrides.get("fine_w", max(min(max(cls.fine_w, count_bits), 31 - lines_w), enc.coarse_bits + 2, 8))
         if "fine_w" not in overrides and lines_w + fine_w > 31 and enc.coarse_bits:
             raise ValueError(f"a coarse code of {enc.coarse_bits} bits needs FINE_W >= {enc.coarse_bits + 2}, and "
                              f"{enc.lines_per_rev} lines then need a position of {lines_w + fine_w} bits: the core's "
                              "registers hold 31 (clog2(lines_per_rev) + coarse_bits must be at most 29)")
         base = dict(adc_w=enc.adc_bits, lines=enc.lines_per_rev, coarse_w=enc.coarse_bits,
                     wave_addr_w=min(enc.adc_bits - 1, max(8, enc.adc_bits - 4), 10),
-                    wave_w=wave_w, coef_w=min(27, max(16, enc.adc_bits + 2)), fine_w=fine_w,
+                    wave_w=wave_w, coef_w=min(27, max(16, enc.adc_bits + 2, angle_bits)), fine_w=fine_w,
                     cordic_stages=fine_w + 1, trim_speed_log2=speed_window_log2(enc.lines_per_rev))
         base.update(overrides)
         return cls(**base)
