@@ -10,7 +10,7 @@ import dataclasses
 import math
 from dataclasses import dataclass
 
-from ..encoder import Encoder
+from ..encoder import ARCSEC_PER_REV, Encoder
 from . import long_period as lp_mod
 from . import period_count as pc_mod
 from . import quadrature as quad_mod
@@ -216,7 +216,7 @@ class CoreConfig(PositionWidths):
         """
         # table values and gains: one unit of their last bit moves the angle by at most WAVE_LSB_ARCSEC (a relative
         # error e of either moves it by up to e radians of fine phase); values 3 bits finer than the ADC
-        arcsec_per_rad = 1_296_000 / (2 * math.pi * enc.lines_per_rev)
+        arcsec_per_rad = ARCSEC_PER_REV / (2 * math.pi * enc.lines_per_rev)
         angle_bits = math.ceil(math.log2(arcsec_per_rad / WAVE_LSB_ARCSEC)) + 2
         wave_w = min(31, max(15, enc.adc_bits + 3, angle_bits))
         # the fine phase: a count of at most WAVE_LSB_ARCSEC (16 bits from 16 lines on). The period count needs
@@ -224,7 +224,7 @@ class CoreConfig(PositionWidths):
         # coarser one, so that a position stays within the 32-bit registers (POS_W <= 31): at 2^20 lines a period
         # is 1.24", and 2^-11 of one 0.0006"
         lines_w = max(0, (enc.lines_per_rev - 1).bit_length())
-        count_bits = math.ceil(math.log2(1_296_000 / enc.lines_per_rev / WAVE_LSB_ARCSEC))
+        count_bits = math.ceil(math.log2(ARCSEC_PER_REV / enc.lines_per_rev / WAVE_LSB_ARCSEC))
         fine_w = overrides.get("fine_w", max(min(max(cls.fine_w, count_bits), 31 - lines_w), enc.coarse_bits + 2, 8))
         if "fine_w" not in overrides and lines_w + fine_w > 31 and enc.coarse_bits:
             raise ValueError(f"a coarse code of {enc.coarse_bits} bits needs FINE_W >= {enc.coarse_bits + 2}, and "

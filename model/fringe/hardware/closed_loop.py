@@ -84,7 +84,7 @@ def rev_norm_error(cal: Calibration, psi: np.ndarray, phi: np.ndarray) -> np.nda
     ws, wc = cal.waves["sin"](theta), cal.waves["cos"](theta)
     # the waveforms over one period, not a stream in time: the interference canceller, an adaptive filter of a
     # stream, has nothing to take out of them (run over the grid it adapted to the waveform's own content, and
-    # its per-sample float loop was most of a loop run with a canceller: population draw 9018, 760 s)
+    # its per-sample float loop, 7.5 ms a grid, ran once per revolution angle in every trim_config)
     cal = dataclasses.replace(cal, canceller={}) if cal.canceller else cal
     true_frac, _ = static_phase(cal, ws, wc)
     b = cal.rev_norm.basis(np.asarray(psi, float))
