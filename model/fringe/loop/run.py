@@ -34,7 +34,7 @@ from .amplitude import (
 from .candidates import candidates, describe, family_holds, generic_effect, named_shape, speed_holds, strided, widen
 from .evaluation import Evaluation, LoopState, _design, _figs, evaluate, leans_on_vibrations, validation_figures
 from .noise import noise_floor
-from .refit import apply, tracker_note
+from .refit import apply, polish_tones, tracker_note
 from .significance import (
     MIN_GAIN,
     P_VALUE,
@@ -196,6 +196,10 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
         if not why_not:
             report["effects_added"].append(entry)
             state, ev_val = trial, val_after
+            if best.name != "tone":     # what the new correction takes out may have pulled a tone's frequency
+                polished = polish_tones(state, fit_data)
+                if polished is not state:
+                    state, ev_val = polished, evaluate(polished, val_data)
             ev_fit = evaluate(state, fit_data)
             sigma = min(sigma, noise_floor(ev_fit)[0])     # a cleaner residual inflates the floor less
         else:
