@@ -478,6 +478,34 @@ def test_float_engine_keeps_the_cores_order_of_tracker_and_revolution_map():
     assert float(np.sqrt(np.mean((d * 3600.0) ** 2))) < r / 4, r
 
 
+def test_float_engine_keeps_the_cores_order_of_canceller_and_revolution_map():
+    """The interference canceller sits ahead of the CORDIC and adapts on the Lissajous radius of the raw readings;
+    fringe_trim's map takes the revolution's offsets out behind it. The float engine runs them in that order, so
+    that it differs from the core by the core's rounding only (well under a tenth of the image R of the offsets),
+    not by what the offsets' radius does to the canceller (normalising first, as it did, left 40" between them
+    here, two thirds of R = 60")."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.cli.engines import run_engine
+    from fringe.dsp.effects import RevNormalisation
+    from fringe.hardware.closed_loop import rev_norm_image
+
+    cfg = SimulationConfig(lines_per_rev=64, coarse_bits=8, samples=20_000, speed_mean_rev_s=0.3,
+                           speed_swing_rev_s=1.0, ref_error_arcsec={}, interference_fs=0.02, interference_hz=65.0)
+    meas = measurement_of(simulate(cfg, 4))
+    cal = calibrate(meas, cfg.encoder())
+    off = np.zeros(8)
+    off[3] = 0.03 * cfg.encoder().adc_half_range     # sin 2 psi on the cosine channel's offset
+    norm = RevNormalisation({"sin": (np.zeros(8), np.zeros(8)), "cos": (off, np.zeros(8))})
+    cal = dataclasses.replace(cal, rev_norm=norm, canceller={"tone_hz": 65.0, "sample_rate_hz": cfg.sample_rate_hz,
+                                                             "cancel_block_log2": 4, "cancel_mu_log2": 3})
+    res = run_engine("float", cal, meas, None)
+    image = rev_norm_image(cal, 2 * np.pi * res.position / cfg.lines_per_rev, 2 * np.pi * res.frac)
+    r = float(np.sqrt(np.mean(image ** 2))) * 1_296_000 / cfg.lines_per_rev
+    d = (run_engine("model", cal, meas, None).angle_deg - res.angle_deg + 180.0) % 360.0 - 180.0
+    assert r > 20.0, r
+    assert float(np.sqrt(np.mean((d * 3600.0) ** 2))) < r / 10, r
+
+
 def test_a_vibrations_sidebands_in_the_channels_are_not_interference():
     """A vibration v(t) moves the phase: each channel errs by its waveform's slope times v, lines at f_v +- the
     electrical frequency; an additive tone adds one line to both channels at any phase. Random frequencies,
