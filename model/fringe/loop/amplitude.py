@@ -4,6 +4,7 @@ cause a magnitude-dependent correction is reported under."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 
 import numpy as np
@@ -31,7 +32,7 @@ from .candidates import (
     strided,
 )
 from .evaluation import Evaluation, LoopState, _design, evaluate, shift_reference
-from .refit import apply, carry_loop, choose_tracker, recalibrate, refit_angle_terms
+from .refit import apply, carry_loop, choose_tracker, recalibrate, recalibration_structure, refit_angle_terms
 from .significance import MIN_GAIN, REVOLUTION_MIN_LINES, Test, revolution_untestable, test_terms
 
 PHASE_DOMAIN_ORDERS = (2, 4, 6, 8, 12, 16, 24, 32)   # fine-phase orders of the phase-domain map (chosen by CV)
@@ -141,17 +142,25 @@ def phase_orders(ev: Evaluation) -> str:
     return generic_name("1", min(held, key=held.get))
 
 
-def phase_domain(state: LoopState, meas: Measurement, keep_amplitude: bool) -> LoopState:
+def phase_domain(state: LoopState, meas: Measurement, keep_amplitude: bool,
+                 fresh_by_key: dict | None = None) -> LoopState:
     """The remedy for an amplitude that changes, where the per-channel waveform inverse cannot serve: the waveform
     stage straight and the conic (a common gain then moves no angle: atan2 of two channels scaled alike is
     unchanged), and the phase error of the channels' shape corrected after the arctan, by the fine-phase map in
     fringe_trim (orders chosen on held-out data). With `keep_amplitude` the magnitude terms stay beside it (a
-    waveform whose shape itself changes with the amplitude)."""
+    waveform whose shape itself changes with the amplitude). `fresh_by_key` keeps the declared model's
+    re-calibration between calls on the same readings: it depends on the reference's lag and the structure
+    only, not on the angle terms (a third of this remedy's time)."""
     meas = shift_reference(meas, state.ref_lag_s)
     terms = [t for t in state.cal.angle_terms if not t.name.startswith(FINE_MAP_PREFIX)
              and (keep_amplitude or not any(t.name.startswith(a) for a in AMPLITUDE_TERMS))]
     marked = dataclasses.replace(state.cal, fit={**state.cal.fit, "phase_domain": True}, angle_terms=terms)
-    cal = carry_loop(recalibrate(meas, marked), marked)
+    key = (state.ref_lag_s, repr(recalibration_structure(marked)))
+    cache = {} if fresh_by_key is None else fresh_by_key
+    if key not in cache:
+        cache[key] = recalibrate(meas, marked)
+    # a copy: later steps may change a calibration's fit record in place
+    cal = carry_loop(copy.deepcopy(cache[key]), marked)
     ev = strided(evaluate(LoopState(cal, state.artefacts), meas))
     name = phase_orders(ev)
     t = test_terms(ev.r, lambda sl: generic_design(name, ev.ctx.rows(sl)), 1.0, name)
@@ -239,13 +248,20 @@ def engine_rms(state: LoopState, meas: Measurement) -> float | None:
 
 
 def best_amplitude_remedy(state: LoopState, trial: LoopState, val_after: Evaluation, fit_data: Measurement,
-                          val_data: Measurement) -> tuple[LoopState, Evaluation, str]:
+                          val_data: Measurement, memo: dict | None = None) -> tuple[LoopState, Evaluation, str]:
     """Of the magnitude-dependent term (`trial`), the phase-domain structure (with and without that term) and the
     amplitude normaliser (the drift tracker), the one with the least error on the validation data: on the
     bit-exact engine where the core runs every candidate (the remedies live in different blocks, whose float
-    twins do not show how they combine in the core), else on the float engine."""
-    found = [("", trial, val_after)]
+    twins do not show how they combine in the core), else on the float engine. `memo` keeps what depends on
+    `state` alone (the remedies without the term, the re-calibration) between trials of one loop iteration."""
+    memo = {} if memo is None else memo
+    fresh_by_key = memo.setdefault("fresh_by_key", {})
+    found = [("", trial, val_after, engine_rms(trial, val_data))]
     for keep, label in ((False, PHASE_DOMAIN), (True, PHASE_DOMAIN + " and magnitude term"), (None, NORMALISER)):
+        if keep is not True and label in memo:
+            found += memo[label]
+            continue
+        got = []
         try:
             if keep is None:      # the channels' gains tracked online ahead of the tables (fringe_drift_normaliser)
                 if state.cal.adaptive:
@@ -253,15 +269,18 @@ def best_amplitude_remedy(state: LoopState, trial: LoopState, val_after: Evaluat
                 alt = LoopState(choose_tracker(dataclasses.replace(state.cal, adaptive=True), state, fit_data),
                                 list(state.artefacts), state.ref_lag_s)
             else:
-                alt = phase_domain(trial if keep else state, fit_data, keep)
-            found.append((label, alt, evaluate(alt, val_data)))
+                alt = phase_domain(trial if keep else state, fit_data, keep, fresh_by_key)
+            got = [(label, alt, evaluate(alt, val_data), engine_rms(alt, val_data))]
         except (FringeInputError, ValueError, TypeError, KeyError, np.linalg.LinAlgError):
-            continue
-    core = [engine_rms(alt, val_data) for _, alt, _ in found]
-    scores = core if all(c is not None for c in core) else [ev.rms for _, _, ev in found]
+            pass
+        if keep is not True:
+            memo[label] = got
+        found += got
+    core = [c for *_, c in found]
+    scores = core if all(c is not None for c in core) else [ev.rms for _, _, ev, _ in found]
     best = 0
     for k in range(1, len(found)):
         if scores[k] < (1 - 0.5 * MIN_GAIN) * scores[best]:
             best = k
-    label, alt, ev = found[best]
+    label, alt, ev, _ = found[best]
     return alt, ev, label

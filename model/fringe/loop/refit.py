@@ -91,20 +91,27 @@ def polish_tones(state: LoopState, fit_data: Measurement) -> LoopState:
 def recalibrate(meas: Measurement, cal: Calibration, known_error_arcsec: np.ndarray | None = None) -> Calibration:
     """The declared model calibrated again, in the structure the loop chose for `cal` (the per-channel waveform
     inverse, or the phase-domain structure of `phase_domain`), with a known error held out of it."""
-    from ..calib.calibrate import CANDIDATES, PHASE_TABLE, WAVEFORM, CalibrationOptions
+    from ..calib.calibrate import CalibrationOptions
 
-    chosen = cal.fit.get("model_choice", {}).get("chosen")
-    if cal.fit.get("phase_domain"):    # whether to centre the phase table is chosen once, then kept
-        structure, centre = (CANDIDATES[chosen] if chosen and CANDIDATES[chosen][0] == PHASE_TABLE
-                             else (PHASE_TABLE, None))
-    else:   # the structure the declared model's calibration chose on held-out data, not chosen again
-        # (none chosen: a structure given to calibrate, or the reference-free calibration)
-        structure, centre = CANDIDATES[chosen] if chosen else (cal.fit.get("structure") or WAVEFORM, False)
+    structure, centre = recalibration_structure(cal)
     fresh = calibrate(meas, cal.encoder, CalibrationOptions(structure=structure, gain_centre=centre,
                                                             known_error_arcsec=known_error_arcsec))
     if cal.fit.get("phase_domain"):
         fresh.fit["phase_domain"] = True
     return fresh
+
+
+def recalibration_structure(cal: Calibration) -> tuple:
+    """The structure and gain-centre option `recalibrate` calibrates `cal`'s declared model in (all it reads of
+    `cal` besides the encoder)."""
+    from ..calib.calibrate import CANDIDATES, PHASE_TABLE, WAVEFORM
+
+    chosen = cal.fit.get("model_choice", {}).get("chosen")
+    if cal.fit.get("phase_domain"):    # whether to centre the phase table is chosen once, then kept
+        return CANDIDATES[chosen] if chosen and CANDIDATES[chosen][0] == PHASE_TABLE else (PHASE_TABLE, None)
+    # the structure the declared model's calibration chose on held-out data, not chosen again
+    # (none chosen: a structure given to calibrate, or the reference-free calibration)
+    return CANDIDATES[chosen] if chosen else (cal.fit.get("structure") or WAVEFORM, False)
 
 
 def carry_loop(fresh: Calibration, cal: Calibration, **changes) -> Calibration:
