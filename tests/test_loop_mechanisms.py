@@ -670,6 +670,53 @@ def test_the_magnitude_average_is_stored_checked_and_given_to_the_core(tmp_path)
             load_calibration(str(folder))
 
 
+def test_the_speed_window_is_stored_checked_and_given_to_the_core(tmp_path):
+    """calibration.json keeps the speed window the loop chose for the motion terms, the core configuration built
+    from the folder gives it to fringe_trim (TRIM_SPEED_LOG2, with the start speed in its units), the float engine
+    reads the speed over it, and a window the encoder cannot take (longer than the generator's longest) is refused
+    in one line."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.dsp.effects import FittedEffect, make_context
+    from fringe.errors import FringeInputError
+    from fringe.hardware.corefiles import core_config
+    from fringe.io.calstore import load_calibration, save_calibration
+    from fringe.io.outputs import write_manifest
+
+    cfg = SimulationConfig(lines_per_rev=64, coarse_bits=8, samples=8192, speed_mean_rev_s=0.0, speed_swing_rev_s=2.0)
+    meas = measurement_of(simulate(cfg, 1))
+    cal = calibrate(meas, cfg.encoder())
+    cal = dataclasses.replace(cal, speed_window_log2=2, start_speed_rev_s=1.0,
+                              angle_terms=[FittedEffect("hysteresis", np.array([30.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                                                                                0.0, 0.0]))])
+    save_calibration(cal, str(tmp_path / "cal"))
+    back = load_calibration(str(tmp_path / "cal"))
+    assert back.speed_window_log2 == 2
+    core = core_config(back)
+    default = core_config(dataclasses.replace(back, speed_window_log2=None))
+    assert core.trim_speed_log2 == 2 and default.trim_speed_log2 == 5
+    # the same speed over a window 8x as long (each rounded to a count)
+    long_start, short_start = default.trim_start_speed, core.trim_start_speed
+    assert abs(long_start - 8 * short_start) <= 4, (long_start, short_start)
+    # the float engine's direction: over 4 samples it turns sooner after each reversal than over 32
+    ctx = evaluate(LoopState(back), meas).ctx
+    long = make_context(np.mod(ctx.phi / (2 * np.pi), 1.0), ctx.psi / (2 * np.pi) * 64, 64, ctx.t, ctx.magnitude)
+    true = np.sign(np.gradient(np.unwrap(np.radians(meas.ref_deg))))
+    moving = true != 0
+    assert np.sum(ctx.direction[moving] != back.direction * true[moving]) < \
+        np.sum(long.direction[moving] != back.direction * true[moving])
+    data = json.loads((tmp_path / "cal" / "calibration.json").read_text())
+    for bad in (6, -1, 2.5, True, "3"):
+        data["closed_loop"]["speed_window_log2"] = bad
+        folder = tmp_path / f"bad_{bad}"
+        folder.mkdir()
+        for f in (tmp_path / "cal").iterdir():
+            (folder / f.name).write_bytes(f.read_bytes())
+        (folder / "calibration.json").write_text(json.dumps(data))
+        write_manifest(str(folder), "calibration", "test")     # an edit the manifest knows of: the value is read
+        with pytest.raises(FringeInputError, match="speed_window_log2 must be null or an integer 0..5 for 64 lines"):
+            load_calibration(str(folder))
+
+
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_an_amplitude_term_that_follows_only_the_magnitudes_noise_is_not_named(seed):
     """Radial noise moves a sample's reading along the waveform tables' curve (harmonics 3 and 5 here), so a

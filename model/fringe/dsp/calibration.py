@@ -33,6 +33,10 @@ class Calibration:
     # the magnitude the closed loop's magnitude terms read: its running average over ~2^k samples (fringe_trim's
     # MAG_SMOOTH_LOG2; 0: the sample's own), chosen on held-out data where a magnitude term is added
     magnitude_smooth_log2: int = 0
+    # the speed window of the closed loop's speed and direction terms, 2^k samples (fringe_trim's SPEED_LOG2): None
+    # for the generator's default (fixed.trim.speed_window_log2), else chosen on held-out data (a shorter window
+    # turns the direction sooner after a reversal, and passes more noise into the speed)
+    speed_window_log2: int | None = None
     rev_norm: object | None = None               # offsets/gains over the revolution (effects.RevNormalisation)
     angle_terms: list = field(default_factory=list)   # closed-loop hardware terms (effects.FittedEffect)
     waves: dict = field(default_factory=dict)    # fitted channel models (for reports and plots)

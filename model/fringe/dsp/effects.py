@@ -94,13 +94,15 @@ def magnitude_average(magnitude: np.ndarray, log2_samples: int) -> np.ndarray:
 
 
 def make_context(frac: np.ndarray, position_periods: np.ndarray, lines: int, t: np.ndarray,
-                 magnitude: np.ndarray, start_speed: float = 0.0, magnitude_smooth_log2: int = 0) -> Context:
+                 magnitude: np.ndarray, start_speed: float = 0.0, magnitude_smooth_log2: int = 0,
+                 speed_log2: int | None = None) -> Context:
     """The context of a stream from reset; start_speed (rev/s): the speed taken for its first sample, which has
     no window yet (Calibration.start_speed_rev_s, fringe_trim's START_SPEED); the magnitude averaged over
-    ~2^magnitude_smooth_log2 samples (Calibration.magnitude_smooth_log2, fringe_trim's MAG_SMOOTH_LOG2)."""
+    ~2^magnitude_smooth_log2 samples (Calibration.magnitude_smooth_log2, fringe_trim's MAG_SMOOTH_LOG2); the speed
+    over 2^speed_log2 samples (Calibration.speed_window_log2, fringe_trim's SPEED_LOG2; None: the default)."""
     rev = position_periods / lines
     unwrapped = rev[0] + np.concatenate([[0.0], np.cumsum(wrap(np.diff(rev)))])
-    log2_window = speed_window_log2(lines)
+    log2_window = speed_window_log2(lines) if speed_log2 is None else speed_log2
     v = speed_estimate(unwrapped, t, log2_window, start_speed)
     acc = np.gradient(v, t) if len(t) > 2 else np.zeros_like(v)
     # no acceleration from the start-up's growing windows: their speeds jump from 0 at the first sample and

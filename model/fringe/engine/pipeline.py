@@ -135,7 +135,7 @@ def run_float(cal: Calibration, sin: np.ndarray, cos: np.ndarray, coarse: np.nda
     if cal.angle_terms:
         from ..dsp.effects import make_context
         ctx = make_context(frac, pos, enc.lines_per_rev, sample_times(len(frac), t), mag, cal.start_speed_rev_s,
-                           cal.magnitude_smooth_log2)
+                           cal.magnitude_smooth_log2, cal.speed_window_log2)
         correction = sum(term.predict(ctx) for term in cal.angle_terms)
         # the terms model the error of the output angle: map it back into the encoder's direction
         pos = (pos - cal.direction * correction / ARCSEC_PER_REV * enc.lines_per_rev) % enc.lines_per_rev

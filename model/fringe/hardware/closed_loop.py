@@ -355,6 +355,8 @@ def trim_config(cal: Calibration, cfg):
     Every choice is checked by building the tables. ValueError (what does not fit) when nothing does."""
     if not needs_trim(cal):
         return cfg
+    if cal.speed_window_log2 is not None:
+        cfg = dataclasses.replace(cfg, trim_speed_log2=int(cal.speed_window_log2))
     on = dataclasses.replace(cfg, trim=1, trim_start_speed=start_speed_counts(cal, cfg),
                              trim_mag_smooth_log2=int(cal.magnitude_smooth_log2))
     if not map_changes_over_revolution(cal, on):     # one sector: every word of the map for the phase

@@ -13,7 +13,7 @@ from ..dsp.quadrature import QuadratureCorrection
 from ..dsp.waveform import ChannelWaveform, WaveformInverse
 from ..encoder import encoder_from_dict
 from ..errors import FringeInputError
-from ..fixed.trim import MAG_SMOOTH_LOG2_MAX
+from ..fixed.trim import MAG_SMOOTH_LOG2_MAX, speed_window_log2
 from .dataio import MAX_REF_DEG
 from .outputs import atomic_dir, verify_dir
 
@@ -56,6 +56,7 @@ def to_json_dict(cal: Calibration) -> dict:
         "closed_loop": {"adaptive_offset_gain": cal.adaptive, "tracker": cal.tracker, "canceller": cal.canceller,
                         "start_speed_rev_s": cal.start_speed_rev_s,
                         "magnitude_smooth_log2": cal.magnitude_smooth_log2,
+                        "speed_window_log2": cal.speed_window_log2,
                         "rev_normalisation": None if cal.rev_norm is None else cal.rev_norm.to_dict(),
                         "angle_terms": [t.to_dict() for t in cal.angle_terms]},
         "skipped": cal.skipped,
@@ -159,6 +160,13 @@ def load_calibration(cal_dir: str) -> Calibration:
             raise FringeInputError(f"closed_loop.magnitude_smooth_log2 must be an integer 0..{MAG_SMOOTH_LOG2_MAX}, "
                                    f"not {smooth!r}", path)
         cal.magnitude_smooth_log2 = smooth
+        window = loop.get("speed_window_log2")
+        longest = speed_window_log2(cal.encoder.lines_per_rev)
+        if window is not None and (isinstance(window, bool) or not isinstance(window, int)
+                                   or not 0 <= window <= longest):
+            raise FringeInputError(f"closed_loop.speed_window_log2 must be null or an integer 0..{longest} for "
+                                   f"{cal.encoder.lines_per_rev} lines, not {window!r}", path)
+        cal.speed_window_log2 = window
         if loop.get("rev_normalisation"):
             from ..dsp.effects import RevNormalisation
             cal.rev_norm = RevNormalisation.from_dict(loop["rev_normalisation"])

@@ -85,7 +85,7 @@ def evaluate(state: LoopState, meas: Measurement, res=None) -> Evaluation:
     r = unslipped(error_arcsec(res.angle_deg, meas.ref_deg), state.cal, meas)
     ctx = covered(make_context(res.frac, res.position, state.cal.encoder.lines_per_rev,
                                sample_times(len(r), meas.t_s), res.magnitude, state.cal.start_speed_rev_s,
-                               state.cal.magnitude_smooth_log2))
+                               state.cal.magnitude_smooth_log2, state.cal.speed_window_log2))
     for art in state.artefacts:
         x = _design(art.name, ctx, art.tone_hz)
         x = x - x.mean(0)

@@ -34,7 +34,7 @@ from .amplitude import (
 from .candidates import candidates, describe, family_holds, generic_effect, named_shape, speed_holds, strided, widen
 from .evaluation import Evaluation, LoopState, _design, _figs, evaluate, leans_on_vibrations, validation_figures
 from .noise import noise_floor
-from .refit import apply, polish_tones, tracker_note
+from .refit import apply, choose_speed_window, polish_tones, tracker_note
 from .significance import (
     MIN_GAIN,
     P_VALUE,
@@ -189,6 +189,12 @@ def run_loop(train: Measurement, enc: Encoder, validate: Measurement | None = No
             entry["evidence"] += (f"; on the magnitude's running average over ~{1 << k} samples (fringe_trim "
                                   f"MAG_SMOOTH_LOG2 = {k}): it predicts held-out data better than the sample's own")
             entry["magnitude_smooth_log2"] = k
+        w = trial.cal.speed_window_log2
+        if w != state.cal.speed_window_log2:
+            entry["evidence"] += (f"; on a speed window of {1 << w} samples (fringe_trim SPEED_LOG2 = {w}): its "
+                                  "direction turns sooner after a reversal, and it left less error on the validation "
+                                  "data than the longer window")
+            entry["speed_window_log2"] = w
         cause, why = magnitude_cause(state, remedy, best, ev_fit)
         if cause:
             entry.update(name=cause, **{k: v for k, v in describe(cause).items() if k != "where"})
@@ -250,6 +256,7 @@ def _trial(state: LoopState, best, fit_data: Measurement, val_data: Measurement,
                                                           fit_data, val_data)
     if amplitude_like(best) and not state.cal.fit.get("phase_domain"):
         trial, val_after, remedy = best_amplitude_remedy(state, trial, val_after, fit_data, val_data, memo)
+    trial, val_after = choose_speed_window(state, trial, val_after, val_data, 0.5 * MIN_GAIN)
     return trial, val_after, best, remedy
 
 
