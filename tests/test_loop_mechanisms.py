@@ -635,16 +635,33 @@ def test_a_magnitude_term_reads_the_magnitudes_average_where_the_waveform_change
     assert averaged.rms_after ** 2 - sigma ** 2 < 0.5 * (own.rms_after ** 2 - sigma ** 2), (averaged, own, sigma)
 
 
+def _refused_closed_loop_value(tmp_path, key: str, bad, match: str) -> None:
+    """A copy of tmp_path/cal with closed_loop[key] = bad (the manifest rewritten: an edit it knows of, so the value
+    itself is read) is refused in one line matching `match`."""
+    from fringe.errors import FringeInputError
+    from fringe.io.calstore import load_calibration
+    from fringe.io.outputs import write_manifest
+
+    data = json.loads((tmp_path / "cal" / "calibration.json").read_text())
+    data["closed_loop"][key] = bad
+    folder = tmp_path / f"bad_{key}_{bad}"
+    folder.mkdir()
+    for f in (tmp_path / "cal").iterdir():
+        (folder / f.name).write_bytes(f.read_bytes())
+    (folder / "calibration.json").write_text(json.dumps(data))
+    write_manifest(str(folder), "calibration", "test")
+    with pytest.raises(FringeInputError, match=match):
+        load_calibration(str(folder))
+
+
 def test_the_magnitude_average_is_stored_checked_and_given_to_the_core(tmp_path):
     """calibration.json keeps the magnitude average a magnitude term reads, the core configuration built from the
     folder gives it to fringe_trim (TRIM_MAG_SMOOTH_LOG2), and a value the block cannot take is refused in one
     line."""
     from fringe.calib.calibrate import calibrate
     from fringe.dsp.effects import AMPLITUDE_ORDERS, FittedEffect, generic_design, generic_name
-    from fringe.errors import FringeInputError
     from fringe.hardware.corefiles import core_config
     from fringe.io.calstore import load_calibration, save_calibration
-    from fringe.io.outputs import write_manifest
 
     cfg = SimulationConfig(lines_per_rev=64, coarse_bits=8, samples=8192, speed_mean_rev_s=2.0, speed_swing_rev_s=1.0)
     meas = measurement_of(simulate(cfg, 1))
@@ -657,17 +674,9 @@ def test_the_magnitude_average_is_stored_checked_and_given_to_the_core(tmp_path)
     back = load_calibration(str(tmp_path / "cal"))
     assert back.magnitude_smooth_log2 == 3
     assert core_config(back).trim_mag_smooth_log2 == 3
-    data = json.loads((tmp_path / "cal" / "calibration.json").read_text())
     for bad in (13, -1, 2.5, True, "3"):
-        data["closed_loop"]["magnitude_smooth_log2"] = bad
-        folder = tmp_path / f"bad_{bad}"
-        folder.mkdir()
-        for f in (tmp_path / "cal").iterdir():
-            (folder / f.name).write_bytes(f.read_bytes())
-        (folder / "calibration.json").write_text(json.dumps(data))
-        write_manifest(str(folder), "calibration", "test")     # an edit the manifest knows of: the value is read
-        with pytest.raises(FringeInputError, match="magnitude_smooth_log2 must be an integer 0..12"):
-            load_calibration(str(folder))
+        _refused_closed_loop_value(tmp_path, "magnitude_smooth_log2", bad,
+                                   "magnitude_smooth_log2 must be an integer 0..12")
 
 
 def test_the_speed_window_is_stored_checked_and_given_to_the_core(tmp_path):
@@ -677,10 +686,8 @@ def test_the_speed_window_is_stored_checked_and_given_to_the_core(tmp_path):
     in one line."""
     from fringe.calib.calibrate import calibrate
     from fringe.dsp.effects import FittedEffect, make_context
-    from fringe.errors import FringeInputError
     from fringe.hardware.corefiles import core_config
     from fringe.io.calstore import load_calibration, save_calibration
-    from fringe.io.outputs import write_manifest
 
     cfg = SimulationConfig(lines_per_rev=64, coarse_bits=8, samples=8192, speed_mean_rev_s=0.0, speed_swing_rev_s=2.0)
     meas = measurement_of(simulate(cfg, 1))
@@ -704,17 +711,9 @@ def test_the_speed_window_is_stored_checked_and_given_to_the_core(tmp_path):
     moving = true != 0
     assert np.sum(ctx.direction[moving] != back.direction * true[moving]) < \
         np.sum(long.direction[moving] != back.direction * true[moving])
-    data = json.loads((tmp_path / "cal" / "calibration.json").read_text())
     for bad in (6, -1, 2.5, True, "3"):
-        data["closed_loop"]["speed_window_log2"] = bad
-        folder = tmp_path / f"bad_{bad}"
-        folder.mkdir()
-        for f in (tmp_path / "cal").iterdir():
-            (folder / f.name).write_bytes(f.read_bytes())
-        (folder / "calibration.json").write_text(json.dumps(data))
-        write_manifest(str(folder), "calibration", "test")     # an edit the manifest knows of: the value is read
-        with pytest.raises(FringeInputError, match="speed_window_log2 must be null or an integer 0..5 for 64 lines"):
-            load_calibration(str(folder))
+        _refused_closed_loop_value(tmp_path, "speed_window_log2", bad,
+                                   "speed_window_log2 must be null or an integer 0..5 for 64 lines")
 
 
 @pytest.mark.parametrize("seed", [1, 2, 3])

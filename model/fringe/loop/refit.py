@@ -11,7 +11,7 @@ import numpy as np
 
 from ..calib.calibrate import calibrate
 from ..dsp.calibration import Calibration
-from ..dsp.effects import FINE_MAP_PREFIX, LIBRARY, Context, FittedEffect, make_context
+from ..dsp.effects import FINE_MAP_PREFIX, LIBRARY, Context, FittedEffect, make_context, parse_generic
 from ..dsp.metrics import error_arcsec
 from ..encoder import ARCSEC_PER_REV
 from ..engine.pipeline import run_float, sample_times, tracked_readings, tracker_activity
@@ -139,7 +139,7 @@ def motion_terms(cal: Calibration) -> list[str]:
 
     def reads_motion(name: str) -> bool:
         if name.startswith("generic:"):
-            return GENERIC_NEEDS.get(name.split(":")[1]) in MOTION_NEEDS
+            return GENERIC_NEEDS.get(parse_generic(name)[0]) in MOTION_NEEDS
         return name in LIBRARY and bool(MOTION_NEEDS & set(LIBRARY[name].needs))
     return [t.name for t in cal.angle_terms if reads_motion(t.name)]
 
