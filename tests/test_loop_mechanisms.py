@@ -506,6 +506,42 @@ def test_float_engine_keeps_the_cores_order_of_canceller_and_revolution_map():
     assert float(np.sqrt(np.mean((d * 3600.0) ** 2))) < r / 10, r
 
 
+def test_the_maps_terms_are_tabulated_at_the_phase_the_revolution_map_leaves():
+    """The float engine reads its angle terms at the fine phase that the revolution's offsets and gains leave;
+    fringe_trim reads its map at the measured phase. A term of high fine order tabulated at the measured phase
+    differs by its slope times the revolution map's image there (population 9022: 1.08" of the 1.22" between
+    the core and the float engine). Tabulated at the corrected phase, the term adds only its own rounding
+    (bins) to what the core leaves without it, well under half of that product."""
+    from fringe.calib.calibrate import calibrate
+    from fringe.cli.engines import run_engine
+    from fringe.dsp.effects import FittedEffect, RevNormalisation
+    from fringe.hardware.closed_loop import rev_norm_image
+
+    cfg = SimulationConfig(lines_per_rev=64, coarse_bits=8, samples=20_000, speed_mean_rev_s=2.0,
+                           speed_swing_rev_s=0.5, ref_error_arcsec={})
+    meas = measurement_of(simulate(cfg, 4))
+    cal = calibrate(meas, cfg.encoder())
+    off = np.zeros(8)
+    off[1] = 0.02 * cfg.encoder().adc_half_range     # sin psi on the cosine channel's offset: R = 40"
+    norm = RevNormalisation({"sin": (np.zeros(8), np.zeros(8)), "cos": (off, np.zeros(8))})
+    amp = 30.0
+    fine = np.zeros(18)
+    fine[-2] = amp                      # 30" cos(9 phi)
+    diffs = {}
+    for terms in ([], [FittedEffect("generic:1:9:0", fine)]):
+        c = dataclasses.replace(cal, rev_norm=norm, angle_terms=terms,
+                                provenance={**cal.provenance, "noise_floor_arcsec": 1.0})
+        res = run_engine("float", c, meas, None)
+        d = (run_engine("model", c, meas, None).angle_deg - res.angle_deg + 180.0) % 360.0 - 180.0
+        diffs[len(terms)] = float(np.sqrt(np.mean((d * 3600.0) ** 2)))
+    image = rev_norm_image(c, 2 * np.pi * res.position / cfg.lines_per_rev, 2 * np.pi * res.frac)   # periods
+    slope = 9 * amp * np.sin(9 * 2 * np.pi * res.frac)                                           # arcsec / rad
+    product = float(np.sqrt(np.mean((slope * 2 * np.pi * image) ** 2)))
+    excess = float(np.sqrt(max(0.0, diffs[1] ** 2 - diffs[0] ** 2)))
+    assert product > 1.5, product
+    assert excess < product / 2, (diffs, product)
+
+
 def test_a_vibrations_sidebands_in_the_channels_are_not_interference():
     """A vibration v(t) moves the phase: each channel errs by its waveform's slope times v, lines at f_v +- the
     electrical frequency; an additive tone adds one line to both channels at any phase. Random frequencies,

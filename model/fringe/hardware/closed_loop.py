@@ -128,6 +128,14 @@ def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_
     interpolated in between by the hardware) for the sector's centre; mag_scale: CORDIC magnitude units
     per unit of the float pipeline's magnitude; sample_interval_s: seconds per sample of the recordings
     the speed terms were fitted on.
+
+    The float engine reads its terms at the phase the revolution's offsets and gains leave (cal.rev_norm
+    corrected first), the core's map at the measured phase. So the map's terms are tabulated at the
+    corrected phase of each (sector, bin): a term of high fine order read at the measured phase differs by
+    its slope times that correction (population 9022: offsets of 29" over the revolution under a 9th-order
+    phase term, 1.08" of the 1.22" between the core and the float engine). The speed and magnitude tables
+    have no sector axis and keep the measured phase; a product's map part (the magnitude reference) follows
+    its table, so that the two halves cancel at the reference magnitude as in the float.
     """
     phi = 2 * np.pi * np.arange(1 << map_phi_w) / (1 << map_phi_w)
     psi = 2 * np.pi * (np.arange(1 << map_psi_w) + 0.5) / (1 << map_psi_w)
@@ -135,8 +143,11 @@ def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_
     grid = np.zeros((2, len(psi), len(phi)))
     gs = np.zeros(len(phi))
     ga = np.zeros(len(phi))
+    at = np.broadcast_to(phi, (len(psi), len(phi)))       # the terms' phase at each (sector, bin)
     if cal.rev_norm is not None:
-        grid += rev_norm_error(cal, psi, phi)[None] * (1 << fine_w)
+        error = rev_norm_error(cal, psi, phi)
+        grid += error[None] * (1 << fine_w)
+        at = phi[None, :] - 2 * np.pi * error
     for term in core_terms(cal):
         w = np.asarray(term.weights, float)
         if term.name == "hysteresis":
@@ -149,42 +160,47 @@ def trim_grids(cal: Calibration, rev: int, fine_w: int, map_psi_w: int, map_phi_
             # speed (rev/s) = speed counts / rev / (2^SPEED_LOG2 * sample interval)
             per_count = 1.0 / (rev * (1 << speed_log2) * sample_interval_s)
             gs += (w[0] * (1 - np.cos(2 * phi)) + w[1] * np.sin(2 * phi)) * counts * per_count   # effects._skew_cols
-            grid += ((w[2] * np.cos(2 * phi) + w[3] * np.sin(2 * phi)) * counts)[None, None, :]   # its static part
+            grid += ((w[2] * np.cos(2 * at) + w[3] * np.sin(2 * at)) * counts)[None]            # its static part
         elif term.name == "amplitude":
             h = amplitude_shape(w, phi)
             ga += h * counts / mag_scale
             grid -= (h * counts * MAG_REF)[None, None, :]
         elif term.name.startswith("generic:"):
-            _generic_into(term, grid, gs, ga, phi, psi, counts, rev, speed_log2, mag_scale, sample_interval_s)
+            _generic_into(term, grid, gs, ga, phi, at, psi, counts, rev, speed_log2, mag_scale, sample_interval_s)
         else:
             raise ValueError(f"fringe_trim cannot carry the closed-loop term '{term.name}'")
     return TrimGrids(grid, gs, ga)
 
 
-def _generic_into(term, grid, gs, ga, phi, psi, counts, rev, speed_log2, mag_scale, sample_interval_s):
+def _generic_into(term, grid, gs, ga, phi, at, psi, counts, rev, speed_log2, mag_scale, sample_interval_s):
     """A term of the general dictionary (effects.generic_design) into fringe_trim's tables: the phase shape
-    per factor column, placed in the table that multiplies by that factor."""
+    per factor column, placed in the table that multiplies by that factor; the map's own factors read the
+    phase `at` (sector, bin), the tables' the bins' phase `phi` (trim_grids)."""
     from ..dsp.effects import GENERIC_FACTORS, parse_generic, phase_columns
 
     factor, k, m = parse_generic(term.name)
     if not GENERIC_FACTORS[factor]:
         raise ValueError(f"fringe_trim cannot carry the closed-loop term '{term.name}'")
-    phase = np.column_stack(phase_columns(phi, k, constant=factor != "1"))
-    w = np.asarray(term.weights, float).reshape(-1, phase.shape[1])       # (factor column, phase column)
-    shapes = w @ phase.T * counts                                          # (factor column, phase bin)
+
+    def shapes(x):         # (factor column, *x.shape): each factor column's phase shape at the phases x
+        cols = np.stack(phase_columns(np.ravel(x), k, constant=factor != "1"), axis=-1)
+        w = np.asarray(term.weights, float).reshape(-1, cols.shape[1])    # (factor column, phase column)
+        return (cols @ w.T * counts).T.reshape((w.shape[0], *np.shape(x)))
     if factor == "1":
-        grid += shapes[0][None, None, :]
+        grid += shapes(at)[0][None]
     elif factor == "direction":
-        grid[0] += shapes[0][None, :]
-        grid[1] -= shapes[0][None, :]
+        s = shapes(at)[0]
+        grid[0] += s
+        grid[1] -= s
     elif factor == "revolution":
         rc = np.column_stack([g(j * psi) for j in range(1, m + 1) for g in (np.cos, np.sin)])
-        grid += (rc @ shapes)[None]
+        grid += np.einsum("sf,fsb->sb", rc, shapes(at))[None]
     elif factor == "speed":
-        gs += shapes[0] / (rev * (1 << speed_log2) * sample_interval_s)
+        gs += shapes(phi)[0] / (rev * (1 << speed_log2) * sample_interval_s)
     elif factor == "magnitude":
-        ga += shapes[0] / mag_scale
-        grid -= (shapes[0] * MAG_REF)[None, None, :]
+        s = shapes(phi)[0]
+        ga += s / mag_scale
+        grid -= (s * MAG_REF)[None, None, :]
 
 
 def mag_scale(cfg) -> float:
