@@ -112,6 +112,25 @@ def test_float_twin_agrees():
         assert d.max() <= budget, (d.max(), budget)
 
 
+def test_float_twin_saturates_where_the_core_does():
+    """A step too large for the tone (16-sample blocks, final step 1/2, 0.3 radii at 0.003 cycles per sample) drives the
+    canceller
+    unstable. The core's words saturate (outputs and radial error at s(WAVE_W), +-2 radii; coefficients at
+    s(A_W), half the radius with the A_W the core generator chooses); the float twin must stay bounded the same
+    way (unbounded, it reached inf and NaN, and the loop's scoring of the candidate raised)."""
+    from fringe.dsp.canceller_float import TONE_MAX_LOG2, WORD_MAX
+    p = cm.CancelParams(wave_w=20, block_log2=4, mu_log2=1, a_w=20 + 4 - 1 + TONE_MAX_LOG2)
+    c, s, _, word = circle(p, 2000 * p.b, (0.3 * p.radius, 0.3 * p.radius), cycles=0.003)
+    twin = CancelFloat(word, p.block_log2, p.mu_log2)
+    fc, fs = twin.run(c / p.radius, s / p.radius)
+    rows = np.array(twin.rows)
+    assert np.isfinite(fc).all() and np.isfinite(fs).all()
+    assert np.abs(fc).max() <= WORD_MAX and np.abs(fs).max() <= WORD_MAX
+    assert np.abs(rows).max() == pytest.approx(2.0 ** TONE_MAX_LOG2)      # it did reach the coefficients' limit
+    r = cm.cancel(c, s, word, p)
+    assert r.track_sat.any()            # and so did the core's
+
+
 def test_saturation_flags():
     p = cm.CancelParams(wave_w=12, block_log2=4, mu_log2=1, a_w=8, a_frac=0)
     # a tone far larger than s(A_W) can hold: the coefficients saturate, track_sat from that block on

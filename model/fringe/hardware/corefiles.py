@@ -8,6 +8,7 @@ import os
 import numpy as np
 
 from ..dsp.calibration import Calibration, cancel_gear_offset
+from ..dsp.canceller_float import TONE_MAX_LOG2
 from ..encoder import ARCSEC_PER_REV
 from ..errors import FringeInputError
 from ..fixed import long_period as lp_mod
@@ -67,8 +68,8 @@ def saved_core_fields(cal: Calibration, cal_dir: str | None) -> dict:
 
 def cancel_config(cal: Calibration, cfg: CoreConfig) -> CoreConfig:
     """cfg with fringe_canceller on, its constants the calibration's, its coefficients able to hold a tone of up
-    to half the calibrated radius (A_W = WAVE_W + A_FRAC - 2)."""
-    return dataclasses.replace(cfg, cancel=1, cancel_a_w=min(32, cfg.wave_w + cfg.cancel_a_frac - 2),
+    to 2^TONE_MAX_LOG2 of the calibrated radius (A_W = WAVE_W + A_FRAC - 1 + TONE_MAX_LOG2), as the float twin's."""
+    return dataclasses.replace(cfg, cancel=1, cancel_a_w=min(32, cfg.wave_w + cfg.cancel_a_frac - 1 + TONE_MAX_LOG2),
                                cancel_gear_offset=cancel_gear_offset(cal.canceller),
                                **{k: cal.canceller[k] for k in ("cancel_block_log2", "cancel_mu_log2")})
 
