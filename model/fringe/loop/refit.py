@@ -281,10 +281,11 @@ def refit_around_interference(cal: Calibration, state: LoopState, meas: Measurem
         e = channel_errors(evaluate(LoopState(fresh, state.artefacts, state.ref_lag_s), meas))
         moved = refine_frequency(e[:, run], t[run], tone_hz, bin_hz) if e is not None else tone_hz
         base, settled, tone_hz = fresh, abs(moved - tone_hz) < 1e-3 * bin_hz, moved
-        if settled:
+        if settled:     # this round's calibration took the tone out within a thousandth of a bin of where it settled
             break
-    clean = interference_removed(base, state, meas, tone_hz)
-    fresh = carry_loop(recalibrate(clean, cal), plain)
+    else:
+        clean = interference_removed(base, state, meas, tone_hz)
+        fresh = carry_loop(recalibrate(clean, cal), plain)
     # vibrations already named stay out of the reference the declared model is fitted against; the angle terms
     # found before are refitted with it (a declared model calibrated again without their error held out takes
     # part of it, and they would correct it twice: held-out 9230, a skew found first, 1606" against 447")
