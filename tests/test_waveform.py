@@ -66,3 +66,26 @@ def test_branch_threshold_follows_the_other_channel():
     # the cos channel at the sine's extremes (t = +-pi/2) reads its offset
     assert inv.threshold_hi == pytest.approx(0.2, abs=1e-3) and inv.threshold_lo == pytest.approx(0.2, abs=1e-3)
     assert inv.mid == pytest.approx(0.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_readings_beyond_the_extremes_follow_the_inverses_slope(seed):
+    """A sinusoidal channel plus an additive tone of 10 % of its amplitude: beyond the waveform's extremes the
+    tables must go on reading (reading - offset) / amplitude, as inside, up to BEYOND_MAX. Held at the extreme's
+    value they would err by up to the tone's 0.1, and take the tone's radial part out near the extremes
+    (an interference canceller adapts on that radius). Tolerance: for a sinusoid the inverse is linear in the
+    reading and the extremes' values are computed, not interpolated, so only rounding is left (measured 1e-15);
+    reading the extreme's value off the table instead erred by 4e-5."""
+    from fringe.dsp.waveform import BEYOND_MAX
+    rng = np.random.default_rng(seed)
+    amplitude, offset = rng.uniform(0.5, 0.9), rng.uniform(-0.05, 0.05)
+    sin_ch = _channel("sin", a=[0.0], b=[amplitude], w0=offset)
+    cos_ch = _channel("cos", a=[amplitude], b=[0.0])
+    inv = build_inverse(sin_ch, cos_ch, -1.3, 1.3, 20001)
+    t = rng.uniform(0, 2 * np.pi, 20_000)
+    y = sin_ch(t) + 0.1 * amplitude * np.sin(rng.uniform(0, 2 * np.pi, t.size))
+    beyond = (y > offset + amplitude) | (y < offset - amplitude)
+    assert beyond.sum() > 100
+    expected = np.clip((y - offset) / amplitude, -BEYOND_MAX, BEYOND_MAX)
+    assert np.max(np.abs(inv(y, cos_ch(t)) - expected)[beyond]) < 1e-9
+    assert np.max(np.abs(expected[beyond]) - 1) > 0.09      # the tone reaches beyond: a flat table would fail
