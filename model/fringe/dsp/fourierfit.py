@@ -190,11 +190,13 @@ def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bi
 
     Each fold is predicted by the series fitted on the other folds, for every candidate size at
     once: per fold and angle bin, counts and sums in one pass; the training fold's normal
-    equations share one Cholesky factor among the prefix models (as in `fit_select`), and the
-    held-out error of each, per bin, is y.y - 2 p sum(y) + count p^2 with p the prediction at the
-    bin. Angles are taken at the bin centres (2*pi/bins apart: 32 or more a period of the highest
-    harmonic, 64). Returns the chosen n and the held-out RMS of each candidate size (index =
-    number of harmonics, NaN where skipped).
+    equations share one Cholesky factor L among the prefix models (as in `fit_select`: the prefix
+    model of k columns has the coefficients L_k^-T u_k, u = L^-1 b, and L_k^-T is the leading block
+    of L^-T), so one product gives every candidate's prediction at the bins; the held-out error of
+    each, per bin, is y.y - 2 p sum(y) + count p^2 with p the prediction at the bin. Angles are
+    taken at the bin centres (2*pi/bins apart: 32 or more a period of the highest harmonic, 64).
+    Returns the chosen n and the held-out RMS of each candidate size (index = number of harmonics,
+    NaN where skipped).
     """
     x, y, folds = np.ravel(np.asarray(x, float)), np.ravel(np.asarray(y, float)), np.ravel(folds)
     labels, fold_of = np.unique(folds, return_inverse=True)
@@ -218,10 +220,9 @@ def cv_harmonics(x: np.ndarray, y: np.ndarray, n_max: int, folds: np.ndarray, bi
         except LinAlgError:
             raise CoverageError("the angles do not determine the Fourier series (too little coverage)") from None
         u = solve_triangular(lower, b_all - b_fold[f], lower=True)
-        # the design in the training fold's orthonormal basis (q = m L^-T): the prefix model of k columns
-        # predicts q[:, :k] @ u[:k], so a running sum over the columns gives every candidate at once
-        q = solve_triangular(lower, m.T, lower=True).T
-        p = np.cumsum(q * u, axis=1)[:, ks - 1]           # predictions at the bin centres, one column a candidate
+        inv_t = solve_triangular(lower, np.eye(len(u)), lower=True).T             # L^-T, upper triangular
+        coef = inv_t @ np.where(np.arange(len(u))[:, None] < ks[None, :], u[:, None], 0.0)
+        p = m @ coef                                       # predictions at the bin centres, one column a candidate
         sse += (syy[f][:, None] - 2 * p * sy[f][:, None] + count[f][:, None] * p * p).T
     press = sse.sum(axis=1)
     rms = np.full(cap + 1, np.nan)

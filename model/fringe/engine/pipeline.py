@@ -15,8 +15,8 @@ from ..dsp.drift_float import drift_float
 from ..dsp.position import coarse_fine_combine, count_periods, overspeed
 from ..encoder import ARCSEC_PER_REV
 from ..fixed import drift as drift_mod
-from ..hardware.closed_loop import build_drift_tables, drift_config, rev_norm_image
-from ..hardware.corefiles import core_config
+from ..hardware.closed_loop import build_drift_tables, rev_norm_image
+from ..hardware.corefiles import tracker_config
 from ..result import AMP_HIGH, AMP_LOW, CLIP_COS, CLIP_SIN, COARSE_ERR, OVERSPEED, Result
 
 
@@ -59,14 +59,14 @@ def tracker_activity(cal: Calibration, sin: np.ndarray, cos: np.ndarray) -> tupl
     """Per block of the online tracker on these readings: whether it updated, and how much of a signal period its
     window (the samples its sweep test measures) swept, in periods."""
     r, _, scale = _tracked(cal, sin, cos)
-    p = drift_config(cal, core_config(cal)).drift_params()
+    p = tracker_config(cal).drift_params()
     steps = np.abs(np.mod(np.diff(r["phase"], prepend=r["phase"][:1]) / scale + 0.5, 1.0) - 0.5)
     ends = p.b * np.arange(1, len(r["updated"]) + 1)
     return r["updated"], np.array([steps[e - p.w:e].sum() for e in ends])
 
 
 def _tracked(cal: Calibration, sin: np.ndarray, cos: np.ndarray):
-    cfg = drift_config(cal, core_config(cal))
+    cfg = tracker_config(cal)
     p = cfg.drift_params()
     t = build_drift_tables(cal, cfg)
     plain = dataclasses.replace(cal, adaptive=False)

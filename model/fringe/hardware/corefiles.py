@@ -44,6 +44,16 @@ def core_config(cal: Calibration, cal_dir: str | None = None, **overrides):
         raise FringeInputError(f"core configuration not possible: {e}", where) from None
 
 
+def tracker_config(cal: Calibration) -> CoreConfig:
+    """The core configuration as far as the drift tracker's float twin reads it (the encoder's defaults, the tracker
+    switched on with its constants and table formats): fringe_trim's, the canceller's and the long-period table's
+    formats do not enter the tracker, and sizing fringe_trim's tables is most of core_config's time."""
+    try:
+        return drift_config(cal, CoreConfig.for_encoder(cal.encoder))
+    except (TypeError, ValueError) as e:
+        raise FringeInputError(f"core configuration not possible: {e}", "core configuration") from None
+
+
 def saved_core_fields(cal: Calibration, cal_dir: str | None) -> dict:
     """CAL_DIR/core.json's configuration fields (none without the file), checked against the calibration's
     encoder: a folder whose two files describe different encoders is refused, whatever the engine."""
