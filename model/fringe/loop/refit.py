@@ -97,6 +97,11 @@ def recalibrate(meas: Measurement, cal: Calibration, known_error_arcsec: np.ndar
     structure, centre = recalibration_structure(cal)
     fresh = calibrate(meas, cal.encoder, CalibrationOptions(structure=structure, gain_centre=centre,
                                                             known_error_arcsec=known_error_arcsec))
+    if "model_choice" not in fresh.fit and "model_choice" in cal.fit:
+        # the structure was given, not chosen again: the record of the choice stays, so that the next
+        # re-calibration calibrates in it too (the phase table's centring, chosen once, was chosen again at
+        # every round of refit_angle_terms: a third of the phase-domain remedy's time on population 9124)
+        fresh.fit["model_choice"] = cal.fit["model_choice"]
     if cal.fit.get("phase_domain"):
         fresh.fit["phase_domain"] = True
     return fresh
